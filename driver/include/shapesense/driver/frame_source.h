@@ -1,0 +1,43 @@
+#pragma once
+// The device interface: everything that delivers frames (a live sensor, a recording, the
+// synthetic scene) implements FrameSource, and nothing above driver/ knows which one it has.
+
+#include <memory>
+#include <stop_token>
+#include <string>
+#include <variant>
+
+#include "shapesense/core/frame.h"
+
+namespace shapesense {
+
+/// A frame could not be delivered, but the source can go on (a corrupt file in a recording,
+/// a dropped USB transfer). The message names what failed, e.g. the file's path.
+struct SourceError {
+  std::string message;
+};
+
+/// The source has no more frames (end of a recording without --loop).
+struct EndOfStream {};
+
+/// One result of FrameSource::next().
+using SourceEvent = std::variant<Frame, SourceError, EndOfStream>;
+
+/// Whether a recorded source paces frames at their recorded rate or hands them out as fast as
+/// they are asked for.
+enum class Pacing { kRecorded, kAsFastAsPossible };
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+
+  /// Short description for status and logs, e.g. "synthetic(seed=1)" or "tum:/data/desk".
+  virtual std::string describe() const = 0;
+
+  /// Blocks until the next frame, an error, or the end. Pacing sleeps return early (with
+  /// EndOfStream) once `stop` is requested. Frames carry increasing sequence numbers.
+  /// Called from one thread at a time.
+  virtual SourceEvent next(std::stop_token stop) = 0;
+};
+
+}  // namespace shapesense
