@@ -1,0 +1,58 @@
+#pragma once
+// The whole daemon in one object: source -> pipeline -> cache -> gRPC server. main() parses
+// options into DaemonOptions and runs one; integration tests run one in-process.
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "shapesense/driver/frame_source.h"
+#include "shapesense/server/detector_stage.h"
+#include "shapesense/server/frame_cache.h"
+#include "shapesense/server/pipeline.h"
+#include "shapesense/server/rpc_server.h"
+#include "shapesense/server/summary_hub.h"
+
+namespace shapesense {
+
+inline constexpr const char* kDefaultListenAddress = "127.0.0.1:50551";
+
+struct DaemonOptions {
+  /// "synthetic", "synthetic:SEED" or "tum:DIR".
+  std::string source = "synthetic";
+  /// Recorded sources: at the recorded rate, or as fast as the pipeline takes frames.
+  Pacing pacing = Pacing::kRecorded;
+  /// Replay: start again at the end of the recording.
+  bool loop = false;
+  /// Frames the cache holds; 90 = 3 s at 30 fps.
+  std::size_t cache_frames = FrameCache::kDefaultCapacity;
+  /// gRPC listen address; port 0 picks a free one.
+  std::string listen = kDefaultListenAddress;
+  DetectorConfig detectors;
+};
+
+/// Opens the source a --source spec names. Throws std::invalid_argument for an unknown spec and
+/// std::runtime_error when the source cannot be opened, with a message a person can act on.
+std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, bool loop);
+
+class Daemon {
+ public:
+  /// Opens the source, starts the pipeline and the gRPC server. Throws on bad options.
+  explicit Daemon(const DaemonOptions& options);
+  ~Daemon();
+
+  int port() const { return server_->port(); }
+  /// Stops serving (open streams end), then stops the pipeline.
+  void shutdown();
+
+  const FrameCache& cache() const { return cache_; }
+  Pipeline& pipeline() { return *pipeline_; }
+
+ private:
+  FrameCache cache_;
+  SummaryHub hub_;
+  std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<RpcServer> server_;
+};
+
+}  // namespace shapesense

@@ -1,0 +1,54 @@
+#pragma once
+// A detector stage: one algorithm of core/ adapted to the pipeline. Each stage reads the frame
+// and writes its own member of FrameResults.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "shapesense/core/frame.h"
+#include "shapesense/server/frame_results.h"
+
+namespace shapesense {
+
+class DetectorStage {
+ public:
+  virtual ~DetectorStage() = default;
+  /// Stable name used in status, timings and configuration, e.g. "depth_stats".
+  virtual std::string name() const = 0;
+  /// Runs on one frame; may read results of stages that ran before it.
+  virtual void run(const Frame& frame, FrameResults& results) = 0;
+};
+
+/// The ordered stages run on every frame, shared by the daemon and `shapesense analyze` so
+/// both compute the same thing.
+class DetectorChain {
+ public:
+  void add(std::unique_ptr<DetectorStage> stage) { stages_.push_back(std::move(stage)); }
+
+  /// Runs every stage in order and records each one's wall time in results.timings_ms.
+  FrameResults process(const Frame& frame) const;
+
+  std::vector<std::string> stageNames() const;
+
+ private:
+  std::vector<std::unique_ptr<DetectorStage>> stages_;
+};
+
+/// Computes DepthStatistics: the trivial statistic every frame gets.
+class DepthStatsStage : public DetectorStage {
+ public:
+  std::string name() const override { return "depth_stats"; }
+  void run(const Frame& frame, FrameResults& results) override;
+};
+
+/// Pure function behind DepthStatsStage.
+DepthStatistics computeDepthStatistics(const cv::Mat& depth_mm);
+
+/// Options that select and configure the stages; filled from the daemon's config or the CLI.
+struct DetectorConfig {};
+
+/// The standard chain for `config`.
+DetectorChain makeDetectorChain(const DetectorConfig& config);
+
+}  // namespace shapesense

@@ -1,0 +1,88 @@
+#pragma once
+// The daemon's frame path: a capture thread pulls frames from the source into the cache, and a
+// detector thread runs the detector chain on the newest frame, publishes the results to the
+// cache and to Watch subscribers. When the detectors fall behind, frames stay cached but are not
+// processed: the detector thread always takes the newest waiting frame and the ones it passed
+// over are counted as skipped, so nothing queues without bound.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "shapesense/driver/frame_source.h"
+#include "shapesense/server/detector_stage.h"
+#include "shapesense/server/frame_cache.h"
+#include "shapesense/server/latency_tracker.h"
+#include "shapesense/server/summary_hub.h"
+
+namespace shapesense {
+
+enum class SourceState { kStreaming, kEnded, kFailed, kStopped };
+
+struct PipelineStatus {
+  std::string source;
+  SourceState state = SourceState::kStreaming;
+  std::string last_error;  ///< the source's last reported problem
+  std::uint64_t frames_received = 0;
+  std::uint64_t frames_processed = 0;
+  std::uint64_t frames_skipped = 0;
+  std::uint64_t source_errors = 0;
+  std::vector<LatencySummary> stages;  ///< per stage, plus "total" for the whole chain
+  std::vector<std::string> detectors;
+};
+
+class Pipeline {
+ public:
+  Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
+           SummaryHub& hub);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  void start();
+  /// Stops both threads and waits for them; the cache keeps what it holds.
+  void stop();
+
+  PipelineStatus status() const;
+
+  /// Waits until the capture thread has finished (source ended or failed) and the detector
+  /// thread has drained. For tests and offline runs; false on timeout.
+  bool waitUntilDrained(std::chrono::milliseconds timeout);
+
+ private:
+  void captureLoop(std::stop_token stop);
+  void detectLoop(std::stop_token stop);
+  void setState(SourceState state, std::string message = {});
+
+  std::unique_ptr<FrameSource> source_;
+  const std::string source_name_;
+  DetectorChain chain_;
+  FrameCache& cache_;
+  SummaryHub& hub_;
+  LatencyTracker latency_;
+
+  mutable std::mutex mutex_;  // guards the fields below
+  std::condition_variable_any changed_;
+  std::shared_ptr<const Frame> waiting_;  // newest frame not yet taken by the detector thread
+  bool capture_done_ = false;
+  bool detecting_ = false;
+  SourceState state_ = SourceState::kStreaming;
+  std::string last_error_;
+
+  std::atomic<std::uint64_t> received_{0};
+  std::atomic<std::uint64_t> processed_{0};
+  std::atomic<std::uint64_t> skipped_{0};
+  std::atomic<std::uint64_t> source_errors_{0};
+
+  std::jthread capture_thread_;
+  std::jthread detect_thread_;
+};
+
+const char* toString(SourceState state);
+
+}  // namespace shapesense

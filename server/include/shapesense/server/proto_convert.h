@@ -1,0 +1,16 @@
+#pragma once
+// Conversions from the daemon's types to API messages, shared by the handlers.
+
+#include "shapesense/server/frame_cache.h"
+#include "shapesense/server/pipeline.h"
+#include "shapesense/v1/shapesense.pb.h"
+
+namespace shapesense {
+
+void toProto(const CachedFrame& entry, v1::FrameInfo* out);
+void toProto(const CameraIntrinsics& intrinsics, v1::Intrinsics* out);
+void toProto(const DepthStatistics& stats, v1::DepthStats* out);
+void toProto(const CachedRange& range, v1::CacheRange* out);
+v1::GetStatusResponse::SourceState toProto(SourceState state);
+
+}  // namespace shapesense

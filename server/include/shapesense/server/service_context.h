@@ -1,0 +1,34 @@
+#pragma once
+// What the gRPC handlers read: the cache, the Watch hub and the pipeline's status. Handlers get
+// it by reference and never own any of it, so they can be tested with a cache filled by hand.
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+
+#include <grpcpp/support/status.h>
+
+#include "shapesense/server/frame_cache.h"
+#include "shapesense/server/pipeline.h"
+#include "shapesense/server/summary_hub.h"
+
+namespace shapesense {
+
+struct ServiceContext {
+  const FrameCache& cache;
+  SummaryHub& hub;
+  /// The pipeline's counters; a default-constructed status when no pipeline runs (tests).
+  std::function<PipelineStatus()> pipeline_status = [] { return PipelineStatus{}; };
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+  /// Set at shutdown so open streams end promptly.
+  const std::atomic<bool>* shutting_down = nullptr;
+
+  bool shuttingDown() const { return shutting_down && shutting_down->load(); }
+};
+
+/// The cached frame at T (0 = newest), or the gRPC status the API promises: INVALID_ARGUMENT
+/// for a negative T, UNAVAILABLE while nothing is cached, OUT_OF_RANGE (naming the cached range)
+/// for T before the cache.
+grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out);
+
+}  // namespace shapesense

@@ -1,0 +1,38 @@
+#include "shapesense/server/daemon.h"
+
+#include <stdexcept>
+
+#include "shapesense/driver/replay_source.h"
+
+namespace shapesense {
+
+std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, bool loop) {
+  const auto colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon);
+  const std::string argument = colon == std::string::npos ? "" : spec.substr(colon + 1);
+  if (kind == "tum") {
+    if (argument.empty()) throw std::invalid_argument("--source tum:DIR needs a recording directory");
+    return std::make_unique<ReplaySource>(argument, ReplayOptions{.pacing = pacing, .loop = loop});
+  }
+  throw std::invalid_argument("unknown source '" + spec +
+                              "': use synthetic, synthetic:SEED or tum:DIR");
+}
+
+Daemon::Daemon(const DaemonOptions& options) : cache_(options.cache_frames) {
+  pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
+                                         makeDetectorChain(options.detectors), cache_, hub_);
+  ServiceContext context{.cache = cache_, .hub = hub_};
+  context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };
+  server_ = std::make_unique<RpcServer>(options.listen, std::move(context));
+  pipeline_->start();
+}
+
+Daemon::~Daemon() { shutdown(); }
+
+void Daemon::shutdown() {
+  hub_.closeAll();
+  server_->shutdown();
+  pipeline_->stop();
+}
+
+}  // namespace shapesense

@@ -1,0 +1,32 @@
+#include "shapesense/server/handlers.h"
+#include "shapesense/server/proto_convert.h"
+
+namespace shapesense {
+
+grpc::Status handleGetStatus(const ServiceContext& context, const v1::GetStatusRequest&,
+                             v1::GetStatusResponse* response) {
+  const PipelineStatus status = context.pipeline_status();
+  response->set_version(SHAPESENSE_VERSION);
+  response->set_source(status.source);
+  response->set_source_state(toProto(status.state));
+  response->set_source_message(status.last_error);
+  response->set_frames_received(status.frames_received);
+  response->set_frames_processed(status.frames_processed);
+  response->set_frames_skipped(status.frames_skipped);
+  response->set_source_errors(status.source_errors);
+  toProto(context.cache.range(), response->mutable_cache());
+  for (const auto& stage : status.stages) {
+    auto* out = response->add_stages();
+    out->set_stage(stage.stage);
+    out->set_runs(stage.runs);
+    out->set_last_ms(stage.last_ms);
+    out->set_median_ms(stage.median_ms);
+    out->set_p95_ms(stage.p95_ms);
+  }
+  for (const auto& name : status.detectors) response->add_detectors(name);
+  const std::chrono::duration<double> uptime = std::chrono::steady_clock::now() - context.started;
+  response->set_uptime_s(uptime.count());
+  return grpc::Status::OK;
+}
+
+}  // namespace shapesense

@@ -1,0 +1,20 @@
+#include "shapesense/server/service_context.h"
+
+namespace shapesense {
+
+grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out) {
+  if (at_ns < 0) {
+    return {grpc::StatusCode::INVALID_ARGUMENT,
+            "at_ns must be a capture time in nanoseconds since the epoch, or 0 for the newest frame"};
+  }
+  auto found = cache.at(at_ns);
+  if (auto* error = std::get_if<LookupError>(&found)) {
+    const auto code = error->kind == LookupError::Kind::kEmpty ? grpc::StatusCode::UNAVAILABLE
+                                                               : grpc::StatusCode::OUT_OF_RANGE;
+    return {code, error->message};
+  }
+  out = std::get<CachedFrame>(std::move(found));
+  return grpc::Status::OK;
+}
+
+}  // namespace shapesense

@@ -1,0 +1,149 @@
+#include "shapesense/server/pipeline.h"
+
+#include <spdlog/spdlog.h>
+
+namespace shapesense {
+
+const char* toString(SourceState state) {
+  switch (state) {
+    case SourceState::kStreaming: return "streaming";
+    case SourceState::kEnded: return "ended";
+    case SourceState::kFailed: return "failed";
+    case SourceState::kStopped: return "stopped";
+  }
+  return "unknown";
+}
+
+Pipeline::Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
+                   SummaryHub& hub)
+    : source_(std::move(source)),
+      source_name_(source_->describe()),
+      chain_(std::move(chain)),
+      cache_(cache),
+      hub_(hub) {}
+
+Pipeline::~Pipeline() { stop(); }
+
+void Pipeline::start() {
+  capture_thread_ = std::jthread([this](std::stop_token stop) { captureLoop(stop); });
+  detect_thread_ = std::jthread([this](std::stop_token stop) { detectLoop(stop); });
+}
+
+void Pipeline::stop() {
+  capture_thread_.request_stop();
+  detect_thread_.request_stop();
+  if (capture_thread_.joinable()) capture_thread_.join();
+  if (detect_thread_.joinable()) detect_thread_.join();
+}
+
+void Pipeline::setState(SourceState state, std::string message) {
+  std::lock_guard lock(mutex_);
+  state_ = state;
+  if (!message.empty()) last_error_ = std::move(message);
+}
+
+void Pipeline::captureLoop(std::stop_token stop) {
+  while (!stop.stop_requested()) {
+    SourceEvent event;
+    try {
+      event = source_->next(stop);
+    } catch (const std::exception& e) {
+      spdlog::error("source {} failed: {}", source_name_, e.what());
+      setState(SourceState::kFailed, e.what());
+      break;
+    }
+    if (auto* error = std::get_if<SourceError>(&event)) {
+      ++source_errors_;
+      spdlog::warn("{}", error->message);
+      std::lock_guard lock(mutex_);
+      last_error_ = error->message;
+      continue;
+    }
+    if (std::holds_alternative<EndOfStream>(event)) {
+      if (stop.stop_requested()) break;
+      spdlog::info("source {} ended; serving the {} cached frames", source_name_, cache_.range().frames);
+      setState(SourceState::kEnded);
+      break;
+    }
+    auto frame = std::make_shared<const Frame>(std::move(std::get<Frame>(event)));
+    if (!cache_.insert(frame)) {
+      ++source_errors_;
+      const std::string message = "frame " + std::to_string(frame->sequence) +
+                                  " is older than the newest cached frame; dropped";
+      spdlog::warn("{}", message);
+      std::lock_guard lock(mutex_);
+      last_error_ = message;
+      continue;
+    }
+    ++received_;
+    {
+      std::lock_guard lock(mutex_);
+      if (waiting_) ++skipped_;
+      waiting_ = std::move(frame);
+    }
+    changed_.notify_all();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    capture_done_ = true;
+    if (stop.stop_requested() && state_ == SourceState::kStreaming) state_ = SourceState::kStopped;
+  }
+  changed_.notify_all();
+}
+
+void Pipeline::detectLoop(std::stop_token stop) {
+  while (true) {
+    std::shared_ptr<const Frame> frame;
+    {
+      std::unique_lock lock(mutex_);
+      changed_.wait(lock, stop, [this] { return waiting_ != nullptr || capture_done_; });
+      if (stop.stop_requested() || !waiting_) break;
+      frame = std::move(waiting_);
+      waiting_.reset();
+      detecting_ = true;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    auto results = std::make_shared<const FrameResults>(chain_.process(*frame));
+    const std::chrono::duration<double, std::milli> total = std::chrono::steady_clock::now() - start;
+    for (const auto& [stage, ms] : results->timings_ms) latency_.record(stage, ms);
+    latency_.record("total", total.count());
+    cache_.publishResults(frame->sequence, results);
+    hub_.publish(CachedFrame{frame, results});
+    ++processed_;
+    {
+      std::lock_guard lock(mutex_);
+      detecting_ = false;
+    }
+    changed_.notify_all();
+  }
+  {
+    std::lock_guard lock(mutex_);
+    detecting_ = false;
+  }
+  changed_.notify_all();
+}
+
+bool Pipeline::waitUntilDrained(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  return changed_.wait_for(lock, timeout,
+                           [this] { return capture_done_ && !waiting_ && !detecting_; });
+}
+
+PipelineStatus Pipeline::status() const {
+  PipelineStatus s;
+  s.source = source_name_;
+  {
+    std::lock_guard lock(mutex_);
+    s.state = state_;
+    s.last_error = last_error_;
+  }
+  s.frames_received = received_;
+  s.frames_processed = processed_;
+  s.frames_skipped = skipped_;
+  s.source_errors = source_errors_;
+  s.stages = latency_.summaries();
+  s.detectors = chain_.stageNames();
+  return s;
+}
+
+}  // namespace shapesense

@@ -1,0 +1,48 @@
+#include "shapesense/server/proto_convert.h"
+
+namespace shapesense {
+
+void toProto(const CachedFrame& entry, v1::FrameInfo* out) {
+  const Frame& frame = *entry.frame;
+  out->set_timestamp_ns(frame.timestamp_ns);
+  out->set_sequence(frame.sequence);
+  out->set_width(static_cast<std::uint32_t>(frame.depth.cols));
+  out->set_height(static_cast<std::uint32_t>(frame.depth.rows));
+  out->set_has_rgb(!frame.rgb.empty());
+  out->set_processed(entry.results != nullptr);
+}
+
+void toProto(const CameraIntrinsics& k, v1::Intrinsics* out) {
+  out->set_fx(k.fx);
+  out->set_fy(k.fy);
+  out->set_cx(k.cx);
+  out->set_cy(k.cy);
+  out->set_width(static_cast<std::uint32_t>(k.width));
+  out->set_height(static_cast<std::uint32_t>(k.height));
+}
+
+void toProto(const DepthStatistics& stats, v1::DepthStats* out) {
+  out->set_valid_fraction(stats.valid_fraction);
+  out->set_min_m(stats.min_m);
+  out->set_median_m(stats.median_m);
+  out->set_max_m(stats.max_m);
+}
+
+void toProto(const CachedRange& range, v1::CacheRange* out) {
+  out->set_frames(static_cast<std::uint32_t>(range.frames));
+  out->set_capacity(static_cast<std::uint32_t>(range.capacity));
+  out->set_oldest_ns(range.oldest_ns);
+  out->set_newest_ns(range.newest_ns);
+}
+
+v1::GetStatusResponse::SourceState toProto(SourceState state) {
+  switch (state) {
+    case SourceState::kStreaming: return v1::GetStatusResponse::STREAMING;
+    case SourceState::kEnded: return v1::GetStatusResponse::ENDED;
+    case SourceState::kFailed: return v1::GetStatusResponse::FAILED;
+    case SourceState::kStopped: return v1::GetStatusResponse::STOPPED;
+  }
+  return v1::GetStatusResponse::SOURCE_STATE_UNSPECIFIED;
+}
+
+}  // namespace shapesense

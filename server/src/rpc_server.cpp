@@ -1,0 +1,65 @@
+#include "shapesense/server/rpc_server.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/server_builder.h>
+
+#include "shapesense/server/handlers.h"
+#include "shapesense/v1/shapesense.grpc.pb.h"
+
+namespace shapesense {
+
+/// Routes each RPC to its handler.
+class ShapeSenseService final : public v1::ShapeSense::Service {
+ public:
+  explicit ShapeSenseService(ServiceContext context) : context_(std::move(context)) {}
+
+  grpc::Status GetStatus(grpc::ServerContext*, const v1::GetStatusRequest* request,
+                         v1::GetStatusResponse* response) override {
+    return handleGetStatus(context_, *request, response);
+  }
+  grpc::Status ListFrames(grpc::ServerContext*, const v1::ListFramesRequest* request,
+                          v1::ListFramesResponse* response) override {
+    return handleListFrames(context_, *request, response);
+  }
+  grpc::Status GetFrame(grpc::ServerContext*, const v1::GetFrameRequest* request,
+                        v1::GetFrameResponse* response) override {
+    return handleGetFrame(context_, *request, response);
+  }
+  grpc::Status Watch(grpc::ServerContext* server_context, const v1::WatchRequest* request,
+                     grpc::ServerWriter<v1::FrameSummary>* writer) override {
+    return handleWatch(context_, server_context, *request, writer);
+  }
+
+ private:
+  ServiceContext context_;
+};
+
+RpcServer::RpcServer(const std::string& listen_address, ServiceContext context) {
+  context.shutting_down = &shutting_down_;
+  service_ = std::make_unique<ShapeSenseService>(std::move(context));
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(listen_address, grpc::InsecureServerCredentials(), &port_);
+  builder.RegisterService(service_.get());
+  server_ = builder.BuildAndStart();
+  if (!server_ || port_ == 0) {
+    throw std::runtime_error("cannot listen on " + listen_address +
+                             " (address in use or not valid; choose another with --listen)");
+  }
+}
+
+RpcServer::~RpcServer() { shutdown(); }
+
+void RpcServer::shutdown(std::chrono::milliseconds deadline) {
+  if (!server_ || shutting_down_.exchange(true)) return;
+  server_->GetHealthCheckService()->Shutdown();
+  server_->Shutdown(std::chrono::system_clock::now() + deadline);
+}
+
+void RpcServer::wait() {
+  if (server_) server_->Wait();
+}
+
+}  // namespace shapesense
