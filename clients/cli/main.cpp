@@ -1,1 +1,34 @@
-int main() { return 0; }
+// shapesense: the operator's command line client. See `shapesense --help`.
+
+#include <iostream>
+
+#include "commands.h"
+
+int main(int argc, char** argv) {
+  using namespace shapesense::cli;
+  GlobalOptions global;
+  CLI::App app{"shapesense: query a shapesensed daemon, make synthetic recordings, analyse recordings offline."};
+  app.require_subcommand(1);
+  app.add_option("--server", global.server, "Daemon address")->capture_default_str();
+  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")->capture_default_str();
+  addStatusCommand(app, global);
+  addFramesCommand(app, global);
+  addFrameCommand(app, global);
+  addWatchCommand(app, global);
+  addSynthCommand(app);
+  addAnalyzeCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const RpcError& e) {
+    std::cerr << "shapesense: " << e.what();
+    if (e.code() == grpc::UNAVAILABLE) std::cerr << " (is shapesensed running on " << global.server << "?)";
+    std::cerr << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "shapesense: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,33 @@
+#include <iostream>
+
+#include "analyze.h"
+#include "commands.h"
+
+namespace shapesense::cli {
+
+void addAnalyzeCommand(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "analyze", "Run the detectors on a recording without a daemon; writes DIR/results.jsonl");
+  struct Args {
+    std::string source;
+    std::string out;
+    bool quiet = false;
+  };
+  auto args = std::make_shared<Args>();
+  cmd->add_option("SOURCE", args->source, "Recording directory (TUM layout), or tum:DIR")->required();
+  cmd->add_option("--out", args->out, "Output directory")->required();
+  cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->callback([args] {
+    std::string dir = args->source;
+    if (dir.rfind("tum:", 0) == 0) dir = dir.substr(4);
+    const DetectorChain chain = makeDetectorChain(DetectorConfig{});
+    const auto summary = analyzeRecording(dir, args->out, chain, [&](std::size_t done, std::size_t total) {
+      if (!args->quiet) std::cerr << "\ranalyze: " << done << "/" << total << " frames" << std::flush;
+    });
+    if (!args->quiet) std::cerr << "\n";
+    std::cout << summary.frames << " frame(s) analysed, " << summary.bad_frames << " unreadable; results in "
+              << (std::filesystem::path(args->out) / "results.jsonl").string() << "\n";
+  });
+}
+
+}  // namespace shapesense::cli

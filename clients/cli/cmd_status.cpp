@@ -1,0 +1,45 @@
+#include <cstdio>
+#include <iostream>
+
+#include "commands.h"
+#include "shapesense/core/timestamp.h"
+
+namespace shapesense::cli {
+
+void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
+  auto* cmd = app.add_subcommand("status", "Source, counters, cached range and stage latencies");
+  auto json = std::make_shared<bool>(false);
+  cmd->add_flag("--json", *json, "Print JSON");
+  cmd->callback([&global, json] {
+    Connection connection(global);
+    v1::GetStatusResponse status;
+    Connection::check(connection.stub().GetStatus(connection.context().get(), {}, &status));
+    if (*json) {
+      std::cout << toJson(status) << "\n";
+      return;
+    }
+    const auto& cache = status.cache();
+    std::cout << "shapesensed " << status.version() << ", up " << static_cast<long>(status.uptime_s()) << " s\n"
+              << "source     " << status.source() << " ("
+              << v1::GetStatusResponse::SourceState_Name(status.source_state()) << ")\n";
+    if (!status.source_message().empty()) std::cout << "last error " << status.source_message() << "\n";
+    std::cout << "frames     " << status.frames_received() << " received, " << status.frames_processed()
+              << " processed, " << status.frames_skipped() << " skipped, " << status.source_errors()
+              << " source errors\n"
+              << "cache      " << cache.frames() << "/" << cache.capacity() << " frames";
+    if (cache.frames() > 0) {
+      std::cout << ", " << formatNsAsSeconds(cache.oldest_ns()) << " .. "
+                << formatNsAsSeconds(cache.newest_ns()) << " s";
+    }
+    std::cout << "\n";
+    if (status.stages_size() > 0) {
+      std::printf("%-14s %8s %9s %9s %9s\n", "stage", "runs", "last ms", "median", "p95");
+      for (const auto& s : status.stages()) {
+        std::printf("%-14s %8llu %9.2f %9.2f %9.2f\n", s.stage().c_str(),
+                    static_cast<unsigned long long>(s.runs()), s.last_ms(), s.median_ms(), s.p95_ms());
+      }
+    }
+  });
+}
+
+}  // namespace shapesense::cli

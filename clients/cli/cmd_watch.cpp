@@ -1,0 +1,50 @@
+#include <cstdio>
+#include <iostream>
+
+#include "commands.h"
+#include "shapesense/core/timestamp.h"
+
+namespace shapesense::cli {
+
+void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
+  auto* cmd = app.add_subcommand("watch", "Print a summary of every new frame until Ctrl-C");
+  struct Args {
+    bool json = false;
+    unsigned count = 0;
+  };
+  auto args = std::make_shared<Args>();
+  cmd->add_flag("--json", args->json, "Print one JSON object per line");
+  cmd->add_option("--count", args->count, "Stop after N summaries (0 = never)");
+  cmd->callback([&global, args] {
+    Connection connection(global);
+    auto context = Connection::streamContext();
+    auto reader = connection.stub().Watch(context.get(), v1::WatchRequest{});
+    v1::FrameSummary summary;
+    unsigned received = 0;
+    while (reader->Read(&summary)) {
+      if (args->json) {
+        std::cout << toJson(summary) << std::endl;
+      } else {
+        const auto& d = summary.depth_stats();
+        std::printf("%s  seq %-6llu valid %5.1f%%  depth %.2f..%.2f m (median %.2f)",
+                    formatNsAsSeconds(summary.info().timestamp_ns()).c_str(),
+                    static_cast<unsigned long long>(summary.info().sequence()), 100 * d.valid_fraction(),
+                    d.min_m(), d.max_m(), d.median_m());
+        for (const auto& t : summary.timings()) std::printf("  %s %.2f ms", t.stage().c_str(), t.ms());
+        if (summary.dropped_before() > 0) {
+          std::printf("  (%llu dropped)", static_cast<unsigned long long>(summary.dropped_before()));
+        }
+        std::printf("\n");
+        std::fflush(stdout);
+      }
+      if (args->count != 0 && ++received == args->count) {
+        context->TryCancel();
+        break;
+      }
+    }
+    const grpc::Status status = reader->Finish();
+    if (status.error_code() != grpc::CANCELLED) Connection::check(status);
+  });
+}
+
+}  // namespace shapesense::cli

@@ -1,0 +1,17 @@
+#pragma once
+// Each `shapesense` subcommand registers itself on the app; its code lives in cmd_<name>.cpp.
+
+#include <CLI/CLI.hpp>
+
+#include "connection.h"
+
+namespace shapesense::cli {
+
+void addStatusCommand(CLI::App& app, const GlobalOptions& global);
+void addFramesCommand(CLI::App& app, const GlobalOptions& global);
+void addFrameCommand(CLI::App& app, const GlobalOptions& global);
+void addWatchCommand(CLI::App& app, const GlobalOptions& global);
+void addSynthCommand(CLI::App& app);
+void addAnalyzeCommand(CLI::App& app);
+
+}  // namespace shapesense::cli

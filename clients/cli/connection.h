@@ -1,0 +1,52 @@
+#pragma once
+// The CLI's link to the daemon: one channel, one stub, and uniform error reporting.
+
+#include <memory>
+#include <string>
+
+#include <google/protobuf/message.h>
+#include <grpcpp/grpcpp.h>
+
+#include "shapesense/v1/shapesense.grpc.pb.h"
+
+namespace shapesense::cli {
+
+/// Options every command shares.
+struct GlobalOptions {
+  std::string server = "127.0.0.1:50551";
+  double timeout_s = 10.0;
+};
+
+/// Thrown for a failed RPC; main() prints it to stderr and exits non-zero.
+class RpcError : public std::runtime_error {
+ public:
+  explicit RpcError(const grpc::Status& status);
+  grpc::StatusCode code() const { return code_; }
+
+ private:
+  grpc::StatusCode code_;
+};
+
+class Connection {
+ public:
+  explicit Connection(const GlobalOptions& options);
+  v1::ShapeSense::Stub& stub() { return *stub_; }
+  /// A client context with the configured deadline.
+  std::unique_ptr<grpc::ClientContext> context() const;
+  /// A client context without deadline, for streams the user ends.
+  static std::unique_ptr<grpc::ClientContext> streamContext();
+  /// Throws RpcError unless `status` is OK.
+  static void check(const grpc::Status& status);
+
+ private:
+  GlobalOptions options_;
+  std::unique_ptr<v1::ShapeSense::Stub> stub_;
+};
+
+/// Name of a gRPC status code, e.g. "OUT_OF_RANGE".
+std::string statusCodeName(grpc::StatusCode code);
+
+/// A message as JSON with the proto field names (what --json prints).
+std::string toJson(const google::protobuf::Message& message);
+
+}  // namespace shapesense::cli

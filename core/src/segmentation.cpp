@@ -1,0 +1,736 @@
+#include "shapesense/core/segmentation.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace shapesense {
+
+std::string_view formatSegmentationMethod(SegmentationMethod method) {
+  switch (method) {
+    case SegmentationMethod::kDepthStep: return "depth_step";
+    case SegmentationMethod::kNormalEdges: return "normal_edges";
+    case SegmentationMethod::kFused: return "fused";
+    case SegmentationMethod::kPlanePrediction: return "plane_prediction";
+    case SegmentationMethod::kTiledRansac: return "tiled_ransac";
+  }
+  return "unknown";
+}
+
+std::optional<SegmentationMethod> parseSegmentationMethod(std::string_view name) {
+  for (auto m : {SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges,
+                 SegmentationMethod::kFused, SegmentationMethod::kPlanePrediction,
+                 SegmentationMethod::kTiledRansac}) {
+    if (formatSegmentationMethod(m) == name) return m;
+  }
+  return std::nullopt;
+}
+
+namespace {
+
+constexpr std::uint8_t kNoDepth = 255;  // edge strength of pixels without depth
+
+// Inverse-depth size (1/m) of one sensor quantisation step: constant over range for a
+// disparity sensor (depthStep(z) / z^2).
+double inverseDepthStep(const KinectNoiseModel& noise) {
+  return noise.disparity_step_px / noise.focal_baseline_px_m;
+}
+
+struct Working {
+  cv::Mat depth;  // CV_16UC1 mm at working resolution
+  CameraIntrinsics intr;
+  int ds = 1;
+};
+
+// Reduces the depth image by `ds` (1 or 2). A 2x2 block keeps the mean of its valid pixels that
+// are within 3 quantisation steps of the nearest one, so that blocks on a depth step take the
+// foreground instead of a mixed depth that belongs to neither surface.
+Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const RegionParams& rp) {
+  CV_Assert(depth.type() == CV_16UC1);
+  Working w;
+  w.ds = std::clamp(rp.downsample, 1, 2);
+  if (w.ds == 1) {
+    w.depth = depth;
+    w.intr = intr;
+    return w;
+  }
+  const int rows = depth.rows / 2, cols = depth.cols / 2;
+  w.depth.create(rows, cols, CV_16UC1);
+  const float k = static_cast<float>(3.0 * rp.noise.disparity_step_px / rp.noise.focal_baseline_px_m * 1e-3);
+  for (int v = 0; v < rows; ++v) {
+    const auto* a = depth.ptr<std::uint16_t>(2 * v);
+    const auto* b = depth.ptr<std::uint16_t>(2 * v + 1);
+    auto* o = w.depth.ptr<std::uint16_t>(v);
+    for (int u = 0; u < cols; ++u) {
+      const std::uint16_t q[4] = {a[2 * u], a[2 * u + 1], b[2 * u], b[2 * u + 1]};
+      unsigned mn = 0xFFFF;
+      for (auto x : q) if (x != 0 && x < mn) mn = x;
+      if (mn == 0xFFFF) {
+        o[u] = 0;
+        continue;
+      }
+      const unsigned lim = mn + static_cast<unsigned>(k * static_cast<float>(mn) * static_cast<float>(mn)) + 1;
+      unsigned sum = 0, n = 0;
+      for (auto x : q) {
+        if (x != 0 && x <= lim) {
+          sum += x;
+          ++n;
+        }
+      }
+      o[u] = static_cast<std::uint16_t>((sum + n / 2) / n);
+    }
+  }
+  w.intr = intr;
+  w.intr.fx = intr.fx / 2.0;
+  w.intr.fy = intr.fy / 2.0;
+  w.intr.cx = (intr.cx - 0.5) / 2.0;
+  w.intr.cy = (intr.cy - 0.5) / 2.0;
+  w.intr.width = cols;
+  w.intr.height = rows;
+  return w;
+}
+
+// Depth-step edge strength: per pixel, the number of valid neighbours in the window whose depth
+// differs by more than the ring's threshold. CV_8UC1, kNoDepth where there is no depth.
+cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectNoiseModel& noise) {
+  const cv::Mat& d = w.depth;
+  const int rows = d.rows, cols = d.cols;
+  const int r = std::clamp(p.window_radius, 1, 7);
+  cv::Mat edges(rows, cols, CV_8UC1);
+  // Per-pixel threshold of each ring (Chebyshev distance 1..r), uint16 mm, so the inner loops
+  // below are branch-free uint16 compares the compiler vectorises.
+  std::vector<cv::Mat> thr(r);
+  for (auto& t : thr) t.create(rows, cols, CV_16UC1);
+  const float step_k = static_cast<float>(p.noise_steps * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
+  const float slope = static_cast<float>(p.slope_factor * w.ds);
+  const float min_t = static_cast<float>(p.min_threshold_mm);
+  for (int v = 0; v < rows; ++v) {
+    const auto* dp = d.ptr<std::uint16_t>(v);
+    for (int k = 0; k < r; ++k) {
+      auto* t = thr[k].ptr<std::uint16_t>(v);
+      const float ring = static_cast<float>(k + 1);
+      for (int u = 0; u < cols; ++u) {
+        const float z = static_cast<float>(dp[u]);
+        const float th = std::max(min_t, step_k * z * z + slope * ring * z);
+        t[u] = static_cast<std::uint16_t>(std::min(th, 65535.0f));
+      }
+    }
+  }
+  std::vector<std::uint8_t> acc(cols);
+  for (int v = 0; v < rows; ++v) {
+    const auto* dp = d.ptr<std::uint16_t>(v);
+    std::fill(acc.begin(), acc.end(), 0);
+    for (int dv = -r; dv <= r; ++dv) {
+      const int vq = v + dv;
+      if (vq < 0 || vq >= rows) continue;
+      const auto* dq = d.ptr<std::uint16_t>(vq);
+      for (int du = -r; du <= r; ++du) {
+        if (du == 0 && dv == 0) continue;
+        const int ring = std::max(std::abs(du), std::abs(dv));
+        const auto* t = thr[ring - 1].ptr<std::uint16_t>(v);
+        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
+        std::uint8_t* a = acc.data();
+        for (int u = u0; u < u1; ++u) {
+          const std::uint16_t x = dp[u], y = dq[u + du];
+          const std::uint16_t diff = x > y ? x - y : y - x;
+          a[u] += static_cast<std::uint8_t>((y != 0) & (diff > t[u]));
+        }
+      }
+    }
+    auto* e = edges.ptr<std::uint8_t>(v);
+    for (int u = 0; u < cols; ++u) e[u] = dp[u] == 0 ? kNoDepth : acc[u];
+  }
+  return edges;
+}
+
+// Roof-edge strength: the number of valid-depth neighbours whose normal differs by more than the
+// angle (a neighbour with depth but no normal - next to a step - counts as differing).
+cv::Mat normalEdges(const Working& w, const NormalEdgeParams& p) {
+  const int rows = w.depth.rows, cols = w.depth.cols;
+  NormalEstimator est(p.normals);
+  cv::Mat normals;
+  est.compute(w.depth, w.intr, normals);
+  const int r = std::clamp(p.window_radius, 1, 7);
+  const float cos_t = static_cast<float>(std::cos(p.max_angle_deg * CV_PI / 180.0));
+  const int full = (2 * r + 1) * (2 * r + 1) - 1;
+  cv::Mat edges(rows, cols, CV_8UC1);
+  std::vector<std::uint8_t> acc(cols);
+  for (int v = 0; v < rows; ++v) {
+    const auto* dp = w.depth.ptr<std::uint16_t>(v);
+    const auto* np = normals.ptr<cv::Vec3f>(v);
+    std::fill(acc.begin(), acc.end(), 0);
+    for (int dv = -r; dv <= r; ++dv) {
+      const int vq = v + dv;
+      if (vq < 0 || vq >= rows) continue;
+      const auto* dq = w.depth.ptr<std::uint16_t>(vq);
+      const auto* nq = normals.ptr<cv::Vec3f>(vq);
+      for (int du = -r; du <= r; ++du) {
+        if (du == 0 && dv == 0) continue;
+        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
+        for (int u = u0; u < u1; ++u) {
+          const cv::Vec3f& a = np[u];
+          const cv::Vec3f& b = nq[u + du];
+          const float dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+          acc[u] += static_cast<std::uint8_t>((dq[u + du] != 0) & !(dot >= cos_t));
+        }
+      }
+    }
+    auto* e = edges.ptr<std::uint8_t>(v);
+    for (int u = 0; u < cols; ++u) {
+      if (dp[u] == 0) {
+        e[u] = kNoDepth;
+      } else if (std::isnan(np[u][0])) {
+        e[u] = static_cast<std::uint8_t>(full);
+      } else {
+        e[u] = acc[u];
+      }
+    }
+  }
+  return edges;
+}
+
+// Inverse depth (1/m, 0 where invalid) at working resolution.
+cv::Mat inverseDepth(const cv::Mat& depth) {
+  cv::Mat w(depth.size(), CV_32FC1);
+  for (int v = 0; v < depth.rows; ++v) {
+    const auto* d = depth.ptr<std::uint16_t>(v);
+    auto* o = w.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) o[u] = d[u] ? 1000.0f / static_cast<float>(d[u]) : 0.0f;
+  }
+  return w;
+}
+
+// Plane-prediction edge strength: planes are affine in inverse depth w = 1/z, so each neighbour's
+// w is predicted from the centre's smoothed w and gradient; E = number of anomalous neighbours.
+cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise) {
+  const cv::Mat& d = w.depth;
+  const int rows = d.rows, cols = d.cols;
+  cv::Mat inv = inverseDepth(d);
+  cv::Mat mask;
+  cv::compare(d, 0, mask, cv::CMP_NE);
+  mask.convertTo(mask, CV_32F, 1.0 / 255.0);
+  const int s = std::max(0, p.smoothing_radius);
+  cv::Mat inv_sum, cnt;
+  cv::boxFilter(inv, inv_sum, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::boxFilter(mask, cnt, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  // Smoothed inverse depth (0 where fewer than half the window is valid).
+  cv::Mat sm(rows, cols, CV_32F);
+  const float min_cnt = 0.5f * static_cast<float>((2 * s + 1) * (2 * s + 1));
+  for (int v = 0; v < rows; ++v) {
+    const float* a = inv_sum.ptr<float>(v);
+    const float* c = cnt.ptr<float>(v);
+    float* o = sm.ptr<float>(v);
+    for (int u = 0; u < cols; ++u) o[u] = c[u] >= min_cnt ? a[u] / c[u] : 0.0f;
+  }
+  const int g = std::max(1, p.gradient_step);
+  cv::Mat gx(rows, cols, CV_32F, cv::Scalar(0)), gy(rows, cols, CV_32F, cv::Scalar(0));
+  const float inv2g = 1.0f / (2.0f * static_cast<float>(g));
+  for (int v = 0; v < rows; ++v) {
+    const float* c = sm.ptr<float>(v);
+    const float* up = sm.ptr<float>(std::max(v - g, 0));
+    const float* dn = sm.ptr<float>(std::min(v + g, rows - 1));
+    float* ox = gx.ptr<float>(v);
+    float* oy = gy.ptr<float>(v);
+    for (int u = g; u < cols - g; ++u) {
+      const float l = c[u - g], r = c[u + g];
+      // One-sided difference where one side is missing keeps the prediction usable near holes.
+      if (l > 0 && r > 0) ox[u] = (r - l) * inv2g;
+      else if (l > 0 && c[u] > 0) ox[u] = (c[u] - l) / static_cast<float>(g);
+      else if (r > 0 && c[u] > 0) ox[u] = (r - c[u]) / static_cast<float>(g);
+      const float t = up[u], b = dn[u];
+      if (t > 0 && b > 0 && v - g >= 0 && v + g < rows) oy[u] = (b - t) * inv2g;
+      else if (t > 0 && c[u] > 0 && v - g >= 0) oy[u] = (c[u] - t) / static_cast<float>(g);
+      else if (b > 0 && c[u] > 0 && v + g < rows) oy[u] = (b - c[u]) / static_cast<float>(g);
+    }
+  }
+  const int r = std::clamp(p.window_radius, 1, 7);
+  const float thr = static_cast<float>(p.noise_steps * inverseDepthStep(noise));
+  cv::Mat edges(rows, cols, CV_8UC1);
+  std::vector<std::uint8_t> acc(cols);
+  std::vector<float> centre(cols);
+  for (int v = 0; v < rows; ++v) {
+    const float* wc = inv.ptr<float>(v);
+    const float* smc = sm.ptr<float>(v);
+    const float* gxp = gx.ptr<float>(v);
+    const float* gyp = gy.ptr<float>(v);
+    for (int u = 0; u < cols; ++u) centre[u] = smc[u] > 0 ? smc[u] : wc[u];
+    std::fill(acc.begin(), acc.end(), 0);
+    for (int dv = -r; dv <= r; ++dv) {
+      const int vq = v + dv;
+      if (vq < 0 || vq >= rows) continue;
+      const float* wq = inv.ptr<float>(vq);
+      const float fdv = static_cast<float>(dv);
+      for (int du = -r; du <= r; ++du) {
+        if (du == 0 && dv == 0) continue;
+        const float fdu = static_cast<float>(du);
+        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
+        for (int u = u0; u < u1; ++u) {
+          const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
+          const float y = wq[u + du];
+          acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > thr));
+        }
+      }
+    }
+    auto* e = edges.ptr<std::uint8_t>(v);
+    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : acc[u];
+  }
+  return edges;
+}
+
+cv::Mat edgeStrength(const Working& w, SegmentationMethod method, const SegmentationParams& params) {
+  switch (method) {
+    case SegmentationMethod::kDepthStep:
+      return depthStepEdges(w, params.depth_step, params.depth_step.region.noise);
+    case SegmentationMethod::kNormalEdges:
+      return normalEdges(w, params.normal_edges);
+    case SegmentationMethod::kFused: {
+      const auto& f = params.fused;
+      cv::Mat ed = depthStepEdges(w, f.depth, f.region.noise);
+      cv::Mat en = normalEdges(w, f.normal);
+      cv::Mat e(ed.size(), CV_8UC1);
+      const float wt = static_cast<float>(f.normal_weight);
+      for (int v = 0; v < e.rows; ++v) {
+        const auto* a = ed.ptr<std::uint8_t>(v);
+        const auto* b = en.ptr<std::uint8_t>(v);
+        auto* o = e.ptr<std::uint8_t>(v);
+        for (int u = 0; u < e.cols; ++u) {
+          o[u] = a[u] == kNoDepth ? kNoDepth
+                                  : static_cast<std::uint8_t>(std::min(254.0f, a[u] + wt * b[u] + 0.5f));
+        }
+      }
+      return e;
+    }
+    case SegmentationMethod::kPlanePrediction:
+      return planePredictionEdges(w, params.plane_prediction, params.plane_prediction.region.noise);
+    case SegmentationMethod::kTiledRansac:
+      break;
+  }
+  return {};
+}
+
+const RegionParams& regionParams(SegmentationMethod method, const SegmentationParams& p) {
+  switch (method) {
+    case SegmentationMethod::kDepthStep: return p.depth_step.region;
+    case SegmentationMethod::kNormalEdges: return p.normal_edges.region;
+    case SegmentationMethod::kFused: return p.fused.region;
+    case SegmentationMethod::kPlanePrediction: return p.plane_prediction.region;
+    case SegmentationMethod::kTiledRansac: return p.tiled_ransac.region;
+  }
+  return p.depth_step.region;
+}
+
+// Markers: 4-connected components of pixels with edge <= max_edge, components below min_px
+// dropped. CV_32SC1, 0 = unmarked. Returns the number of the largest label used.
+int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& markers) {
+  cv::Mat mask = edges <= std::min(max_edge, 254);
+  cv::Mat labels;
+  const int n = cv::connectedComponents(mask, labels, 4, CV_32S);
+  std::vector<int> size(n, 0);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u) ++size[l[u]];
+  }
+  std::vector<int> remap(n, 0);
+  int next = 0;
+  for (int i = 1; i < n; ++i) remap[i] = size[i] >= min_px ? ++next : 0;
+  markers.create(labels.size(), CV_32SC1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    int* m = markers.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u) m[u] = remap[l[u]];
+  }
+  return next;
+}
+
+// Floods `markers` (CV_32SC1, modified) over the relief `edges` with cv::watershed and resolves
+// the watershed lines (-1) to a neighbouring region.
+void flood(const cv::Mat& edges, cv::Mat& markers) {
+  // cv::watershed wants 8-bit 3-channel; stretch E so that its priority (the largest channel
+  // difference between neighbours) separates edge levels, keeping "no depth" flooded last.
+  cv::Mat relief(edges.size(), CV_8UC1);
+  for (int v = 0; v < edges.rows; ++v) {
+    const auto* e = edges.ptr<std::uint8_t>(v);
+    auto* o = relief.ptr<std::uint8_t>(v);
+    for (int u = 0; u < edges.cols; ++u) o[u] = e[u] == kNoDepth ? 255 : static_cast<std::uint8_t>(std::min(8 * e[u], 200));
+  }
+  cv::Mat relief3;
+  cv::cvtColor(relief, relief3, cv::COLOR_GRAY2BGR);
+  cv::watershed(relief3, markers);
+  // Watershed lines and the frame cv::watershed paints: take a 4-neighbour's label; two raster
+  // passes resolve any chain of line pixels.
+  const int rows = markers.rows, cols = markers.cols;
+  for (int pass = 0; pass < 2; ++pass) {
+    bool any = false;
+    for (int vi = 0; vi < rows; ++vi) {
+      const int v = pass == 0 ? vi : rows - 1 - vi;
+      int* m = markers.ptr<int>(v);
+      const int* up = v > 0 ? markers.ptr<int>(v - 1) : nullptr;
+      const int* dn = v + 1 < rows ? markers.ptr<int>(v + 1) : nullptr;
+      for (int ui = 0; ui < cols; ++ui) {
+        const int u = pass == 0 ? ui : cols - 1 - ui;
+        if (m[u] > 0) continue;
+        int l = 0;
+        if (u > 0 && m[u - 1] > 0) l = m[u - 1];
+        else if (u + 1 < cols && m[u + 1] > 0) l = m[u + 1];
+        else if (up && up[u] > 0) l = up[u];
+        else if (dn && dn[u] > 0) l = dn[u];
+        m[u] = l > 0 ? l : m[u];
+        any |= l == 0;
+      }
+    }
+    if (!any) break;
+  }
+}
+
+// Upsamples working-resolution labels to the full image. A full-resolution pixel whose depth does
+// not match its block's depth (a block on a step took the foreground) takes the label of the
+// neighbouring block with the closest depth. Pixels without depth get 0.
+cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
+  cv::Mat out(depth.size(), CV_32SC1);
+  const int ds = w.ds;
+  const float k = static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
+  for (int v = 0; v < depth.rows; ++v) {
+    const auto* d = depth.ptr<std::uint16_t>(v);
+    int* o = out.ptr<int>(v);
+    const int vc = std::min(v / ds, labels.rows - 1);
+    const int* l = labels.ptr<int>(vc);
+    const auto* dc = w.depth.ptr<std::uint16_t>(vc);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (d[u] == 0) {
+        o[u] = 0;
+        continue;
+      }
+      const int uc = std::min(u / ds, labels.cols - 1);
+      int label = l[uc];
+      if (ds > 1) {
+        const float z = d[u];
+        const float tol = k * z * z + 2.0f;
+        if (std::fabs(z - static_cast<float>(dc[uc])) > tol) {
+          float best = 1e9f;
+          for (int dv = -1; dv <= 1; ++dv) {
+            const int vv = vc + dv;
+            if (vv < 0 || vv >= labels.rows) continue;
+            const int* lr = labels.ptr<int>(vv);
+            const auto* dr = w.depth.ptr<std::uint16_t>(vv);
+            for (int du = -1; du <= 1; ++du) {
+              const int uu = uc + du;
+              if (uu < 0 || uu >= labels.cols || dr[uu] == 0 || lr[uu] <= 0) continue;
+              const float diff = std::fabs(z - static_cast<float>(dr[uu]));
+              if (diff < best) {
+                best = diff;
+                label = lr[uu];
+              }
+            }
+          }
+        }
+      }
+      o[u] = std::max(label, 0);
+    }
+  }
+  return out;
+}
+
+// Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance.
+cv::Mat compact(const cv::Mat& labels, int min_px) {
+  double mx = 0;
+  cv::minMaxLoc(labels, nullptr, &mx);
+  const int n = static_cast<int>(mx) + 1;
+  std::vector<int> size(n, 0);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u) ++size[std::max(l[u], 0)];
+  }
+  std::vector<int> remap(n, -1);
+  remap[0] = 0;
+  int next = 0;
+  cv::Mat out(labels.size(), CV_16UC1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    auto* o = out.ptr<std::uint16_t>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      const int x = std::max(l[u], 0);
+      int& r = remap[x];
+      if (r < 0) r = (size[x] >= min_px && next < 65535) ? ++next : 0;
+      o[u] = static_cast<std::uint16_t>(r);
+    }
+  }
+  return out;
+}
+
+cv::Mat finish(const cv::Mat& markers, const Working& w, const cv::Mat& depth, const RegionParams& rp) {
+  cv::Mat full = w.ds > 1 ? upsample(markers, w, depth, rp.noise) : markers.clone();
+  if (w.ds == 1) {
+    for (int v = 0; v < full.rows; ++v) {
+      const auto* d = depth.ptr<std::uint16_t>(v);
+      int* o = full.ptr<int>(v);
+      for (int u = 0; u < full.cols; ++u) if (d[u] == 0 || o[u] < 0) o[u] = 0;
+    }
+  }
+  return compact(full, rp.min_region_px);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tiled RANSAC
+
+struct TilePlane {
+  bool ok = false;
+  double a = 0, b = 0, c = 0;  // w = a*u + b*v + c (working pixels, inverse depth 1/m)
+  int inliers = 0;
+};
+
+struct Lcg {
+  std::uint32_t s;
+  std::uint32_t next() {
+    s = s * 1664525u + 1013904223u;
+    return s >> 8;
+  }
+};
+
+// Least-squares w = a u + b v + c over points (centred at (u0, v0) for conditioning).
+bool fitPlaneLs(const std::vector<cv::Point3f>& pts, const std::vector<int>& idx, TilePlane& out) {
+  if (idx.size() < 3) return false;
+  double su = 0, sv = 0, sw = 0, suu = 0, suv = 0, svv = 0, suw = 0, svw = 0;
+  const double n = static_cast<double>(idx.size());
+  double mu = 0, mv = 0;
+  for (int i : idx) {
+    mu += pts[i].x;
+    mv += pts[i].y;
+  }
+  mu /= n;
+  mv /= n;
+  for (int i : idx) {
+    const double u = pts[i].x - mu, v = pts[i].y - mv, w = pts[i].z;
+    su += u; sv += v; sw += w;
+    suu += u * u; suv += u * v; svv += v * v; suw += u * w; svw += v * w;
+  }
+  const double det = suu * svv - suv * suv;
+  if (std::fabs(det) < 1e-9) return false;
+  const double a = (suw * svv - svw * suv) / det;
+  const double b = (svw * suu - suw * suv) / det;
+  const double c = (sw - a * su - b * sv) / n;
+  out.a = a;
+  out.b = b;
+  out.c = c - a * mu - b * mv;
+  return true;
+}
+
+int findRoot(std::vector<int>& parent, int x) {
+  while (parent[x] != x) {
+    parent[x] = parent[parent[x]];
+    x = parent[x];
+  }
+  return x;
+}
+
+cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr, const TiledRansacParams& p) {
+  const RegionParams& rp = p.region;
+  const Working w = makeWorking(depth, intr, rp);
+  const cv::Mat inv = inverseDepth(w.depth);
+  const int rows = inv.rows, cols = inv.cols;
+  const int ts = std::max(4, p.tile_size);
+  const int tx_n = (cols + ts - 1) / ts, ty_n = (rows + ts - 1) / ts;
+  const float thr = static_cast<float>(p.inlier_noise_steps * inverseDepthStep(rp.noise));
+  std::vector<TilePlane> planes(static_cast<std::size_t>(tx_n) * ty_n);
+  std::vector<cv::Point3f> pts;
+  std::vector<int> inl, best_inl;
+  pts.reserve(ts * ts);
+
+  auto tileRect = [&](int tx, int ty) {
+    return cv::Rect(tx * ts, ty * ts, std::min(ts, cols - tx * ts), std::min(ts, rows - ty * ts));
+  };
+  // 1. RANSAC per tile.
+  for (int ty = 0; ty < ty_n; ++ty) {
+    for (int tx = 0; tx < tx_n; ++tx) {
+      const cv::Rect rc = tileRect(tx, ty);
+      pts.clear();
+      for (int v = rc.y; v < rc.y + rc.height; ++v) {
+        const float* row = inv.ptr<float>(v);
+        for (int u = rc.x; u < rc.x + rc.width; ++u) {
+          if (row[u] > 0) pts.emplace_back(static_cast<float>(u), static_cast<float>(v), row[u]);
+        }
+      }
+      const int n = static_cast<int>(pts.size());
+      if (n < std::max(12, rc.area() / 3)) continue;
+      Lcg rng{p.seed * 2654435761u + static_cast<std::uint32_t>(ty * tx_n + tx) * 40503u + 1u};
+      int best = 0;
+      TilePlane best_plane;
+      for (int it = 0; it < p.iterations; ++it) {
+        const auto& a = pts[rng.next() % n];
+        const auto& b = pts[rng.next() % n];
+        const auto& c = pts[rng.next() % n];
+        // Solve w = A u + B v + C through three points.
+        const double u1 = b.x - a.x, v1 = b.y - a.y, w1 = b.z - a.z;
+        const double u2 = c.x - a.x, v2 = c.y - a.y, w2 = c.z - a.z;
+        const double det = u1 * v2 - u2 * v1;
+        if (std::fabs(det) < 4.0) continue;  // nearly collinear samples
+        TilePlane h;
+        h.a = (w1 * v2 - w2 * v1) / det;
+        h.b = (u1 * w2 - u2 * w1) / det;
+        h.c = a.z - h.a * a.x - h.b * a.y;
+        int cnt = 0;
+        const float ha = static_cast<float>(h.a), hb = static_cast<float>(h.b), hc = static_cast<float>(h.c);
+        for (int i = 0; i < n; i += 2) cnt += std::fabs(pts[i].z - (ha * pts[i].x + hb * pts[i].y + hc)) <= thr;
+        if (cnt > best) {
+          best = cnt;
+          best_plane = h;
+        }
+      }
+      if (best == 0) continue;
+      // Refine on the inliers, then recount on all pixels.
+      for (int round = 0; round < 2; ++round) {
+        inl.clear();
+        const float ha = static_cast<float>(best_plane.a), hb = static_cast<float>(best_plane.b),
+                    hc = static_cast<float>(best_plane.c);
+        for (int i = 0; i < n; ++i) {
+          if (std::fabs(pts[i].z - (ha * pts[i].x + hb * pts[i].y + hc)) <= thr) inl.push_back(i);
+        }
+        if (round == 0 && !fitPlaneLs(pts, inl, best_plane)) break;
+      }
+      TilePlane& tp = planes[ty * tx_n + tx];
+      tp = best_plane;
+      tp.inliers = static_cast<int>(inl.size());
+      tp.ok = tp.inliers >= p.min_inlier_fraction * n;
+    }
+  }
+  // 2. Merge neighbouring tiles whose planes explain each other's inliers.
+  const int nt = tx_n * ty_n;
+  std::vector<int> parent(nt);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto fits = [&](const TilePlane& a, float u, float v, float wv, float t) {
+    return std::fabs(wv - static_cast<float>(a.a * u + a.b * v + a.c)) <= t;
+  };
+  auto crossFit = [&](int ia, int ib) {
+    // Fraction of b's inliers explained by a (sampled every other pixel).
+    const TilePlane& A = planes[ia];
+    const TilePlane& B = planes[ib];
+    const cv::Rect rc = tileRect(ib % tx_n, ib / tx_n);
+    int both = 0, total = 0;
+    for (int v = rc.y; v < rc.y + rc.height; v += 2) {
+      const float* row = inv.ptr<float>(v);
+      for (int u = rc.x; u < rc.x + rc.width; u += 2) {
+        if (row[u] <= 0) continue;
+        const float fu = static_cast<float>(u), fv = static_cast<float>(v);
+        if (!fits(B, fu, fv, row[u], thr)) continue;
+        ++total;
+        both += fits(A, fu, fv, row[u], 1.5f * thr);
+      }
+    }
+    return total > 0 ? static_cast<double>(both) / total : 0.0;
+  };
+  for (int ty = 0; ty < ty_n; ++ty) {
+    for (int tx = 0; tx < tx_n; ++tx) {
+      const int i = ty * tx_n + tx;
+      if (!planes[i].ok) continue;
+      for (int j : {tx + 1 < tx_n ? i + 1 : -1, ty + 1 < ty_n ? i + tx_n : -1}) {
+        if (j < 0 || !planes[j].ok) continue;
+        if (crossFit(i, j) >= p.merge_fraction && crossFit(j, i) >= p.merge_fraction) {
+          parent[findRoot(parent, i)] = findRoot(parent, j);
+        }
+      }
+    }
+  }
+  // 3. Flood: seeds are each accepted tile's inliers; a pixel joins a neighbour's region when it
+  // fits the plane of its own tile (if that tile belongs to the region) or else the plane the
+  // neighbour was grown with. This crosses tile borders, so tiles leave no seams, and follows
+  // gently curved surfaces whose tile planes were chained by the merge.
+  cv::Mat labels(rows, cols, CV_32SC1, cv::Scalar(0));
+  std::vector<int> plane_of(static_cast<std::size_t>(rows) * cols, -1);
+  std::vector<int> queue;
+  queue.reserve(static_cast<std::size_t>(rows) * cols);
+  for (int v = 0; v < rows; ++v) {
+    const float* row = inv.ptr<float>(v);
+    int* l = labels.ptr<int>(v);
+    const int ty = v / ts;
+    for (int u = 0; u < cols; ++u) {
+      const int t = ty * tx_n + u / ts;
+      if (row[u] <= 0 || !planes[t].ok) continue;
+      if (!fits(planes[t], static_cast<float>(u), static_cast<float>(v), row[u], thr)) continue;
+      l[u] = findRoot(parent, t) + 1;
+      plane_of[v * cols + u] = t;
+      queue.push_back(v * cols + u);
+    }
+  }
+  int* L = labels.ptr<int>(0);
+  const float* W = inv.ptr<float>(0);
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int idx = queue[head];
+    const int u = idx % cols, v = idx / cols;
+    const int label = L[idx];
+    const int pl = plane_of[idx];
+    const int nbr[4] = {u > 0 ? idx - 1 : -1, u + 1 < cols ? idx + 1 : -1, v > 0 ? idx - cols : -1,
+                        v + 1 < rows ? idx + cols : -1};
+    for (int q : nbr) {
+      if (q < 0 || L[q] != 0 || W[q] <= 0) continue;
+      const int qu = q % cols, qv = q / cols;
+      const int tq = (qv / ts) * tx_n + qu / ts;
+      int use = pl;
+      if (planes[tq].ok && findRoot(parent, tq) + 1 == label) use = tq;
+      if (!fits(planes[use], static_cast<float>(qu), static_cast<float>(qv), W[q], thr)) continue;
+      L[q] = label;
+      plane_of[q] = use;
+      queue.push_back(q);
+    }
+  }
+  // 4. Non-planar leftovers: components of unlabelled depth-continuous pixels become regions;
+  // the rest is flooded over the depth-step relief.
+  const cv::Mat edges = depthStepEdges(w, p.leftovers, rp.noise);
+  cv::Mat left_mask(rows, cols, CV_8UC1);
+  for (int v = 0; v < rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const auto* e = edges.ptr<std::uint8_t>(v);
+    auto* m = left_mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < cols; ++u) m[u] = (l[u] == 0 && e[u] <= rp.marker_max_edge) ? 255 : 0;
+  }
+  cv::Mat comp;
+  const int nc = cv::connectedComponents(left_mask, comp, 4, CV_32S);
+  std::vector<int> csize(nc, 0);
+  for (int v = 0; v < rows; ++v) {
+    const int* c = comp.ptr<int>(v);
+    for (int u = 0; u < cols; ++u) ++csize[c[u]];
+  }
+  const int min_marker = std::max(1, rp.min_marker_px / (w.ds * w.ds));
+  for (int v = 0; v < rows; ++v) {
+    const int* c = comp.ptr<int>(v);
+    int* l = labels.ptr<int>(v);
+    for (int u = 0; u < cols; ++u) {
+      if (c[u] > 0 && csize[c[u]] >= min_marker) l[u] = nt + c[u];
+    }
+  }
+  flood(edges, labels);
+  return finish(labels, w, depth, rp);
+}
+
+}  // namespace
+
+cv::Mat segmentationEdgeStrength(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                 SegmentationMethod method, const SegmentationParams& params) {
+  if (method == SegmentationMethod::kTiledRansac) return {};
+  const RegionParams& rp = regionParams(method, params);
+  const Working w = makeWorking(depth_mm, intrinsics, rp);
+  return edgeStrength(w, method, params);
+}
+
+cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                     SegmentationMethod method, const SegmentationParams& params) {
+  CV_Assert(depth_mm.type() == CV_16UC1);
+  if (method == SegmentationMethod::kTiledRansac) {
+    return tiledRansac(depth_mm, intrinsics, params.tiled_ransac);
+  }
+  const RegionParams& rp = regionParams(method, params);
+  const Working w = makeWorking(depth_mm, intrinsics, rp);
+  const cv::Mat edges = edgeStrength(w, method, params);
+  cv::Mat markers;
+  const int min_marker = std::max(1, rp.min_marker_px / (w.ds * w.ds));
+  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers) == 0) {
+    return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
+  }
+  flood(edges, markers);
+  return finish(markers, w, depth_mm, rp);
+}
+
+}  // namespace shapesense
