@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "shapesense/driver/replay_source.h"
+#include "shapesense/driver/synthetic_source.h"
 
 namespace shapesense {
 
@@ -10,6 +11,20 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
   const std::string argument = colon == std::string::npos ? "" : spec.substr(colon + 1);
+  if (kind == "synthetic") {
+    synthetic::SyntheticSourceOptions synthetic_options;
+    synthetic_options.pacing = pacing;
+    if (!argument.empty()) {
+      try {
+        std::size_t used = 0;
+        synthetic_options.scene.seed = std::stoull(argument, &used);
+        if (used != argument.size()) throw std::invalid_argument(argument);
+      } catch (const std::exception&) {
+        throw std::invalid_argument("--source synthetic:SEED needs a whole number, got '" + argument + "'");
+      }
+    }
+    return std::make_unique<synthetic::SyntheticSource>(synthetic_options);
+  }
   if (kind == "tum") {
     if (argument.empty()) throw std::invalid_argument("--source tum:DIR needs a recording directory");
     return std::make_unique<ReplaySource>(argument, ReplayOptions{.pacing = pacing, .loop = loop});
