@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   addFramesCommand(app, global);
   addFrameCommand(app, global);
   addWatchCommand(app, global);
+  addBboxCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {

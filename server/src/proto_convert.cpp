@@ -45,4 +45,24 @@ v1::GetStatusResponse::SourceState toProto(SourceState state) {
   return v1::GetStatusResponse::SOURCE_STATE_UNSPECIFIED;
 }
 
+void toProto(const Eigen::Vector3d& point, v1::Point3* out) {
+  out->set_x(point.x());
+  out->set_y(point.y());
+  out->set_z(point.z());
+}
+
+void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out) {
+  out->set_valid_pixels(static_cast<std::uint32_t>(stats.valid_pixels));
+  out->set_used_pixels(static_cast<std::uint32_t>(stats.used_pixels));
+  out->set_mean_m(stats.mean_m);
+  out->set_std_m(stats.std_m);
+  out->set_median_m(stats.median_m);
+  out->set_min_m(stats.min_m);
+  out->set_max_m(stats.max_m);
+  out->set_near_m(stats.near_m);
+  out->set_far_m(stats.far_m);
+  out->set_moved_back_m(stats.moved_back_m);
+  out->set_range_from_origin(stats.range_from_origin);
+}
+
 }  // namespace shapesense

@@ -30,6 +30,14 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
                      grpc::ServerWriter<v1::FrameSummary>* writer) override {
     return handleWatch(context_, server_context, *request, writer);
   }
+  grpc::Status EstimateBox(grpc::ServerContext*, const v1::EstimateBoxRequest* request,
+                           v1::EstimateBoxResponse* response) override {
+    return handleEstimateBox(context_, *request, response);
+  }
+  grpc::Status GetDetectedBoxes(grpc::ServerContext*, const v1::GetDetectedBoxesRequest* request,
+                                v1::GetDetectedBoxesResponse* response) override {
+    return handleGetDetectedBoxes(context_, *request, response);
+  }
 
  private:
   ServiceContext context_;

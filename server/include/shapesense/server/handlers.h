@@ -23,4 +23,11 @@ grpc::Status handleWatch(const ServiceContext& context, grpc::ServerContext* ser
                          const v1::WatchRequest& request,
                          grpc::ServerWriter<v1::FrameSummary>* writer);
 
+grpc::Status handleEstimateBox(const ServiceContext& context, const v1::EstimateBoxRequest& request,
+                               v1::EstimateBoxResponse* response);
+
+grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
+                                    const v1::GetDetectedBoxesRequest& request,
+                                    v1::GetDetectedBoxesResponse* response);
+
 }  // namespace shapesense

@@ -1,6 +1,9 @@
 #pragma once
 // Conversions from the daemon's types to API messages, shared by the handlers.
 
+#include <Eigen/Core>
+
+#include "shapesense/core/box_estimation.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/v1/shapesense.pb.h"
@@ -12,5 +15,7 @@ void toProto(const CameraIntrinsics& intrinsics, v1::Intrinsics* out);
 void toProto(const DepthStatistics& stats, v1::DepthStats* out);
 void toProto(const CachedRange& range, v1::CacheRange* out);
 v1::GetStatusResponse::SourceState toProto(SourceState state);
+void toProto(const Eigen::Vector3d& point, v1::Point3* out);
+void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out);
 
 }  // namespace shapesense

@@ -1,0 +1,32 @@
+#pragma once
+// Pictures a person can look at: the frame a result came from, as colour or coloured depth,
+// with the result drawn over it.
+
+#include <filesystem>
+
+#include <opencv2/core.hpp>
+
+#include "connection.h"
+#include "shapesense/core/camera.h"
+#include "shapesense/core/frame.h"
+
+namespace shapesense::cli {
+
+/// Depth in millimetres as a colour image (turbo, near = blue, far = red); no reading = black.
+cv::Mat colorizeDepth(const cv::Mat& depth_mm);
+
+/// A cached frame fetched for drawing: its picture (colour when the source has it, else
+/// coloured depth) and intrinsics.
+struct FrameBackground {
+  cv::Mat bgr;
+  cv::Mat depth_mm;
+  CameraIntrinsics intrinsics;
+};
+
+/// Fetches the frame at exactly `timestamp_ns` (as a result reported it).
+FrameBackground fetchFrameBackground(Connection& connection, TimestampNs timestamp_ns);
+
+/// Writes a PNG; throws std::runtime_error naming the path when it cannot.
+void writePng(const std::filesystem::path& path, const cv::Mat& image);
+
+}  // namespace shapesense::cli
