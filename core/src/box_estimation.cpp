@@ -171,6 +171,20 @@ RoiDepthStatistics robustDepthStatistics(std::vector<double>& values,
   stats.max_m = max_v;
   stats.near_m = mean - params.std_scale * stddev;
   stats.far_m = mean + params.std_scale * stddev;
+  if (params.clamp_to_kept_range) {
+    // Past the (trimmed) extremes of the kept readings there is no evidence of the object: a
+    // skewed set (object plus some table behind it) would otherwise push the opposite face out.
+    const double trim = std::clamp(params.range_trim, 0.0, 0.5);
+    const auto n = static_cast<double>(kept.size() - 1);
+    const auto lo_it = kept.begin() + static_cast<std::ptrdiff_t>(std::floor(trim * n));
+    std::nth_element(kept.begin(), lo_it, kept.end());
+    const double lo = *lo_it;
+    const auto hi_it = kept.begin() + static_cast<std::ptrdiff_t>(std::ceil((1.0 - trim) * n));
+    std::nth_element(kept.begin(), hi_it, kept.end());
+    const double hi = *hi_it;
+    stats.near_m = std::max(stats.near_m, lo);
+    stats.far_m = std::min(stats.far_m, hi);
+  }
   return stats;
 }
 

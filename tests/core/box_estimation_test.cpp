@@ -134,21 +134,29 @@ TEST(BoxEstimationMode3, CleanTiltedPlaneFacesAtMeanMinusPlusStdAndFrontProjects
   EXPECT_FALSE(box.stats.range_from_origin);
 }
 
-TEST(BoxEstimationMode3, DefaultStdScaleWidensTheSeedsFaces) {
+TEST(BoxEstimationMode3, DefaultsReachTheEndsOfAnEvenSpreadButNotBeyond) {
   const CameraIntrinsics k;
   cv::Mat depth = wall(2.5);
   paint(depth, 300, 200, 360, 260, tiltedX(300, 360, 1.0, 0.2));
   const BoxEstimationParams params;  // defaults
   const auto box = expectBox(
       estimateBox(depth, k, {300, 200}, {360, 260}, BoxMode::kAxisAlignedFrontFace, params));
-  EXPECT_NEAR(box.corners[0].z(), box.stats.mean_m - params.std_scale * box.stats.std_m, kTightM);
-  EXPECT_NEAR(box.corners[4].z(), box.stats.mean_m + params.std_scale * box.stats.std_m, kTightM);
-  // An even 1.0 - 1.2 m spread: the default factor reaches past both ends (the seed's 1 would
-  // stop 4 cm short of each); within a centimetre of the ends so the box stays tight.
-  EXPECT_LE(box.corners[0].z(), 1.0 + 1e-3);
-  EXPECT_GE(box.corners[4].z(), 1.2 - 1e-3);
-  EXPECT_GT(box.corners[0].z(), 1.0 - 0.012);
-  EXPECT_LT(box.corners[4].z(), 1.2 + 0.012);
+  // An even 1.0 - 1.2 m spread: the seed's mean -/+ std would stop ~4 cm short of each end.
+  // The widened faces are clamped to the 1st / 99th percentile of the readings: within 3 mm
+  // of the ends (1 % of 0.2 m = 2 mm, plus mm rounding), never beyond them.
+  EXPECT_NEAR(box.corners[0].z(), 1.0, 0.003);
+  EXPECT_NEAR(box.corners[4].z(), 1.2, 0.003);
+  EXPECT_GE(box.corners[0].z(), 1.0);
+  EXPECT_LE(box.corners[4].z(), 1.2);
+  // Without the clamp the faces are literally mean -/+ std_scale * std.
+  BoxEstimationParams unclamped;
+  unclamped.clamp_to_kept_range = false;
+  const auto wide = expectBox(estimateBox(depth, k, {300, 200}, {360, 260},
+                                          BoxMode::kAxisAlignedFrontFace, unclamped));
+  EXPECT_NEAR(wide.corners[0].z(), wide.stats.mean_m - unclamped.std_scale * wide.stats.std_m,
+              kTightM);
+  EXPECT_NEAR(wide.corners[4].z(), wide.stats.mean_m + unclamped.std_scale * wide.stats.std_m,
+              kTightM);
 }
 
 TEST(BoxEstimationMode3, OneByOneRoiIsAValidNonDegenerateBox) {
@@ -330,8 +338,10 @@ TEST(BoxEstimationMode2, DeepBoxInNarrowOffCentreRoiCollapsesToMeanX) {
   for (const auto& c : box.corners) EXPECT_NEAR(c.x(), 0.5 * (t1 + t2), kTightM);
   EXPECT_NEAR(boxVolume(box.corners), 0.0, 1e-12);
   // Depths are kept (the seed only collapses the coordinate).
-  EXPECT_NEAR(box.corners[0].z(), box.stats.mean_m - BoxEstimationParams{}.std_scale *
-                                                         box.stats.std_m, kTightM);
+  EXPECT_NEAR(box.corners[0].z(), box.stats.near_m, kTightM);
+  EXPECT_NEAR(box.corners[4].z(), box.stats.far_m, kTightM);
+  EXPECT_LT(box.stats.near_m, 1.05);
+  EXPECT_GT(box.stats.far_m, 1.95);
 }
 
 TEST(BoxEstimationMode2, DeepBoxInShortRoiAboveCentreCollapsesY) {
@@ -469,6 +479,10 @@ TEST(BoxEstimationRobustness, StatisticOnSamples) {
   EXPECT_NEAR(s.min_m, 1.0, 1e-12);
   EXPECT_NEAR(s.max_m, 1.1, 1e-12);
   EXPECT_NEAR(s.std_m, 0.1 / std::sqrt(12.0), 1e-4);
+  // Faces: mean -/+ 2.5 std would pass both ends; clamped to the 1st / 99th percentiles of
+  // the 800 kept values (ranks floor(0.01 * 799) = 7 and ceil(0.99 * 799) = 792).
+  EXPECT_NEAR(s.near_m, 1.0 + 0.1 * 7 / 799.0, 1e-12);
+  EXPECT_NEAR(s.far_m, 1.0 + 0.1 * 792 / 799.0, 1e-12);
 }
 
 TEST(BoxEstimation, ZeroDepthIsIgnored) {

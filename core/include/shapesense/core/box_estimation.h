@@ -16,7 +16,8 @@
 // of the median (re-centred `refine_iterations` times on the kept set), and only then take the
 // seed's mean and std over the kept readings. The faces go at mean -/+ `std_scale` * std: the
 // seed's factor of 1 covers only ~58 % of an evenly spread object (a box's visible surfaces),
-// so the default widens it; see BoxEstimationParams::std_scale.
+// so the default widens it, and each face is clamped to the kept readings' trimmed range (no
+// face beyond the 1st / 99th percentile of the object's readings); see BoxEstimationParams.
 //
 // Geometry conventions: OpenCV camera frame (x right, y down, z forward), metres. The ROI's
 // corners are inclusive pixel indices; pixel (u, v) covers [u - 0.5, u + 0.5] x [v - 0.5,
@@ -72,15 +73,15 @@ enum class BoxMode {
 
 /// Tunables of estimateBox. Defaults suit a Kinect v1 at 0.5 - 4 m.
 struct BoxEstimationParams {
-  /// Faces at mean -/+ std_scale * std of the kept readings. The seed uses 1. An evenly spread
-  /// depth distribution (what a box's visible faces produce) spans mean +/- sqrt(3) * std, so
-  /// a factor of 1 cuts ~40 % of the object off in depth; 1.9 reaches just past the extremes of
-  /// an even spread (tuned on synthetic scenes with ground truth, see
-  /// tests/core/box_estimation_synthetic_test.cpp).
-  double std_scale = 1.9;
+  /// Faces at mean -/+ std_scale * std of the kept readings (then clamped, see
+  /// clamp_to_kept_range). The seed uses 1, which cuts an evenly spread object (what a box's
+  /// visible faces produce; it spans mean +/- sqrt(3) * std) by ~40 % in depth. Tuned on the
+  /// synthetic scenes (tests/core/box_estimation_synthetic_test.cpp): containment rises up to
+  /// ~2.5 and is flat beyond, because the clamp then binds for most objects.
+  double std_scale = 2.5;
   /// Readings farther than inlier_sigmas * sigma from the median are background (table beyond
   /// the object, wall, flying pixels). 3 keeps all of an evenly spread object (its extremes are
-  /// at ~2.3 MAD-sigmas) and of Gaussian noise (99.7 %).
+  /// at ~2.3 MAD-sigmas) and 99.7 % of Gaussian noise; 4 lets in more table for no gain.
   double inlier_sigmas = 3.0;
   /// Lower bound of the MAD-sigma in metres: a flat face reads the same quantised depth in most
   /// pixels, making the MAD zero and the window empty but for that one value.
@@ -91,6 +92,14 @@ struct BoxEstimationParams {
   /// How often the median/MAD are recomputed over the kept readings (and the window re-applied
   /// to all readings); pulls the centre off a background that happened to sit near the median.
   int refine_iterations = 2;
+  /// Clamp the faces to the kept readings' range (trimmed by range_trim at each end): beyond
+  /// the nearest / farthest kept reading there is no evidence of the object, and a skewed kept
+  /// set (object plus table behind it) would otherwise push the near face far in front of the
+  /// object. With the default std_scale the clamp binds for most objects, so the faces sit at
+  /// the 1st / 99th percentile of the kept readings; mean -/+ k * std binds for sparse sets.
+  bool clamp_to_kept_range = true;
+  /// Fraction of the kept readings ignored at each end for that clamp (single noisy pixels).
+  double range_trim = 0.01;
   /// Readings beyond this are treated as missing (the seed's "infinite" cut-off).
   double max_valid_depth_m = 20.0;
   /// The near limit standing in for the seed's focal plane (see the file comment): no front
@@ -114,8 +123,8 @@ struct RoiDepthStatistics {
   double mad_sigma_m = 0.0;///< 1.4826 * MAD behind the final window, before the min-sigma floors
   double min_m = 0.0;      ///< nearest kept value
   double max_m = 0.0;      ///< farthest kept value
-  double near_m = 0.0;     ///< front face distance used: mean - std_scale * std, after the near-limit rule
-  double far_m = 0.0;      ///< back face distance used: mean + std_scale * std, after the near-limit rule
+  double near_m = 0.0;     ///< front face distance used: mean - std_scale * std, clamped, after the near-limit rule
+  double far_m = 0.0;      ///< back face distance used: mean + std_scale * std, clamped, after the near-limit rule
   double moved_back_m = 0.0; ///< shift applied by the near-limit rule (0 = not applied)
   bool range_from_origin = false; ///< values are distances from the optical centre (mode 1)
 };
@@ -167,7 +176,7 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
 
 /// Robust near/far statistics of the values (metres, > 0) using params' window; exposed so
 /// callers and tests can inspect the statistic on their own samples. `values` is reordered.
-/// near_m/far_m are mean -/+ std_scale * std (no near-limit rule). Requires a non-empty input.
+/// near_m/far_m are mean -/+ std_scale * std, clamped to the kept range (no near-limit rule). Requires a non-empty input.
 RoiDepthStatistics robustDepthStatistics(std::vector<double>& values,
                                          const BoxEstimationParams& params = {});
 
