@@ -3,6 +3,8 @@
 #include <fstream>
 #include <iostream>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "shapesense/core/timestamp.h"
 #include "shapesense/driver/replay_source.h"
 
@@ -14,8 +16,19 @@ double secondsForJson(TimestampNs ns) {
   return std::stod(formatNsAsSeconds(ns, 9));
 }
 
-nlohmann::json resultsToJson(const Frame& frame, const FrameResults& results) {
+nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results,
+                                 const std::filesystem::path& out) {
   nlohmann::json json;
+  const std::string stamp = formatNsAsSeconds(frame.timestamp_ns, 6);
+  const auto write_labels = [&](const char* key, const char* suffix, const cv::Mat& labels) {
+    const std::string relative = "labels/" + stamp + suffix;
+    std::filesystem::create_directories(out / "labels");
+    if (!cv::imwrite((out / relative).string(), labels)) {
+      throw std::runtime_error("cannot write " + (out / relative).string());
+    }
+    json[key] = relative;
+  };
+  if (results.segmentation) write_labels("segment_labels", ".segments.png", results.segmentation->labels);
   json["timestamp"] = secondsForJson(frame.timestamp_ns);
   json["planes"] = nlohmann::json::array();
   json["bowls"] = nlohmann::json::array();
@@ -45,7 +58,7 @@ AnalyzeSummary analyzeRecording(const std::filesystem::path& recording, const st
     }
     const Frame& frame = std::get<Frame>(event);
     const FrameResults results = chain.process(frame);
-    results_file << resultsToJson(frame, results).dump() << "\n";
+    results_file << writeFrameResults(frame, results, out).dump() << "\n";
     ++summary.frames;
     if (progress) progress(summary.frames + summary.bad_frames, total);
   }

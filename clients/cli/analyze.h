@@ -32,8 +32,10 @@ AnalyzeSummary analyzeRecording(const std::filesystem::path& recording, const st
                                 const DetectorChain& chain,
                                 const std::function<void(std::size_t, std::size_t)>& progress = {});
 
-/// The results.jsonl object of one frame (without label images, which need a directory).
-nlohmann::json resultsToJson(const Frame& frame, const FrameResults& results);
+/// The results.jsonl object of one frame. Label images are written under `out`/labels/ and
+/// named in the object by their path relative to `out`.
+nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results,
+                                 const std::filesystem::path& out);
 
 /// Seconds as a JSON number that prints as the shortest decimal of `ns` (1600000000.033333,
 /// not 1600000000.0333331).

@@ -12,15 +12,23 @@ void addAnalyzeCommand(CLI::App& app) {
     std::string source;
     std::string out;
     bool quiet = false;
+    std::string segmentation = "depth_step";
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("SOURCE", args->source, "Recording directory (TUM layout), or tum:DIR")->required();
   cmd->add_option("--out", args->out, "Output directory")->required();
   cmd->add_flag("--quiet", args->quiet, "No progress line");
+  cmd->add_option("--segmentation", args->segmentation,
+                  "Segmentation method: depth_step, normal_edges, fused, plane_prediction, "
+                  "tiled_ransac or none")
+      ->check(CLI::IsMember({"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
+      ->capture_default_str();
   cmd->callback([args] {
     std::string dir = args->source;
     if (dir.rfind("tum:", 0) == 0) dir = dir.substr(4);
-    const DetectorChain chain = makeDetectorChain(DetectorConfig{});
+    DetectorConfig config;
+    config.segmentation = parseSegmentationMethod(args->segmentation);  // none -> off
+    const DetectorChain chain = makeDetectorChain(config);
     const auto summary = analyzeRecording(dir, args->out, chain, [&](std::size_t done, std::size_t total) {
       if (!args->quiet) std::cerr << "\ranalyze: " << done << "/" << total << " frames" << std::flush;
     });

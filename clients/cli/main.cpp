@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   addFrameCommand(app, global);
   addWatchCommand(app, global);
   addBboxCommand(app, global);
+  addSegmentsCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {

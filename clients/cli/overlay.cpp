@@ -3,6 +3,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <cmath>
+
 namespace shapesense::cli {
 namespace {
 
@@ -20,6 +22,36 @@ cv::Mat colorizeDepth(const cv::Mat& depth_mm) {
   cv::applyColorMap(scaled, bgr, cv::COLORMAP_TURBO);
   bgr.setTo(cv::Scalar::all(0), depth_mm == 0);
   return bgr;
+}
+
+cv::Vec3b labelColour(std::uint32_t id) {
+  // Golden-ratio hue steps keep neighbouring ids far apart in colour.
+  const double hue = std::fmod(id * 0.618033988749895, 1.0) * 180.0;
+  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(hue, 200 + 55 * (id % 2), 230));
+  cv::Mat bgr;
+  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+  return bgr.at<cv::Vec3b>(0, 0);
+}
+
+void paintLabels(cv::Mat& bgr, const cv::Mat& labels, double alpha) {
+  CV_Assert(labels.type() == CV_16UC1 && labels.size() == bgr.size() && bgr.type() == CV_8UC3);
+  std::vector<cv::Vec3b> palette;
+  for (int v = 0; v < labels.rows; ++v) {
+    const auto* label = labels.ptr<std::uint16_t>(v);
+    auto* pixel = bgr.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      const std::uint16_t id = label[u];
+      if (id == 0) continue;
+      if (id >= palette.size()) {
+        for (std::size_t k = palette.size(); k <= id; ++k) palette.push_back(labelColour(static_cast<std::uint32_t>(k)));
+      }
+      const bool border = (u + 1 < labels.cols && label[u + 1] != id) ||
+                          (v + 1 < labels.rows && labels.ptr<std::uint16_t>(v + 1)[u] != id);
+      for (int c = 0; c < 3; ++c) {
+        pixel[u][c] = border ? 0 : cv::saturate_cast<std::uint8_t>((1 - alpha) * pixel[u][c] + alpha * palette[id][c]);
+      }
+    }
+  }
 }
 
 FrameBackground fetchFrameBackground(Connection& connection, TimestampNs timestamp_ns) {

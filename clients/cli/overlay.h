@@ -15,6 +15,13 @@ namespace shapesense::cli {
 /// Depth in millimetres as a colour image (turbo, near = blue, far = red); no reading = black.
 cv::Mat colorizeDepth(const cv::Mat& depth_mm);
 
+/// Paints each non-zero label of `labels` (CV_16UC1) over `bgr` in its own colour, blended with
+/// weight `alpha`, and outlines the regions; label 0 stays as it was.
+void paintLabels(cv::Mat& bgr, const cv::Mat& labels, double alpha = 0.55);
+
+/// The colour of label `id` in every overlay (stable across frames and commands).
+cv::Vec3b labelColour(std::uint32_t id);
+
 /// A cached frame fetched for drawing: its picture (colour when the source has it, else
 /// coloured depth) and intrinsics.
 struct FrameBackground {

@@ -58,9 +58,25 @@ void DepthStatsStage::run(const Frame& frame, FrameResults& results) {
   results.depth_stats = computeDepthStatistics(frame.depth);
 }
 
-DetectorChain makeDetectorChain(const DetectorConfig&) {
+SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
+                                const SegmentationParams& params) {
+  SegmentationResult result;
+  result.method = method;
+  result.labels = segmentDepth(frame.depth, frame.intrinsics, method, params);
+  result.segments = computeSegmentStatistics(result.labels, frame.depth, frame.intrinsics);
+  return result;
+}
+
+void SegmentationStage::run(const Frame& frame, FrameResults& results) {
+  results.segmentation = segmentFrame(frame, method_, params_);
+}
+
+DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
+  if (config.segmentation) {
+    chain.add(std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
+  }
   return chain;
 }
 

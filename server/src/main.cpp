@@ -50,6 +50,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
   app.add_option("--listen", options.listen, "gRPC listen address")->capture_default_str();
+  std::string segmentation = "depth_step";
+  app.add_option("--segmentation", segmentation,
+                 "Segmentation run on every frame: depth_step, normal_edges, fused, "
+                 "plane_prediction, tiled_ransac or none")
+      ->check(CLI::IsMember({"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
+      ->capture_default_str();
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
@@ -57,6 +63,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   options.pacing = rate == "max" ? shapesense::Pacing::kAsFastAsPossible : shapesense::Pacing::kRecorded;
   spdlog::set_level(spdlog::level::from_str(log_level));
+  options.detectors.segmentation = shapesense::parseSegmentationMethod(segmentation);  // none -> off
 
   const sigset_t signals = blockShutdownSignals();
   std::unique_ptr<shapesense::Daemon> daemon;

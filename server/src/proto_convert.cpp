@@ -65,4 +65,20 @@ void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out) {
   out->set_range_from_origin(stats.range_from_origin);
 }
 
+void toProto(const cv::Rect& box, v1::PixelBox* out) {
+  out->set_x(box.x);
+  out->set_y(box.y);
+  out->set_width(box.width);
+  out->set_height(box.height);
+}
+
+void toProto(const SegmentStatistics& segment, v1::Segment* out) {
+  out->set_id(segment.id);
+  out->set_pixels(static_cast<std::uint32_t>(segment.pixels));
+  toProto(segment.centroid, out->mutable_centroid());
+  toProto(segment.mean_normal, out->mutable_normal());
+  out->set_plane_rms_m(segment.plane_rms_m);
+  toProto(segment.box, out->mutable_box());
+}
+
 }  // namespace shapesense

@@ -38,6 +38,10 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
                                 v1::GetDetectedBoxesResponse* response) override {
     return handleGetDetectedBoxes(context_, *request, response);
   }
+  grpc::Status GetSegments(grpc::ServerContext*, const v1::GetSegmentsRequest* request,
+                           v1::GetSegmentsResponse* response) override {
+    return handleGetSegments(context_, *request, response);
+  }
 
  private:
   ServiceContext context_;

@@ -3,6 +3,7 @@
 // and writes its own member of FrameResults.
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,8 +46,29 @@ class DepthStatsStage : public DetectorStage {
 /// Pure function behind DepthStatsStage.
 DepthStatistics computeDepthStatistics(const cv::Mat& depth_mm);
 
+/// Segments the depth image with one method and computes per-segment statistics.
+class SegmentationStage : public DetectorStage {
+ public:
+  SegmentationStage(SegmentationMethod method, SegmentationParams params)
+      : method_(method), params_(params) {}
+  std::string name() const override { return "segmentation"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  SegmentationMethod method_;
+  SegmentationParams params_;
+};
+
+/// Segmentation of one frame with any method: what the stage and on-request queries share.
+SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
+                                const SegmentationParams& params = {});
+
 /// Options that select and configure the stages; filled from the daemon's config or the CLI.
-struct DetectorConfig {};
+struct DetectorConfig {
+  /// Method of the segmentation stage; nullopt leaves the stage out.
+  std::optional<SegmentationMethod> segmentation = SegmentationMethod::kDepthStep;
+  SegmentationParams segmentation_params;
+};
 
 /// The standard chain for `config`.
 DetectorChain makeDetectorChain(const DetectorConfig& config);

@@ -5,6 +5,12 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/segment_statistics.h"
+#include "shapesense/core/segmentation.h"
 
 namespace shapesense {
 
@@ -16,8 +22,16 @@ struct DepthStatistics {
   double max_m = 0.0;
 };
 
+/// A depth segmentation of the frame.
+struct SegmentationResult {
+  SegmentationMethod method = SegmentationMethod::kDepthStep;
+  cv::Mat labels;  ///< CV_16UC1 region ids, 0 = unassigned
+  std::vector<SegmentStatistics> segments;
+};
+
 struct FrameResults {
   std::optional<DepthStatistics> depth_stats;
+  std::optional<SegmentationResult> segmentation;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

@@ -30,4 +30,7 @@ grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
                                     const v1::GetDetectedBoxesRequest& request,
                                     v1::GetDetectedBoxesResponse* response);
 
+grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegmentsRequest& request,
+                               v1::GetSegmentsResponse* response);
+
 }  // namespace shapesense

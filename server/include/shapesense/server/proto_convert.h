@@ -17,5 +17,7 @@ void toProto(const CachedRange& range, v1::CacheRange* out);
 v1::GetStatusResponse::SourceState toProto(SourceState state);
 void toProto(const Eigen::Vector3d& point, v1::Point3* out);
 void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out);
+void toProto(const cv::Rect& box, v1::PixelBox* out);
+void toProto(const SegmentStatistics& segment, v1::Segment* out);
 
 }  // namespace shapesense
