@@ -4,6 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "shapesense/driver/replay_source.h"
+#include "shapesense/driver/synthetic_source.h"
 #include "shapesense/server/pipeline.h"
 
 namespace shapesense {
@@ -50,6 +51,15 @@ void BM_PipelineReplay(benchmark::State& state) {
   });
 }
 BENCHMARK(BM_PipelineReplay)->Arg(120)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_PipelineSynthetic(benchmark::State& state) {
+  runPipeline(state, [] {
+    synthetic::SyntheticSourceOptions options;
+    options.pacing = Pacing::kAsFastAsPossible;
+    return std::make_unique<synthetic::SyntheticSource>(options);
+  });
+}
+BENCHMARK(BM_PipelineSynthetic)->Arg(120)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace shapesense
