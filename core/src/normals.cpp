@@ -11,218 +11,175 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline bool validZ(float z) { return z > 0.0f; }  // NaN compares false
 
-// Half-open rectangle sum of channel block `k0..k0+n` from an interleaved integral image.
-struct IntegralView {
-  const double* data;
-  int stride;  // elements per integral row = (cols+1)*K
-  int K;
-  const double* at(int v, int u) const { return data + static_cast<std::ptrdiff_t>(v) * stride + u * K; }
-};
+enum Mode { kCov = 0, kGrad = 1, kDepth = 2 };
+
+// Wrapped four-corner difference of a uint32/int32 integral image: exact whenever the true window
+// sum fits, whatever the (overflowing) image-wide sums are.
+inline std::uint32_t rectU32(const std::uint32_t* a, const std::uint32_t* b, const std::uint32_t* c,
+                             const std::uint32_t* d) {
+  return *d - *b - *c + *a;
+}
 
 }  // namespace
 
-// Marks depth steps (between neighbouring valid pixels, also across short runs of holes) and
-// computes the chessboard distance to the nearest step: a (2r+1)^2 window centred on a pixel
-// with distance > r contains no step, which is exactly what the window clipping needs.
-void NormalEstimator::buildStepDistance(const CameraIntrinsics& /*intrinsics*/) {
+// Marks depth steps: between neighbouring valid pixels, and across runs of up to max_gap_px
+// invalid pixels (Kinect shadows), the depth change exceeds max(factor * z * (gap+1),
+// noise_steps * depthStep(z)). Only one pixel of each step pair is marked (left / top): every
+// square window holding pixels of both sides holds a 4-adjacent pair across the step, hence a
+// mark, so "no mark in the window" is exactly "the window does not straddle a step".
+void NormalEstimator::markSteps() {
   const int rows = points_.rows, cols = points_.cols;
-  dist_.create(rows, cols, CV_8UC1);
-  dist_.setTo(255);
+  steps_.create(rows, cols, CV_8UC1);
+  steps_.setTo(0);
   const float factor = static_cast<float>(params_.max_depth_change_factor);
-  const float noise_k = static_cast<float>(params_.depth_change_noise_steps *
-                                           params_.noise.disparity_step_px /
+  const float noise_k = static_cast<float>(params_.depth_change_noise_steps * params_.noise.disparity_step_px /
                                            params_.noise.focal_baseline_px_m);
   const int max_gap = std::max(0, params_.max_gap_px);
-  auto threshold = [&](float z, int gap) {
-    return std::max(factor * z * static_cast<float>(gap + 1), noise_k * z * z);
+  auto isStep = [&](float a, float b, int gap) {
+    const float z = std::min(a, b);
+    return std::fabs(a - b) > std::max(factor * z * static_cast<float>(gap + 1), noise_k * z * z);
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    auto* d = dist_.ptr<std::uint8_t>(v);
+    auto* s = steps_.ptr<std::uint8_t>(v);
     float prev_z = 0.0f;
     int prev_u = -1000000;
     for (int u = 0; u < cols; ++u) {
       const float z = p[u][2];
       if (!validZ(z)) continue;
-      // horizontal: compare with the previous valid pixel of this row
-      const int gap_h = u - prev_u - 1;
-      if (gap_h <= max_gap && std::fabs(z - prev_z) > threshold(std::min(z, prev_z), gap_h)) {
-        d[prev_u] = 0;
-      }
+      if (u - prev_u - 1 <= max_gap && isStep(z, prev_z, u - prev_u - 1)) s[prev_u] = 1;
       prev_z = z;
       prev_u = u;
-      // vertical: compare with the previous valid pixel of this column
-      const int gap_v = v - last_v_[u] - 1;
-      if (gap_v <= max_gap &&
-          std::fabs(z - last_z_[u]) > threshold(std::min(z, last_z_[u]), gap_v)) {
-        dist_.ptr<std::uint8_t>(last_v_[u])[u] = 0;
-      }
+      const int lv = last_v_[u];
+      if (v - lv - 1 <= max_gap && isStep(z, last_z_[u], v - lv - 1)) steps_.ptr<std::uint8_t>(lv)[u] = 1;
       last_z_[u] = z;
       last_v_[u] = v;
     }
   }
-  // Two-pass chessboard distance transform (saturating at 255).
-  for (int v = 0; v < rows; ++v) {
-    auto* d = dist_.ptr<std::uint8_t>(v);
-    const auto* up = v > 0 ? dist_.ptr<std::uint8_t>(v - 1) : nullptr;
-    for (int u = 0; u < cols; ++u) {
-      int m = d[u];
-      if (m == 0) continue;
-      if (u > 0) m = std::min(m, d[u - 1] + 1);
-      if (up) {
-        m = std::min(m, up[u] + 1);
-        if (u > 0) m = std::min(m, up[u - 1] + 1);
-        if (u + 1 < cols) m = std::min(m, up[u + 1] + 1);
-      }
-      d[u] = static_cast<std::uint8_t>(std::min(m, 255));
-    }
-  }
-  for (int v = rows - 1; v >= 0; --v) {
-    auto* d = dist_.ptr<std::uint8_t>(v);
-    const auto* dn = v + 1 < rows ? dist_.ptr<std::uint8_t>(v + 1) : nullptr;
-    for (int u = cols - 1; u >= 0; --u) {
-      int m = d[u];
-      if (m == 0) continue;
-      if (u + 1 < cols) m = std::min(m, d[u + 1] + 1);
-      if (dn) {
-        m = std::min(m, dn[u] + 1);
-        if (u > 0) m = std::min(m, dn[u - 1] + 1);
-        if (u + 1 < cols) m = std::min(m, dn[u + 1] + 1);
-      }
-      d[u] = static_cast<std::uint8_t>(std::min(m, 255));
-    }
-  }
 }
 
-// Interleaved integral image of K channels: K=2 (n, z), K=4 (n, x, y, z),
-// K=10 (n, x, y, z, xx, xy, xz, yy, yz, zz). Invalid pixels contribute nothing.
-template <int K>
-void NormalEstimator::buildIntegral() {
+// Builds the integral images a mode needs and evaluates every pixel. Mode is a template parameter
+// so that the per-pixel corner arithmetic unrolls.
+template <int M>
+void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
+  constexpr int K = M == kCov ? 9 : (M == kGrad ? 3 : 1);
   const int rows = points_.rows, cols = points_.cols;
-  const int stride = (cols + 1) * K;
-  integral_.resize(static_cast<std::size_t>(rows + 1) * stride);
-  std::fill(integral_.begin(), integral_.begin() + stride, 0.0);
+  const std::size_t mstride = static_cast<std::size_t>(cols + 1);
+  const std::size_t stride = mstride * K;
+  mask_.resize(static_cast<std::size_t>(rows + 1) * mstride);
+  std::fill(mask_.begin(), mask_.begin() + mstride, 0u);
+  if constexpr (M == kCov) {
+    integral_.resize(static_cast<std::size_t>(rows + 1) * stride);
+    std::fill(integral_.begin(), integral_.begin() + stride, 0.0);
+  } else {
+    iintegral_.resize(static_cast<std::size_t>(rows + 1) * stride);
+    std::fill(iintegral_.begin(), iintegral_.begin() + stride, 0);
+  }
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    const double* above = integral_.data() + static_cast<std::size_t>(v) * stride;
-    double* row = integral_.data() + static_cast<std::size_t>(v + 1) * stride;
-    double acc[K] = {};
-    for (int k = 0; k < K; ++k) row[k] = 0.0;
+    const auto* st = steps_.ptr<std::uint8_t>(v);
+    std::uint32_t* mrow = mask_.data() + (v + 1) * mstride;
+    const std::uint32_t* mabove = mrow - mstride;
+    std::uint32_t macc = 0;
+    mrow[0] = 0;
     for (int u = 0; u < cols; ++u) {
-      const float z = p[u][2];
-      if (validZ(z)) {
-        const double x = p[u][0], y = p[u][1], zz = z;
-        acc[0] += 1.0;
-        if constexpr (K == 2) {
-          acc[1] += zz;
-        } else {
-          acc[1] += x;
-          acc[2] += y;
-          acc[3] += zz;
-          if constexpr (K == 10) {
-            acc[4] += x * x;
-            acc[5] += x * y;
-            acc[6] += x * zz;
-            acc[7] += y * y;
-            acc[8] += y * zz;
-            acc[9] += zz * zz;
+      macc += static_cast<std::uint32_t>(validZ(p[u][2])) + (static_cast<std::uint32_t>(st[u]) << 16);
+      mrow[u + 1] = mabove[u + 1] + macc;
+    }
+    if constexpr (M == kCov) {
+      double* row = integral_.data() + (v + 1) * stride;
+      const double* above = row - stride;
+      double acc[K] = {};
+      for (int k = 0; k < K; ++k) row[k] = 0.0;
+      for (int u = 0; u < cols; ++u) {
+        const float zf = p[u][2];
+        if (validZ(zf)) {
+          const double x = p[u][0], y = p[u][1], z = zf;
+          acc[0] += x; acc[1] += y; acc[2] += z;
+          acc[3] += x * x; acc[4] += x * y; acc[5] += x * z;
+          acc[6] += y * y; acc[7] += y * z; acc[8] += z * z;
+        }
+        double* out = row + (u + 1) * K;
+        const double* a = above + (u + 1) * K;
+        for (int k = 0; k < K; ++k) out[k] = a[k] + acc[k];
+      }
+    } else {
+      // Fixed point (0.1 mm), int32 with wrap-around (done in uint32 to keep it defined).
+      std::int32_t* row = iintegral_.data() + (v + 1) * stride;
+      const std::int32_t* above = row - stride;
+      std::uint32_t acc[K] = {};
+      for (int k = 0; k < K; ++k) row[k] = 0;
+      for (int u = 0; u < cols; ++u) {
+        const float z = p[u][2];
+        if (validZ(z)) {
+          if constexpr (M == kGrad) {
+            acc[0] += static_cast<std::uint32_t>(static_cast<std::int32_t>(p[u][0] * 1e4f));
+            acc[1] += static_cast<std::uint32_t>(static_cast<std::int32_t>(p[u][1] * 1e4f));
+            acc[2] += static_cast<std::uint32_t>(static_cast<std::int32_t>(z * 1e4f));
+          } else {
+            acc[0] += static_cast<std::uint32_t>(static_cast<std::int32_t>(z * 1e4f));
           }
         }
-      }
-      double* out = row + (u + 1) * K;
-      const double* a = above + (u + 1) * K;
-      for (int k = 0; k < K; ++k) out[k] = a[k] + acc[k];
-    }
-  }
-}
-
-void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr, cv::Mat& normals) {
-  CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
-  const int rows = input.rows, cols = input.cols;
-  // 1. Organised points.
-  if (input.type() == CV_16UC1) {
-    points_.create(rows, cols, CV_32FC3);
-    const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
-    const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-    for (int v = 0; v < rows; ++v) {
-      const auto* d = input.ptr<std::uint16_t>(v);
-      auto* p = points_.ptr<cv::Vec3f>(v);
-      const float ry = (static_cast<float>(v) - cy) * inv_fy;
-      for (int u = 0; u < cols; ++u) {
-        if (d[u] == 0) {
-          p[u] = cv::Vec3f(kNaN, kNaN, kNaN);
-        } else {
-          const float z = static_cast<float>(d[u]) * 0.001f;
-          p[u] = cv::Vec3f((static_cast<float>(u) - cx) * inv_fx * z, ry * z, z);
+        std::int32_t* out = row + (u + 1) * K;
+        const std::int32_t* a = above + (u + 1) * K;
+        for (int k = 0; k < K; ++k) {
+          out[k] = static_cast<std::int32_t>(static_cast<std::uint32_t>(a[k]) + acc[k]);
         }
       }
     }
-  } else {
-    input.copyTo(points_);
   }
-  normals.create(rows, cols, CV_32FC3);
-
-  // 2. Distance to depth steps and integral images.
-  buildStepDistance(intr);
-  const NormalMethod method = params_.method;
-  int K = 4;
-  if (method == NormalMethod::kCovariance) {
-    K = 10;
-    buildIntegral<10>();
-  } else if (method == NormalMethod::kAverage3dGradient) {
-    buildIntegral<4>();
-  } else {
-    K = 2;
-    buildIntegral<2>();
-  }
-  const IntegralView I{integral_.data(), (cols + 1) * K, K};
 
   const float base_r = static_cast<float>(params_.smoothing_radius_px);
   const bool scale_r = params_.depth_dependent_smoothing;
   const int min_r = std::max(1, params_.min_radius_px);
   const int max_r = std::max(min_r, params_.max_radius_px);
-  const double min_frac = params_.min_valid_fraction;
-  const double fx = intr.fx, fy = intr.fy, cx = intr.cx, cy = intr.cy;
-
-  // Sum of the K channels over the clamped window [u-r, u+r] x [v-r, v+r] centred at (uc, vc).
-  auto windowSum = [&](int uc, int vc, int r, double* s) {
-    const int u0 = std::max(uc - r, 0), u1 = std::min(uc + r + 1, cols);
-    const int v0 = std::max(vc - r, 0), v1 = std::min(vc + r + 1, rows);
-    const double* a = I.at(v0, u0);
-    const double* b = I.at(v0, u1);
-    const double* c = I.at(v1, u0);
-    const double* d = I.at(v1, u1);
-    for (int k = 0; k < K; ++k) s[k] = d[k] - b[k] - c[k] + a[k];
-    return (u1 - u0) * (v1 - v0);
-  };
+  const float min_frac = static_cast<float>(params_.min_valid_fraction);
+  const float fx = static_cast<float>(intr.fx), fy = static_cast<float>(intr.fy);
+  const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
+  // The gradient modes read windows centred one pixel off the centre: their union has radius r+1.
+  constexpr int reach = M == kCov ? 0 : 1;
+  const std::uint32_t* Mi = mask_.data();
 
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    const auto* dist = dist_.ptr<std::uint8_t>(v);
     auto* n_out = normals.ptr<cv::Vec3f>(v);
+    const int border_v = std::min(v, rows - 1 - v) - reach;  // largest r inside the image
     for (int u = 0; u < cols; ++u) {
-      n_out[u] = cv::Vec3f(kNaN, kNaN, kNaN);
       const float z = p[u][2];
       if (!validZ(z)) continue;
       int r = static_cast<int>(base_r * (scale_r ? z : 1.0f) + 0.5f);
-      r = std::clamp(r, min_r, max_r);
-      r = std::min(r, static_cast<int>(dist[u]) - 1);
+      r = std::min({std::clamp(r, min_r, max_r), border_v, std::min(u, cols - 1 - u) - reach});
+      // Shrink the window until it holds no step mark (most pixels pass at the first try).
+      for (; r >= min_r; --r) {
+        const int R = r + reach;
+        const std::uint32_t* a = Mi + (v - R) * mstride + (u - R);
+        const std::uint32_t s = rectU32(a, a + 2 * R + 1, a + (2 * R + 1) * mstride, a + (2 * R + 1) * (mstride + 1));
+        if ((s >> 16) == 0) break;
+      }
       if (r < min_r) continue;
-      // Windows must stay inside the image so that gradients are not biased by clamping.
-      if (u - r - 1 < 0 || v - r - 1 < 0 || u + r + 1 >= cols || v + r + 1 >= rows) continue;
+      const int w = 2 * r + 1;
+      const float area = static_cast<float>(w * w);
+      auto count = [&](int uc, int vc) {
+        const std::uint32_t* a = Mi + (vc - r) * mstride + (uc - r);
+        return static_cast<int>(rectU32(a, a + w, a + w * mstride, a + w * (mstride + 1)) & 0xFFFFu);
+      };
 
-      double nx, ny, nz;
-      if (method == NormalMethod::kCovariance) {
-        double s[10];
-        const int area = windowSum(u, v, r, s);
-        const double n = s[0];
-        if (n < std::max(6.0, min_frac * area)) continue;
+      float nx, ny, nz;
+      if constexpr (M == kCov) {
+        const double n = count(u, v);
+        if (n < std::max(6.0f, min_frac * area)) continue;
+        const double* a = integral_.data() + (v - r) * stride + (u - r) * K;
+        const double* b = a + w * K;
+        const double* c = a + w * stride;
+        const double* d = c + w * K;
+        double s[K];
+        for (int k = 0; k < K; ++k) s[k] = d[k] - b[k] - c[k] + a[k];
         const double inv = 1.0 / n;
-        const double mx = s[1] * inv, my = s[2] * inv, mz = s[3] * inv;
-        const double cxx = s[4] * inv - mx * mx, cxy = s[5] * inv - mx * my, cxz = s[6] * inv - mx * mz;
-        const double cyy = s[7] * inv - my * my, cyz = s[8] * inv - my * mz, czz = s[9] * inv - mz * mz;
+        const double mx = s[0] * inv, my = s[1] * inv, mz = s[2] * inv;
+        const double cxx = s[3] * inv - mx * mx, cxy = s[4] * inv - mx * my, cxz = s[5] * inv - mx * mz;
+        const double cyy = s[6] * inv - my * my, cyz = s[7] * inv - my * mz, czz = s[8] * inv - mz * mz;
         // Smallest eigenvector of C = dominant eigenvector of adj(C) (eigenvalues l2*l3, l1*l3,
         // l1*l2): power iteration converges with ratio l1/l2, i.e. in one or two steps on a
         // planar patch. Start from the viewing ray (visible surfaces face the camera).
@@ -239,43 +196,86 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
           ey = ty / len;
           ez = tz / len;
         }
-        nx = ex;
-        ny = ey;
-        nz = ez;
+        nx = static_cast<float>(ex);
+        ny = static_cast<float>(ey);
+        nz = static_cast<float>(ez);
       } else {
         // Means of the four windows centred one pixel left/right/up/down; their differences are
         // the averaged tangents (for a plane the mean of 3D points lies on the plane).
-        double sl[4], sr[4], su[4], sd[4];
-        const int area = windowSum(u - 1, v, r, sl);
-        windowSum(u + 1, v, r, sr);
-        windowSum(u, v - 1, r, su);
-        windowSum(u, v + 1, r, sd);
-        const double min_n = std::max(4.0, min_frac * area);
-        if (sl[0] < min_n || sr[0] < min_n || su[0] < min_n || sd[0] < min_n) continue;
-        const double il = 1.0 / sl[0], ir = 1.0 / sr[0], iu = 1.0 / su[0], id = 1.0 / sd[0];
-        if (method == NormalMethod::kAverage3dGradient) {
-          const double hx = sr[1] * ir - sl[1] * il, hy = sr[2] * ir - sl[2] * il, hz = sr[3] * ir - sl[3] * il;
-          const double vx = sd[1] * id - su[1] * iu, vy = sd[2] * id - su[2] * iu, vz = sd[3] * id - su[3] * iu;
+        const int nl = count(u - 1, v), nr = count(u + 1, v), nu = count(u, v - 1), nd = count(u, v + 1);
+        const int min_n = std::max(4, static_cast<int>(min_frac * area));
+        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
+        const std::int32_t* base = iintegral_.data();
+        auto sum = [&](int uc, int vc, float* out) {
+          const std::int32_t* a = base + (vc - r) * stride + (uc - r) * K;
+          const std::int32_t* b = a + w * K;
+          const std::int32_t* c = a + w * stride;
+          const std::int32_t* d = c + w * K;
+          for (int k = 0; k < K; ++k) {
+            out[k] = static_cast<float>(static_cast<std::int32_t>(
+                static_cast<std::uint32_t>(d[k]) - static_cast<std::uint32_t>(b[k]) -
+                static_cast<std::uint32_t>(c[k]) + static_cast<std::uint32_t>(a[k])));
+          }
+        };
+        float sl[K], sr[K], su[K], sd[K];
+        sum(u - 1, v, sl);
+        sum(u + 1, v, sr);
+        sum(u, v - 1, su);
+        sum(u, v + 1, sd);
+        const float il = 1.0f / static_cast<float>(nl), ir = 1.0f / static_cast<float>(nr);
+        const float iu = 1.0f / static_cast<float>(nu), id = 1.0f / static_cast<float>(nd);
+        if constexpr (M == kGrad) {
+          const float hx = sr[0] * ir - sl[0] * il, hy = sr[1] * ir - sl[1] * il, hz = sr[2] * ir - sl[2] * il;
+          const float vx = sd[0] * id - su[0] * iu, vy = sd[1] * id - su[1] * iu, vz = sd[2] * id - su[2] * iu;
           nx = hy * vz - hz * vy;
           ny = hz * vx - hx * vz;
           nz = hx * vy - hy * vx;
         } else {
           // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
           // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
-          const double zl = sl[1] * il, zr = sr[1] * ir, zu_ = su[1] * iu, zd = sd[1] * id;
-          const double du = 0.5 * (zr - zl), dv = 0.5 * (zd - zu_);
-          const double zm = 0.25 * (zl + zr + zu_ + zd);
+          const float zl = sl[0] * il, zr = sr[0] * ir, zu_ = su[0] * iu, zd = sd[0] * id;
+          const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
+          const float zm = 0.25f * (zl + zr + zu_ + zd);
           nx = fx * du;
           ny = fy * dv;
-          nz = -(zm + (u - cx) * du + (v - cy) * dv);
+          nz = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
         }
       }
-      const double len = std::sqrt(nx * nx + ny * ny + nz * nz);
-      if (!(len > 1e-12)) continue;
-      double s = 1.0 / len;
-      if (nx * p[u][0] + ny * p[u][1] + nz * z > 0.0) s = -s;  // face the camera
-      n_out[u] = cv::Vec3f(static_cast<float>(nx * s), static_cast<float>(ny * s), static_cast<float>(nz * s));
+      const float len2 = nx * nx + ny * ny + nz * nz;
+      if (!(len2 > 1e-20f)) continue;
+      float s = 1.0f / std::sqrt(len2);
+      if (nx * p[u][0] + ny * p[u][1] + nz * z > 0.0f) s = -s;  // face the camera
+      n_out[u] = cv::Vec3f(nx * s, ny * s, nz * s);
     }
+  }
+}
+
+void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr, cv::Mat& normals) {
+  CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
+  const int rows = input.rows, cols = input.cols;
+  if (input.type() == CV_16UC1) {
+    points_.create(rows, cols, CV_32FC3);
+    const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
+    const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
+    for (int v = 0; v < rows; ++v) {
+      const auto* d = input.ptr<std::uint16_t>(v);
+      auto* p = points_.ptr<cv::Vec3f>(v);
+      const float ry = (static_cast<float>(v) - cy) * inv_fy;
+      for (int u = 0; u < cols; ++u) {
+        const float z = d[u] == 0 ? kNaN : static_cast<float>(d[u]) * 0.001f;
+        p[u] = cv::Vec3f((static_cast<float>(u) - cx) * inv_fx * z, ry * z, z);
+      }
+    }
+  } else {
+    input.copyTo(points_);
+  }
+  normals.create(rows, cols, CV_32FC3);
+  normals.setTo(cv::Scalar::all(kNaN));
+  markSteps();
+  switch (params_.method) {
+    case NormalMethod::kCovariance: run<kCov>(intr, normals); break;
+    case NormalMethod::kAverage3dGradient: run<kGrad>(intr, normals); break;
+    case NormalMethod::kAverageDepthChange: run<kDepth>(intr, normals); break;
   }
 }
 

@@ -350,13 +350,22 @@ int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& ma
 // Floods `markers` (CV_32SC1, modified) over the relief `edges` with cv::watershed and resolves
 // the watershed lines (-1) to a neighbouring region.
 void flood(const cv::Mat& edges, cv::Mat& markers) {
-  // cv::watershed wants 8-bit 3-channel; stretch E so that its priority (the largest channel
-  // difference between neighbours) separates edge levels, keeping "no depth" flooded last.
+  // cv::watershed floods in order of the colour difference between a pixel and its labelled
+  // neighbour, not of the pixel's height: a plateau of saturated edge strength is taken whole by
+  // whichever basin enters it first. So the relief rises with the distance from the markers (plus
+  // E as a tie-breaker), which makes the basins meet in the middle of each edge band; pixels
+  // without depth are flooded last.
+  cv::Mat unmarked = markers == 0;
+  cv::Mat dist;
+  cv::distanceTransform(unmarked, dist, cv::DIST_L1, 3, CV_8U);
   cv::Mat relief(edges.size(), CV_8UC1);
   for (int v = 0; v < edges.rows; ++v) {
     const auto* e = edges.ptr<std::uint8_t>(v);
+    const auto* d = dist.ptr<std::uint8_t>(v);
     auto* o = relief.ptr<std::uint8_t>(v);
-    for (int u = 0; u < edges.cols; ++u) o[u] = e[u] == kNoDepth ? 255 : static_cast<std::uint8_t>(std::min(8 * e[u], 200));
+    for (int u = 0; u < edges.cols; ++u) {
+      o[u] = e[u] == kNoDepth ? 255 : static_cast<std::uint8_t>(std::min(8 * d[u] + std::min<int>(e[u], 7), 250));
+    }
   }
   cv::Mat relief3;
   cv::cvtColor(relief, relief3, cv::COLOR_GRAY2BGR);
@@ -462,7 +471,82 @@ cv::Mat compact(const cv::Mat& labels, int min_px) {
   return out;
 }
 
-cv::Mat finish(const cv::Mat& markers, const Working& w, const cv::Mat& depth, const RegionParams& rp) {
+// Greedy merge of coplanar regions (see RegionParams::merge_coplanar). Moments of
+// (u, v, w = 1/z) are additive, so the plane fit of any union is O(1) from its parts' sums.
+void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, const RegionParams& rp) {
+  if (!rp.merge_coplanar) return;
+  double mx = 0;
+  cv::minMaxLoc(labels, nullptr, &mx);
+  const int n = static_cast<int>(mx) + 1;
+  if (n <= 2) return;
+  using Moments = std::array<double, 10>;  // n u v w uu uv vv uw vw ww
+  std::vector<Moments> m(n, Moments{});
+  const double uc = labels.cols * 0.5, vc = labels.rows * 0.5;
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const auto* d = w.depth.ptr<std::uint16_t>(v);
+    const auto* e = edges.ptr<std::uint8_t>(v);
+    const double fv = v - vc;
+    for (int u = 0; u < labels.cols; ++u) {
+      // Only the regions' cores (low edge strength): flooded edge bands hold mixed pixels.
+      if (l[u] <= 0 || d[u] == 0 || e[u] > rp.marker_max_edge) continue;
+      const double fu = u - uc, iw = 1000.0 / d[u];
+      Moments& a = m[l[u]];
+      a[0] += 1; a[1] += fu; a[2] += fv; a[3] += iw;
+      a[4] += fu * fu; a[5] += fu * fv; a[6] += fv * fv;
+      a[7] += fu * iw; a[8] += fv * iw; a[9] += iw * iw;
+    }
+  }
+  auto rms = [](const Moments& a) {
+    const cv::Matx33d A(a[4], a[5], a[1], a[5], a[6], a[2], a[1], a[2], a[0]);
+    const cv::Vec3d b(a[7], a[8], a[3]);
+    cv::Vec3d x;
+    if (!cv::solve(A, b, x, cv::DECOMP_CHOLESKY)) return 1e9;
+    return std::sqrt(std::max(0.0, a[9] - x.dot(b)) / a[0]);
+  };
+  const double t = rp.coplanar_rms_steps * inverseDepthStep(rp.noise);
+  const double min_n = static_cast<double>(rp.coplanar_min_px) / (w.ds * w.ds);
+  std::vector<int> cand;
+  for (int i = 1; i < n; ++i) {
+    if (m[i][0] >= min_n && rms(m[i]) <= t) cand.push_back(i);
+  }
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (;;) {
+    double best = t;
+    int bi = -1, bj = -1;
+    for (std::size_t a = 0; a < cand.size(); ++a) {
+      for (std::size_t b = a + 1; b < cand.size(); ++b) {
+        Moments u = m[cand[a]];
+        for (int k = 0; k < 10; ++k) u[k] += m[cand[b]][k];
+        const double r = rms(u);
+        if (r <= best) {
+          best = r;
+          bi = static_cast<int>(a);
+          bj = static_cast<int>(b);
+        }
+      }
+    }
+    if (bi < 0) break;
+    const int i = cand[bi], j = cand[bj];
+    for (int k = 0; k < 10; ++k) m[i][k] += m[j][k];
+    parent[j] = i;
+    cand.erase(cand.begin() + bj);
+  }
+  for (int i = 1; i < n; ++i) {
+    int r = i;
+    while (parent[r] != r) r = parent[r];
+    parent[i] = r;
+  }
+  for (int v = 0; v < labels.rows; ++v) {
+    int* l = labels.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u) if (l[u] > 0) l[u] = parent[l[u]];
+  }
+}
+
+cv::Mat finish(cv::Mat& markers, const cv::Mat& edges, const Working& w, const cv::Mat& depth,
+               const RegionParams& rp) {
+  mergeCoplanar(markers, edges, w, rp);
   cv::Mat full = w.ds > 1 ? upsample(markers, w, depth, rp.noise) : markers.clone();
   if (w.ds == 1) {
     for (int v = 0; v < full.rows; ++v) {
@@ -702,7 +786,7 @@ cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr, const Ti
     }
   }
   flood(edges, labels);
-  return finish(labels, w, depth, rp);
+  return finish(labels, edges, w, depth, rp);
 }
 
 }  // namespace
@@ -730,7 +814,7 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
     return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
   }
   flood(edges, markers);
-  return finish(markers, w, depth_mm, rp);
+  return finish(markers, edges, w, depth_mm, rp);
 }
 
 }  // namespace shapesense

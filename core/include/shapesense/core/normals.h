@@ -70,15 +70,17 @@ class NormalEstimator {
   const cv::Mat& points() const { return points_; }
 
  private:
-  void buildStepDistance(const CameraIntrinsics& intrinsics);
-  template <int K>
-  void buildIntegral();
+  void markSteps();
+  template <int Mode>
+  void run(const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   NormalParams params_;
-  cv::Mat points_;               // CV_32FC3
-  cv::Mat dist_;                 // CV_8UC1 chessboard distance to the nearest depth step
-  std::vector<double> integral_;  // (rows+1) x (cols+1) x K, interleaved
-  std::vector<float> last_z_;    // per-column scratch for the vertical step scan
+  cv::Mat points_;                      // CV_32FC3
+  cv::Mat steps_;                       // CV_8UC1, 1 on one pixel of every depth step
+  std::vector<std::uint32_t> mask_;     // integral of (valid + (step << 16)), wrap-around
+  std::vector<double> integral_;        // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
+  std::vector<std::int32_t> iintegral_;  // gradients: integral of (x, y, z) or (z), 0.1 mm units
+  std::vector<float> last_z_;           // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
 };
 
