@@ -46,7 +46,6 @@ constexpr std::uint64_t kFrameStream = 0x4652414D45ull;
 class Rng {
  public:
   explicit Rng(std::uint64_t seed) : engine_(seed) {}
-  std::uint64_t bits() { return engine_(); }
   double uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }  // [0, 1)
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
   int uniformInt(int lo, int hi) {  // inclusive
@@ -55,23 +54,41 @@ class Rng {
   }
   bool chance(double p) { return uniform() < p; }
   double sign() { return chance(0.5) ? 1.0 : -1.0; }
-  double normal() {  // Box-Muller, both values used
-    if (has_spare_) {
-      has_spare_ = false;
-      return spare_;
-    }
-    const double u1 = 1.0 - uniform();  // (0, 1]
-    const double u2 = uniform();
-    const double r = std::sqrt(-2.0 * std::log(u1));
-    spare_ = r * std::sin(2.0 * std::numbers::pi * u2);
-    has_spare_ = true;
-    return r * std::cos(2.0 * std::numbers::pi * u2);
-  }
 
  private:
   std::mt19937_64 engine_;
-  bool has_spare_ = false;
-  double spare_ = 0.0;
+};
+
+/// Counter-based random numbers for the per-frame noise: a pixel's draws depend only on
+/// (frame seed, pixel, draw), so the noise at one pixel never depends on which other pixels were
+/// valid, and a change in one part of the model does not reshuffle the noise everywhere.
+class PixelNoise {
+ public:
+  explicit PixelNoise(std::uint64_t frame_seed) : seed_(frame_seed) {}
+  static constexpr unsigned kDrawsPerPixel = 8;
+
+  std::uint64_t bits(std::size_t pixel, unsigned draw) const {
+    return mix64(seed_ + pixel * kDrawsPerPixel + draw);
+  }
+  double uniform(std::size_t pixel, unsigned draw) const {
+    return static_cast<double>(bits(pixel, draw) >> 11) * 0x1.0p-53;
+  }
+  /// A standard normal from draws first_draw .. kDrawsPerPixel - 1 (Marsaglia's polar method:
+  /// no trigonometry; all but 1e-4 of the pixels accept within the available draws).
+  double normal(std::size_t pixel, unsigned first_draw) const {
+    for (unsigned draw = first_draw; draw < kDrawsPerPixel; ++draw) {
+      const std::uint64_t b = bits(pixel, draw);
+      const double x = static_cast<double>(b >> 32) * 0x1.0p-31 - 1.0;
+      const double y = static_cast<double>(b & 0xFFFFFFFFu) * 0x1.0p-31 - 1.0;
+      const double s = x * x + y * y;
+      if (s > 0.0 && s < 1.0) return x * std::sqrt(-2.0 * std::log(s) / s);
+    }
+    const double u1 = (static_cast<double>(bits(pixel, first_draw) >> 11) + 1.0) * 0x1.0p-53;  // Box-Muller
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * uniform(pixel, first_draw + 1));
+  }
+
+ private:
+  std::uint64_t seed_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -483,16 +500,26 @@ class LayoutBuilder {
   }
 
   void addRoom() {
-    const double table_radius = 0.5 * table_size_.norm();
-    const double left = std::min(table_center_.x() - table_radius, -0.3) - rng_.uniform(0.2, 1.4);
-    const double right = std::max(table_center_.x() + table_radius, 0.3) + rng_.uniform(0.2, 2.0);
-    const double back = table_center_.y() + table_radius + rng_.uniform(0.15, 1.2);
-    const double front = -rng_.uniform(0.8, 1.5);
-    const double ceiling = rng_.uniform(2.4, 2.8);
-    room_min_ = {left, front};
-    room_max_ = {right, back};
-    const Eigen::Vector3d half(0.5 * (right - left), 0.5 * (back - front), 0.5 * ceiling);
-    const Eigen::Isometry3d pose = poseAt({0.5 * (left + right), 0.5 * (front + back), 0.5 * ceiling}, 0.0);
+    // Walls close around the table; a layout is redrawn until two or three walls are in view
+    // (ignoring occlusion by the table), with the gaps allowed to grow on later tries.
+    const double c = std::abs(std::cos(table_yaw_)), s = std::abs(std::sin(table_yaw_));
+    const Eigen::Vector2d table_reach(c * table_size_.x() / 2 + s * table_size_.y() / 2,
+                                      s * table_size_.x() / 2 + c * table_size_.y() / 2);
+    Eigen::Vector3d half;
+    Eigen::Isometry3d pose;
+    for (int attempt = 0;; ++attempt) {
+      const double spread = 1.0 + 0.1 * attempt;
+      const double left = std::min(table_center_.x() - table_reach.x(), -0.3) - rng_.uniform(0.05, 0.9);
+      const double right = std::max(table_center_.x() + table_reach.x(), 0.3) + rng_.uniform(0.05, 1.5);
+      const double back = table_center_.y() + table_reach.y() + rng_.uniform(0.1, 0.9 * spread);
+      const double front = -rng_.uniform(0.8, 1.5);
+      const double ceiling = rng_.uniform(2.4, 2.8);
+      room_min_ = {left, front};
+      room_max_ = {right, back};
+      half = Eigen::Vector3d(0.5 * (right - left), 0.5 * (back - front), 0.5 * ceiling);
+      pose = poseAt({0.5 * (left + right), 0.5 * (front + back), 0.5 * ceiling}, 0.0);
+      if (visibleWalls(RoomShape(half), pose) >= 2 || attempt >= 50) break;
+    }
 
     const Eigen::Vector3f floor_colour(rng_.uniform(90, 150), rng_.uniform(110, 160), rng_.uniform(120, 170));
     const Eigen::Vector3f wall_colour(rng_.uniform(170, 230), rng_.uniform(180, 235), rng_.uniform(185, 240));
@@ -507,6 +534,24 @@ class LayoutBuilder {
                                  worldPlane(pose, n, n.cwiseProduct(half)), 0, colour));
     }
     addPrimitive(std::make_unique<RoomShape>(half), pose, 0, std::move(faces));
+  }
+
+  /// How many of the left, right and back walls a coarse grid of camera rays sees in range.
+  int visibleWalls(const RoomShape& room, const Eigen::Isometry3d& world_from_room) const {
+    const CameraIntrinsics& k = params_.intrinsics;
+    const Eigen::Isometry3d room_from_camera = world_from_room.inverse() * model_->base_world_from_camera;
+    std::array<int, 6> rays_per_face{};
+    constexpr int kGrid = 24;
+    for (int gy = 0; gy < kGrid; ++gy)
+      for (int gx = 0; gx < kGrid; ++gx) {
+        const double u = (gx + 0.5) * k.width / kGrid, v = (gy + 0.5) * k.height / kGrid;
+        LocalHit hit;
+        if (room.intersect(room_from_camera.translation(), room_from_camera.linear() * k.ray(u, v), hit) &&
+            hit.t < params_.kinect.max_range_m - 0.1)
+          ++rays_per_face[static_cast<std::size_t>(hit.face)];
+      }
+    constexpr int kMinRays = 4;  // ~1% of the image each
+    return (rays_per_face[0] >= kMinRays) + (rays_per_face[1] >= kMinRays) + (rays_per_face[3] >= kMinRays);
   }
 
   void addTable() {
@@ -903,7 +948,7 @@ std::vector<std::uint8_t> projectorShadows(const HitBuffer& hits, int image_widt
 class SensorModel {
  public:
   SensorModel(const SceneParams& params, const SceneModel& model, std::uint64_t index)
-      : params_(params), model_(model), rng_(mix64(mix64(params.seed ^ kFrameStream) + index)) {}
+      : params_(params), model_(model), noise_(mix64(mix64(params.seed ^ kFrameStream) + index)) {}
 
   void apply(const HitBuffer& hits, const Eigen::Isometry3d& world_from_camera, Frame& frame,
              TruthFrame& truth) {
@@ -935,18 +980,19 @@ class SensorModel {
         const double z = hits.depth[i];
         if (!std::isfinite(z)) continue;
         const Eigen::Vector3f& n = hits.normal[i];
-        if (rgb_row) rgb_row[u] = shade(hits.surface[i], n, light);
+        const std::size_t pixel = static_cast<std::size_t>(v) * k.width + u;
+        if (rgb_row) rgb_row[u] = shade(hits.surface[i], n, light, noise_.bits(pixel, kColourDraw));
         if (z < kp.min_range_m || z > kp.max_range_m) continue;
         ideal_row[u] = static_cast<float>(z);
 
-        if (shadow[static_cast<std::size_t>(v) * k.width + u]) continue;
+        if (shadow[pixel]) continue;
         const Eigen::Vector3f ray = Eigen::Vector3f(static_cast<float>((u - k.cx) / k.fx),
                                                     static_cast<float>(ray_y), 1.0f).normalized();
         if (std::abs(n.dot(ray)) < cos_max_incidence) continue;
-        if (rng_.chance(kp.dropout_rate)) continue;
-        const double measured = measure(z);
+        if (noise_.uniform(pixel, kDropoutDraw) < kp.dropout_rate) continue;
+        const double measured = measure(z, noise_.normal(pixel, kDisparityDraw));
         if (measured < kp.min_range_m || measured > kp.max_range_m) continue;
-        depth_row[u] = static_cast<std::uint16_t>(std::lround(measured * 1000.0));
+        depth_row[u] = static_cast<std::uint16_t>(measured * 1000.0 + 0.5);  // positive: round half up
         surface_row[u] = hits.surface[i];
         object_row[u] = hits.object[i];
       }
@@ -955,17 +1001,20 @@ class SensorModel {
 
  private:
   /// z -> noisy, quantised disparity -> z; 0 when the disparity is not positive.
-  double measure(double z) {
+  double measure(double z, double standard_normal) const {
     const KinectParams& kp = params_.kinect;
-    const double disparity = kp.focal_baseline_px_m / z + kp.disparity_noise_px * rng_.normal();
-    const double quantised = std::round(disparity / kp.disparity_step_px) * kp.disparity_step_px;
+    const double disparity = kp.focal_baseline_px_m / z + kp.disparity_noise_px * standard_normal;
+    if (disparity <= 0.0) return 0.0;
+    // Round half up by truncation (cheaper than std::round; the value is positive).
+    const double quantised =
+        static_cast<double>(static_cast<std::int64_t>(disparity / kp.disparity_step_px + 0.5)) * kp.disparity_step_px;
     return quantised > 0.0 ? kp.focal_baseline_px_m / quantised : 0.0;
   }
 
-  cv::Vec3b shade(std::uint16_t surface, const Eigen::Vector3f& normal, const Eigen::Vector3f& light) {
+  cv::Vec3b shade(std::uint16_t surface, const Eigen::Vector3f& normal, const Eigen::Vector3f& light,
+                  std::uint64_t bits) const {
     const Eigen::Vector3f& base = model_.surfaces[surface - 1].colour_bgr;
     const float lambert = std::max(0.0f, normal.dot(light));
-    const std::uint64_t bits = rng_.bits();
     cv::Vec3b out;
     for (int c = 0; c < 3; ++c) {
       const float noise = static_cast<float>((bits >> (8 * c)) & 0x7) - 3.5f;  // +-3.5 levels
@@ -974,9 +1023,13 @@ class SensorModel {
     return out;
   }
 
+  static constexpr unsigned kDropoutDraw = 0;
+  static constexpr unsigned kColourDraw = 1;
+  static constexpr unsigned kDisparityDraw = 2;  // and up
+
   const SceneParams& params_;
   const SceneModel& model_;
-  Rng rng_;
+  PixelNoise noise_;
 };
 
 /// Fills the per-surface and per-object records of a frame from its label images.

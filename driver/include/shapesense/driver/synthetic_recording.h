@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include <nlohmann/json_fwd.hpp>
 

@@ -56,7 +56,11 @@ namespace shapesense::synthetic {
 /// Per pixel: disparity = focal_baseline / z, plus Gaussian noise, quantised to
 /// disparity_step, converted back to z and rounded to whole millimetres. Pixels get no
 /// depth (0) when the point is in the projector's shadow, when the incidence angle exceeds
-/// max_incidence_deg, at random (dropout_rate), or when z is outside [min_range, max_range].
+/// max_incidence_deg, at random (dropout_rate), or when the ideal or the measured z is outside
+/// [min_range, max_range]. Shadows are exact for occluders seen by the camera or up to
+/// f*b/min_range pixels right of the image; the disparity model uses focal_baseline_px_m while
+/// the shadow geometry uses projector_baseline_m (the Kinect's nominal values disagree a bit).
+/// Noise is independent per pixel and per frame (no 9x9 correlation window, no edge blur).
 struct KinectParams {
   double focal_baseline_px_m = 43.5;  ///< f * b of the disparity model (px * m). Default 43.5.
   double projector_baseline_m = 0.075;  ///< IR projector offset along camera +x (m). Default 0.075.
