@@ -31,6 +31,15 @@ nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results
   if (results.segmentation) write_labels("segment_labels", ".segments.png", results.segmentation->labels);
   json["timestamp"] = secondsForJson(frame.timestamp_ns);
   json["planes"] = nlohmann::json::array();
+  if (results.planes) {
+    for (const auto& plane : results.planes->frame.planes) {
+      json["planes"].push_back({{"id", plane.id},
+                                {"normal", {plane.normal.x(), plane.normal.y(), plane.normal.z()}},
+                                {"d", plane.d},
+                                {"pixels", plane.inliers}});
+    }
+    write_labels("plane_labels", ".planes.png", results.planes->frame.labels);
+  }
   json["bowls"] = nlohmann::json::array();
   nlohmann::json timings = nlohmann::json::object();
   for (const auto& [stage, ms] : results.timings_ms) timings[stage] = ms;

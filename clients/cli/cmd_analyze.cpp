@@ -13,6 +13,7 @@ void addAnalyzeCommand(CLI::App& app) {
     std::string out;
     bool quiet = false;
     std::string segmentation = "depth_step";
+    std::string planes = "hough";
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("SOURCE", args->source, "Recording directory (TUM layout), or tum:DIR")->required();
@@ -23,11 +24,15 @@ void addAnalyzeCommand(CLI::App& app) {
                   "tiled_ransac or none")
       ->check(CLI::IsMember({"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
       ->capture_default_str();
+  cmd->add_option("--planes", args->planes, "Plane detector: hough, ransac or none")
+      ->check(CLI::IsMember({"hough", "ransac", "none"}))
+      ->capture_default_str();
   cmd->callback([args] {
     std::string dir = args->source;
     if (dir.rfind("tum:", 0) == 0) dir = dir.substr(4);
     DetectorConfig config;
     config.segmentation = parseSegmentationMethod(args->segmentation);  // none -> off
+    config.planes = parsePlaneDetector(args->planes);                    // none -> off
     const DetectorChain chain = makeDetectorChain(config);
     const auto summary = analyzeRecording(dir, args->out, chain, [&](std::size_t done, std::size_t total) {
       if (!args->quiet) std::cerr << "\ranalyze: " << done << "/" << total << " frames" << std::flush;

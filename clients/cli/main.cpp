@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   addWatchCommand(app, global);
   addBboxCommand(app, global);
   addSegmentsCommand(app, global);
+  addPlanesCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {

@@ -17,6 +17,7 @@ RecordingCamera readRecordingCamera(const std::filesystem::path& dir) {
   } catch (const nlohmann::json::exception& e) {
     throw CameraFileError(path.string() + ": not valid JSON: " + e.what());
   }
+  if (!json.is_object()) throw CameraFileError(path.string() + ": must be a JSON object");
   auto number = [&](const char* key, double fallback) {
     if (!json.contains(key)) return fallback;
     if (!json[key].is_number()) throw CameraFileError(path.string() + ": '" + key + "' is not a number");

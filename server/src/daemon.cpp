@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "shapesense/driver/live_sources.h"
 #include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_source.h"
 
@@ -29,8 +30,9 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
     if (argument.empty()) throw std::invalid_argument("--source tum:DIR needs a recording directory");
     return std::make_unique<ReplaySource>(argument, ReplayOptions{.pacing = pacing, .loop = loop});
   }
-  throw std::invalid_argument("unknown source '" + spec +
-                              "': use synthetic, synthetic:SEED or tum:DIR");
+  if (auto live = openLiveSource(kind, argument)) return live;
+  throw std::invalid_argument("unknown source '" + spec + "': use synthetic[:SEED], tum:DIR, " +
+                              std::string(kLiveSourceSpecs));
 }
 
 Daemon::Daemon(const DaemonOptions& options) : cache_(options.cache_frames) {

@@ -71,11 +71,41 @@ void SegmentationStage::run(const Frame& frame, FrameResults& results) {
   results.segmentation = segmentFrame(frame, method_, params_);
 }
 
+std::optional<PlaneDetectorKind> parsePlaneDetector(std::string_view name) {
+  if (name == "hough") return PlaneDetectorKind::kHough;
+  if (name == "ransac") return PlaneDetectorKind::kRansac;
+  return std::nullopt;
+}
+
+const char* toString(PlaneDetectorKind kind) {
+  return kind == PlaneDetectorKind::kHough ? "hough" : "ransac";
+}
+
+PlaneStage::PlaneStage(PlaneDetectorKind kind, HoughPlaneParams hough, RansacPlaneParams ransac,
+                       PlaneAccumulatorParams accumulator)
+    : kind_(kind), hough_(std::move(hough)), ransac_(std::move(ransac)), accumulator_(accumulator) {}
+
+void PlaneStage::run(const Frame& frame, FrameResults& results) {
+  PlaneResult result;
+  result.detector = toString(kind_);
+  result.frame = kind_ == PlaneDetectorKind::kHough
+                     ? hough_.detect(frame.depth, frame.intrinsics, frame.rgb)
+                     : detectPlanesRansac(frame.depth, frame.intrinsics, frame.rgb, ransac_);
+  // No pose reaches the pipeline yet: the accumulator resets itself when the view changes.
+  accumulator_.update(result.frame);
+  result.accumulated = accumulator_.planes();
+  results.planes = std::move(result);
+}
+
 DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
   if (config.segmentation) {
     chain.add(std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
+  }
+  if (config.planes) {
+    chain.add(std::make_unique<PlaneStage>(*config.planes, config.hough_params, config.ransac_params,
+                                           config.accumulator_params));
   }
   return chain;
 }

@@ -22,7 +22,7 @@ FrameCache::FrameCache(std::size_t capacity) : capacity_(capacity) {
 }
 
 bool FrameCache::insert(std::shared_ptr<const Frame> frame) {
-  std::unique_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   if (!entries_.empty() && frame->timestamp_ns < entries_.back().frame->timestamp_ns) {
     return false;
   }
@@ -33,7 +33,7 @@ bool FrameCache::insert(std::shared_ptr<const Frame> frame) {
 
 bool FrameCache::publishResults(std::uint64_t sequence,
                                 std::shared_ptr<const FrameResults> results) {
-  std::unique_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   // The frame being published is almost always among the newest: search from the back.
   for (auto it = entries_.rbegin(); it != entries_.rend(); ++it) {
     if (it->frame->sequence == sequence) {
@@ -45,7 +45,7 @@ bool FrameCache::publishResults(std::uint64_t sequence,
 }
 
 std::variant<CachedFrame, LookupError> FrameCache::at(TimestampNs t) const {
-  std::shared_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   if (entries_.empty()) {
     return LookupError{LookupError::Kind::kEmpty, "no frame cached yet: the source has delivered none"};
   }
@@ -64,7 +64,7 @@ std::variant<CachedFrame, LookupError> FrameCache::at(TimestampNs t) const {
 }
 
 std::optional<CachedFrame> FrameCache::bySequence(std::uint64_t sequence) const {
-  std::shared_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   for (auto it = entries_.rbegin(); it != entries_.rend(); ++it) {
     if (it->frame->sequence == sequence) return *it;
   }
@@ -72,7 +72,7 @@ std::optional<CachedFrame> FrameCache::bySequence(std::uint64_t sequence) const 
 }
 
 std::vector<CachedFrame> FrameCache::list(TimestampNs from, TimestampNs to) const {
-  std::shared_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   std::vector<CachedFrame> out;
   out.reserve(entries_.size());
   for (const auto& entry : entries_) {
@@ -83,7 +83,7 @@ std::vector<CachedFrame> FrameCache::list(TimestampNs from, TimestampNs to) cons
 }
 
 CachedRange FrameCache::range() const {
-  std::shared_lock lock(mutex_);
+  std::lock_guard lock(mutex_);
   CachedRange r;
   r.frames = entries_.size();
   r.capacity = capacity_;

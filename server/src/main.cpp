@@ -39,7 +39,8 @@ int main(int argc, char** argv) {
   CLI::App app{"shapesensed: RGB-D perception daemon. Serves frames and detector results over gRPC."};
   app.set_config("--config", "", "Read options from a TOML file (keys as the long option names)");
   app.add_option("--source", options.source,
-                 "Frame source: synthetic, synthetic:SEED or tum:DIR (a TUM RGB-D recording)")
+                 "Frame source: synthetic[:SEED], tum:DIR (a TUM RGB-D recording), freenect[:SERIAL|INDEX], "
+                 "openni2[:URI] or fakenect:DIR (a fakenect dump)")
       ->capture_default_str();
   std::string rate = "recorded";
   app.add_option("--rate", rate, "Replay pacing: recorded (real time) or max (as fast as processed)")
@@ -56,6 +57,10 @@ int main(int argc, char** argv) {
                  "plane_prediction, tiled_ransac or none")
       ->check(CLI::IsMember({"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
       ->capture_default_str();
+  std::string planes = "hough";
+  app.add_option("--planes", planes, "Plane detector run on every frame: hough, ransac or none")
+      ->check(CLI::IsMember({"hough", "ransac", "none"}))
+      ->capture_default_str();
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
@@ -64,6 +69,7 @@ int main(int argc, char** argv) {
   options.pacing = rate == "max" ? shapesense::Pacing::kAsFastAsPossible : shapesense::Pacing::kRecorded;
   spdlog::set_level(spdlog::level::from_str(log_level));
   options.detectors.segmentation = shapesense::parseSegmentationMethod(segmentation);  // none -> off
+  options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
 
   const sigset_t signals = blockShutdownSignals();
   std::unique_ptr<shapesense::Daemon> daemon;

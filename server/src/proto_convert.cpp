@@ -81,4 +81,26 @@ void toProto(const SegmentStatistics& segment, v1::Segment* out) {
   toProto(segment.box, out->mutable_box());
 }
 
+void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out) {
+  out->set_id(plane.id);
+  out->set_group(static_cast<std::uint32_t>(plane.group));
+  toProto(plane.normal, out->mutable_normal());
+  out->set_d(plane.d);
+  out->set_inliers(plane.inliers);
+  out->set_rms_m(plane.rms_m);
+  toProto(plane.box, out->mutable_box());
+  if (with_polygon) {
+    for (const auto& vertex : plane.polygon) toProto(vertex, out->add_polygon());
+    for (const auto& triangle : plane.triangles) {
+      for (int index : triangle) out->add_triangles(static_cast<std::uint32_t>(index));
+    }
+  }
+  if (plane.mean_bgr) {
+    out->set_has_colour(true);
+    out->set_mean_b((*plane.mean_bgr)[0]);
+    out->set_mean_g((*plane.mean_bgr)[1]);
+    out->set_mean_r((*plane.mean_bgr)[2]);
+  }
+}
+
 }  // namespace shapesense

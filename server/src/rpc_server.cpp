@@ -42,6 +42,10 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
                            v1::GetSegmentsResponse* response) override {
     return handleGetSegments(context_, *request, response);
   }
+  grpc::Status GetPlanes(grpc::ServerContext*, const v1::GetPlanesRequest* request,
+                         v1::GetPlanesResponse* response) override {
+    return handleGetPlanes(context_, *request, response);
+  }
 
  private:
   ServiceContext context_;
@@ -53,6 +57,9 @@ RpcServer::RpcServer(const std::string& listen_address, ServiceContext context) 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // gRPC enables SO_REUSEPORT by default, which lets a second daemon bind the same port and
+  // share its clients; one address must mean one daemon.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(listen_address, grpc::InsecureServerCredentials(), &port_);
   builder.RegisterService(service_.get());
   server_ = builder.BuildAndStart();

@@ -22,6 +22,9 @@ grpc::Status handleWatch(const ServiceContext& context, grpc::ServerContext* ser
     summary.set_dropped_before(item->dropped_before);
     if (const auto& results = item->frame.results) {
       if (results->depth_stats) toProto(*results->depth_stats, summary.mutable_depth_stats());
+      if (results->planes) {
+        summary.set_planes(static_cast<std::uint32_t>(results->planes->frame.planes.size()));
+      }
       if (results->segmentation) {
         summary.set_segments(static_cast<std::uint32_t>(results->segmentation->segments.size()));
       }

@@ -5,9 +5,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "shapesense/core/frame.h"
+#include "shapesense/core/plane_accumulator.h"
+#include "shapesense/core/plane_ransac.h"
+#include "shapesense/core/planes.h"
 #include "shapesense/server/frame_results.h"
 
 namespace shapesense {
@@ -59,6 +63,25 @@ class SegmentationStage : public DetectorStage {
   SegmentationParams params_;
 };
 
+/// Which plane detector the plane stage runs.
+enum class PlaneDetectorKind { kHough, kRansac };
+
+/// Detects the frame's planes and adds them to the accumulated planes. Holds the accumulator,
+/// so one instance must see the frames in order (the pipeline's detector thread does).
+class PlaneStage : public DetectorStage {
+ public:
+  PlaneStage(PlaneDetectorKind kind, HoughPlaneParams hough, RansacPlaneParams ransac,
+             PlaneAccumulatorParams accumulator);
+  std::string name() const override { return "planes"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  PlaneDetectorKind kind_;
+  HoughPlaneDetector hough_;
+  RansacPlaneParams ransac_;
+  PlaneAccumulator accumulator_;
+};
+
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
                                 const SegmentationParams& params = {});
@@ -68,7 +91,16 @@ struct DetectorConfig {
   /// Method of the segmentation stage; nullopt leaves the stage out.
   std::optional<SegmentationMethod> segmentation = SegmentationMethod::kDepthStep;
   SegmentationParams segmentation_params;
+  /// Plane detector of the plane stage; nullopt leaves the stage out.
+  std::optional<PlaneDetectorKind> planes = PlaneDetectorKind::kHough;
+  HoughPlaneParams hough_params;
+  RansacPlaneParams ransac_params;
+  PlaneAccumulatorParams accumulator_params;
 };
+
+/// "hough" / "ransac" <-> PlaneDetectorKind.
+std::optional<PlaneDetectorKind> parsePlaneDetector(std::string_view name);
+const char* toString(PlaneDetectorKind kind);
 
 /// The standard chain for `config`.
 DetectorChain makeDetectorChain(const DetectorConfig& config);

@@ -2,8 +2,9 @@
 // A bounded ring of the newest frames and the detector results computed from each.
 //
 // One writer (the pipeline) inserts frames and later publishes their results; any number of
-// readers (gRPC handlers) look frames up by capture time. Readers take the lock only to copy
-// shared pointers, so they never hold up the sensor thread for long. Entries are immutable once
+// readers (gRPC handlers) look frames up by capture time. Everyone takes one plain mutex only to
+// search the ring and copy shared pointers. (A shared_mutex would let a steady stream of
+// overlapping readers starve the writer: glibc's prefers readers.) Entries are immutable once
 // published: a reader keeps a consistent view for as long as it holds one.
 
 #include <cstddef>
@@ -11,7 +12,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
-#include <shared_mutex>
+#include <mutex>
 #include <string>
 #include <variant>
 #include <vector>
@@ -74,7 +75,7 @@ class FrameCache {
 
  private:
   std::size_t capacity_;
-  mutable std::shared_mutex mutex_;
+  mutable std::mutex mutex_;
   std::deque<CachedFrame> entries_;  // oldest first; capture times non-decreasing
 };
 

@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "shapesense/core/planes.h"
 #include "shapesense/core/segment_statistics.h"
 #include "shapesense/core/segmentation.h"
 
@@ -29,9 +30,17 @@ struct SegmentationResult {
   std::vector<SegmentStatistics> segments;
 };
 
+/// Planes of the frame and the planes accumulated over the frames up to it.
+struct PlaneResult {
+  std::string detector;                  ///< "hough" or "ransac"
+  PlaneDetection frame;                  ///< this frame's planes and their label image
+  std::vector<DetectedPlane> accumulated;  ///< stable planes over time (ids are track ids)
+};
+
 struct FrameResults {
   std::optional<DepthStatistics> depth_stats;
   std::optional<SegmentationResult> segmentation;
+  std::optional<PlaneResult> planes;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

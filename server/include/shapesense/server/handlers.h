@@ -33,4 +33,7 @@ grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
 grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegmentsRequest& request,
                                v1::GetSegmentsResponse* response);
 
+grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesRequest& request,
+                             v1::GetPlanesResponse* response);
+
 }  // namespace shapesense

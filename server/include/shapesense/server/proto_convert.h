@@ -19,5 +19,6 @@ void toProto(const Eigen::Vector3d& point, v1::Point3* out);
 void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out);
 void toProto(const cv::Rect& box, v1::PixelBox* out);
 void toProto(const SegmentStatistics& segment, v1::Segment* out);
+void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out);
 
 }  // namespace shapesense

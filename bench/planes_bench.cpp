@@ -1,0 +1,82 @@
+// Plane detection per 640x480 frame: normals + Hough detector vs the sequential RANSAC baseline,
+// on 30 synthetic table-top frames: frame 0 of scenes with seeds 1..30 (30 different layouts,
+// camera heights and distances; default SceneParams). Each benchmark iteration processes one
+// frame (cycling through the 30); counters give the SegComp correct-detection fraction
+// (T = 0.8, truth planar surfaces >= 0.5% of the image) over the 30 frames, the median angle and
+// distance errors of correctly detected planes, and the median per-frame thread CPU time.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <ctime>
+#include <functional>
+
+#include "plane_scoring.h"
+#include "shapesense/core/plane_ransac.h"
+#include "shapesense/core/planes.h"
+#include "shapesense/driver/synthetic_scene.h"
+
+namespace shapesense {
+namespace {
+
+const std::vector<synthetic::RenderedFrame>& frames() {
+  static const std::vector<synthetic::RenderedFrame> all = [] {
+    std::vector<synthetic::RenderedFrame> v;
+    for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+      synthetic::SceneParams sp;
+      sp.seed = seed;
+      v.push_back(synthetic::SyntheticScene(sp).render(0, 0));
+    }
+    return v;
+  }();
+  return all;
+}
+
+double threadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+void run(benchmark::State& state, const char* name, const std::function<PlaneDetection(const Frame&)>& detect) {
+  const auto& fs = frames();
+  // Accuracy and per-frame CPU time, once per run (outside the timed loop).
+  planetest::PlaneScore total;
+  std::vector<double> ms;
+  for (const auto& f : fs) {
+    const double t0 = threadCpuMs();
+    const PlaneDetection out = detect(f.frame);
+    ms.push_back(threadCpuMs() - t0);
+    total.add(planetest::scorePlanes(out.labels, out.planes, f.truth));
+  }
+  std::sort(ms.begin(), ms.end());
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const PlaneDetection out = detect(fs[i++ % fs.size()].frame);
+    benchmark::DoNotOptimize(out.planes.data());
+  }
+  const double median_ms = ms[ms.size() / 2];
+  std::printf("[%s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, median %.2f ms/frame (CPU)\n",
+              name, total.correctFraction(), total.correct, total.truth_regions, planetest::median(total.angle_deg),
+              1e3 * planetest::median(total.dist_m), median_ms);
+  state.counters["correct"] = total.correctFraction();
+  state.counters["angle_deg"] = planetest::median(total.angle_deg);
+  state.counters["dist_mm"] = 1e3 * planetest::median(total.dist_m);
+  state.counters["median_cpu_ms"] = median_ms;
+}
+
+void BM_NormalsHoughPlanes(benchmark::State& state) {
+  HoughPlaneDetector det;  // keeps its buffers between frames, as in the daemon
+  run(state, "hough", [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+}
+BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
+
+void BM_RansacPlanes(benchmark::State& state) {
+  run(state, "ransac", [&](const Frame& f) { return detectPlanesRansac(f.depth, f.intrinsics, f.rgb); });
+}
+BENCHMARK(BM_RansacPlanes)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace shapesense
+
+BENCHMARK_MAIN();

@@ -1,0 +1,292 @@
+#include "shapesense/core/hough_accumulator.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <tuple>
+
+namespace shapesense {
+namespace {
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+// Normalised 1D Gaussian taps for sigma in cells, radius min(ceil(2.5 sigma), max_radius).
+std::vector<float> gaussianTaps(double sigma_cells, int max_radius) {
+  if (!(sigma_cells > 1e-6)) return {1.0f};
+  const int r = std::min(static_cast<int>(std::ceil(2.5 * sigma_cells)), max_radius);
+  std::vector<float> w(2 * r + 1);
+  double sum = 0;
+  for (int t = -r; t <= r; ++t) {
+    const double v = std::exp(-0.5 * t * t / (sigma_cells * sigma_cells));
+    w[t + r] = static_cast<float>(v);
+    sum += v;
+  }
+  for (auto& v : w) v = static_cast<float>(v / sum);
+  return w;
+}
+
+inline int cellInBlock(int li, int lj, int lk) {
+  return (lk * HoughAccumulator::kBlock + lj) * HoughAccumulator::kBlock + li;
+}
+
+}  // namespace
+
+HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
+  a_cell_ = std::max(1e-4, params_.angle_cell_deg * kDegToRad);
+  na_ = std::max(1, static_cast<int>(std::ceil(2.0 * params_.lambert_extent / a_cell_)));
+  nd_ = std::max(1, static_cast<int>(std::ceil(params_.max_d_m / std::max(1e-4, params_.d_cell_m))));
+  nba_ = (na_ + kBlock - 1) / kBlock;
+  nbd_ = (nd_ + kBlock - 1) / kBlock;
+  index_.assign(static_cast<std::size_t>(nba_) * nba_ * nbd_, -1);
+}
+
+void HoughAccumulator::clear() {
+  for (const auto key : block_keys_) index_[key] = -1;
+  block_keys_.clear();
+  cells_.clear();
+}
+
+void HoughAccumulator::prepareLike(const HoughAccumulator& other) {
+  if (params_.angle_cell_deg != other.params_.angle_cell_deg || params_.d_cell_m != other.params_.d_cell_m ||
+      params_.max_d_m != other.params_.max_d_m || params_.lambert_extent != other.params_.lambert_extent) {
+    *this = HoughAccumulator(other.params_);
+  }
+}
+
+Eigen::Vector3d HoughAccumulator::cellCoordinates(const Eigen::Vector3d& n, double d) const {
+  const double den = 1.0 - n.z();
+  if (!(den > 1e-9)) return {-1e9, -1e9, -1e9};
+  const double s = std::sqrt(2.0 / den);
+  return {(s * n.x() + params_.lambert_extent) / a_cell_ - 0.5,
+          (s * n.y() + params_.lambert_extent) / a_cell_ - 0.5, d / params_.d_cell_m - 0.5};
+}
+
+bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
+  const Eigen::Vector3d c = cellCoordinates(n, d);
+  i = static_cast<int>(std::floor(c.x() + 0.5));
+  j = static_cast<int>(std::floor(c.y() + 0.5));
+  k = static_cast<int>(std::floor(c.z() + 0.5));
+  return i >= 0 && j >= 0 && k >= 0 && i < na_ && j < na_ && k < nd_;
+}
+
+Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
+  const double a = (i + 0.5) * a_cell_ - params_.lambert_extent;
+  const double b = (j + 0.5) * a_cell_ - params_.lambert_extent;
+  const double rho2 = std::min(a * a + b * b, 4.0);
+  const double s = std::sqrt(std::max(0.0, 1.0 - rho2 / 4.0));
+  return Eigen::Vector3d(a * s, b * s, rho2 / 2.0 - 1.0).normalized();
+}
+
+float* HoughAccumulator::blockOrCreate(int key) {
+  if (index_[key] < 0) {
+    index_[key] = static_cast<std::int32_t>(block_keys_.size());
+    block_keys_.push_back(key);
+    cells_.resize(cells_.size() + kBlockCells, 0.0f);
+  }
+  return &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells];
+}
+
+void HoughAccumulator::addToCell(int i, int j, int k, float w) {
+  if (i < 0 || j < 0 || k < 0 || i >= na_ || j >= na_ || k >= nd_) return;
+  float* b = blockOrCreate(blockIndex(i / kBlock, j / kBlock, k / kBlock));
+  b[cellInBlock(i % kBlock, j % kBlock, k % kBlock)] += w;
+}
+
+void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
+  int i, j, k;
+  if (cellOf(n, d, i, j, k)) addToCell(i, j, k, w);
+}
+
+float HoughAccumulator::at(int i, int j, int k) const {
+  if (i < 0 || j < 0 || k < 0 || i >= na_ || j >= na_ || k >= nd_) return 0.0f;
+  const float* b = block(blockIndex(i / kBlock, j / kBlock, k / kBlock));
+  return b ? b[cellInBlock(i % kBlock, j % kBlock, k % kBlock)] : 0.0f;
+}
+
+double HoughAccumulator::totalMass() const {
+  return std::accumulate(cells_.begin(), cells_.end(), 0.0);
+}
+
+void HoughAccumulator::addGaussian(const Eigen::Vector3d& n, double d, double weight,
+                                   double sigma_angle_deg, double sigma_d_m) {
+  const Eigen::Vector3d c = cellCoordinates(n, d);
+  const double sa = std::max(1e-3, sigma_angle_deg * kDegToRad / a_cell_);
+  const double sd = std::max(1e-3, sigma_d_m / params_.d_cell_m);
+  const int ra = std::max(1, static_cast<int>(std::ceil(2.5 * sa)));
+  const int rd = std::max(1, static_cast<int>(std::ceil(2.5 * sd)));
+  const int ci = static_cast<int>(std::lround(c.x())), cj = static_cast<int>(std::lround(c.y()));
+  const int ck = static_cast<int>(std::lround(c.z()));
+  // Sample, then normalise so the added mass is `weight` whatever the sub-cell offset.
+  std::vector<float> w;
+  w.reserve(static_cast<std::size_t>((2 * ra + 1) * (2 * ra + 1) * (2 * rd + 1)));
+  double sum = 0;
+  for (int k = ck - rd; k <= ck + rd; ++k)
+    for (int j = cj - ra; j <= cj + ra; ++j)
+      for (int i = ci - ra; i <= ci + ra; ++i) {
+        const double di = (i - c.x()) / sa, dj = (j - c.y()) / sa, dk = (k - c.z()) / sd;
+        const double v = std::exp(-0.5 * (di * di + dj * dj + dk * dk));
+        w.push_back(static_cast<float>(v));
+        sum += v;
+      }
+  if (!(sum > 0)) return;
+  const float scale = static_cast<float>(weight / sum);
+  std::size_t t = 0;
+  for (int k = ck - rd; k <= ck + rd; ++k)
+    for (int j = cj - ra; j <= cj + ra; ++j)
+      for (int i = ci - ra; i <= ci + ra; ++i) addToCell(i, j, k, w[t++] * scale);
+}
+
+double HoughAccumulator::kernelPeak(double sigma_angle_deg, double sigma_d_m) const {
+  const auto a = gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock);
+  const auto d = gaussianTaps(sigma_d_m / params_.d_cell_m, kBlock);
+  return static_cast<double>(a[a.size() / 2]) * a[a.size() / 2] * d[d.size() / 2];
+}
+
+void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg, double sigma_d_m,
+                                  float min_block_mass) const {
+  out.prepareLike(*this);
+  out.clear();
+  // 1. The evaluated block set: heavy blocks and their 26 neighbours.
+  for (std::size_t b = 0; b < block_keys_.size(); ++b) {
+    const float* cells = &cells_[b * kBlockCells];
+    float mass = 0;
+    for (int c = 0; c < kBlockCells; ++c) mass += cells[c];
+    if (mass < min_block_mass) continue;
+    const int key = block_keys_[b];
+    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    for (int dk = -1; dk <= 1; ++dk)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) {
+          const int x = bi + di, y = bj + dj, z = bk + dk;
+          if (x < 0 || y < 0 || z < 0 || x >= nba_ || y >= nba_ || z >= nbd_) continue;
+          out.blockOrCreate(blockIndex(x, y, z));
+        }
+  }
+  if (out.block_keys_.empty()) return;
+
+  // 2. Three separable passes: this -> out.cells_ (x), out -> scratch (y), scratch -> out (z).
+  //    Every pass writes the same block set; reads see zeros outside it (and, for the first,
+  //    the light blocks of this space).
+  const std::array<std::vector<float>, 3> taps = {
+      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
+      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
+      gaussianTaps(sigma_d_m / params_.d_cell_m, kBlock)};
+  std::vector<float> scratch(out.cells_.size(), 0.0f);
+  const std::array<int, 3> nb = {nba_, nba_, nbd_};
+  const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
+
+  auto pass = [&](int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
+                  std::vector<float>& dst) {
+    const std::vector<float>& w = taps[axis];
+    const int r = static_cast<int>(w.size() / 2);
+    std::array<float, 3 * kBlock> line{};
+    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
+      const int key = out.block_keys_[b];
+      int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
+      const float* blocks[3];
+      for (int s = -1; s <= 1; ++s) {
+        int c[3] = {bc[0], bc[1], bc[2]};
+        c[axis] += s;
+        const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
+        const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
+        blocks[s + 1] = idx < 0 ? nullptr : &src[static_cast<std::size_t>(idx) * kBlockCells];
+      }
+      float* o = &dst[b * kBlockCells];
+      // The two axes other than `axis` enumerate the 16 lines of the block.
+      const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
+      for (int p = 0; p < kBlock; ++p)
+        for (int q = 0; q < kBlock; ++q) {
+          const int base = p * stride[a1] + q * stride[a2];
+          for (int s = 0; s < 3; ++s)
+            for (int t = 0; t < kBlock; ++t)
+              line[s * kBlock + t] = blocks[s] ? blocks[s][base + t * stride[axis]] : 0.0f;
+          for (int t = 0; t < kBlock; ++t) {
+            float acc = 0;
+            for (int u = -r; u <= r; ++u) acc += w[u + r] * line[kBlock + t + u];
+            o[base + t * stride[axis]] = acc;
+          }
+        }
+    }
+  };
+  pass(0, index_, cells_, out.cells_);
+  pass(1, out.index_, out.cells_, scratch);
+  pass(2, out.index_, scratch, out.cells_);
+}
+
+std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a, int window_d) const {
+  std::vector<HoughMaximum> maxima;
+  for (std::size_t b = 0; b < block_keys_.size(); ++b) {
+    const float* cells = &cells_[b * kBlockCells];
+    const int key = block_keys_[b];
+    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    for (int c = 0; c < kBlockCells; ++c) {
+      const float v = cells[c];
+      if (v < min_value) continue;
+      const int i = bi * kBlock + c % kBlock, j = bj * kBlock + (c / kBlock) % kBlock;
+      const int k = bk * kBlock + c / (kBlock * kBlock);
+      bool is_max = true;
+      for (int dk = -window_d; dk <= window_d && is_max; ++dk)
+        for (int dj = -window_a; dj <= window_a && is_max; ++dj)
+          for (int di = -window_a; di <= window_a; ++di) {
+            if (!di && !dj && !dk) continue;
+            const float o = at(i + di, j + dj, k + dk);
+            // Plateau tie-break: the lexicographically first cell of a plateau wins.
+            if (o > v || (o == v && std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0))) {
+              is_max = false;
+              break;
+            }
+          }
+      if (!is_max) continue;
+      double sw = 0, si = 0, sj = 0, sk = 0;
+      for (int dk = -1; dk <= 1; ++dk)
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const double o = at(i + di, j + dj, k + dk);
+            sw += o;
+            si += o * di;
+            sj += o * dj;
+            sk += o * dk;
+          }
+      HoughMaximum m;
+      m.i = i;
+      m.j = j;
+      m.k = k;
+      m.value = v;
+      m.normal = normalAt(i + si / sw, j + sj / sw);
+      m.d = dAt(k + sk / sw);
+      maxima.push_back(m);
+    }
+  }
+  std::sort(maxima.begin(), maxima.end(), [](const HoughMaximum& a, const HoughMaximum& b) {
+    return a.value > b.value || (a.value == b.value && std::tie(a.k, a.j, a.i) < std::tie(b.k, b.j, b.i));
+  });
+  return maxima;
+}
+
+void HoughAccumulator::decay(float factor, float thinning) {
+  for (std::size_t b = 0; b < block_keys_.size();) {
+    float* cells = &cells_[b * kBlockCells];
+    float mass = 0;
+    for (int c = 0; c < kBlockCells; ++c) {
+      cells[c] = std::max(0.0f, cells[c] * factor - thinning);
+      mass += cells[c];
+    }
+    if (mass > 0) {
+      ++b;
+      continue;
+    }
+    // Free: move the last block into this slot.
+    const std::size_t last = block_keys_.size() - 1;
+    index_[block_keys_[b]] = -1;
+    if (b != last) {
+      std::copy_n(&cells_[last * kBlockCells], kBlockCells, cells);
+      block_keys_[b] = block_keys_[last];
+      index_[block_keys_[b]] = static_cast<std::int32_t>(b);
+    }
+    block_keys_.pop_back();
+    cells_.resize(block_keys_.size() * kBlockCells);
+  }
+}
+
+}  // namespace shapesense

@@ -1,0 +1,309 @@
+#include <algorithm>
+#include <cmath>
+
+#include "shapesense/core/plane_labeling.h"
+#include "shapesense/core/planes.h"
+
+namespace shapesense {
+namespace {
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+}  // namespace
+
+NormalParams HoughPlaneParams::defaultSampleNormalParams(int step) {
+  step = std::max(1, step);
+  NormalParams p;
+  p.method = NormalMethod::kAverage3dGradient;
+  // Windows in grid cells: half-size 8 px of the full image at 1 m, growing with range.
+  p.smoothing_radius_px = 8.0 / step;
+  p.depth_dependent_smoothing = true;
+  p.min_radius_px = 1;
+  p.max_radius_px = std::max(1, 24 / step);
+  // Neighbouring samples are `step` pixels apart, so the per-neighbour depth change that counts
+  // as a step scales with it (1% of range per pixel: 4 cm at 1 m for step 4), and so do gaps.
+  p.max_depth_change_factor = 0.01 * step;
+  p.max_gap_px = std::max(1, 8 / step);
+  return p;
+}
+
+struct HoughPlaneDetector::Impl {
+  NormalEstimator normals_est;
+  PlaneSampleGrid grid;
+  HoughAccumulator raw, smooth;
+  cv::Mat sample_labels;
+  // Structure of arrays of the samples still free in a round (cache-friendly refinement scans).
+  std::vector<int> free_idx;
+  std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol;
+
+  explicit Impl(const HoughPlaneParams& p) : normals_est(p.normals), raw(p.space), smooth(p.space) {}
+};
+
+HoughPlaneDetector::HoughPlaneDetector(HoughPlaneParams params)
+    : params_(params), impl_(std::make_unique<Impl>(params_)) {}
+HoughPlaneDetector::~HoughPlaneDetector() = default;
+HoughPlaneDetector::HoughPlaneDetector(HoughPlaneDetector&&) noexcept = default;
+HoughPlaneDetector& HoughPlaneDetector::operator=(HoughPlaneDetector&&) noexcept = default;
+
+const HoughAccumulator& HoughPlaneDetector::lastSmoothedSpace() const { return impl_->smooth; }
+
+PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr) {
+  CV_Assert(depth_mm.type() == CV_16UC1);
+  Impl& s = *impl_;
+  const HoughPlaneParams& P = params_;
+  const PlaneTolerance& tol = P.labeling.tolerance;
+
+  // 1. Samples and their normals.
+  s.grid.build(depth_mm, K, P.labeling.sample_step);
+  s.normals_est.compute(s.grid.depth_mm, s.grid.intrinsics, s.grid.normals);
+  const int R = s.grid.points.rows, C = s.grid.points.cols, N = R * C;
+  const auto* pts = s.grid.points.ptr<cv::Vec3f>(0);
+  const auto* nrm = s.grid.normals.ptr<cv::Vec3f>(0);
+
+  // 2. Reliable samples: the normal agrees with its 4 neighbours (planarity at sample scale).
+  const float cos_spread = static_cast<float>(std::cos(P.vote_max_normal_spread_deg * kDegToRad));
+  s.grid.reliable.create(R, C, CV_8UC1);
+  s.grid.reliable.setTo(0);
+  auto* reliable = s.grid.reliable.ptr<std::uint8_t>(0);
+  for (int r = 1; r + 1 < R; ++r)
+    for (int c = 1; c + 1 < C; ++c) {
+      const int i = r * C + c;
+      const cv::Vec3f& n = nrm[i];
+      if (!(n[2] == n[2])) continue;
+      bool ok = true;
+      for (int j : {i - 1, i + 1, i - C, i + C}) {
+        const float dot = n.dot(nrm[j]);  // NaN fails the comparison
+        if (!(dot >= cos_spread)) {
+          ok = false;
+          break;
+        }
+      }
+      reliable[i] = ok;
+    }
+
+  s.sample_labels.create(R, C, CV_32SC1);
+  s.sample_labels.setTo(-1);
+  int* lab = s.sample_labels.ptr<int>(0);
+  std::vector<PlaneHypothesis> planes;
+
+  const float cos_inlier = static_cast<float>(std::cos(P.inlier_max_normal_deg * kDegToRad));
+  const double peak_per_vote = s.raw.kernelPeak(P.sigma_angle_deg, P.sigma_d_m);
+  const float min_peak = static_cast<float>(0.5 * P.min_plane_samples * peak_per_vote);
+  const float min_block_mass = std::max(2.0f, P.min_plane_samples / 6.0f);
+
+  std::vector<int> cand, next;
+  for (int round = 0; round < std::max(1, P.rounds); ++round) {
+    // 3. Vote with the free reliable samples; collect the free samples with normals.
+    s.raw.clear();
+    int votes = 0;
+    s.free_idx.clear();
+    s.fx.clear(); s.fy.clear(); s.fz.clear(); s.fnx.clear(); s.fny.clear(); s.fnz.clear(); s.ftol.clear();
+    for (int i = 0; i < N; ++i) {
+      if (lab[i] >= 0) continue;
+      const cv::Vec3f& n = nrm[i];
+      if (!(n[2] == n[2])) continue;
+      const cv::Vec3f& p = pts[i];
+      s.free_idx.push_back(i);
+      s.fx.push_back(p[0]); s.fy.push_back(p[1]); s.fz.push_back(p[2]);
+      s.fnx.push_back(n[0]); s.fny.push_back(n[1]); s.fnz.push_back(n[2]);
+      s.ftol.push_back(static_cast<float>(tol.at(p[2])));
+      if (!reliable[i]) continue;
+      const Eigen::Vector3d nd(n[0], n[1], n[2]);
+      s.raw.vote(nd, -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]));
+      ++votes;
+    }
+    if (votes < P.min_plane_samples) break;
+    s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass);
+    const auto maxima = s.smooth.findMaxima(min_peak, P.maxima_window_a, P.maxima_window_d);
+
+    // 4. Refine the maxima, strongest first; accepted planes claim their samples.
+    int accepted = 0;
+    const int F = static_cast<int>(s.free_idx.size());
+    for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round); ++m) {
+      Eigen::Vector3d n = maxima[m].normal;
+      double d = maxima[m].d;
+      // Widest gate first: the peak's d is only as good as the kernel (a parallel plane nearby
+      // shifts it), so start at the kernel's spread and shrink to the sensor tolerance.
+      const float wide = static_cast<float>(2.5 * P.sigma_d_m);
+      cand.clear();
+      {
+        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
+        const float df = static_cast<float>(d);
+        for (int f = 0; f < F; ++f) {
+          if (lab[s.free_idx[f]] >= 0) continue;
+          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
+          if (dist > std::max(wide, 2.0f * s.ftol[f])) continue;
+          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier) continue;
+          cand.push_back(f);
+        }
+      }
+      if (static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      bool ok = true;
+      const int iters = std::max(1, P.refine_iterations);
+      for (int it = 0; it < iters && ok; ++it) {
+        // Gate schedule: wide, 2x tolerance, then the tolerance.
+        const float gate_mult = it == 0 ? -1.0f : (it == 1 ? 2.0f : 1.0f);
+        // The normal gate stays tight throughout: the smoothed peak's normal is already good to
+        // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
+        // face and the table edge behind it) pull the fit to a plane between them.
+        const float cos_gate = cos_inlier;
+        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
+        const float df = static_cast<float>(d);
+        PlaneMoments mom;
+        next.clear();
+        for (int f : cand) {
+          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
+          const float g = gate_mult < 0 ? std::max(wide, 2.0f * s.ftol[f]) : gate_mult * s.ftol[f];
+          if (dist > g) continue;
+          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_gate) continue;
+          next.push_back(f);
+          mom.add(s.fx[f], s.fy[f], s.fz[f]);
+        }
+        if (static_cast<int>(next.size()) < P.min_plane_samples) {
+          ok = false;
+          break;
+        }
+        const PlaneFit fit = mom.fit();
+        if (!fit.valid) {
+          ok = false;
+          break;
+        }
+        n = fit.normal;
+        d = fit.d;
+        if (it >= 1) cand.swap(next);  // keep the wide set for the first shrink
+      }
+      if (!ok) continue;
+      // Final inliers at the tolerance with the refined plane.
+      const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
+      const float df = static_cast<float>(d);
+      next.clear();
+      for (int f : cand) {
+        const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
+        if (dist > s.ftol[f] || nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier) continue;
+        next.push_back(f);
+      }
+      if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
+      const int id = static_cast<int>(planes.size());
+      for (int f : next) lab[s.free_idx[f]] = id;
+      planes.push_back({n, d});
+      ++accepted;
+    }
+    if (accepted == 0) break;
+  }
+
+  // 5. Merge near-duplicates: the same plane found from two maxima or in two rounds, or (after
+  //    step 6) a thin strip found in pieces whose separate fits disagree by a few degrees
+  //    because a strip constrains its normal poorly across its width. Two planes within
+  //    merge_angle_deg merge when the least-squares fit of their union is nearly as good as
+  //    theirs: RMS <= max(merge_rms_factor x the worse of the two, merge_tolerance_factor x
+  //    the inlier tolerance at the farther plane's mean range / 3). A box top 5 cm above the
+  //    table fails by far (the union's RMS is ~2.5 cm).
+  auto mergePlanes = [&]() {
+    const double cos_merge = std::cos(P.merge_angle_deg * kDegToRad);
+    for (;;) {
+      std::vector<PlaneMoments> mom(planes.size());
+      std::vector<double> zsum(planes.size(), 0.0);
+      for (int i = 0; i < N; ++i) {
+        if (lab[i] < 0) continue;
+        mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
+        zsum[lab[i]] += pts[i][2];
+      }
+      std::vector<PlaneFit> fits(planes.size());
+      for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
+      double best = 1e30;
+      int bi = -1, bj = -1;
+      for (std::size_t i = 0; i < planes.size(); ++i) {
+        if (!fits[i].valid) continue;
+        for (std::size_t j = i + 1; j < planes.size(); ++j) {
+          if (!fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) continue;
+          PlaneMoments u = mom[i];
+          u.merge(mom[j]);
+          const PlaneFit f = u.fit();
+          const double z = std::max(zsum[i] / mom[i].count(), zsum[j] / mom[j].count());
+          const double limit = std::max(P.merge_rms_factor * std::max(fits[i].rms_m, fits[j].rms_m),
+                                        P.merge_tolerance_factor * tol.at(z) / 3.0);
+          if (f.valid && f.rms_m <= limit && f.rms_m / limit < best) {
+            best = f.rms_m / limit;
+            bi = static_cast<int>(i);
+            bj = static_cast<int>(j);
+          }
+        }
+      }
+      if (bi < 0) return;
+      for (int i = 0; i < N; ++i)
+        if (lab[i] == bj) lab[i] = bi;
+      PlaneMoments u = mom[bi];
+      u.merge(mom[bj]);
+      const PlaneFit f = u.fit();
+      planes[bi] = {f.normal, f.d};
+      planes[bj] = {Eigen::Vector3d(0, 0, -1), -1.0};  // unused from now on (no samples)
+    }
+  };
+  mergePlanes();
+
+  // 6. Leftovers: thin or small surfaces (a table's front edge, a box top seen at a grazing
+  //    angle, leg faces) are narrower than the normal windows plus their margin at depth steps,
+  //    so they have (almost) no reliable normals and never vote. After growing the found planes
+  //    over their edges, each depth-continuous component of still unassigned samples is fitted
+  //    by least squares; a component that is mostly one plane (trimmed refit) becomes a plane.
+  if (P.fit_leftover_components) {
+    growSampleLabels(s.grid, s.sample_labels, planes, P.labeling);
+    std::vector<int> comp(N, -1);
+    std::vector<int> stack;
+    std::vector<int> members;
+    for (int seed = 0; seed < N; ++seed) {
+      if (lab[seed] >= 0 || comp[seed] >= 0 || !(pts[seed][2] > 0)) continue;
+      members.clear();
+      stack.assign(1, seed);
+      comp[seed] = seed;
+      while (!stack.empty()) {
+        const int i = stack.back();
+        stack.pop_back();
+        members.push_back(i);
+        const int r = i / C, c = i % C;
+        const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1, r + 1 < R ? i + C : -1};
+        for (int j : nbr) {
+          if (j < 0 || comp[j] >= 0 || lab[j] >= 0 || !(pts[j][2] > 0)) continue;
+          if (!samplesContinuous(pts[i][2], pts[j][2], s.grid, P.labeling)) continue;
+          comp[j] = seed;
+          stack.push_back(j);
+        }
+      }
+      if (static_cast<int>(members.size()) < P.min_plane_samples) continue;
+      PlaneMoments mom;
+      for (int i : members) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      PlaneFit fit = mom.fit();
+      std::size_t inl = 0;
+      for (int it = 0; it < 3 && fit.valid; ++it) {
+        // Trim: first pass keeps points within 3x the tolerance, then within the tolerance.
+        const double mult = it == 0 ? 3.0 : 1.0;
+        PlaneMoments m2;
+        inl = 0;
+        for (int i : members) {
+          const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
+                                        fit.normal.z() * pts[i][2] + fit.d);
+          if (dist > mult * tol.at(pts[i][2])) continue;
+          m2.add(pts[i][0], pts[i][1], pts[i][2]);
+          ++inl;
+        }
+        fit = m2.fit();
+      }
+      if (!fit.valid || static_cast<int>(inl) < P.min_plane_samples ||
+          static_cast<double>(inl) < P.leftover_min_inlier_fraction * static_cast<double>(members.size()))
+        continue;
+      const int id = static_cast<int>(planes.size());
+      for (int i : members) {
+        const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
+                                      fit.normal.z() * pts[i][2] + fit.d);
+        if (dist <= tol.at(pts[i][2])) lab[i] = id;
+      }
+      planes.push_back({fit.normal, fit.d});
+    }
+    mergePlanes();
+  }
+
+  // 7. Full-resolution labels, regions, refits, polygons.
+  return labelPlanes(depth_mm, K, bgr, s.grid, s.sample_labels, planes, P.labeling);
+}
+
+}  // namespace shapesense

@@ -1,0 +1,373 @@
+#include "shapesense/core/plane_labeling.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "shapesense/core/plane_polygon.h"
+
+namespace shapesense {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+int findRoot(std::vector<int>& parent, int i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+void unite(std::vector<int>& parent, int a, int b) {
+  a = findRoot(parent, a);
+  b = findRoot(parent, b);
+  if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+struct RegionAccumulator {
+  int plane = -1;            // index into the hypotheses
+  int samples = 0;
+  cv::Rect sample_box;       // on the sample grid
+  // Full-resolution accumulation.
+  PlaneMoments moments;
+  std::size_t count = 0;
+  int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
+  std::array<std::uint64_t, 3> colour{};
+};
+
+}  // namespace
+
+void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full, int sample_step) {
+  CV_Assert(depth_full_mm.type() == CV_16UC1);
+  step = std::max(1, sample_step);
+  offset = step / 2;
+  const int rows = (depth_full_mm.rows - offset + step - 1) / step;
+  const int cols = (depth_full_mm.cols - offset + step - 1) / step;
+  depth_mm.create(rows, cols, CV_16UC1);
+  points.create(rows, cols, CV_32FC3);
+  intrinsics = full;
+  intrinsics.fx = full.fx / step;
+  intrinsics.fy = full.fy / step;
+  intrinsics.cx = (full.cx - offset) / step;
+  intrinsics.cy = (full.cy - offset) / step;
+  intrinsics.width = cols;
+  intrinsics.height = rows;
+  const float ifx = static_cast<float>(1.0 / full.fx), ify = static_cast<float>(1.0 / full.fy);
+  for (int r = 0; r < rows; ++r) {
+    const int v = offset + r * step;
+    const auto* src = depth_full_mm.ptr<std::uint16_t>(v);
+    auto* d = depth_mm.ptr<std::uint16_t>(r);
+    auto* p = points.ptr<cv::Vec3f>(r);
+    const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
+    for (int c = 0; c < cols; ++c) {
+      const int u = offset + c * step;
+      d[c] = src[u];
+      if (src[u] == 0) {
+        p[c] = cv::Vec3f(kNaN, kNaN, kNaN);
+        continue;
+      }
+      const float z = static_cast<float>(src[u]) * 0.001f;
+      p[c] = cv::Vec3f((static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z, ry * z, z);
+    }
+  }
+}
+
+bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const PlaneLabelingParams& params) {
+  const float z = std::min(z1, z2);
+  const float tol_k = static_cast<float>(params.tolerance.noise_steps * params.tolerance.noise.depthStep(1.0));
+  return std::fabs(z1 - z2) <= std::max(0.01f * static_cast<float>(grid.step) * z, tol_k * z * z);
+}
+
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+  const int R = grid.points.rows, C = grid.points.cols;
+  const PlaneTolerance& tol = params.tolerance;
+  auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
+  int* lab = sample_labels.ptr<int>(0);
+  auto dist = [&](int plane, const cv::Vec3f& p) {
+    const auto& h = planes[plane];
+    return static_cast<float>(h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d);
+  };
+  const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
+  const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
+  std::vector<int> queue;
+  queue.reserve(static_cast<std::size_t>(R) * C);
+  for (int i = 0; i < R * C; ++i)
+    if (lab[i] >= 0) queue.push_back(i);
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const int i = queue[q], r = i / C, c = i % C, L = lab[i];
+    const float z = point(i)[2];
+    const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1, r + 1 < R ? i + C : -1};
+    for (int j : nbr) {
+      if (j < 0 || lab[j] != -1) continue;
+      const cv::Vec3f& p = point(j);
+      if (!(p[2] > 0) || !samplesContinuous(z, p[2], grid, params)) continue;
+      if (std::fabs(dist(L, p)) > tol.at(p[2])) continue;
+      if (with_normals && grid.reliable.ptr<std::uint8_t>(0)[j]) {
+        const cv::Vec3f& n = grid.normals.ptr<cv::Vec3f>(0)[j];
+        const auto& h = planes[L].normal;
+        if (h.x() * n[0] + h.y() * n[1] + h.z() * n[2] < cos_gate) continue;
+      }
+      lab[j] = L;
+      queue.push_back(j);
+    }
+  }
+}
+
+PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+                           const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                           const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+  CV_Assert(depth_mm.type() == CV_16UC1 && sample_labels.type() == CV_32SC1 &&
+            sample_labels.size() == grid.points.size());
+  const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
+  const PlaneTolerance& tol = params.tolerance;
+  const float tol_k = static_cast<float>(tol.noise_steps * tol.noise.depthStep(1.0));
+  const float tol_floor = static_cast<float>(tol.floor_m);
+  auto continuous = [&](float z1, float z2) { return samplesContinuous(z1, z2, grid, params); };
+  auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
+  int* lab = sample_labels.ptr<int>(0);
+
+  growSampleLabels(grid, sample_labels, planes, params);
+  // 2. Connected regions (same plane, 4-connected, depth-continuous).
+  std::vector<int> parent(static_cast<std::size_t>(R) * C);
+  std::iota(parent.begin(), parent.end(), 0);
+  if (params.split_connected_regions) {
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        const int i = r * C + c;
+        if (lab[i] < 0) continue;
+        const float z = point(i)[2];
+        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) unite(parent, i, i - 1);
+        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) unite(parent, i, i - C);
+      }
+  }
+  // Pieces of one plane separated only by things in front of it (a floor seen between table
+  // legs, a wall behind a box) are one surface: SegComp truth and users both see one floor.
+  // Pieces separated by surface *behind* the plane (two box tops at the same height, with the
+  // table between them) are distinct surfaces. Test: walk the image line between the pieces'
+  // centroids; it may cross the plane's own pieces, holes and occluders, but (almost) no sample
+  // farther along its ray than the plane.
+  if (params.split_connected_regions && params.merge_occluded_pieces) {
+    const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
+    std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
+    std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0), sc(static_cast<std::size_t>(R) * C, 0.0);
+    for (int i = 0; i < R * C; ++i) {
+      if (lab[i] < 0) continue;
+      const int root = findRoot(parent, i);
+      ++cnt[root];
+      sr[root] += i / C;
+      sc[root] += i % C;
+    }
+    std::vector<std::vector<int>> pieces(planes.size());
+    for (int i = 0; i < R * C; ++i)
+      if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
+    for (std::size_t L = 0; L < planes.size(); ++L) {
+      const auto& list = pieces[L];
+      if (list.size() < 2 || list.size() > 64) continue;
+      const auto& h = planes[L];
+      for (std::size_t a = 0; a < list.size(); ++a)
+        for (std::size_t b = a + 1; b < list.size(); ++b) {
+          const int ra = list[a], rb = list[b];
+          if (findRoot(parent, ra) == findRoot(parent, rb)) continue;
+          const double r0 = sr[ra] / cnt[ra], c0 = sc[ra] / cnt[ra], r1 = sr[rb] / cnt[rb], c1 = sc[rb] / cnt[rb];
+          const int steps = static_cast<int>(std::ceil(std::max(std::fabs(r1 - r0), std::fabs(c1 - c0))));
+          int behind = 0;
+          for (int t = 0; t <= steps; ++t) {
+            const double f = steps ? static_cast<double>(t) / steps : 0.0;
+            const int r = static_cast<int>(std::lround(r0 + f * (r1 - r0)));
+            const int c = static_cast<int>(std::lround(c0 + f * (c1 - c0)));
+            const int i = r * C + c;
+            const cv::Vec3f& p = point(i);
+            if (!(p[2] > 0) || lab[i] == static_cast<int>(L)) continue;
+            const double den = h.normal.x() * p[0] / p[2] + h.normal.y() * p[1] / p[2] + h.normal.z();
+            const double z_plane = den < -1e-9 ? -h.d / den : 1e9;  // plane depth along this ray
+            if (p[2] > z_plane + tol.at(z_plane)) ++behind;
+          }
+          if (behind <= std::max(1, steps / 20)) unite(parent, ra, rb);
+        }
+    }
+  }
+  std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
+  std::vector<RegionAccumulator> regions;
+  {
+    std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
+    std::vector<int> plane_region(planes.size(), -1);
+    for (int i = 0; i < R * C; ++i) {
+      if (lab[i] < 0) continue;
+      int& slot = params.split_connected_regions ? root_region[findRoot(parent, i)] : plane_region[lab[i]];
+      if (slot < 0) {
+        slot = static_cast<int>(regions.size());
+        regions.emplace_back();
+        regions.back().plane = lab[i];
+        regions.back().sample_box = cv::Rect(i % C, i / C, 1, 1);
+      }
+      region_of[i] = slot;
+      auto& reg = regions[slot];
+      ++reg.samples;
+      reg.sample_box |= cv::Rect(i % C, i / C, 1, 1);
+    }
+  }
+  // Pre-filter on sample counts (half the pixel threshold: edges add pixels at full resolution).
+  const int min_samples = std::max(1, params.min_region_pixels / (2 * step * step));
+  for (int i = 0; i < R * C; ++i)
+    if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
+
+  // 3. Candidate regions per sample: the distinct regions of its 3x3 neighbourhood.
+  std::vector<std::array<int, 4>> cand(static_cast<std::size_t>(R) * C);
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      auto& list = cand[r * C + c];
+      list.fill(-1);
+      int n = 0;
+      auto addc = [&](int reg) {
+        if (reg < 0 || n == 4) return;
+        for (int k = 0; k < n; ++k)
+          if (list[k] == reg) return;
+        list[n++] = reg;
+      };
+      addc(region_of[r * C + c]);  // own region first
+      for (int dr = -1; dr <= 1; ++dr)
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr >= 0 && cc >= 0 && rr < R && cc < C) addc(region_of[rr * C + cc]);
+        }
+    }
+
+  // 4. Every pixel takes the closest candidate plane within the tolerance. The distance of a
+  //    pixel with depth z to a plane is z * (A u + B v + C) + D (pinhole form, in floats).
+  //    Moments and colour are accumulated on every second pixel of every second row: a quarter
+  //    of a region's pixels fit its plane as well as all of them (the fit error is dominated by
+  //    the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
+  const std::size_t nreg = regions.size();
+  std::vector<float> coef(4 * nreg);
+  for (std::size_t k = 0; k < nreg; ++k) {
+    const auto& h = planes[regions[k].plane];
+    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
+    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
+    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
+    coef[4 * k + 3] = static_cast<float>(h.d);
+  }
+  const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
+  PlaneDetection out;
+  out.labels.create(depth_mm.size(), CV_16UC1);
+  out.labels.setTo(0);
+  std::vector<int> col_sample(depth_mm.cols);
+  for (int u = 0; u < depth_mm.cols; ++u)
+    col_sample[u] = std::clamp(static_cast<int>(std::lround(static_cast<double>(u - off) / step)), 0, C - 1);
+  std::vector<float> xr(depth_mm.cols);
+  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = static_cast<float>((u - K.cx) / K.fx);
+  std::vector<int> row_u0(nreg + 1), row_u1(nreg + 1), row_n(nreg + 1);
+  for (int v = 0; v < depth_mm.rows; ++v) {
+    const int r = std::clamp(static_cast<int>(std::lround(static_cast<double>(v - off) / step)), 0, R - 1);
+    const auto* drow = depth_mm.ptr<std::uint16_t>(v);
+    auto* lrow = out.labels.ptr<std::uint16_t>(v);
+    const float fv = static_cast<float>(v);
+    const std::array<int, 4>* crow_cand = &cand[static_cast<std::size_t>(r) * C];
+    // Pass A: labels only (tight loop).
+    for (int u = 0; u < depth_mm.cols; ++u) {
+      const std::uint16_t raw = drow[u];
+      const auto& list = crow_cand[col_sample[u]];
+      if (raw == 0 || list[0] < 0) continue;
+      const float z = static_cast<float>(raw) * 0.001f;
+      const float fu = static_cast<float>(u);
+      float best = std::max(tol_floor, tol_k * z * z);
+      int best_k = -1;
+      for (int k = 0; k < 4 && list[k] >= 0; ++k) {
+        const float* q = &coef[4 * list[k]];
+        const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
+        if (dd <= best) {
+          best = dd;
+          best_k = list[k];
+        }
+      }
+      lrow[u] = static_cast<std::uint16_t>(best_k + 1);
+    }
+    // Pass B: counts and bounds per row; moments and colour on even rows and columns.
+    for (int u = 0; u < depth_mm.cols; ++u) {
+      const int l = lrow[u];
+      if (!l) continue;
+      if (row_n[l]++ == 0) row_u0[l] = u;
+      row_u1[l] = u;
+    }
+    for (std::size_t l = 1; l <= nreg; ++l) {
+      if (!row_n[l]) continue;
+      auto& reg = regions[l - 1];
+      reg.count += static_cast<std::size_t>(row_n[l]);
+      reg.u0 = std::min(reg.u0, row_u0[l]);
+      reg.u1 = std::max(reg.u1, row_u1[l]);
+      reg.v0 = std::min(reg.v0, v);
+      reg.v1 = v;
+      row_n[l] = 0;
+    }
+    if (v & 1) continue;
+    const cv::Vec3b* crow = with_colour ? bgr.ptr<cv::Vec3b>(v) : nullptr;
+    const float yr = static_cast<float>((v - K.cy) / K.fy);
+    for (int u = 0; u < depth_mm.cols; u += 2) {
+      const int l = lrow[u];
+      if (!l) continue;
+      auto& reg = regions[l - 1];
+      const float z = static_cast<float>(drow[u]) * 0.001f;
+      reg.moments.add(xr[u] * z, yr * z, z);
+      if (crow) {
+        reg.colour[0] += crow[u][0];
+        reg.colour[1] += crow[u][1];
+        reg.colour[2] += crow[u][2];
+      }
+    }
+  }
+
+  // 5. Keep regions with enough pixels, number them 1.., refit, describe.
+  std::vector<std::uint16_t> lut(regions.size() + 1, 0);
+  bool renumber = false;
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    auto& reg = regions[k];
+    if (reg.count < static_cast<std::size_t>(std::max(1, params.min_region_pixels)) ||
+        out.planes.size() >= 65535) {
+      renumber = true;
+      continue;
+    }
+    const PlaneFit fit = reg.moments.fit();
+    if (!fit.valid) {
+      renumber = true;
+      continue;
+    }
+    DetectedPlane p;
+    p.id = static_cast<std::uint16_t>(out.planes.size() + 1);
+    if (p.id != k + 1) renumber = true;
+    lut[k + 1] = p.id;
+    p.group = reg.plane;
+    p.normal = fit.normal;
+    p.d = fit.d;
+    p.inliers = reg.count;
+    p.rms_m = fit.rms_m;
+    p.box = cv::Rect(reg.u0, reg.v0, reg.u1 - reg.u0 + 1, reg.v1 - reg.v0 + 1);
+    if (with_colour) {
+      const double n = std::max(1.0, reg.moments.count());
+      p.mean_bgr = cv::Vec3b(cv::saturate_cast<uchar>(reg.colour[0] / n), cv::saturate_cast<uchar>(reg.colour[1] / n),
+                             cv::saturate_cast<uchar>(reg.colour[2] / n));
+    }
+    if (params.compute_polygons) {
+      const cv::Rect sb = reg.sample_box;
+      cv::Mat mask = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);  // 1-cell margin
+      for (int r = sb.y; r < sb.y + sb.height; ++r)
+        for (int c = sb.x; c < sb.x + sb.width; ++c)
+          if (region_of[r * C + c] == static_cast<int>(k)) mask.at<std::uint8_t>(r - sb.y + 1, c - sb.x + 1) = 255;
+      regionPolygon(mask, cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K, params.polygon_epsilon_cells,
+                    p.polygon, p.triangles);
+    }
+    out.planes.push_back(std::move(p));
+  }
+  if (renumber) {
+    for (int v = 0; v < out.labels.rows; ++v) {
+      auto* l = out.labels.ptr<std::uint16_t>(v);
+      for (int u = 0; u < out.labels.cols; ++u)
+        if (l[u]) l[u] = lut[l[u]];
+    }
+  }
+  return out;
+}
+
+}  // namespace shapesense

@@ -1,0 +1,118 @@
+// Unit tests of the sparse hierarchical Hough space: parametrisation, sparse blocks, smoothing,
+// maxima, decay.
+#include "shapesense/core/hough_accumulator.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+namespace shapesense {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+Eigen::Vector3d unit(double x, double y, double z) { return Eigen::Vector3d(x, y, z).normalized(); }
+
+TEST(HoughAccumulator, LambertCellsRoundTripEverywhereVisible) {
+  HoughAccumulator acc;  // 1.5 deg cells
+  for (double t = 0; t <= 100; t += 7)      // angle from -z (deg)
+    for (double p = 0; p < 360; p += 23) {  // azimuth
+      const Eigen::Vector3d n(std::sin(t * kDeg) * std::cos(p * kDeg), std::sin(t * kDeg) * std::sin(p * kDeg), -std::cos(t * kDeg));
+      int i, j, k;
+      ASSERT_TRUE(acc.cellOf(n, 1.0, i, j, k)) << t << " " << p;
+      const Eigen::Vector3d c = acc.cellCoordinates(n, 1.0);
+      const Eigen::Vector3d back = acc.normalAt(c.x(), c.y());
+      EXPECT_LT(std::acos(std::clamp(back.dot(n), -1.0, 1.0)) / kDeg, 1e-4) << t << " " << p;
+      // A cell never spans more than ~2x its nominal angle (equal-area map, mild distortion).
+      const Eigen::Vector3d nb = acc.normalAt(i + 1, j);
+      EXPECT_LT(std::acos(std::clamp(nb.dot(acc.normalAt(i, j)), -1.0, 1.0)) / kDeg, 1.5 * 2.0) << t;
+      EXPECT_NEAR(acc.dAt(c.z()), 1.0, 1e-9);
+    }
+}
+
+TEST(HoughAccumulator, AllocatesOnlyWhereVotesLandAndRecyclesBlocks) {
+  HoughAccumulator acc;
+  const std::size_t dense = static_cast<std::size_t>(acc.cellsA()) * acc.cellsA() * acc.cellsD();
+  EXPECT_GT(dense, 5'000'000u);  // 1.5 deg x 2 cm over 8 m: a dense float grid would be > 20 MB
+  EXPECT_EQ(acc.allocatedBlocks(), 0u);
+  for (int r = 0; r < 1000; ++r) acc.vote(unit(0, 0, -1), 2.0);
+  EXPECT_EQ(acc.allocatedBlocks(), 1u);
+  acc.vote(unit(0, -1, -0.3), 1.0);
+  EXPECT_EQ(acc.allocatedBlocks(), 2u);
+  EXPECT_DOUBLE_EQ(acc.totalMass(), 1001.0);
+  int i, j, k;
+  ASSERT_TRUE(acc.cellOf(unit(0, 0, -1), 2.0, i, j, k));
+  EXPECT_FLOAT_EQ(acc.at(i, j, k), 1000.0f);
+  acc.clear();
+  EXPECT_EQ(acc.allocatedBlocks(), 0u);
+  EXPECT_FLOAT_EQ(acc.at(i, j, k), 0.0f);
+  acc.vote(unit(0, 0, -1), 2.0);
+  EXPECT_EQ(acc.allocatedBlocks(), 1u);
+  // Out of range votes are dropped.
+  acc.vote(unit(0, 0, -1), 100.0);
+  acc.vote(unit(0, 0, 1), 1.0);
+  EXPECT_DOUBLE_EQ(acc.totalMass(), 1.0);
+}
+
+TEST(HoughAccumulator, SmoothingIsANormalisedGaussianWithTheGivenSigmas) {
+  HoughSpaceParams sp;
+  HoughAccumulator acc(sp), smooth(sp);
+  const Eigen::Vector3d n = unit(0.1, -0.2, -1);
+  int i, j, k;
+  ASSERT_TRUE(acc.cellOf(n, 2.0, i, j, k));
+  acc.addToCell(i, j, k, 100.0f);
+  const double sa = 1.5, sd = 0.02;  // one cell sigma in every axis
+  acc.smoothInto(smooth, sa, sd, 1.0f);
+  // Mass conserved (the kernel fits into the block neighbourhood).
+  EXPECT_NEAR(smooth.totalMass(), 100.0, 1e-3);
+  // Peak = 100 x central weight; one cell away = exp(-1/2) of it along each axis.
+  EXPECT_NEAR(smooth.at(i, j, k), 100.0 * smooth.kernelPeak(sa, sd), 1e-3);
+  const double c = smooth.at(i, j, k);
+  EXPECT_NEAR(smooth.at(i + 1, j, k) / c, std::exp(-0.5), 1e-4);
+  EXPECT_NEAR(smooth.at(i, j - 1, k) / c, std::exp(-0.5), 1e-4);
+  EXPECT_NEAR(smooth.at(i, j, k + 1) / c, std::exp(-0.5), 1e-4);
+  EXPECT_NEAR(smooth.at(i + 2, j, k + 2) / c, std::exp(-4.0), 1e-4);
+  // A block holding less than min_block_mass is not evaluated.
+  acc.clear();
+  acc.addToCell(i, j, k, 1.0f);
+  acc.smoothInto(smooth, sa, sd, 2.0f);
+  EXPECT_EQ(smooth.allocatedBlocks(), 0u);
+}
+
+TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
+  HoughAccumulator acc, smooth;
+  // Two planes 30 deg apart, 400 and 200 votes spread over +-1 deg / +-1 cm, plus a single
+  // far-away vote that must not produce a maximum.
+  const Eigen::Vector3d n1 = unit(0, -1, -0.5), n2 = Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitX()) * n1;
+  for (int r = 0; r < 400; ++r) {
+    const double a = ((r % 7) - 3) / 3.0 * kDeg, dd = ((r % 5) - 2) * 0.005;
+    acc.vote((Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()) * n1).normalized(), 1.2 + dd);
+  }
+  for (int r = 0; r < 200; ++r) acc.vote(n2, 0.8 + ((r % 3) - 1) * 0.005);
+  acc.vote(unit(0.8, 0, -0.5), 3.0);
+  acc.smoothInto(smooth, 2.0, 0.03, 2.0f);
+  const auto maxima = smooth.findMaxima(static_cast<float>(20 * smooth.kernelPeak(2.0, 0.03)));
+  ASSERT_EQ(maxima.size(), 2u);
+  EXPECT_GT(maxima[0].value, maxima[1].value);  // strongest first
+  EXPECT_LT(std::acos(std::min(1.0, maxima[0].normal.dot(n1))) / kDeg, 1.0);  // 2/3 of a 1.5-deg cell
+  EXPECT_NEAR(maxima[0].d, 1.2, 0.01);
+  EXPECT_LT(std::acos(std::min(1.0, maxima[1].normal.dot(n2))) / kDeg, 1.0);
+  EXPECT_NEAR(maxima[1].d, 0.8, 0.01);
+}
+
+TEST(HoughAccumulator, DecayThinsAndFreesBlocks) {
+  HoughAccumulator acc;
+  acc.addGaussian(unit(0, 0, -1), 2.0, 10.0, 1.5, 0.02);
+  EXPECT_NEAR(acc.totalMass(), 10.0, 1e-3);
+  const std::size_t blocks = acc.allocatedBlocks();
+  EXPECT_GT(blocks, 1u);
+  acc.decay(0.5f, 0.0f);
+  EXPECT_NEAR(acc.totalMass(), 5.0, 1e-3);
+  acc.decay(1.0f, 10.0f);  // thinning removes everything
+  EXPECT_EQ(acc.allocatedBlocks(), 0u);
+  EXPECT_DOUBLE_EQ(acc.totalMass(), 0.0);
+}
+
+}  // namespace
+}  // namespace shapesense

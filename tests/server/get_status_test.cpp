@@ -1,0 +1,126 @@
+// GetStatus through a real in-process gRPC server.
+
+#include <atomic>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "server_fixture.h"
+
+namespace shapesense {
+namespace {
+
+using testing::clientContext;
+using testing::kFramePeriodNs;
+using testing::kServerT0;
+using testing::TestServer;
+
+PipelineStatus knownStatus(SourceState state) {
+  PipelineStatus s;
+  s.source = "tum:/data/desk";
+  s.state = state;
+  s.last_error = "/data/desk/depth/3.png: missing depth image";
+  s.frames_received = 1234;
+  s.frames_processed = 1000;
+  s.frames_skipped = 234;
+  s.source_errors = 7;
+  s.stages = {{"depth_stats", 1000, 1.5, 1.25, 2.75}, {"total", 1000, 1.75, 1.5, 3.0}};
+  s.detectors = {"depth_stats"};
+  return s;
+}
+
+TEST(GetStatus, ReportsThePipelineCountersAndTheCacheRange) {
+  TestServer srv(8, [] { return knownStatus(SourceState::kStreaming); });
+  srv.addMany(10);  // capacity 8: frames 2..9 remain
+  v1::GetStatusResponse response;
+  auto context = clientContext();
+  const grpc::Status status = srv.stub().GetStatus(context.get(), v1::GetStatusRequest{}, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_FALSE(response.version().empty());
+  EXPECT_EQ(response.source(), "tum:/data/desk");
+  EXPECT_EQ(response.source_state(), v1::GetStatusResponse::STREAMING);
+  EXPECT_EQ(response.source_message(), "/data/desk/depth/3.png: missing depth image");
+  EXPECT_EQ(response.frames_received(), 1234u);
+  EXPECT_EQ(response.frames_processed(), 1000u);
+  EXPECT_EQ(response.frames_skipped(), 234u);
+  EXPECT_EQ(response.source_errors(), 7u);
+  EXPECT_EQ(response.cache().frames(), 8u);
+  EXPECT_EQ(response.cache().capacity(), 8u);
+  EXPECT_EQ(response.cache().oldest_ns(), kServerT0 + 2 * kFramePeriodNs);
+  EXPECT_EQ(response.cache().newest_ns(), kServerT0 + 9 * kFramePeriodNs);
+  ASSERT_EQ(response.stages_size(), 2);
+  EXPECT_EQ(response.stages(0).stage(), "depth_stats");
+  EXPECT_EQ(response.stages(0).runs(), 1000u);
+  EXPECT_DOUBLE_EQ(response.stages(0).last_ms(), 1.5);
+  EXPECT_DOUBLE_EQ(response.stages(0).median_ms(), 1.25);
+  EXPECT_DOUBLE_EQ(response.stages(0).p95_ms(), 2.75);
+  EXPECT_EQ(response.stages(1).stage(), "total");
+  EXPECT_DOUBLE_EQ(response.stages(1).p95_ms(), 3.0);
+  ASSERT_EQ(response.detectors_size(), 1);
+  EXPECT_EQ(response.detectors(0), "depth_stats");
+  EXPECT_GE(response.uptime_s(), 0.0);
+  EXPECT_LT(response.uptime_s(), 60.0);
+}
+
+TEST(GetStatus, MapsEverySourceState) {
+  const std::pair<SourceState, v1::GetStatusResponse::SourceState> cases[] = {
+      {SourceState::kStreaming, v1::GetStatusResponse::STREAMING},
+      {SourceState::kEnded, v1::GetStatusResponse::ENDED},
+      {SourceState::kFailed, v1::GetStatusResponse::FAILED},
+      {SourceState::kStopped, v1::GetStatusResponse::STOPPED}};
+  SourceState current = SourceState::kStreaming;
+  TestServer srv(4, [&] { return knownStatus(current); });
+  for (const auto& [state, expected] : cases) {
+    current = state;
+    v1::GetStatusResponse response;
+    auto context = clientContext();
+    ASSERT_TRUE(srv.stub().GetStatus(context.get(), {}, &response).ok());
+    EXPECT_EQ(response.source_state(), expected) << toString(state);
+  }
+}
+
+TEST(GetStatus, CountersFollowThePipelineBetweenCalls) {
+  std::atomic<std::uint64_t> received{0};
+  TestServer srv(4, [&] {
+    PipelineStatus s;
+    s.frames_received = received.load();
+    return s;
+  });
+  for (std::uint64_t n : {0u, 5u, 17u}) {
+    received = n;
+    v1::GetStatusResponse response;
+    auto context = clientContext();
+    ASSERT_TRUE(srv.stub().GetStatus(context.get(), {}, &response).ok());
+    EXPECT_EQ(response.frames_received(), n);
+  }
+}
+
+TEST(GetStatus, EmptyCacheAnswersWithZeroRange) {
+  TestServer srv(5);  // default pipeline_status: no pipeline
+  v1::GetStatusResponse response;
+  auto context = clientContext();
+  const grpc::Status status = srv.stub().GetStatus(context.get(), {}, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.cache().frames(), 0u);
+  EXPECT_EQ(response.cache().capacity(), 5u);
+  EXPECT_EQ(response.cache().oldest_ns(), 0);
+  EXPECT_EQ(response.cache().newest_ns(), 0);
+  EXPECT_EQ(response.frames_received(), 0u);
+  EXPECT_EQ(response.stages_size(), 0);
+}
+
+TEST(GetStatus, UptimeGrows) {
+  TestServer srv(4);
+  auto uptime = [&] {
+    v1::GetStatusResponse response;
+    auto context = clientContext();
+    EXPECT_TRUE(srv.stub().GetStatus(context.get(), {}, &response).ok());
+    return response.uptime_s();
+  };
+  const double first = uptime();
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  EXPECT_GE(uptime() - first, 0.025);
+}
+
+}  // namespace
+}  // namespace shapesense
