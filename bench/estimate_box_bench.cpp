@@ -1,0 +1,94 @@
+// EstimateBox latency over loopback gRPC under a steady offered load: several client threads
+// together send `rate` requests per second (open loop: each request is sent at its scheduled
+// time, whether or not earlier ones have returned), for a fixed duration. Reports latency
+// percentiles measured from the scheduled send time, so queueing delay counts.
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include <benchmark/benchmark.h>
+#include <grpcpp/grpcpp.h>
+
+#include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/server/rpc_server.h"
+#include "shapesense/v1/shapesense.grpc.pb.h"
+
+namespace shapesense {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void BM_EstimateBoxLoopback(benchmark::State& state) {
+  const int rate = static_cast<int>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  const auto duration = std::chrono::seconds(3);
+
+  FrameCache cache;
+  SummaryHub hub;
+  synthetic::SceneParams params;
+  params.render_colour = false;
+  const synthetic::SyntheticScene scene(params);
+  std::vector<cv::Rect> rois;
+  for (int i = 0; i < 30; ++i) {
+    auto rendered = scene.render(i, 1'700'000'000'000'000'000LL + i * 33'333'333LL);
+    rendered.frame.sequence = i;
+    if (i == 0) {
+      for (const auto& object : rendered.truth.objects) {
+        if (object.pixel_count > 200) rois.push_back(object.image_box);
+      }
+    }
+    cache.insert(std::make_shared<const Frame>(std::move(rendered.frame)));
+  }
+  RpcServer server("127.0.0.1:0", ServiceContext{.cache = cache, .hub = hub});
+  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(server.port()),
+                                     grpc::InsecureChannelCredentials());
+  auto stub = v1::ShapeSense::NewStub(channel);
+
+  std::vector<double> latencies_ms;
+  std::atomic<int> failures{0};
+  for (auto _ : state) {
+    std::vector<std::vector<double>> per_thread(threads);
+    const auto start = Clock::now() + std::chrono::milliseconds(50);
+    const auto period = std::chrono::nanoseconds(1'000'000'000LL * threads / rate);
+    std::vector<std::thread> clients;
+    for (int t = 0; t < threads; ++t) {
+      clients.emplace_back([&, t] {
+        // Thread t sends requests t, t + threads, ... of the global schedule.
+        auto due = start + std::chrono::nanoseconds(1'000'000'000LL * t / rate);
+        for (int i = 0; due < start + duration; ++i, due += period) {
+          std::this_thread::sleep_until(due);
+          const cv::Rect r = rois[(i + t) % rois.size()];
+          v1::EstimateBoxRequest request;
+          request.set_at_ns(1'700'000'000'000'000'000LL + (i % 30) * 33'333'333LL);
+          request.mutable_p1()->set_x(r.x);
+          request.mutable_p1()->set_y(r.y);
+          request.mutable_p2()->set_x(r.x + r.width - 1);
+          request.mutable_p2()->set_y(r.y + r.height - 1);
+          request.set_mode(v1::BOX_MODE_AXIS_ALIGNED_CONTAINED);
+          v1::EstimateBoxResponse response;
+          grpc::ClientContext context;
+          if (!stub->EstimateBox(&context, request, &response).ok()) ++failures;
+          per_thread[t].push_back(std::chrono::duration<double, std::milli>(Clock::now() - due).count());
+        }
+      });
+    }
+    for (auto& client : clients) client.join();
+    for (auto& samples : per_thread) latencies_ms.insert(latencies_ms.end(), samples.begin(), samples.end());
+  }
+  std::sort(latencies_ms.begin(), latencies_ms.end());
+  auto quantile = [&](double q) { return latencies_ms[std::min(latencies_ms.size() - 1, static_cast<std::size_t>(q * latencies_ms.size()))]; };
+  state.counters["requests"] = static_cast<double>(latencies_ms.size());
+  state.counters["failures"] = failures.load();
+  state.counters["p50_ms"] = quantile(0.50);
+  state.counters["p99_ms"] = quantile(0.99);
+  state.counters["max_ms"] = latencies_ms.back();
+  server.shutdown();
+}
+BENCHMARK(BM_EstimateBoxLoopback)->Args({1000, 4})->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace shapesense
+
+BENCHMARK_MAIN();
