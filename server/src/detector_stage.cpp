@@ -97,6 +97,13 @@ void PlaneStage::run(const Frame& frame, FrameResults& results) {
   results.planes = std::move(result);
 }
 
+void ObjectBoxStage::run(const Frame& frame, FrameResults& results) {
+  if (!results.segmentation || !results.planes) return;
+  results.object_boxes =
+      boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, results.segmentation->labels,
+                             results.segmentation->segments, results.planes->frame, params_);
+}
+
 DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
@@ -106,6 +113,9 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
   if (config.planes) {
     chain.add(std::make_unique<PlaneStage>(*config.planes, config.hough_params, config.ransac_params,
                                            config.accumulator_params));
+  }
+  if (config.object_boxes && config.segmentation && config.planes) {
+    chain.add(std::make_unique<ObjectBoxStage>(config.object_box_params));
   }
   return chain;
 }

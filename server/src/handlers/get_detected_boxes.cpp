@@ -1,4 +1,5 @@
 #include "shapesense/server/handlers.h"
+#include "shapesense/server/proto_convert.h"
 
 namespace shapesense {
 
@@ -7,8 +8,22 @@ grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
                                     v1::GetDetectedBoxesResponse* response) {
   CachedFrame entry;
   if (auto status = lookupFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
+  if (!entry.results) {
+    return {grpc::StatusCode::FAILED_PRECONDITION,
+            "the detectors have not processed this frame (it was skipped or is still being "
+            "processed); ask for a neighbouring frame"};
+  }
   response->set_frame_timestamp_ns(entry.frame->timestamp_ns);
-  // Boxes come from bowl and segment detections; neither stage exists yet, so the list is empty.
+  for (const auto& object : entry.results->object_boxes) {
+    auto* box = response->add_boxes();
+    box->set_source("segment");
+    box->set_source_id(object.segment_id);
+    box->mutable_p1()->set_x(object.roi.x);
+    box->mutable_p1()->set_y(object.roi.y);
+    box->mutable_p2()->set_x(object.roi.x + object.roi.width - 1);
+    box->mutable_p2()->set_y(object.roi.y + object.roi.height - 1);
+    for (const auto& corner : object.box.corners) toProto(corner, box->add_corners());
+  }
   return grpc::Status::OK;
 }
 

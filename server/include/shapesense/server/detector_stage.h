@@ -82,6 +82,17 @@ class PlaneStage : public DetectorStage {
   PlaneAccumulator accumulator_;
 };
 
+/// Turns every segment that stands on a plane into a 3D box (runs after segmentation and planes).
+class ObjectBoxStage : public DetectorStage {
+ public:
+  explicit ObjectBoxStage(ObjectBoxParams params) : params_(params) {}
+  std::string name() const override { return "object_boxes"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  ObjectBoxParams params_;
+};
+
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
                                 const SegmentationParams& params = {});
@@ -96,6 +107,9 @@ struct DetectorConfig {
   HoughPlaneParams hough_params;
   RansacPlaneParams ransac_params;
   PlaneAccumulatorParams accumulator_params;
+  /// Boxes for segments standing on planes; only when both stages above are on.
+  bool object_boxes = true;
+  ObjectBoxParams object_box_params;
 };
 
 /// "hough" / "ransac" <-> PlaneDetectorKind.

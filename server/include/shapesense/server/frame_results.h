@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "shapesense/core/object_boxes.h"
 #include "shapesense/core/planes.h"
 #include "shapesense/core/segment_statistics.h"
 #include "shapesense/core/segmentation.h"
@@ -41,6 +42,8 @@ struct FrameResults {
   std::optional<DepthStatistics> depth_stats;
   std::optional<SegmentationResult> segmentation;
   std::optional<PlaneResult> planes;
+  /// Boxes of segments standing on a plane (needs both the segmentation and plane stages).
+  std::vector<ObjectBox> object_boxes;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

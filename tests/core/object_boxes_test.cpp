@@ -1,0 +1,78 @@
+// Boxes from segments standing on planes, against synthetic ground truth.
+
+#include <gtest/gtest.h>
+
+#include "shapesense/core/object_boxes.h"
+#include "shapesense/core/segmentation.h"
+#include "shapesense/driver/synthetic_scene.h"
+
+namespace shapesense {
+namespace {
+
+double iou(const cv::Rect& a, const cv::Rect& b) {
+  const double inter = (a & b).area();
+  return inter / (a.area() + b.area() - inter);
+}
+
+TEST(ObjectBoxes, ObjectsOnTheTableGetBoxesAndStructureDoesNot) {
+  int objects = 0, found = 0, boxes_total = 0, boxes_matched = 0;
+  HoughPlaneDetector planes_detector;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    synthetic::SceneParams params;
+    params.seed = seed;
+    params.render_colour = false;
+    const auto rendered = synthetic::SyntheticScene(params).render(0, 1);
+    const Frame& frame = rendered.frame;
+    const cv::Mat segments = segmentDepth(frame.depth, frame.intrinsics, SegmentationMethod::kFused);
+    const auto statistics = computeSegmentStatistics(segments, frame.depth, frame.intrinsics);
+    const auto planes = planes_detector.detect(frame.depth, frame.intrinsics);
+    const auto boxes = boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, segments, statistics, planes);
+    boxes_total += static_cast<int>(boxes.size());
+    for (const auto& box : boxes) {
+      for (const auto& object : rendered.truth.objects) {
+        if (object.kind != "table" && iou(box.roi, object.image_box) >= 0.5) {
+          ++boxes_matched;
+          break;
+        }
+      }
+    }
+    for (const auto& object : rendered.truth.objects) {
+      if (object.kind == "table" || object.pixel_count < 400) continue;
+      ++objects;
+      for (const auto& box : boxes) {
+        if (iou(box.roi, object.image_box) >= 0.5) {
+          ++found;
+          // The box lies where the object is: its centre within 10 cm + half the object's size.
+          Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+          for (const auto& c : box.box.corners) centre += c / 8.0;
+          EXPECT_LT((centre - object.center).norm(), 0.10 + 0.5 * object.size.norm()) << object.name;
+          break;
+        }
+      }
+    }
+  }
+  std::printf("[object boxes] %d of %d visible objects boxed; %d of %d boxes match an object\n", found,
+              objects, boxes_matched, boxes_total);
+  ASSERT_GT(objects, 20);
+  // Measured on seeds 1-6 (fused segmentation, Hough planes): 13 of 42 objects boxed, 13 of 20
+  // boxes on an object. Floors just below; the misses are objects whose faces the segmentation
+  // merges with a neighbour touching them without a depth step (a box behind a bowl).
+  EXPECT_GE(static_cast<double>(found) / objects, 0.28);
+  EXPECT_GE(static_cast<double>(boxes_matched) / std::max(1, boxes_total), 0.6);
+}
+
+TEST(ObjectBoxes, NoPlanesMeansNoBoxes) {
+  synthetic::SceneParams params;
+  params.render_colour = false;
+  const auto rendered = synthetic::SyntheticScene(params).render(0, 1);
+  const Frame& frame = rendered.frame;
+  const cv::Mat segments = segmentDepth(frame.depth, frame.intrinsics, SegmentationMethod::kFused);
+  PlaneDetection none;
+  none.labels = cv::Mat::zeros(frame.depth.size(), CV_16UC1);
+  EXPECT_TRUE(boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, segments,
+                                     computeSegmentStatistics(segments, frame.depth, frame.intrinsics), none)
+                  .empty());
+}
+
+}  // namespace
+}  // namespace shapesense
