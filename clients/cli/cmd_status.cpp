@@ -22,6 +22,11 @@ void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
     std::cout << "shapesensed " << status.version() << ", up " << static_cast<long>(status.uptime_s()) << " s\n"
               << "source     " << status.source() << " ("
               << v1::GetStatusResponse::SourceState_Name(status.source_state()) << ")\n";
+    if (status.source_live()) {
+      std::cout << "sensor     " << (status.source_connected() ? "connected" : "not connected (reconnecting)")
+                << ", " << status.source_reconnects() << " reconnect(s), " << status.source_dropped_frames()
+                << " frame(s) dropped by the driver\n";
+    }
     if (!status.source_message().empty()) std::cout << "last error " << status.source_message() << "\n";
     std::cout << "frames     " << status.frames_received() << " received, " << status.frames_processed()
               << " processed, " << status.frames_skipped() << " skipped, " << status.source_errors()

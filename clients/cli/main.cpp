@@ -7,7 +7,7 @@
 int main(int argc, char** argv) {
   using namespace shapesense::cli;
   GlobalOptions global;
-  CLI::App app{"shapesense: query a shapesensed daemon, make synthetic recordings, analyse recordings offline."};
+  CLI::App app{"shapesense: query a shapesensed daemon, record sources, make synthetic recordings, analyse recordings offline."};
   app.require_subcommand(1);
   app.add_option("--server", global.server, "Daemon address")->capture_default_str();
   app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")->capture_default_str();
@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   addBboxCommand(app, global);
   addSegmentsCommand(app, global);
   addPlanesCommand(app, global);
+  addRecordCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {

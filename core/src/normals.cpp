@@ -2,7 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace shapesense {
 namespace {
@@ -11,6 +16,24 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline bool validZ(float z) { return z > 0.0f; }  // NaN compares false
 
+// Four uint32 lanes (count | steps << 16, X, Y, Z) of one element of the packed integral image:
+// one 16-byte load fetches a corner for every channel, one vector op combines them.
+using v4u = std::uint32_t __attribute__((vector_size(16)));
+using v4i = std::int32_t __attribute__((vector_size(16)));
+using v4f = float __attribute__((vector_size(16)));
+
+inline v4u load4(const std::uint32_t* p) {
+  v4u r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+inline void store4(std::uint32_t* p, v4u x) { std::memcpy(p, &x, sizeof x); }
+
+// 0.1 mm fixed point, 0 where invalid (branch-free select before the conversion).
+inline std::uint32_t fixed(float x, bool valid) {
+  return static_cast<std::uint32_t>(static_cast<std::int32_t>((valid ? x : 0.0f) * 1e4f));
+}
+
 enum Mode { kCov = 0, kGrad = 1, kDepth = 2 };
 
 // Wrapped four-corner difference of a uint32/int32 integral image: exact whenever the true window
@@ -18,6 +41,54 @@ enum Mode { kCov = 0, kGrad = 1, kDepth = 2 };
 inline std::uint32_t rectU32(const std::uint32_t* a, const std::uint32_t* b, const std::uint32_t* c,
                              const std::uint32_t* d) {
   return *d - *b - *c + *a;
+}
+
+// Unit normals facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1): the sign of
+// n . X for every point X with depth), NaN where the unnormalised normal is (near) zero; branch-free
+// SIMD, interleaved into the CV_32FC3 output row.
+void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx, float ifx, float ry, int cols,
+                  float* out) {
+  int u = 0;
+#if defined(__SSE2__)
+  const __m128 sign = _mm_set1_ps(-0.0f), zero = _mm_setzero_ps();
+  const __m128 nan = _mm_set1_ps(kNaN), eps = _mm_set1_ps(1e-20f), one = _mm_set1_ps(1.0f);
+  const __m128 vcx = _mm_set1_ps(cx), vifx = _mm_set1_ps(ifx), vry = _mm_set1_ps(ry);
+  for (; u + 4 <= cols; u += 4) {
+    const __m128 nx = _mm_loadu_ps(nx_row + u), ny = _mm_loadu_ps(ny_row + u), nz = _mm_loadu_ps(nz_row + u);
+    const __m128 uf = _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
+    const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
+    const __m128 ok = _mm_cmpgt_ps(len2, eps);
+    const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, vcx), vifx);
+    const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, vry)), nz);
+    __m128 k = _mm_div_ps(one, _mm_sqrt_ps(_mm_max_ps(len2, eps)));
+    k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
+    k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
+    const __m128 X = _mm_mul_ps(nx, k), Y = _mm_mul_ps(ny, k), Z = _mm_mul_ps(nz, k);
+    // Interleave 4 x (x, y, z) into 12 floats.
+    const __m128 t0 = _mm_unpacklo_ps(X, Y), t1 = _mm_unpackhi_ps(X, Y);  // x0 y0 x1 y1 | x2 y2 x3 y3
+    const __m128 o0 = _mm_shuffle_ps(t0, _mm_shuffle_ps(Z, X, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
+    const __m128 o1 = _mm_shuffle_ps(_mm_shuffle_ps(Y, Z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
+    const __m128 o2 = _mm_shuffle_ps(_mm_shuffle_ps(Z, X, _MM_SHUFFLE(3, 3, 2, 2)), _mm_shuffle_ps(Y, Z, _MM_SHUFFLE(3, 3, 3, 3)),
+                                     _MM_SHUFFLE(2, 0, 2, 0));
+    _mm_storeu_ps(out + 3 * u, o0);
+    _mm_storeu_ps(out + 3 * u + 4, o1);
+    _mm_storeu_ps(out + 3 * u + 8, o2);
+  }
+#endif
+  for (; u < cols; ++u) {
+    const float x = nx_row[u], y = ny_row[u], z = nz_row[u];
+    const float len2 = x * x + y * y + z * z;
+    float* o = out + 3 * u;
+    if (!(len2 > 1e-20f)) {
+      o[0] = o[1] = o[2] = kNaN;
+      continue;
+    }
+    float k = 1.0f / std::sqrt(len2);
+    if (x * (static_cast<float>(u) - cx) * ifx + y * ry + z > 0.0f) k = -k;
+    o[0] = x * k;
+    o[1] = y * k;
+    o[2] = z * k;
+  }
 }
 
 }  // namespace
@@ -250,9 +321,162 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   }
 }
 
+// The gradient modes: one packed integral image (count | steps << 16 and the 0.1 mm sums), read
+// with one load per corner: 4 uint32 lanes (count, X, Y, Z) for the 3D gradient, one uint64
+// (count | steps << 16 in the low half, Z in the high half) for the depth change. All sums wrap
+// around; window sums are exact because no field of a window sum overflows.
+template <int M>
+void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals) {
+  const int rows = points_.rows, cols = points_.cols;
+  const std::size_t estride = static_cast<std::size_t>(cols + 1);
+  constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
+  const std::size_t rstride = estride * L;
+  packed_.resize(static_cast<std::size_t>(rows + 1) * rstride + 4);
+  std::fill(packed_.begin(), packed_.begin() + rstride, 0u);
+  // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
+  // the rows it reads are still in cache.
+  auto buildRow = [&](int v) {
+    const auto* p = points_.ptr<cv::Vec3f>(v);
+    const auto* st = steps_.ptr<std::uint8_t>(v);
+    std::uint32_t* row = packed_.data() + (v + 1) * rstride;
+    const std::uint32_t* above = row - rstride;
+    if constexpr (M == kGrad) {
+      v4u acc = {0, 0, 0, 0};
+      store4(row, acc);
+      for (int u = 0; u < cols; ++u) {
+        const float z = p[u][2];
+        const bool ok = validZ(z);
+        const v4u e = {static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16), fixed(p[u][0], ok),
+                       fixed(p[u][1], ok), fixed(z, ok)};
+        acc += e;
+        store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
+      }
+    } else {
+      auto* row64 = reinterpret_cast<std::uint64_t*>(row);
+      const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
+      std::uint64_t acc = 0;
+      row64[0] = 0;
+      for (int u = 0; u < cols; ++u) {
+        const float z = p[u][2];
+        const bool ok = validZ(z);
+        acc += static_cast<std::uint64_t>(static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16)) +
+               (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
+        row64[u + 1] = above64[u + 1] + acc;
+      }
+    }
+  };
+
+  const float base_r = static_cast<float>(params_.smoothing_radius_px) * (params_.depth_dependent_smoothing ? 1.0f : 0.0f);
+  const float const_r = params_.depth_dependent_smoothing ? 0.0f : static_cast<float>(params_.smoothing_radius_px);
+  const int min_r = std::max(1, params_.min_radius_px);
+  const int max_r = std::max(min_r, params_.max_radius_px);
+  const float min_frac = static_cast<float>(params_.min_valid_fraction);
+  const float fx = static_cast<float>(intr.fx), fy = static_cast<float>(intr.fy);
+  const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
+  const std::uint32_t* I = packed_.data();
+  const std::ptrdiff_t rs = static_cast<std::ptrdiff_t>(rstride);
+
+  // Per row: (a) the window radius of every pixel (branch-free), (b) per pixel the step check
+  // and the four windows centred one pixel left/right/up/down (one packed fetch per corner),
+  // giving the unnormalised normal (0 where invalid), (c) normalisation (SIMD).
+  rad_.resize(static_cast<std::size_t>(cols));
+  row_n_.resize(3 * static_cast<std::size_t>(cols));
+  int* rr = rad_.data();
+  float* rnx = row_n_.data();
+  float* rny = rnx + cols;
+  float* rnz = rny + cols;
+  const float ifx = 1.0f / fx, ify = 1.0f / fy;
+  int built = 0;  // image rows integrated so far
+  for (int v = 0; v < rows; ++v) {
+    // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
+    for (const int need = std::min(rows, v + max_r + 2); built < need; ++built) buildRow(built);
+    const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
+    const int border_v = std::min(v, rows - 1 - v) - 1;  // largest r inside the image (reach r + 1)
+    // (a) r = 0 marks an invalid pixel (no depth, or no room).
+    for (int u = 0; u < cols; ++u) {
+      const float zp = zrow[u];
+      const bool ok = zp > 0.0f;
+      const float z = ok ? zp : 0.0f;
+      int r = static_cast<int>(base_r * z + const_r + 0.5f);
+      r = r < min_r ? min_r : r;
+      r = r > max_r ? max_r : r;
+      const int bu = (u < cols - 1 - u ? u : cols - 1 - u) - 1;
+      const int b = bu < border_v ? bu : border_v;
+      r = r < b ? r : b;
+      rr[u] = ok & (r >= min_r) ? r : 0;
+    }
+    // (b)
+    const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
+    for (int u = 0; u < cols; ++u) {
+      rnx[u] = rny[u] = rnz[u] = 0.0f;
+      int r = rr[u];
+      if (r == 0) continue;
+      const std::uint32_t* c0 = crow + u * L;
+      // Shrink the window until the union of the four windows (radius r + 1) holds no step mark
+      // (most pixels pass at the first try).
+      for (; r >= min_r; --r) {
+        const int R = r + 1, W = 2 * R + 1;
+        const std::uint32_t* a = c0 - R * rs - R * L;
+        const std::uint32_t st = a[W * rs + W * L] - a[W * L] - a[W * rs] + a[0];
+        if ((st >> 16) == 0) break;
+      }
+      if (r < min_r) continue;
+      const int w = 2 * r + 1;
+      const std::ptrdiff_t dw = w * rs, dh = w * L;
+      const std::uint32_t* al = c0 - r * rs - (r + 1) * L;  // top-left of the window at (u - 1, v)
+      const std::uint32_t* ar = al + 2 * L;
+      const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
+      const std::uint32_t* ad = au + 2 * rs;
+      const int min_n = std::max(4, static_cast<int>(min_frac * static_cast<float>(w * w)));
+      if constexpr (M == kGrad) {
+        auto win = [&](const std::uint32_t* a) { return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a); };
+        const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
+        const int nl = static_cast<int>(sl[0] & 0xFFFFu), nr = static_cast<int>(sr[0] & 0xFFFFu);
+        const int nu = static_cast<int>(su[0] & 0xFFFFu), nd = static_cast<int>(sd[0] & 0xFFFFu);
+        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
+        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * (1.0f / static_cast<float>(nl));
+        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * (1.0f / static_cast<float>(nr));
+        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * (1.0f / static_cast<float>(nu));
+        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * (1.0f / static_cast<float>(nd));
+        // Differences of the means of the four windows: the averaged tangents (for a plane the
+        // mean of 3D points lies on the plane).
+        const v4f h = mr - ml, t = md - mu;
+        rnx[u] = h[2] * t[3] - h[3] * t[2];
+        rny[u] = h[3] * t[1] - h[1] * t[3];
+        rnz[u] = h[1] * t[2] - h[2] * t[1];
+      } else {
+        const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
+        const std::ptrdiff_t rs64 = rs / 2;
+        auto win = [&](const std::uint32_t* a32) {
+          const std::uint64_t* a = I64 + (a32 - I) / 2;
+          return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
+        };
+        const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
+        const int nl = static_cast<int>(sl & 0xFFFFu), nr = static_cast<int>(sr & 0xFFFFu);
+        const int nu = static_cast<int>(su & 0xFFFFu), nd = static_cast<int>(sd & 0xFFFFu);
+        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
+        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * (1.0f / static_cast<float>(nl));
+        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * (1.0f / static_cast<float>(nr));
+        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * (1.0f / static_cast<float>(nu));
+        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * (1.0f / static_cast<float>(nd));
+        // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
+        // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
+        const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
+        const float zm = 0.25f * (zl + zr + zu_ + zd);
+        rnx[u] = fx * du;
+        rny[u] = fy * dv;
+        rnz[u] = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
+      }
+    }
+    // (c)
+    normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols, normals.ptr<float>(v));
+  }
+}
+
 void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr, cv::Mat& normals) {
   CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
   const int rows = input.rows, cols = input.cols;
+  zplane_.resize(static_cast<std::size_t>(rows) * cols);
   if (input.type() == CV_16UC1) {
     points_.create(rows, cols, CV_32FC3);
     const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
@@ -261,21 +485,30 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
       const auto* d = input.ptr<std::uint16_t>(v);
       auto* p = points_.ptr<cv::Vec3f>(v);
       const float ry = (static_cast<float>(v) - cy) * inv_fy;
+      float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       for (int u = 0; u < cols; ++u) {
         const float z = d[u] == 0 ? kNaN : static_cast<float>(d[u]) * 0.001f;
+        zr[u] = z;
         p[u] = cv::Vec3f((static_cast<float>(u) - cx) * inv_fx * z, ry * z, z);
       }
     }
   } else {
     input.copyTo(points_);
+    for (int v = 0; v < rows; ++v) {
+      const auto* p = points_.ptr<cv::Vec3f>(v);
+      float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
+      for (int u = 0; u < cols; ++u) zr[u] = p[u][2];
+    }
   }
   normals.create(rows, cols, CV_32FC3);
-  normals.setTo(cv::Scalar::all(kNaN));
   markSteps();
   switch (params_.method) {
-    case NormalMethod::kCovariance: run<kCov>(intr, normals); break;
-    case NormalMethod::kAverage3dGradient: run<kGrad>(intr, normals); break;
-    case NormalMethod::kAverageDepthChange: run<kDepth>(intr, normals); break;
+    case NormalMethod::kCovariance:
+      normals.setTo(cv::Scalar::all(kNaN));
+      run<kCov>(intr, normals);
+      break;
+    case NormalMethod::kAverage3dGradient: runGradient<kGrad>(intr, normals); break;
+    case NormalMethod::kAverageDepthChange: runGradient<kDepth>(intr, normals); break;
   }
 }
 

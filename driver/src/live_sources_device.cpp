@@ -42,6 +42,14 @@ LiveSource::~LiveSource() {
 
 std::string LiveSource::describe() const { return description_; }
 
+SourceHealth LiveSource::health() const {
+  const std::uint64_t connections = connections_.load();
+  return SourceHealth{.live = true,
+                      .connected = connected_.load(),
+                      .reconnects = connections > 0 ? connections - 1 : 0,
+                      .dropped_frames = dropped_.load()};
+}
+
 std::string LiveSource::lastError() const {
   std::lock_guard lock(mutex_);
   return last_error_;

@@ -37,8 +37,9 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
 
 Daemon::Daemon(const DaemonOptions& options) : cache_(options.cache_frames) {
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
-                                         makeDetectorChain(options.detectors), cache_, hub_);
+                                         makeDetectorChain(options.detectors), cache_, hub_, &tap_);
   ServiceContext context{.cache = cache_, .hub = hub_};
+  context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };
   server_ = std::make_unique<RpcServer>(options.listen, std::move(context));
   pipeline_->start();

@@ -10,6 +10,7 @@
 #include <systemd/sd-daemon.h>
 #endif
 
+#include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/server/daemon.h"
 
 namespace {
@@ -61,11 +62,21 @@ int main(int argc, char** argv) {
   app.add_option("--planes", planes, "Plane detector run on every frame: hough, ransac or none")
       ->check(CLI::IsMember({"hough", "ransac", "none"}))
       ->capture_default_str();
+  std::string check_fakenect;
+  app.add_option("--check-fakenect", check_fakenect,
+                 "Only check that DIR is a fakenect dump Debian's fakenect library can replay, print "
+                 "its problems and exit (0 = usable); used by scripts/shapesensed-fakenect");
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (!check_fakenect.empty()) {
+    const auto problems = shapesense::validateFakenectDump(check_fakenect);
+    for (const auto& problem : problems) std::cerr << problem << "\n";
+    if (problems.empty()) std::cout << check_fakenect << ": a usable fakenect dump\n";
+    return problems.empty() ? 0 : 1;
+  }
   options.pacing = rate == "max" ? shapesense::Pacing::kAsFastAsPossible : shapesense::Pacing::kRecorded;
   spdlog::set_level(spdlog::level::from_str(log_level));
   options.detectors.segmentation = shapesense::parseSegmentationMethod(segmentation);  // none -> off

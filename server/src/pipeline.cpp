@@ -10,17 +10,19 @@ const char* toString(SourceState state) {
     case SourceState::kEnded: return "ended";
     case SourceState::kFailed: return "failed";
     case SourceState::kStopped: return "stopped";
+    case SourceState::kReconnecting: return "reconnecting";
   }
   return "unknown";
 }
 
 Pipeline::Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
-                   SummaryHub& hub)
+                   SummaryHub& hub, FrameTap* tap)
     : source_(std::move(source)),
       source_name_(source_->describe()),
       chain_(std::move(chain)),
       cache_(cache),
-      hub_(hub) {}
+      hub_(hub),
+      tap_(tap) {}
 
 Pipeline::~Pipeline() { stop(); }
 
@@ -76,6 +78,7 @@ void Pipeline::captureLoop(std::stop_token stop) {
       continue;
     }
     ++received_;
+    if (tap_) tap_->publish(frame);
     {
       std::lock_guard lock(mutex_);
       if (waiting_) ++skipped_;
@@ -143,6 +146,10 @@ PipelineStatus Pipeline::status() const {
   s.source_errors = source_errors_;
   s.stages = latency_.summaries();
   s.detectors = chain_.stageNames();
+  s.health = source_->health();
+  if (s.state == SourceState::kStreaming && s.health.live && !s.health.connected) {
+    s.state = SourceState::kReconnecting;
+  }
   return s;
 }
 

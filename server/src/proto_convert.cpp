@@ -41,6 +41,7 @@ v1::GetStatusResponse::SourceState toProto(SourceState state) {
     case SourceState::kEnded: return v1::GetStatusResponse::ENDED;
     case SourceState::kFailed: return v1::GetStatusResponse::FAILED;
     case SourceState::kStopped: return v1::GetStatusResponse::STOPPED;
+    case SourceState::kReconnecting: return v1::GetStatusResponse::RECONNECTING;
   }
   return v1::GetStatusResponse::SOURCE_STATE_UNSPECIFIED;
 }

@@ -67,7 +67,8 @@ TEST(GetStatus, MapsEverySourceState) {
       {SourceState::kStreaming, v1::GetStatusResponse::STREAMING},
       {SourceState::kEnded, v1::GetStatusResponse::ENDED},
       {SourceState::kFailed, v1::GetStatusResponse::FAILED},
-      {SourceState::kStopped, v1::GetStatusResponse::STOPPED}};
+      {SourceState::kStopped, v1::GetStatusResponse::STOPPED},
+      {SourceState::kReconnecting, v1::GetStatusResponse::RECONNECTING}};
   SourceState current = SourceState::kStreaming;
   TestServer srv(4, [&] { return knownStatus(current); });
   for (const auto& [state, expected] : cases) {
@@ -120,6 +121,67 @@ TEST(GetStatus, UptimeGrows) {
   const double first = uptime();
   std::this_thread::sleep_for(std::chrono::milliseconds(30));
   EXPECT_GE(uptime() - first, 0.025);
+}
+
+/// A live source whose sensor state the test sets; delivers no frame until stopped.
+class FakeLiveSource final : public FrameSource {
+ public:
+  explicit FakeLiveSource(std::atomic<bool>& connected) : connected_(connected) {}
+  std::string describe() const override { return "freenect:0"; }
+  SourceEvent next(std::stop_token stop) override {
+    while (!stop.stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    return EndOfStream{};
+  }
+  SourceHealth health() const override {
+    return {.live = true, .connected = connected_.load(), .reconnects = 3, .dropped_frames = 11};
+  }
+
+ private:
+  std::atomic<bool>& connected_;
+};
+
+v1::GetStatusResponse statusOf(TestServer& srv) {
+  v1::GetStatusResponse response;
+  auto context = clientContext();
+  EXPECT_TRUE(srv.stub().GetStatus(context.get(), {}, &response).ok());
+  return response;
+}
+
+TEST(GetStatus, ReportsALostLiveSensorAsReconnecting) {
+  std::atomic<bool> connected{true};
+  FrameCache cache(4);
+  SummaryHub hub;
+  Pipeline pipeline(std::make_unique<FakeLiveSource>(connected), makeDetectorChain(DetectorConfig{}), cache, hub);
+  pipeline.start();
+  TestServer srv(4, [&] { return pipeline.status(); });
+
+  v1::GetStatusResponse response = statusOf(srv);
+  EXPECT_EQ(response.source_state(), v1::GetStatusResponse::STREAMING);
+  EXPECT_TRUE(response.source_live());
+  EXPECT_TRUE(response.source_connected());
+  EXPECT_EQ(response.source_reconnects(), 3u);
+  EXPECT_EQ(response.source_dropped_frames(), 11u);
+
+  connected = false;
+  response = statusOf(srv);
+  EXPECT_EQ(response.source_state(), v1::GetStatusResponse::RECONNECTING);
+  EXPECT_FALSE(response.source_connected());
+
+  connected = true;
+  EXPECT_EQ(statusOf(srv).source_state(), v1::GetStatusResponse::STREAMING);
+  pipeline.stop();
+  // Stopped wins over the sensor state.
+  connected = false;
+  EXPECT_EQ(statusOf(srv).source_state(), v1::GetStatusResponse::STOPPED);
+}
+
+TEST(GetStatus, RecordingsAreNotLiveAndAlwaysConnected) {
+  TestServer srv(4);  // default PipelineStatus: default SourceHealth
+  const v1::GetStatusResponse response = statusOf(srv);
+  EXPECT_FALSE(response.source_live());
+  EXPECT_TRUE(response.source_connected());
+  EXPECT_EQ(response.source_reconnects(), 0u);
+  EXPECT_EQ(response.source_dropped_frames(), 0u);
 }
 
 }  // namespace

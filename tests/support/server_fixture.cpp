@@ -18,9 +18,10 @@ Frame makeTestFrame(TimestampNs timestamp_ns, std::uint64_t sequence, bool with_
                                       height / 2.0 - 0.5, width, height};
   frame.depth.create(height, width, CV_16UC1);
   cv::RNG rng(0x5eed + sequence);
-  rng.fill(frame.depth, cv::RNG::UNIFORM, 300, 65536);  // the full 16-bit range
+  // Up to the largest depth a TUM recording holds exactly (65535 units / 5 per mm = 13107 mm).
+  rng.fill(frame.depth, cv::RNG::UNIFORM, 300, 13108);
   frame.depth.at<std::uint16_t>(0, 0) = 0;               // no reading
-  frame.depth.at<std::uint16_t>(1, 0) = 65535;
+  frame.depth.at<std::uint16_t>(1, 0) = 13107;
   if (with_rgb) {
     frame.rgb.create(height, width, CV_8UC3);
     rng.fill(frame.rgb, cv::RNG::UNIFORM, 0, 256);
@@ -39,6 +40,7 @@ TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus(
     : cache_(std::make_unique<FrameCache>(cache_capacity)) {
   ServiceContext context{.cache = *cache_, .hub = hub_};
   if (pipeline_status) context.pipeline_status = std::move(pipeline_status);
+  context.frame_tap = &tap_;
   server_ = std::make_unique<RpcServer>("127.0.0.1:0", std::move(context));
   channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
                                  grpc::InsecureChannelCredentials());
@@ -56,6 +58,7 @@ std::shared_ptr<const Frame> TestServer::add(TimestampNs timestamp_ns, bool with
                                              bool publish_results) {
   auto frame = std::make_shared<const Frame>(makeTestFrame(timestamp_ns, added_.size(), with_rgb));
   EXPECT_TRUE(cache_->insert(frame)) << "cache rejected frame at " << timestamp_ns;
+  tap_.publish(frame);
   if (publish_results) {
     EXPECT_TRUE(cache_->publishResults(frame->sequence, makeTestResults(*frame)));
   }

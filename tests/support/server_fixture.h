@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "shapesense/server/frame_cache.h"
+#include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/server/summary_hub.h"
@@ -41,13 +42,15 @@ class TestServer {
 
   FrameCache& cache() { return *cache_; }
   SummaryHub& hub() { return hub_; }
+  /// Fed by add(), as the pipeline feeds the daemon's (Record listens to it).
+  FrameTap& tap() { return tap_; }
   RpcServer& server() { return *server_; }
   v1::ShapeSense::Stub& stub() { return *stub_; }
   std::shared_ptr<grpc::Channel> channel() { return channel_; }
   int port() const { return server_->port(); }
 
-  /// Inserts the next frame (sequence = frames added so far) captured at `timestamp_ns`, and
-  /// publishes results for it unless `publish_results` is false.
+  /// Inserts the next frame (sequence = frames added so far) captured at `timestamp_ns`, hands
+  /// it to tap(), and publishes results for it unless `publish_results` is false.
   std::shared_ptr<const Frame> add(TimestampNs timestamp_ns, bool with_rgb = true,
                                    bool publish_results = true);
   /// Adds `count` frames kFramePeriodNs apart starting at `first_ns`.
@@ -59,6 +62,7 @@ class TestServer {
  private:
   std::unique_ptr<FrameCache> cache_;
   SummaryHub hub_;
+  FrameTap tap_;
   std::unique_ptr<RpcServer> server_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::ShapeSense::Stub> stub_;

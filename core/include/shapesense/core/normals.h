@@ -72,7 +72,9 @@ class NormalEstimator {
  private:
   void markSteps();
   template <int Mode>
-  void run(const CameraIntrinsics& intrinsics, cv::Mat& normals);
+  void run(const CameraIntrinsics& intrinsics, cv::Mat& normals);  // covariance
+  template <int Mode>
+  void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   NormalParams params_;
   cv::Mat points_;                      // CV_32FC3
@@ -80,6 +82,10 @@ class NormalEstimator {
   std::vector<std::uint32_t> mask_;     // integral of (valid + (step << 16)), wrap-around
   std::vector<double> integral_;        // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
   std::vector<std::int32_t> iintegral_;  // gradients: integral of (x, y, z) or (z), 0.1 mm units
+  std::vector<std::uint32_t> packed_;   // gradients: packed integral of (count | steps << 16, sums)
+  std::vector<float> zplane_;           // z of points_ (contiguous), NaN invalid
+  std::vector<int> rad_;                // one row of window radii
+  std::vector<float> row_n_;            // one row of unnormalised normals (x, y, z planes)
   std::vector<float> last_z_;           // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
 };

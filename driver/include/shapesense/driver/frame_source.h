@@ -2,6 +2,7 @@
 // The device interface: everything that delivers frames (a live sensor, a recording, the
 // synthetic scene) implements FrameSource, and nothing above driver/ knows which one it has.
 
+#include <cstdint>
 #include <memory>
 #include <stop_token>
 #include <string>
@@ -27,6 +28,15 @@ using SourceEvent = std::variant<Frame, SourceError, EndOfStream>;
 /// they are asked for.
 enum class Pacing { kRecorded, kAsFastAsPossible };
 
+/// The sensor state behind a source, for status displays. Recordings and the synthetic scene
+/// keep the default: not live, always connected.
+struct SourceHealth {
+  bool live = false;               ///< a sensor that can be lost and reopened
+  bool connected = true;           ///< open and delivering
+  std::uint64_t reconnects = 0;    ///< times reopened after a loss
+  std::uint64_t dropped_frames = 0;///< dropped because next() was not called fast enough
+};
+
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
@@ -38,6 +48,9 @@ class FrameSource {
   /// EndOfStream) once `stop` is requested. Frames carry increasing sequence numbers.
   /// Called from one thread at a time.
   virtual SourceEvent next(std::stop_token stop) = 0;
+
+  /// The sensor state; may be called from any thread while another calls next().
+  virtual SourceHealth health() const { return {}; }
 };
 
 }  // namespace shapesense

@@ -113,6 +113,8 @@ class LiveSource : public FrameSource {
   std::uint64_t droppedFrames() const { return dropped_.load(); }
   /// Last error reported (empty if none), for status displays.
   std::string lastError() const;
+  /// live, connected(), connections() - 1 (reopenings), droppedFrames().
+  SourceHealth health() const override;
 
  private:
   void run(std::stop_token stop);

@@ -9,6 +9,7 @@
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/server/detector_stage.h"
 #include "shapesense/server/frame_cache.h"
+#include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/server/summary_hub.h"
@@ -18,7 +19,7 @@ namespace shapesense {
 inline constexpr const char* kDefaultListenAddress = "127.0.0.1:50551";
 
 struct DaemonOptions {
-  /// "synthetic", "synthetic:SEED" or "tum:DIR".
+  /// "synthetic[:SEED]", "tum:DIR", "freenect[:SERIAL|INDEX]", "openni2[:URI]", "fakenect:DIR".
   std::string source = "synthetic";
   /// Recorded sources: at the recorded rate, or as fast as the pipeline takes frames.
   Pacing pacing = Pacing::kRecorded;
@@ -51,6 +52,7 @@ class Daemon {
  private:
   FrameCache cache_;
   SummaryHub hub_;
+  FrameTap tap_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<RpcServer> server_;
 };

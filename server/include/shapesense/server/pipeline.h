@@ -17,12 +17,15 @@
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/server/detector_stage.h"
 #include "shapesense/server/frame_cache.h"
+#include "shapesense/server/frame_tap.h"
 #include "shapesense/server/latency_tracker.h"
 #include "shapesense/server/summary_hub.h"
 
 namespace shapesense {
 
-enum class SourceState { kStreaming, kEnded, kFailed, kStopped };
+/// kReconnecting: a live sensor is not connected (not found yet, or lost and being reopened);
+/// the capture thread keeps waiting for it and the cache keeps serving.
+enum class SourceState { kStreaming, kEnded, kFailed, kStopped, kReconnecting };
 
 struct PipelineStatus {
   std::string source;
@@ -34,12 +37,13 @@ struct PipelineStatus {
   std::uint64_t source_errors = 0;
   std::vector<LatencySummary> stages;  ///< per stage, plus "total" for the whole chain
   std::vector<std::string> detectors;
+  SourceHealth health;  ///< the source's sensor state (FrameSource::health())
 };
 
 class Pipeline {
  public:
   Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
-           SummaryHub& hub);
+           SummaryHub& hub, FrameTap* tap = nullptr);
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
@@ -64,6 +68,7 @@ class Pipeline {
   DetectorChain chain_;
   FrameCache& cache_;
   SummaryHub& hub_;
+  FrameTap* tap_;  // may be null
   LatencyTracker latency_;
 
   mutable std::mutex mutex_;  // guards the fields below

@@ -5,10 +5,12 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <memory>
 
 #include <grpcpp/support/status.h>
 
 #include "shapesense/server/frame_cache.h"
+#include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/summary_hub.h"
 
@@ -22,6 +24,11 @@ struct ServiceContext {
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   /// Set at shutdown so open streams end promptly.
   const std::atomic<bool>* shutting_down = nullptr;
+  /// Every frame the source delivers (Record); null when nothing feeds one (Record then
+  /// answers UNIMPLEMENTED).
+  FrameTap* frame_tap = nullptr;
+  /// Set while a Record call runs; shared by the copies of this context.
+  std::shared_ptr<std::atomic<bool>> recording = std::make_shared<std::atomic<bool>>(false);
 
   bool shuttingDown() const { return shutting_down && shutting_down->load(); }
 };
