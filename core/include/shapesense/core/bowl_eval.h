@@ -1,0 +1,43 @@
+#pragma once
+// Detection scoring for the bowl detector: PASCAL VOC average precision (all-point
+// interpolated, VOC 2010+) at an IoU threshold, and the log-average-free "miss rate at a
+// false-positives-per-frame budget" used in pedestrian detection.
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/bowl_detector.h"
+
+namespace shapesense {
+
+struct BowlTruthBox {
+  cv::Rect box;
+  /// Ignored: matching it is neither a true nor a false positive, missing it is no miss
+  /// (tiny, mostly hidden or out-of-range bowls).
+  bool difficult = false;
+};
+
+struct BowlEvalFrame {
+  std::vector<BowlDetection> detections;
+  std::vector<BowlTruthBox> truth;
+};
+
+struct BowlEvalResult {
+  double ap = 0.0;                 ///< average precision at the IoU threshold
+  double miss_rate_at_fppi = 1.0;  ///< 1 - recall at the lowest score keeping FP/frame <= fppi
+  double max_recall = 0.0;         ///< recall with every detection
+  int positives = 0;               ///< non-difficult truth boxes
+  int frames = 0;
+  int true_positives = 0;          ///< at the lowest score (all detections)
+  int false_positives = 0;
+};
+
+/// Intersection over union of two boxes (0 when either is empty).
+double boxIoU(const cv::Rect& a, const cv::Rect& b);
+
+/// Greedy VOC matching per frame in decreasing score: a detection is a true positive when its
+/// best-IoU unmatched truth box has IoU >= iou (a difficult one: ignored), else a false positive.
+BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou = 0.5, double fppi = 0.1);
+
+}  // namespace shapesense

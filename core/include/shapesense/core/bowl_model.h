@@ -1,0 +1,51 @@
+#pragma once
+// A trained bowl classifier for one view and its model file (JSON, versioned).
+//
+// File format "shapesense-bowl-model", version 1 (one file per view, models/bowl_<view>.json):
+// {
+//   "format": "shapesense-bowl-model", "version": 1,
+//   "view": "top" | "middle" | "side",          // synthetic view class it was trained on
+//   "window": {"width": W, "height": H},          // classifier window, pixels
+//   "object_margin": m,                           // the object box is the window shrunk by
+//                                                 // m * W (resp. m * H) on each side
+//   "object_width_m": [lo, hi],                   // physical width range of the object box
+//                                                 // (the detector's depth gate)
+//   "preprocess": {"near_m", "far_m", "low", "high", "fill_passes", "unfilled_value"},
+//   "score_unit": 0.001,                          // scores/votes are integers in this unit
+//   "lbp": {"bit_order": "clockwise-from-top-left", "compare": "neighbour >= centre"},
+//   "training": {...},                            // free-form: how it was made (reproducibility)
+//   "stages": [{"x", "y", "cw", "ch", "threshold" (int or null = never rejects),
+//               "lut": [256 ints]}, ...]          // see waldboost.h
+// }
+// Loading is the only file I/O in core besides images; it throws std::runtime_error naming the
+// file on any malformed content.
+
+#include <filesystem>
+#include <string>
+
+#include "shapesense/core/depth_preprocess.h"
+#include "shapesense/core/waldboost.h"
+
+namespace shapesense {
+
+inline constexpr int kBowlModelVersion = 1;
+
+struct BowlViewModel {
+  std::string view;                 ///< "top", "middle" or "side"
+  WaldBoostClassifier classifier;
+  double object_margin = 0.125;     ///< see the file format
+  double min_object_width_m = 0.08; ///< depth gate, see the file format
+  double max_object_width_m = 0.45;
+  DepthPreprocessParams preprocess;
+  std::string training_json = "{}"; ///< the "training" object, verbatim
+
+  bool operator==(const BowlViewModel& o) const {
+    return view == o.view && classifier == o.classifier && object_margin == o.object_margin &&
+           min_object_width_m == o.min_object_width_m && max_object_width_m == o.max_object_width_m;
+  }
+};
+
+void saveBowlModel(const BowlViewModel& model, const std::filesystem::path& file);
+BowlViewModel loadBowlModel(const std::filesystem::path& file);
+
+}  // namespace shapesense

@@ -1,0 +1,187 @@
+#include "shapesense/core/bowl_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "shapesense/core/depth_preprocess.h"
+
+namespace shapesense {
+
+std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w, int min_h,
+                                               double max_scale, double min_integral_scale) {
+  CV_Assert(image8.type() == CV_8UC1 && scale_step > 1.0);
+  std::vector<BowlPyramidLevel> levels;
+  cv::Mat cur = image8;
+  double scale = 1.0;
+  while (cur.cols >= min_w && cur.rows >= min_h && scale <= max_scale) {
+    BowlPyramidLevel l;
+    l.scale = scale;
+    l.image8 = cur;
+    // A small tolerance: scales are products of scale_step and may round below the bound.
+    if (scale >= min_integral_scale * (1.0 - 1e-9)) cv::integral(cur, l.integral, CV_32S);
+    levels.push_back(std::move(l));
+    scale *= scale_step;
+    const cv::Size next(static_cast<int>(std::lround(image8.cols / scale)), static_cast<int>(std::lround(image8.rows / scale)));
+    if (next.width < 1 || next.height < 1) break;
+    cv::Mat nxt;
+    cv::resize(cur, nxt, next, 0, 0, cv::INTER_LINEAR);
+    cur = nxt;
+  }
+  return levels;
+}
+
+double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b) {
+  const double r1 = std::min(a.width, a.height) / 2.0, r2 = std::min(b.width, b.height) / 2.0;
+  if (r1 <= 0 || r2 <= 0) return 0.0;
+  const double d = std::hypot((a.x + a.width / 2.0) - (b.x + b.width / 2.0), (a.y + a.height / 2.0) - (b.y + b.height / 2.0));
+  const double small = std::min(r1, r2), large = std::max(r1, r2);
+  const double small_area = std::numbers::pi * small * small;
+  if (d >= r1 + r2) return 0.0;
+  if (d <= large - small) return 1.0;
+  // Lens area of two intersecting circles.
+  const double a1 = r1 * r1 * std::acos(std::clamp((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0, 1.0));
+  const double a2 = r2 * r2 * std::acos(std::clamp((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0, 1.0));
+  const double k = 0.5 * std::sqrt(std::max(0.0, (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2)));
+  return std::clamp((a1 + a2 - k) / small_area, 0.0, 1.0);
+}
+
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap) {
+  std::stable_sort(dets.begin(), dets.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+  std::vector<BowlDetection> kept;
+  for (auto& d : dets) {
+    bool distinct = true;
+    for (const auto& k : kept)
+      if (inscribedCircleOverlap(d.box, k.box) >= max_overlap) {
+        distinct = false;
+        break;
+      }
+    if (distinct) kept.push_back(std::move(d));
+  }
+  return kept;
+}
+
+std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
+                                         const cv::Mat& filled_mm, double fx, int stride,
+                                         std::int32_t min_final_score) {
+  std::vector<BowlWindowHit> hits;
+  const auto& clf = model.classifier;
+  const int W = clf.win_w, H = clf.win_h;
+  const int lw = level.image8.cols, lh = level.image8.rows;
+  if (lw < W || lh < H) return hits;  // no stages: every gated window (bootstrapping)
+  const int istride = static_cast<int>(level.integral.step1());
+  const auto offsets = clf.offsetsFor(istride);
+  // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
+  // that * z / fx metres.
+  const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
+  const bool gate = !filled_mm.empty() && fx > 0;
+  const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
+  const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
+  for (int y = 0; y + H <= lh; y += stride) {
+    const std::int32_t* row = level.integral.ptr<std::int32_t>(y);
+    const std::uint16_t* zrow = nullptr;
+    if (gate) {
+      const int oy = std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale));
+      zrow = filled_mm.ptr<std::uint16_t>(oy);
+    }
+    for (int x = 0; x + W <= lw; x += stride) {
+      if (gate) {
+        const int ox = std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale));
+        const double z = zrow[ox];
+        if (z < zmin_mm || z > zmax_mm) continue;
+      }
+      std::int32_t score = 0;
+      if (clf.evaluate(row + x, offsets.data(), score) && score >= min_final_score) hits.push_back({x, y, score});
+    }
+  }
+  return hits;
+}
+
+BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorParams params) {
+  std::vector<BowlViewModel> models;
+  if (std::filesystem::is_directory(path)) {
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(path)) {
+      const auto name = e.path().filename().string();
+      if (e.is_regular_file() && name.starts_with("bowl_") && e.path().extension() == ".json") files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) models.push_back(loadBowlModel(f));
+  } else {
+    models.push_back(loadBowlModel(path));
+  }
+  if (models.empty()) throw std::runtime_error("no bowl_*.json model in " + path.string());
+  return BowlDetector(std::move(models), std::move(params));
+}
+
+BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams params)
+    : models_(std::move(models)), params_(std::move(params)) {
+  if (models_.empty()) throw std::runtime_error("BowlDetector: no models");
+  const auto& p0 = models_.front().preprocess;
+  for (const auto& m : models_) {
+    const auto& p = m.preprocess;
+    if (p.near_m != p0.near_m || p.far_m != p0.far_m || p.low != p0.low || p.high != p0.high)
+      throw std::runtime_error("BowlDetector: models disagree on the depth mapping");
+  }
+}
+
+std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
+  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
+  cv::Mat filled;
+  const cv::Mat img8 = preprocessDepth(depth_mm, models_.front().preprocess, &filled);
+  std::vector<const BowlViewModel*> active;
+  int min_w = INT32_MAX, min_h = INT32_MAX;
+  double min_obj_frac = 1.0;
+  for (const auto& m : models_) {
+    if (!params_.views.empty() && std::find(params_.views.begin(), params_.views.end(), m.view) == params_.views.end()) continue;
+    active.push_back(&m);
+    min_w = std::min(min_w, m.classifier.win_w);
+    min_h = std::min(min_h, m.classifier.win_h);
+    min_obj_frac = std::min(min_obj_frac, 1.0 - 2.0 * m.object_margin);
+  }
+  if (active.empty()) return {};
+  const double max_scale = params_.max_object_px / (min_w * min_obj_frac);
+  double min_scale = 1e9;  // the finest level any view searches
+  for (const auto* m : active)
+    min_scale = std::min(min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
+  const auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
+  const cv::Mat gate = params_.depth_gate ? filled : cv::Mat();
+  const auto min_score = static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
+
+  // One task per (level, view); results gathered per task so the output order is fixed.
+  std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
+  auto run = [&](std::size_t task) {
+    const auto& level = levels[task / active.size()];
+    const auto& m = *active[task % active.size()];
+    const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
+    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty()) return;
+    const auto hits = scanBowlLevel(m, level, gate, intr.fx, params_.stride, min_score);
+    const double mx = m.object_margin * m.classifier.win_w, my = m.object_margin * m.classifier.win_h;
+    const double ow = m.classifier.win_w - 2 * mx, oh = m.classifier.win_h - 2 * my;
+    for (const auto& h : hits) {
+      cv::Rect box(static_cast<int>(std::lround((h.x + mx) * level.scale)), static_cast<int>(std::lround((h.y + my) * level.scale)),
+                   static_cast<int>(std::lround(ow * level.scale)), static_cast<int>(std::lround(oh * level.scale)));
+      per_task[task].push_back({box, h.score * kWaldBoostScoreUnit, m.view});
+    }
+  };
+  if (params_.parallel) {
+    cv::parallel_for_(cv::Range(0, static_cast<int>(per_task.size())), [&](const cv::Range& r) {
+      for (int i = r.start; i < r.end; ++i) run(static_cast<std::size_t>(i));
+    });
+  } else {
+    for (std::size_t i = 0; i < per_task.size(); ++i) run(i);
+  }
+  std::vector<BowlDetection> out;
+  for (auto& v : per_task) out.insert(out.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
+  return out;
+}
+
+std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
+  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap);
+}
+
+}  // namespace shapesense

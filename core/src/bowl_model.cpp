@@ -1,0 +1,99 @@
+#include "shapesense/core/bowl_model.h"
+
+#include <fstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+namespace shapesense {
+
+using nlohmann::json;
+
+void saveBowlModel(const BowlViewModel& m, const std::filesystem::path& file) {
+  json j;
+  j["format"] = "shapesense-bowl-model";
+  j["version"] = kBowlModelVersion;
+  j["view"] = m.view;
+  j["window"] = {{"width", m.classifier.win_w}, {"height", m.classifier.win_h}};
+  j["object_margin"] = m.object_margin;
+  j["object_width_m"] = {m.min_object_width_m, m.max_object_width_m};
+  const auto& p = m.preprocess;
+  j["preprocess"] = {{"near_m", p.near_m}, {"far_m", p.far_m}, {"low", p.low}, {"high", p.high},
+                     {"fill_passes", p.fill_passes}, {"unfilled_value", p.unfilled_value}};
+  j["score_unit"] = kWaldBoostScoreUnit;
+  j["lbp"] = {{"bit_order", "clockwise-from-top-left"}, {"compare", "neighbour >= centre"}};
+  j["training"] = json::parse(m.training_json.empty() ? "{}" : m.training_json);
+  json stages = json::array();
+  for (const auto& s : m.classifier.stages) {
+    json js = {{"x", s.feature.x}, {"y", s.feature.y}, {"cw", s.feature.cw}, {"ch", s.feature.ch}};
+    js["threshold"] = s.threshold == INT32_MIN ? json(nullptr) : json(s.threshold);
+    js["lut"] = s.lut;
+    stages.push_back(std::move(js));
+  }
+  j["stages"] = std::move(stages);
+  const auto tmp = std::filesystem::path(file.string() + ".tmp");
+  {
+    std::ofstream out(tmp);
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+    // One stage per line keeps diffs of retrained models readable and the file compact.
+    out << "{\n";
+    bool first = true;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (it.key() == "stages") continue;
+      out << (first ? "" : ",\n") << "  " << json(it.key()).dump() << ": " << it.value().dump();
+      first = false;
+    }
+    out << ",\n  \"stages\": [\n";
+    for (std::size_t i = 0; i < j["stages"].size(); ++i)
+      out << "    " << j["stages"][i].dump() << (i + 1 < j["stages"].size() ? ",\n" : "\n");
+    out << "  ]\n}\n";
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  std::filesystem::rename(tmp, file);
+}
+
+BowlViewModel loadBowlModel(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error("cannot open bowl model " + file.string());
+  try {
+    const json j = json::parse(in);
+    if (j.at("format").get<std::string>() != "shapesense-bowl-model")
+      throw std::runtime_error("not a shapesense-bowl-model");
+    if (j.at("version").get<int>() != kBowlModelVersion)
+      throw std::runtime_error("unsupported version " + j.at("version").dump());
+    BowlViewModel m;
+    m.view = j.at("view").get<std::string>();
+    m.classifier.win_w = j.at("window").at("width").get<int>();
+    m.classifier.win_h = j.at("window").at("height").get<int>();
+    m.object_margin = j.at("object_margin").get<double>();
+    m.min_object_width_m = j.at("object_width_m").at(0).get<double>();
+    m.max_object_width_m = j.at("object_width_m").at(1).get<double>();
+    const auto& p = j.at("preprocess");
+    m.preprocess.near_m = p.at("near_m").get<double>();
+    m.preprocess.far_m = p.at("far_m").get<double>();
+    m.preprocess.low = p.at("low").get<int>();
+    m.preprocess.high = p.at("high").get<int>();
+    m.preprocess.fill_passes = p.at("fill_passes").get<int>();
+    m.preprocess.unfilled_value = p.at("unfilled_value").get<int>();
+    if (j.at("score_unit").get<double>() != kWaldBoostScoreUnit) throw std::runtime_error("unsupported score_unit");
+    m.training_json = j.contains("training") ? j["training"].dump() : "{}";
+    for (const auto& js : j.at("stages")) {
+      WaldBoostStage s;
+      s.feature = {js.at("x").get<int>(), js.at("y").get<int>(), js.at("cw").get<int>(), js.at("ch").get<int>()};
+      const auto& f = s.feature;
+      if (f.x < 0 || f.y < 0 || f.cw < 1 || f.ch < 1 || f.x + 3 * f.cw > m.classifier.win_w ||
+          f.y + 3 * f.ch > m.classifier.win_h)
+        throw std::runtime_error("stage feature outside the window");
+      s.threshold = js.at("threshold").is_null() ? INT32_MIN : js.at("threshold").get<std::int32_t>();
+      const auto& lut = js.at("lut");
+      if (lut.size() != 256) throw std::runtime_error("lut must have 256 entries");
+      for (int k = 0; k < 256; ++k) s.lut[k] = lut.at(k).get<std::int16_t>();
+      m.classifier.stages.push_back(s);
+    }
+    return m;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("bad bowl model " + file.string() + ": " + e.what());
+  }
+}
+
+}  // namespace shapesense

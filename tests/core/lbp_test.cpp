@@ -1,0 +1,55 @@
+// LBP codes over 3x3 cell grids: hand-made patterns, and integral-image codes equal to the
+// direct summation for every feature of a window.
+#include <gtest/gtest.h>
+
+#include "shapesense/core/lbp.h"
+
+namespace shapesense {
+namespace {
+
+cv::Mat grid(const int v[9], int cw, int ch) {
+  cv::Mat m(3 * ch, 3 * cw, CV_8UC1);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m(cv::Rect(j * cw, i * ch, cw, ch)).setTo(v[i * 3 + j]);
+  return m;
+}
+
+TEST(Lbp, HandMadePatterns) {
+  // Bit k = neighbour k >= centre, k clockwise from the top-left: 0 1 2 / 7 . 3 / 6 5 4.
+  const int only_top_left[9] = {9, 1, 1, 1, 5, 1, 1, 1, 1};
+  EXPECT_EQ(lbpCodeDirect(grid(only_top_left, 1, 1), 0, 0, 1, 1), 0x01);
+  const int flat[9] = {7, 7, 7, 7, 7, 7, 7, 7, 7};
+  EXPECT_EQ(lbpCodeDirect(grid(flat, 2, 2), 0, 0, 2, 2), 0xFF);  // ties count as >=
+  const int right_column[9] = {0, 0, 9, 0, 5, 9, 0, 0, 9};  // bits 2, 3, 4
+  EXPECT_EQ(lbpCodeDirect(grid(right_column, 2, 1), 0, 0, 2, 1), 0x1C);
+  const int left_column[9] = {9, 0, 0, 9, 5, 0, 9, 0, 0};  // bits 0, 6, 7
+  EXPECT_EQ(lbpCodeDirect(grid(left_column, 1, 2), 0, 0, 1, 2), 0xC1);
+  // A depth ramp increasing downwards (a table seen from above): the bottom row is farther.
+  const int ramp[9] = {10, 10, 10, 20, 20, 20, 30, 30, 30};
+  EXPECT_EQ(lbpCodeDirect(grid(ramp, 2, 2), 0, 0, 2, 2), 0xF8);  // bits 3 (tie), 4, 5, 6, 7 (tie)
+}
+
+TEST(Lbp, IntegralCodesEqualDirectCodesForEveryFeature) {
+  cv::RNG rng(42);
+  cv::Mat img(40, 50, CV_8UC1);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  const cv::Mat ii = lbpIntegral(img);
+  const auto features = enumerateLbpFeatures(24, 18, 2);
+  for (const auto& f : features)
+    for (const auto& [wx, wy] : {std::pair{0, 0}, std::pair{5, 3}, std::pair{26, 22}}) {
+      ASSERT_EQ(lbpCodeAt(ii, f, wx, wy), lbpCodeDirect(img, wx + f.x, wy + f.y, f.cw, f.ch))
+          << f.x << "," << f.y << " cell " << f.cw << "x" << f.ch << " at " << wx << "," << wy;
+    }
+}
+
+TEST(Lbp, EnumerationCoversAllFittingGrids) {
+  // 24x24, cells 1-2: 22*22 (1x1) + 19*22 (2x1) + 22*19 (1x2) + 19*19 (2x2).
+  EXPECT_EQ(enumerateLbpFeatures(24, 24, 2).size(), 22u * 22 + 19 * 22 * 2 + 19 * 19);
+  for (const auto& f : enumerateLbpFeatures(24, 16, 2)) {
+    EXPECT_LE(f.x + 3 * f.cw, 24);
+    EXPECT_LE(f.y + 3 * f.ch, 16);
+  }
+}
+
+}  // namespace
+}  // namespace shapesense

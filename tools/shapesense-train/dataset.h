@@ -1,0 +1,63 @@
+#pragma once
+// Bowl datasets for shapesense-train: a folder of depth frames with bowl annotations.
+//
+// Layout (version 1):
+//   <dir>/dataset.json       {"format": "shapesense-bowl-dataset", "version": 1,
+//                             "generator": {...how it was made...}}
+//   <dir>/annotations.jsonl  one line per frame: {"file": "frames/000123.png",
+//                             "fx": .., "fy": .., "cx": .., "cy": .., "negative": bool,
+//                             "bowls": [{"box": [x, y, w, h], "view": "middle",
+//                                        "upright": true, "difficult": false}, ...]}
+//   <dir>/frames/*.png       16-bit depth, millimetres, 0 = no reading
+// "negative" frames hold no upright bowl and feed the bootstrapping; the others give the
+// positives (upright, not difficult bowls) and the evaluation truth.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/camera.h"
+
+namespace shapesense::train {
+
+struct BowlAnnotation {
+  cv::Rect box;
+  std::string view;
+  bool upright = true;
+  bool difficult = false;
+};
+
+struct DatasetFrame {
+  std::string file;  // relative to the dataset folder
+  CameraIntrinsics intrinsics;
+  bool negative = false;
+  std::vector<BowlAnnotation> bowls;
+};
+
+struct GenerateParams {
+  std::uint64_t seed = 1;
+  int positive_scenes = 240;  // scenes with upright bowls, a quarter per camera preset
+  int negative_scenes = 120;  // scenes without upright bowls (upside-down ones allowed)
+  int frames_per_scene = 2;   // frames 0 and 45 (1.5 s of camera sway apart)
+  /// Fraction of frames whose room (floor, walls: object id 0) reads no depth, as in
+  /// recordings whose background was cut away. Default 0.5.
+  double blank_room_fraction = 0.5;
+  int threads = 2;
+};
+
+/// Renders synthetic scenes into `dir` (created). Prints progress to stderr.
+void generateDataset(const std::filesystem::path& dir, const GenerateParams& params);
+
+std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir);
+
+/// Reads one frame's depth (CV_16UC1 mm).
+cv::Mat readDepth(const std::filesystem::path& dir, const DatasetFrame& frame);
+
+/// The annotation rule for difficult bowls (shared with the tests' evaluation): boxes under
+/// 20 px wide or 12 px high, or less than 25% of the box covered by bowl pixels.
+bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count);
+
+}  // namespace shapesense::train
