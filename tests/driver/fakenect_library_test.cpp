@@ -30,12 +30,15 @@
 #include <thread>
 #include <variant>
 
+#include "self_exec.h"
 #include "test_paths.h"
 
 namespace shapesense {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::fakenectLibraryDir;
+using testing::runSelf;
 using namespace std::chrono_literals;
 
 constexpr int kFrames = 12;
@@ -51,45 +54,6 @@ Frame syntheticFrame(int i) {
       .frame;
 }
 
-/// Debian installs fakenect's libfreenect.so.0.5 in <multiarch libdir>/fakenect.
-std::optional<fs::path> fakenectLibraryDir() {
-  for (const char* dir : {"/usr/lib/x86_64-linux-gnu/fakenect", "/usr/lib/aarch64-linux-gnu/fakenect",
-                          "/usr/lib/arm-linux-gnueabihf/fakenect", "/usr/lib/fakenect"}) {
-    if (fs::exists(fs::path(dir) / "libfreenect.so.0.5")) return fs::path(dir);
-  }
-  return std::nullopt;
-}
-
-/// Runs this binary again with `env` added and a gtest filter; returns (exit status, output).
-std::pair<int, std::string> runSelf(const std::string& filter, const std::vector<std::string>& env,
-                                    const fs::path& log, std::chrono::seconds limit) {
-  const fs::path self = fs::read_symlink("/proc/self/exe");
-  const pid_t pid = fork();
-  if (pid == 0) {
-    for (const auto& assignment : env) putenv(const_cast<char*>(assignment.c_str()));
-    std::FILE* out = std::freopen(log.c_str(), "w", stdout);
-    if (out == nullptr || dup2(fileno(stdout), STDERR_FILENO) < 0) _exit(126);
-    const std::string filter_arg = "--gtest_filter=" + filter;
-    execl(self.c_str(), self.c_str(), filter_arg.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int status = 0;
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  while (waitpid(pid, &status, WNOHANG) == 0) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      status = -1;
-      break;
-    }
-    std::this_thread::sleep_for(50ms);
-  }
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  const int code = status == -1 ? -1 : (WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status));
-  return {code, text.str()};
-}
 
 TEST(FakenectLibrary, FreenectSourceReplaysADumpAndReportsItsEndAsLoss) {
   const auto library_dir = fakenectLibraryDir();
