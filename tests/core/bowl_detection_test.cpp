@@ -13,7 +13,7 @@ namespace shapesense {
 namespace {
 
 std::filesystem::path shippedModels() {
-  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() / "models";
+  return std::filesystem::path(SHAPESENSE_SOURCE_DIR) / "models";
 }
 
 // The same difficult rule as shapesense-train's datasets (tools/shapesense-train/dataset.h).

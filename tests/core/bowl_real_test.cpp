@@ -16,7 +16,7 @@ namespace shapesense {
 namespace {
 
 std::filesystem::path shippedModels() {
-  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() / "models";
+  return std::filesystem::path(SHAPESENSE_SOURCE_DIR) / "models";
 }
 
 // x0 y0 x1 y1 inclusive, from shared/data/real/SOURCES.md.
