@@ -31,35 +31,8 @@ void runRecord(cli::GlobalOptions& global, std::vector<std::string> args) {
   app.parse(args);
 }
 
-std::vector<Frame> replayAll(const fs::path& dir) {
-  ReplaySource replay(dir, ReplayOptions{.pacing = Pacing::kAsFastAsPossible});
-  std::vector<Frame> frames;
-  std::stop_source stop;
-  while (true) {
-    SourceEvent event = replay.next(stop.get_token());
-    if (std::holds_alternative<EndOfStream>(event)) break;
-    EXPECT_TRUE(std::holds_alternative<Frame>(event)) << std::get<SourceError>(event).message;
-    if (auto* frame = std::get_if<Frame>(&event)) frames.push_back(std::move(*frame));
-  }
-  return frames;
-}
-
-/// camera.json holds the first recorded frame's intrinsics (the fixture's vary per frame).
-void expectSameFrame(const Frame& a, const Frame& b, TimestampNs b_stamp, const CameraIntrinsics& camera) {
-  EXPECT_EQ(a.timestamp_ns, b_stamp);
-  ASSERT_EQ(a.depth.size(), b.depth.size());
-  EXPECT_EQ(cv::norm(a.depth, b.depth, cv::NORM_INF), 0.0);
-  ASSERT_EQ(a.rgb.empty(), b.rgb.empty());
-  if (!b.rgb.empty()) {
-    EXPECT_EQ(cv::norm(a.rgb, b.rgb, cv::NORM_INF), 0.0);
-  }
-  EXPECT_EQ(a.intrinsics.fx, camera.fx);
-  EXPECT_EQ(a.intrinsics.fy, camera.fy);
-  EXPECT_EQ(a.intrinsics.cx, camera.cx);
-  EXPECT_EQ(a.intrinsics.cy, camera.cy);
-  EXPECT_EQ(a.intrinsics.width, camera.width);
-  EXPECT_EQ(a.intrinsics.height, camera.height);
-}
+using testing::expectSameFrame;
+using testing::replayAll;
 
 TEST(RecordCommand, WithSourceRecordsARecordingThatReplaysBitIdentically) {
   const fs::path original = testing::makeSmallRecording("record_cli_original", 6);

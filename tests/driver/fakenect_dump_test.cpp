@@ -2,6 +2,7 @@
 // and the errors a bad dump produces.
 
 #include "shapesense/driver/fakenect_dump.h"
+#include "shapesense/driver/kinect_raw.h"
 
 #include <gtest/gtest.h>
 
@@ -10,50 +11,21 @@
 #include <variant>
 #include <vector>
 
-#include "shapesense/driver/synthetic_scene.h"
+#include "depth_compare.h"
+#include "synthetic_frames.h"
 #include "test_paths.h"
 
 namespace shapesense {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr TimestampNs kStart = 1'700'000'000'000'000'000;
-
-std::vector<Frame> syntheticFrames(int count, std::vector<synthetic::TruthFrame>* truths = nullptr) {
-  synthetic::SceneParams params;
-  params.seed = 7;
-  const synthetic::SyntheticScene scene(params);
-  std::vector<Frame> frames;
-  for (int i = 0; i < count; ++i) {
-    auto rendered = scene.render(i, kStart + static_cast<TimestampNs>(std::llround(i * 1e9 / 30.0)));
-    frames.push_back(std::move(rendered.frame));
-    if (truths) truths->push_back(std::move(rendered.truth));
-  }
-  return frames;
-}
+constexpr std::uint64_t kSeed = 7;
 
 std::vector<std::string> readLines(const fs::path& file) {
   std::ifstream in(file);
   std::vector<std::string> lines;
   for (std::string line; std::getline(in, line);) lines.push_back(line);
   return lines;
-}
-
-/// Pixels whose round trip exceeds half a raw step (+0.5 mm); zero must stay zero.
-int roundTripViolations(const cv::Mat& original_mm, const cv::Mat& back_mm) {
-  int violations = 0;
-  for (int y = 0; y < original_mm.rows; ++y) {
-    for (int x = 0; x < original_mm.cols; ++x) {
-      const int a = original_mm.at<std::uint16_t>(y, x), b = back_mm.at<std::uint16_t>(y, x);
-      if (a == 0 || b == 0) {
-        violations += (a == 0) != (b == 0);
-        continue;
-      }
-      const double bound = 1000.0 * kinectRawDepthStep(a / 1000.0) / 2.0 * 1.02 + 0.5;
-      violations += std::abs(a - b) > bound;
-    }
-  }
-  return violations;
 }
 
 TEST(FakenectDump, ParsesRecordNames) {
@@ -71,7 +43,7 @@ TEST(FakenectDump, ParsesRecordNames) {
 
 TEST(FakenectDump, WriterProducesTheRecordLayout) {
   const fs::path dir = testing::scratchDir("fakenect_layout");
-  const auto frames = syntheticFrames(3);
+  const auto frames = testing::syntheticFrames(kSeed, 3);
   writeFakenectDump(dir, frames, FakenectWriteOptions{.first_device_ticks = 1000});
   const auto lines = readLines(dir / "INDEX.txt");
   ASSERT_EQ(lines.size(), 6u);
@@ -93,8 +65,9 @@ TEST(FakenectDump, WriterProducesTheRecordLayout) {
 
 TEST(FakenectDump, RoundTripThroughOwnReaderIsWithinRawQuantisation) {
   const fs::path dir = testing::scratchDir("fakenect_round_trip");
-  std::vector<synthetic::TruthFrame> truths;
-  const auto frames = syntheticFrames(6, &truths);
+  const auto rendered = testing::renderSyntheticSequence(kSeed, 6);
+  std::vector<Frame> frames;
+  for (const auto& r : rendered) frames.push_back(r.frame);
   // Start 2 frames before the 32-bit counter wraps.
   writeFakenectDump(dir, frames, FakenectWriteOptions{.first_device_ticks = 0xFFFFFFFFu - 3'000'000});
   FakenectDumpSource source(dir, FakenectDumpOptions{.pacing = Pacing::kAsFastAsPossible});
@@ -110,12 +83,12 @@ TEST(FakenectDump, RoundTripThroughOwnReaderIsWithinRawQuantisation) {
     // Capture times are the device counter mapped against the recorded host times; with
     // exact recorded times that is the original stamp (to the microsecond of the file name).
     EXPECT_NEAR(static_cast<double>(frame.timestamp_ns - frames[i].timestamp_ns), 0.0, 2000.0);
-    EXPECT_EQ(roundTripViolations(frames[i].depth, frame.depth), 0) << "frame " << i;
+    EXPECT_EQ(testing::compareThroughRawDisparity(frames[i].depth, frame.depth).violations, 0) << "frame " << i;
     EXPECT_EQ(cv::norm(frame.depth, frames[i].depth, cv::NORM_INF) > 0, true);  // quantised
     ASSERT_FALSE(frame.rgb.empty());
     EXPECT_EQ(cv::norm(frame.rgb, frames[i].rgb, cv::NORM_INF), 0.0);
     // Against the noise-free truth: within the sensor noise plus one raw step.
-    const cv::Mat& ideal = truths[i].ideal_depth;
+    const cv::Mat& ideal = rendered[i].truth.ideal_depth;
     double sum = 0;
     int n = 0;
     for (int y = 0; y < ideal.rows; y += 4) {
@@ -134,7 +107,7 @@ TEST(FakenectDump, RoundTripThroughOwnReaderIsWithinRawQuantisation) {
 
 TEST(FakenectDump, DepthOnlyFramesAndPacing) {
   const fs::path dir = testing::scratchDir("fakenect_paced");
-  auto frames = syntheticFrames(4);
+  auto frames = testing::syntheticFrames(kSeed, 4);
   for (auto& frame : frames) frame.rgb.release();
   writeFakenectDump(dir, frames);
   EXPECT_EQ(readLines(dir / "INDEX.txt").size(), 4u);
@@ -165,7 +138,7 @@ class BrokenDump : public ::testing::Test {
   void SetUp() override {
     dir = testing::scratchDir(std::string("fakenect_broken_") +
                               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    writeFakenectDump(dir, syntheticFrames(3));
+    writeFakenectDump(dir, testing::syntheticFrames(kSeed, 3));
     lines = readLines(dir / "INDEX.txt");
   }
   fs::path dir;

@@ -10,7 +10,6 @@
 
 #include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/driver/freenect_source.h"
-#include "shapesense/driver/synthetic_scene.h"
 
 #include <gtest/gtest.h>
 
@@ -30,7 +29,9 @@
 #include <thread>
 #include <variant>
 
+#include "depth_compare.h"
 #include "self_exec.h"
+#include "synthetic_frames.h"
 #include "test_paths.h"
 
 namespace shapesense {
@@ -43,24 +44,14 @@ using namespace std::chrono_literals;
 
 constexpr int kFrames = 12;
 constexpr std::uint64_t kSeed = 3;
-constexpr TimestampNs kStart = 1'700'000'000'000'000'000;
 constexpr const char* kInnerEnv = "SHAPESENSE_FAKENECT_INNER";
-
-Frame syntheticFrame(int i) {
-  synthetic::SceneParams params;
-  params.seed = kSeed;
-  return synthetic::SyntheticScene(params)
-      .render(static_cast<std::uint64_t>(i), kStart + static_cast<TimestampNs>(std::llround(i * 1e9 / 30.0)))
-      .frame;
-}
 
 
 TEST(FakenectLibrary, FreenectSourceReplaysADumpAndReportsItsEndAsLoss) {
   const auto library_dir = fakenectLibraryDir();
   if (!library_dir) GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
   const fs::path dump = testing::scratchDir("fakenect_library_dump");
-  std::vector<Frame> frames;
-  for (int i = 0; i < kFrames; ++i) frames.push_back(syntheticFrame(i));
+  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);
   // Start just before a wrap of the 32-bit device counter.
   FakenectWriteOptions write_options;
   write_options.first_device_ticks = 0xFFFFFFFFu - 4'000'000u;
@@ -94,6 +85,9 @@ TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
   ASSERT_NE(dladdr(reinterpret_cast<void*>(&freenect_process_events), &info), 0);
   ASSERT_NE(std::string(info.dli_fname).find("fakenect"), std::string::npos) << info.dli_fname;
 
+  // Rendered before the source opens: fakenect starts replaying at once.
+  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
+
   FreenectOptions options;
   options.live.frame_timeout = 2s;
   options.live.reopen_interval = 200ms;
@@ -125,23 +119,11 @@ TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
     if (i > 0) gaps_ms.push_back((frame.timestamp_ns - previous) / 1e6);
     previous = frame.timestamp_ns;
 
-    const Frame truth = syntheticFrame(i);
+    const Frame& truth = frames[i];
     ASSERT_EQ(frame.depth.size(), truth.depth.size());
-    int violations = 0, compared = 0;
-    for (int y = 0; y < truth.depth.rows; ++y) {
-      for (int x = 0; x < truth.depth.cols; ++x) {
-        const int want = truth.depth.at<std::uint16_t>(y, x), got = frame.depth.at<std::uint16_t>(y, x);
-        if (want == 0 || got == 0) {
-          violations += (want == 0) != (got == 0);
-          continue;
-        }
-        ++compared;
-        const double bound = 1000.0 * kinectRawDepthStep(want / 1000.0) / 2.0 * 1.02 + 0.5;
-        violations += std::abs(got - want) > bound;
-      }
-    }
-    EXPECT_GT(compared, 200'000) << "frame " << i;
-    EXPECT_EQ(violations, 0) << "frame " << i;
+    const auto comparison = testing::compareThroughRawDisparity(truth.depth, frame.depth);
+    EXPECT_GT(comparison.compared, 200'000) << "frame " << i;
+    EXPECT_EQ(comparison.violations, 0) << "frame " << i;
     ASSERT_FALSE(frame.rgb.empty()) << "frame " << i;
     EXPECT_EQ(cv::norm(frame.rgb, truth.rgb, cv::NORM_INF), 0.0) << "frame " << i;
   }

@@ -3,6 +3,7 @@
 // reopening, stamping across counter wraps and reconnects, queue overflow and stopping.
 
 #include "shapesense/driver/live_sources_device.h"
+#include "source_wait.h"
 
 #include <gtest/gtest.h>
 
@@ -97,16 +98,7 @@ LiveSourceOptions fastOptions() {
   return options;
 }
 
-SourceEvent nextWithin(LiveSource& source, std::chrono::milliseconds limit) {
-  std::stop_source stop;
-  std::jthread watchdog([&stop, limit](std::stop_token cancelled) {
-    std::mutex m;
-    std::condition_variable_any cv;
-    std::unique_lock lock(m);
-    if (!cv.wait_for(lock, cancelled, limit, [] { return false; })) stop.request_stop();
-  });
-  return source.next(stop.get_token());
-}
+using testing::nextWithin;
 
 TEST(LiveSource, WaitsForTheSensorThenDeliversLosesAndReopens) {
   Script script;

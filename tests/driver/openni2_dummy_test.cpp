@@ -2,6 +2,7 @@
 // and RGB at 30 fps, from package libopenni2-0), and with a device that does not exist.
 
 #include "shapesense/driver/openni2_source.h"
+#include "source_wait.h"
 
 #include <gtest/gtest.h>
 
@@ -32,16 +33,7 @@ bool dummyDriverInstalled() {
   return false;
 }
 
-SourceEvent nextWithin(FrameSource& source, std::chrono::milliseconds limit) {
-  std::stop_source stop;
-  std::jthread watchdog([&stop, limit](std::stop_token cancelled) {
-    std::mutex m;
-    std::condition_variable_any cv;
-    std::unique_lock lock(m);
-    if (!cv.wait_for(lock, cancelled, limit, [] { return false; })) stop.request_stop();
-  });
-  return source.next(stop.get_token());
-}
+using testing::nextWithin;
 
 TEST(OpenNI2Source, DummyDeviceDeliversStampedFramesAndShutsDownCleanly) {
   if (!dummyDriverInstalled()) GTEST_SKIP() << "OpenNI2 DummyDevice driver not installed (libopenni2-0)";

@@ -20,11 +20,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "depth_compare.h"
 #include "self_exec.h"
 #include "server_fixture.h"
+#include "synthetic_frames.h"
 #include "shapesense/driver/fakenect_dump.h"
-#include "shapesense/driver/kinect_raw.h"
-#include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/daemon.h"
 #include "test_paths.h"
 
@@ -37,23 +37,14 @@ using testing::clientContext;
 
 constexpr int kFrames = 10;
 constexpr std::uint64_t kSeed = 5;
-constexpr TimestampNs kStart = 1'700'000'000'000'000'000;
 constexpr const char* kInnerEnv = "SHAPESENSE_DAEMON_FAKENECT_INNER";
 
-Frame syntheticFrame(int i) {
-  synthetic::SceneParams params;
-  params.seed = kSeed;
-  return synthetic::SyntheticScene(params)
-      .render(static_cast<std::uint64_t>(i), kStart + static_cast<TimestampNs>(std::llround(i * 1e9 / 30.0)))
-      .frame;
-}
 
 TEST(DaemonFakenect, ServesADumpThroughLibfreenectAndReportsItsEndAsALostSensor) {
   const auto library_dir = testing::fakenectLibraryDir();
   if (!library_dir) GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
   const fs::path dump = testing::scratchDir("daemon_fakenect_dump");
-  std::vector<Frame> frames;
-  for (int i = 0; i < kFrames; ++i) frames.push_back(syntheticFrame(i));
+  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);
   writeFakenectDump(dump, frames);
   const auto problems = validateFakenectDump(dump);  // fakenect exit()s on a bad dump
   ASSERT_TRUE(problems.empty()) << problems.front();
@@ -114,6 +105,7 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
     ASSERT_TRUE(stub->ListFrames(context.get(), {}, &list).ok());
   }
   ASSERT_EQ(list.frames_size(), kFrames);
+  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
   for (int i = 0; i < kFrames; ++i) {
     SCOPED_TRACE("frame " + std::to_string(i));
     if (i > 0) {
@@ -129,24 +121,11 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
     const std::string& png = frame.depth_png();
     const cv::Mat depth = cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1,
                                                const_cast<char*>(png.data())), cv::IMREAD_UNCHANGED);
-    const Frame truth = syntheticFrame(i);
     ASSERT_EQ(depth.type(), CV_16UC1);
-    ASSERT_EQ(depth.size(), truth.depth.size());
-    int violations = 0, compared = 0;
-    for (int y = 0; y < truth.depth.rows; ++y) {
-      for (int x = 0; x < truth.depth.cols; ++x) {
-        const int want = truth.depth.at<std::uint16_t>(y, x), have = depth.at<std::uint16_t>(y, x);
-        if (want == 0 || have == 0) {
-          violations += (want == 0) != (have == 0);
-          continue;
-        }
-        ++compared;
-        const double bound = 1000.0 * kinectRawDepthStep(want / 1000.0) / 2.0 * 1.02 + 0.5;
-        violations += std::abs(have - want) > bound;
-      }
-    }
-    EXPECT_GT(compared, 200'000);
-    EXPECT_EQ(violations, 0);
+    ASSERT_EQ(depth.size(), frames[i].depth.size());
+    const auto comparison = testing::compareThroughRawDisparity(frames[i].depth, depth);
+    EXPECT_GT(comparison.compared, 200'000);
+    EXPECT_EQ(comparison.violations, 0);
   }
   daemon.shutdown();
 }

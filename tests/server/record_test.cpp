@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "recording_fixture.h"
 #include "server_fixture.h"
 #include "shapesense/driver/replay_source.h"
 #include "test_paths.h"
@@ -18,6 +19,7 @@ namespace shapesense {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::replayAll;
 using ::testing::HasSubstr;
 using testing::clientContext;
 using testing::kFramePeriodNs;
@@ -38,39 +40,11 @@ grpc::Status recordOnce(TestServer& srv, const std::string& dir, double seconds,
   return reader->Finish();
 }
 
-/// Replays `dir` completely at max rate.
-std::vector<Frame> replayAll(const fs::path& dir) {
-  ReplaySource replay(dir, ReplayOptions{.pacing = Pacing::kAsFastAsPossible});
-  std::vector<Frame> frames;
-  std::stop_source stop;
-  while (true) {
-    SourceEvent event = replay.next(stop.get_token());
-    if (std::holds_alternative<EndOfStream>(event)) break;
-    EXPECT_TRUE(std::holds_alternative<Frame>(event)) << std::get<SourceError>(event).message;
-    if (auto* frame = std::get_if<Frame>(&event)) frames.push_back(std::move(*frame));
-  }
-  return frames;
-}
-
 TimestampNs roundedToMicroseconds(TimestampNs t) { return (t + 500) / 1000 * 1000; }
 
-/// camera.json holds one camera: the intrinsics of the first recorded frame (a source's are
-/// constant; the fixture's vary per frame, so they are passed separately).
+/// Recordings keep stamps to the microsecond.
 void expectSameFrame(const Frame& replayed, const Frame& original, const CameraIntrinsics& camera) {
-  EXPECT_EQ(replayed.timestamp_ns, roundedToMicroseconds(original.timestamp_ns));
-  ASSERT_EQ(replayed.depth.type(), CV_16UC1);
-  ASSERT_EQ(replayed.depth.size(), original.depth.size());
-  EXPECT_EQ(cv::norm(replayed.depth, original.depth, cv::NORM_INF), 0.0);
-  ASSERT_EQ(replayed.rgb.empty(), original.rgb.empty());
-  if (!original.rgb.empty()) {
-    EXPECT_EQ(cv::norm(replayed.rgb, original.rgb, cv::NORM_INF), 0.0);
-  }
-  EXPECT_EQ(replayed.intrinsics.fx, camera.fx);
-  EXPECT_EQ(replayed.intrinsics.fy, camera.fy);
-  EXPECT_EQ(replayed.intrinsics.cx, camera.cx);
-  EXPECT_EQ(replayed.intrinsics.cy, camera.cy);
-  EXPECT_EQ(replayed.intrinsics.width, camera.width);
-  EXPECT_EQ(replayed.intrinsics.height, camera.height);
+  testing::expectSameFrame(replayed, original, roundedToMicroseconds(original.timestamp_ns), camera);
 }
 
 TEST(Record, WritesTheFramesDeliveredDuringTheCallAndTheyReplayBitIdentically) {

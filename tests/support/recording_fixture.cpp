@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "shapesense/core/timestamp.h"
+#include "shapesense/driver/replay_source.h"
 
 namespace shapesense::testing {
 
@@ -125,6 +126,40 @@ void copyRecording(const std::filesystem::path& from, const std::filesystem::pat
   std::filesystem::create_directories(to);
   std::filesystem::copy(from, to, std::filesystem::copy_options::recursive |
                                        std::filesystem::copy_options::overwrite_existing);
+}
+
+std::vector<Frame> replayAll(const std::filesystem::path& dir) {
+  ReplaySource replay(dir, ReplayOptions{.pacing = Pacing::kAsFastAsPossible});
+  std::vector<Frame> frames;
+  std::stop_source stop;
+  while (true) {
+    SourceEvent event = replay.next(stop.get_token());
+    if (std::holds_alternative<EndOfStream>(event)) break;
+    if (auto* error = std::get_if<SourceError>(&event)) {
+      ADD_FAILURE() << "replaying " << dir << ": " << error->message;
+      continue;
+    }
+    frames.push_back(std::move(std::get<Frame>(event)));
+  }
+  return frames;
+}
+
+void expectSameFrame(const Frame& replayed, const Frame& original, TimestampNs expected_stamp,
+                     const CameraIntrinsics& camera) {
+  EXPECT_EQ(replayed.timestamp_ns, expected_stamp);
+  ASSERT_EQ(replayed.depth.type(), CV_16UC1);
+  ASSERT_EQ(replayed.depth.size(), original.depth.size());
+  EXPECT_EQ(cv::norm(replayed.depth, original.depth, cv::NORM_INF), 0.0);
+  ASSERT_EQ(replayed.rgb.empty(), original.rgb.empty());
+  if (!original.rgb.empty()) {
+    EXPECT_EQ(cv::norm(replayed.rgb, original.rgb, cv::NORM_INF), 0.0);
+  }
+  EXPECT_EQ(replayed.intrinsics.fx, camera.fx);
+  EXPECT_EQ(replayed.intrinsics.fy, camera.fy);
+  EXPECT_EQ(replayed.intrinsics.cx, camera.cx);
+  EXPECT_EQ(replayed.intrinsics.cy, camera.cy);
+  EXPECT_EQ(replayed.intrinsics.width, camera.width);
+  EXPECT_EQ(replayed.intrinsics.height, camera.height);
 }
 
 }  // namespace shapesense::testing

@@ -8,6 +8,9 @@
 
 #include <opencv2/core.hpp>
 
+#include "shapesense/core/camera.h"
+#include "shapesense/core/frame.h"
+
 namespace shapesense::testing {
 
 /// Writes `text` to `path` verbatim (binary mode, so "\r\n" stays as written).
@@ -74,6 +77,15 @@ std::filesystem::path makeSmallRecording(const std::string& scratch_name, int fr
 
 /// The stamp text of frame i of makeSmallRecording: "1600000000.000000", "1600000000.033333", ...
 std::string smallRecordingStamp(int i);
+
+/// Every frame of the recording in `dir`, replayed as fast as possible. A replay error fails
+/// the current test (ADD_FAILURE) and the frame is left out.
+std::vector<Frame> replayAll(const std::filesystem::path& dir);
+
+/// A replayed frame equals the one recorded: stamp `expected_stamp`, depth and RGB bit for
+/// bit, and `camera` as intrinsics (camera.json holds one camera: the first recorded frame's).
+void expectSameFrame(const Frame& replayed, const Frame& original, TimestampNs expected_stamp,
+                     const CameraIntrinsics& camera);
 
 /// Copies a directory tree (e.g. a shared real recording into a scratch dir).
 void copyRecording(const std::filesystem::path& from, const std::filesystem::path& to);
