@@ -73,8 +73,11 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   const int W = clf.win_w, H = clf.win_h;
   const int lw = level.image8.cols, lh = level.image8.rows;
   if (lw < W || lh < H) return hits;  // no stages: every gated window (bootstrapping)
+  // A model that cannot reach the final score anywhere would only cost time.
+  if (!clf.stages.empty() && clf.maxScore() < min_final_score) return hits;
   const int istride = static_cast<int>(level.integral.step1());
   const auto offsets = clf.offsetsFor(istride);
+  const auto thresholds = clf.rejectionThresholds(min_final_score);
   // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
   // that * z / fx metres.
   const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
@@ -95,7 +98,7 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
         if (z < zmin_mm || z > zmax_mm) continue;
       }
       std::int32_t score = 0;
-      if (clf.evaluate(row + x, offsets.data(), score) && score >= min_final_score) hits.push_back({x, y, score});
+      if (clf.evaluate(row + x, offsets.data(), thresholds.data(), score) && score >= min_final_score) hits.push_back({x, y, score});
     }
   }
   return hits;

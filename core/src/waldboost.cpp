@@ -21,6 +21,24 @@ bool WaldBoostClassifier::evaluateWindow(const cv::Mat& window8, std::int32_t& s
   return evaluate(ii.ptr<std::int32_t>(0), off.data(), score);
 }
 
+std::int64_t WaldBoostClassifier::maxScore() const {
+  std::int64_t total = 0;
+  for (const auto& s : stages) total += *std::max_element(s.lut.begin(), s.lut.end());
+  return total;
+}
+
+std::vector<std::int32_t> WaldBoostClassifier::rejectionThresholds(std::int32_t min_final_score) const {
+  std::vector<std::int32_t> out(stages.size());
+  std::int64_t still_addable = 0;  // the most stages t+1..T-1 can add
+  for (std::size_t t = stages.size(); t-- > 0;) {
+    const std::int64_t bound = static_cast<std::int64_t>(min_final_score) - still_addable;
+    const std::int64_t own = stages[t].threshold;
+    out[t] = static_cast<std::int32_t>(std::clamp<std::int64_t>(std::max(own, bound), INT32_MIN, INT32_MAX));
+    still_addable += *std::max_element(stages[t].lut.begin(), stages[t].lut.end());
+  }
+  return out;
+}
+
 WaldBoostTrainer::WaldBoostTrainer(std::vector<cv::Mat> positives, WaldBoostClassifier start,
                                    WaldBoostTrainParams params)
     : params_(params), clf_(std::move(start)) {

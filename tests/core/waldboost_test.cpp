@@ -2,6 +2,8 @@
 // of a noisy background, negatives are noise, half of them with the disc 4-5 px off centre
 // (so that hard negatives remain for the bootstrapping). Checks that the rejection thresholds respect the target miss
 // rate, that the classifier separates held-out data, and that a resumed run is identical.
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -117,6 +119,52 @@ TEST(WaldBoost, ResumedRunEqualsUninterruptedRun) {
   }
   EXPECT_GT(full.classifier().stages.size(), 4u);
   EXPECT_EQ(resumed.classifier(), full.classifier());
+}
+
+// The tightened thresholds (stop once the final score is out of reach) must keep exactly the
+// windows that full evaluation followed by the final-score cut keeps, and stop earlier.
+TEST(WaldBoost, TightenedThresholdsKeepExactlyTheWindowsThatReachTheFinalScore) {
+  WaldBoostTrainer trainer(positives(1500, 1), WaldBoostClassifier{kW, kH, {}}, toyParams());
+  while (trainer.trainStage(noiseSource())) {
+  }
+  const auto& clf = trainer.classifier();
+  ASSERT_GE(clf.stages.size(), 4u);
+  std::int64_t best = 0;
+  for (const auto& s : clf.stages) best += *std::max_element(s.lut.begin(), s.lut.end());
+  EXPECT_EQ(clf.maxScore(), best);
+
+  cv::RNG rng(4242);
+  std::vector<cv::Mat> windows;
+  for (int i = 0; i < 400; ++i) windows.push_back(i % 2 ? disc(rng) : negative(rng));
+  for (const std::int32_t min_final : {-1000000, 0, 1000, 3000, static_cast<std::int32_t>(best)}) {
+    SCOPED_TRACE("min_final " + std::to_string(min_final));
+    const auto thresholds = clf.rejectionThresholds(min_final);
+    ASSERT_EQ(thresholds.size(), clf.stages.size());
+    int kept = 0;
+    for (const auto& w : windows) {
+      const cv::Mat ii = lbpIntegral(w);
+      const auto offsets = clf.offsetsFor(static_cast<int>(ii.step1()));
+      std::int32_t full_score = 0, tight_score = 0;
+      const bool full = clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), full_score) && full_score >= min_final;
+      const bool tight = clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), thresholds.data(), tight_score);
+      EXPECT_EQ(full, tight);
+      if (tight) {
+        EXPECT_EQ(tight_score, full_score);
+      }
+      kept += full;
+    }
+    bool raised = false;
+    for (std::size_t t = 0; t < thresholds.size(); ++t) {
+      EXPECT_GE(thresholds[t], clf.stages[t].threshold);
+      raised = raised || thresholds[t] > clf.stages[t].threshold;
+    }
+    if (min_final == 1000) {
+      EXPECT_GT(kept, 0);  // the comparison is not vacuous
+    }
+    if (min_final == best) {
+      EXPECT_TRUE(raised);  // only a window scoring the maximum on every stage survives
+    }
+  }
 }
 
 }  // namespace

@@ -69,6 +69,32 @@ struct WaldBoostClassifier {
     return true;
   }
 
+  /// The same with per-stage thresholds (from rejectionThresholds) in place of the stages' own.
+  bool evaluate(const std::int32_t* origin, const LbpOffsets* offsets, const std::int32_t* thresholds,
+                std::int32_t& score) const {
+    std::int32_t h = 0;
+    const std::size_t n = stages.size();
+    for (std::size_t t = 0; t < n; ++t) {
+      h += stages[t].lut[lbpCodeIntegral(origin, offsets[t])];
+      if (h < thresholds[t]) {
+        score = h;
+        return false;
+      }
+    }
+    score = h;
+    return true;
+  }
+
+  /// The highest final score any window can reach: the sum of every table's largest vote.
+  std::int64_t maxScore() const;
+
+  /// Stage thresholds for a caller that keeps only windows whose final score is at least
+  /// `min_final_score`: each stage's own threshold, raised to min_final_score minus the most
+  /// the later stages can still add. A window these reject could never have been kept, so the
+  /// kept set is exactly the same; background just stops earlier. Passing every stage
+  /// implies a final score >= min_final_score.
+  std::vector<std::int32_t> rejectionThresholds(std::int32_t min_final_score) const;
+
   /// The stage offsets for an integral image with `stride` elements per row.
   std::vector<LbpOffsets> offsetsFor(int stride) const;
 
