@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shapesense/core/depth_preprocess.h"
+#include "shapesense/core/lbp.h"
 
 namespace shapesense {
 
@@ -65,6 +66,26 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
   return kept;
 }
 
+void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes) {
+  CV_Assert(!level.integral.empty());
+  for (int k = 0; k < 4; ++k)
+    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.integral, 1 + k % 2, 1 + k / 2);
+}
+
+namespace {
+
+int cellSizeIndex(const LbpFeature& f) { return (f.cw - 1) + 2 * (f.ch - 1); }
+
+/// Where one stage reads its LBP code for the window at (x, y): a byte of the level's code
+/// image of its cell size (`code_base` + y * code stride + x) when there is one, else the
+/// 16 integral-image corners at `offsets` from the window's integral element.
+struct StageCodeReader {
+  const std::uint8_t* code_base = nullptr;
+  LbpOffsets offsets{};
+};
+
+}  // namespace
+
 std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
                                          const cv::Mat& filled_mm, double fx, int stride,
                                          std::int32_t min_final_score) {
@@ -75,9 +96,42 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   if (lw < W || lh < H) return hits;  // no stages: every gated window (bootstrapping)
   // A model that cannot reach the final score anywhere would only cost time.
   if (!clf.stages.empty() && clf.maxScore() < min_final_score) return hits;
-  const int istride = static_cast<int>(level.integral.step1());
-  const auto offsets = clf.offsetsFor(istride);
   const auto thresholds = clf.rejectionThresholds(min_final_score);
+  const std::size_t n_stages = clf.stages.size();
+
+  const int integral_stride = static_cast<int>(level.integral.step1());
+  int code_stride = -1;
+  for (const auto& c : level.codes) {
+    if (c.empty()) continue;
+    CV_Assert(c.size() == level.image8.size() && (code_stride < 0 || static_cast<int>(c.step1()) == code_stride));
+    code_stride = static_cast<int>(c.step1());
+  }
+  std::vector<StageCodeReader> readers(n_stages);
+  for (std::size_t t = 0; t < n_stages; ++t) {
+    const LbpFeature& f = clf.stages[t].feature;
+    const bool small_cells = f.cw <= 2 && f.ch <= 2;
+    if (small_cells && !level.codes[cellSizeIndex(f)].empty())
+      readers[t].code_base = level.codes[cellSizeIndex(f)].ptr<std::uint8_t>(f.y) + f.x;
+    else
+      readers[t].offsets = lbpOffsets(f, integral_stride);
+  }
+  auto evaluateAt = [&](int x, int y, std::int32_t& score) {
+    const std::ptrdiff_t at_code = static_cast<std::ptrdiff_t>(y) * code_stride + x;
+    const std::int32_t* at_integral = level.integral.ptr<std::int32_t>(y) + x;
+    std::int32_t h = 0;
+    for (std::size_t t = 0; t < n_stages; ++t) {
+      const StageCodeReader& r = readers[t];
+      const std::uint8_t code = r.code_base ? r.code_base[at_code] : lbpCodeIntegral(at_integral, r.offsets);
+      h += clf.stages[t].lut[code];
+      if (h < thresholds[t]) {
+        score = h;
+        return false;
+      }
+    }
+    score = h;
+    return true;
+  };
+
   // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
   // that * z / fx metres.
   const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
@@ -85,7 +139,6 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
   const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
   for (int y = 0; y + H <= lh; y += stride) {
-    const std::int32_t* row = level.integral.ptr<std::int32_t>(y);
     const std::uint16_t* zrow = nullptr;
     if (gate) {
       const int oy = std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale));
@@ -98,7 +151,7 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
         if (z < zmin_mm || z > zmax_mm) continue;
       }
       std::int32_t score = 0;
-      if (clf.evaluate(row + x, offsets.data(), thresholds.data(), score) && score >= min_final_score) hits.push_back({x, y, score});
+      if (evaluateAt(x, y, score) && score >= min_final_score) hits.push_back({x, y, score});
     }
   }
   return hits;
@@ -151,9 +204,23 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   double min_scale = 1e9;  // the finest level any view searches
   for (const auto* m : active)
     min_scale = std::min(min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
-  const auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
-  const cv::Mat gate = params_.depth_gate ? filled : cv::Mat();
+  auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
   const auto min_score = static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
+  std::array<bool, 4> code_cell_sizes{};
+  bool any_code_image = false;
+  for (const auto* m : active) {
+    const auto& stages = m->classifier.stages;
+    if (m->classifier.maxScore() < min_score) continue;  // scanBowlLevel skips this view
+    const std::size_t n = std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
+    for (std::size_t t = 0; t < n; ++t) {
+      const LbpFeature& f = stages[t].feature;
+      if (f.cw <= 2 && f.ch <= 2) any_code_image = code_cell_sizes[cellSizeIndex(f)] = true;
+    }
+  }
+  if (any_code_image)
+    for (auto& level : levels)
+      if (!level.integral.empty()) addLbpCodeImages(level, code_cell_sizes);
+  const cv::Mat gate = params_.depth_gate ? filled : cv::Mat();
 
   // One task per (level, view); results gathered per task so the output order is fixed.
   std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());

@@ -42,6 +42,27 @@ TEST(Lbp, IntegralCodesEqualDirectCodesForEveryFeature) {
     }
 }
 
+TEST(Lbp, CodeImagesEqualDirectCodesAtEveryPositionAndZeroWhereTheGridDoesNotFit) {
+  cv::RNG rng(7);
+  cv::Mat img(37, 45, CV_8UC1);  // odd sizes: the borders of 2-pixel cells do not divide evenly
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  img(cv::Rect(10, 10, 8, 6)).setTo(100);  // ties (>=) inside a flat patch
+  const cv::Mat ii = lbpIntegral(img);
+  for (int ch = 1; ch <= 2; ++ch)
+    for (int cw = 1; cw <= 2; ++cw) {
+      const cv::Mat codes = lbpCodeImage(ii, cw, ch);
+      ASSERT_EQ(codes.type(), CV_8UC1);
+      ASSERT_EQ(codes.size(), img.size());
+      for (int y = 0; y < img.rows; ++y)
+        for (int x = 0; x < img.cols; ++x) {
+          const bool fits = x + 3 * cw <= img.cols && y + 3 * ch <= img.rows;
+          const int want = fits ? lbpCodeDirect(img, x, y, cw, ch) : 0;
+          ASSERT_EQ(codes.at<std::uint8_t>(y, x), want) << "cell " << cw << "x" << ch << " at " << x << "," << y;
+        }
+    }
+  EXPECT_THROW(lbpCodeImage(ii, 3, 1), std::invalid_argument);
+}
+
 TEST(Lbp, EnumerationCoversAllFittingGrids) {
   // 24x24, cells 1-2: 22*22 (1x1) + 19*22 (2x1) + 22*19 (1x2) + 19*19 (2x2).
   EXPECT_EQ(enumerateLbpFeatures(24, 24, 2).size(), 22u * 22 + 19 * 22 * 2 + 19 * 19);

@@ -18,6 +18,7 @@
 //   auto detector = BowlDetector::load("models");          // bowl_*.json in the folder
 //   auto bowls = detector.detect(frame.depth, frame.intrinsics);
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -54,6 +55,13 @@ struct BowlDetectorParams {
   /// Run pyramid levels in parallel with cv::parallel_for_ (OpenCV's pool). Default false:
   /// core adds no threads of its own unless asked; the daemon gives the detector one thread.
   bool parallel = false;
+  /// LBP codes of every position of a scanned level are precomputed (lbpCodeImage) for the
+  /// cell sizes that the first `code_image_stages` stages of the views use; other stages read
+  /// the integral image per window. Most windows are rejected within a few stages, so codes
+  /// precomputed for those stages replace most of the scattered integral reads, while cell
+  /// sizes only later stages use are not worth a whole image. Same detections for any value;
+  /// 0 = integral image only. Default 8.
+  int code_image_stages = 8;
   /// Views to run; empty = every loaded model. Default empty.
   std::vector<std::string> views;
 };
@@ -63,7 +71,14 @@ struct BowlPyramidLevel {
   double scale = 1.0;
   cv::Mat image8;    ///< CV_8UC1
   cv::Mat integral;  ///< CV_32SC1, (rows+1) x (cols+1)
+  /// Optional LBP code images (lbpCodeImage) of the level for cells (1,1), (2,1), (1,2), (2,2),
+  /// index (cw - 1) + 2 * (ch - 1); all empty = classify from the integral image.
+  std::array<cv::Mat, 4> codes;
 };
+
+/// Fills level.codes from level.integral (which must be there) for the cell sizes marked in
+/// `cell_sizes` (same index as level.codes).
+void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes);
 
 /// The pyramid the detector scans: level k is level k-1 resized by 1/scale_step (bilinear),
 /// down to the smallest level still holding a min_w x min_h window. Training crops come from
@@ -104,8 +119,9 @@ class BowlDetector {
 };
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
-/// trainer's bootstrapping). `filled_mm` (the filled depth of the input, may be empty = no
-/// gate) and `fx` feed the depth gate. Each hit is (x, y, score) in level pixels.
+/// trainer's bootstrapping); a stage reads its code from level.codes when the image of its
+/// cell size is there, from the integral image otherwise, with the same result. `filled_mm` (the filled
+/// depth of the input, may be empty = no gate) and `fx` feed the depth gate. Each hit is (x, y, score) in level pixels.
 struct BowlWindowHit {
   int x = 0;
   int y = 0;
