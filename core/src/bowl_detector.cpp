@@ -133,22 +133,28 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   };
 
   // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
-  // that * z / fx metres.
+  // that * z / fx metres. Depths are whole millimetres, so the bounds are compared as integers,
+  // and each window column's input column is looked up once per level.
   const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
   const bool gate = !filled_mm.empty() && fx > 0;
   const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
   const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
+  const int z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
+  const int z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
+  std::vector<int> input_column;
+  if (gate)
+    for (int x = 0; x + W <= lw; x += stride)
+      input_column.push_back(std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
   for (int y = 0; y + H <= lh; y += stride) {
     const std::uint16_t* zrow = nullptr;
     if (gate) {
       const int oy = std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale));
       zrow = filled_mm.ptr<std::uint16_t>(oy);
     }
-    for (int x = 0; x + W <= lw; x += stride) {
+    for (int x = 0, i = 0; x + W <= lw; x += stride, ++i) {
       if (gate) {
-        const int ox = std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale));
-        const double z = zrow[ox];
-        if (z < zmin_mm || z > zmax_mm) continue;
+        const int z = zrow[input_column[static_cast<std::size_t>(i)]];
+        if (z < z_lo || z > z_hi) continue;
       }
       std::int32_t score = 0;
       if (evaluateAt(x, y, score) && score >= min_final_score) hits.push_back({x, y, score});
