@@ -397,141 +397,131 @@ void flood(const cv::Mat& edges, cv::Mat& markers) {
   }
 }
 
-// Working-resolution labels brought to the full image, with the size of every label counted on
-// the way (full-resolution pixels with depth) and the labels listed in raster order of their
-// first full-resolution pixel, so that compaction needs no further pass over int labels.
-struct FullLabels {
-  cv::Mat labels;              // CV_32SC1, 0 where there is no depth
-  std::vector<int> size;       // per label
-  std::vector<int> first_seen; // labels > 0 in raster order of first appearance
-};
-
-// Counts runs of equal labels instead of incrementing size[label] per pixel: consecutive pixels
-// mostly share a label, and a per-pixel increment of the same counter is a serial memory
-// dependency that cost more than the upsampling itself.
-class RunCounter {
- public:
-  RunCounter(std::vector<int>& size, std::vector<int>& first_seen) : size_(size), first_(first_seen) {}
-  void add(int label) {
-    if (label == label_) {
-      ++run_;
-      return;
-    }
-    flush();
-    label_ = label;
-    run_ = 1;
-    // Every earlier run was flushed on a label change, so size 0 means never seen.
-    if (label > 0 && size_[label] == 0) first_.push_back(label);
-  }
-  void flush() {
-    if (label_ >= 0) size_[label_] += run_;
-    run_ = 0;
-  }
-
- private:
-  std::vector<int>& size_;
-  std::vector<int>& first_;
-  int label_ = -1;
-  int run_ = 0;
-};
-
-// Upsamples working-resolution labels to the full image. A full-resolution pixel whose depth does
-// not match its block's depth (a block on a step took the foreground) takes the label of the
-// neighbouring block with the closest depth. Pixels without depth get 0.
-FullLabels upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
+// Working-resolution labels (CV_32SC1, any positive ids) renumbered 1..K in raster order of
+// first appearance, so that the full-resolution passes below run on uint16. K is at most the
+// number of pixels / min marker size, far below 65535 for any sane parameters; ids past 65535
+// become 0 (unassigned) rather than wrapping.
+cv::Mat denseLabels(const cv::Mat& labels) {
   double mx = 0;
   cv::minMaxLoc(labels, nullptr, &mx);
-  FullLabels out;
-  out.size.assign(static_cast<std::size_t>(std::max(mx, 0.0)) + 1, 0);
-  out.labels.create(depth.size(), CV_32SC1);
-  RunCounter count(out.size, out.first_seen);
-  const int ds = w.ds;  // 1 or 2 (makeWorking clamps it)
-  if (ds == 1) {
+  std::vector<std::uint16_t> remap(static_cast<std::size_t>(std::max(mx, 0.0)) + 1, 0);
+  std::vector<char> assigned(remap.size(), 0);
+  int next = 0;
+  cv::Mat out(labels.size(), CV_16UC1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    auto* o = out.ptr<std::uint16_t>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      const int x = std::max(l[u], 0);
+      if (x > 0 && !assigned[x]) {
+        assigned[x] = 1;
+        remap[x] = next < 65535 ? static_cast<std::uint16_t>(++next) : 0;
+      }
+      o[u] = remap[x];
+    }
+  }
+  return out;
+}
+
+// Upsamples working-resolution labels (dense uint16, see denseLabels) to the full image. A
+// full-resolution pixel whose depth does not match its block's depth (a block on a step took the
+// foreground) takes the label of the neighbouring block with the closest depth. Pixels without
+// depth get 0. CV_16UC1.
+cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
+  cv::Mat out(depth.size(), CV_16UC1);
+  if (w.ds == 1) {  // makeWorking clamps ds to 1 or 2
     for (int v = 0; v < depth.rows; ++v) {
       const auto* d = depth.ptr<std::uint16_t>(v);
-      const int* l = labels.ptr<int>(v);
-      int* o = out.labels.ptr<int>(v);
-      for (int u = 0; u < depth.cols; ++u) {
-        o[u] = d[u] == 0 ? 0 : std::max(l[u], 0);
-        count.add(o[u]);
-      }
+      const auto* l = labels.ptr<std::uint16_t>(v);
+      auto* o = out.ptr<std::uint16_t>(v);
+      for (int u = 0; u < depth.cols; ++u) o[u] = d[u] == 0 ? 0 : l[u];
     }
-    count.flush();
     return out;
   }
   // Per working row, the block label, depth and depth tolerance are expanded to full width once,
-  // so the per-pixel pass is branch-free and vectorises; the few pixels that do not match their
-  // block (next to steps) are fixed afterwards.
+  // so the per-pixel pass is branch-free uint16 arithmetic that vectorises; the few pixels that
+  // do not match their block (next to steps) are fixed afterwards.
   const float k = static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
   const int cols = depth.cols;
-  std::vector<int> lab2(cols);
-  std::vector<std::uint16_t> dep2(cols), tol2(cols);
+  std::vector<std::uint16_t> lab2(cols), dep2(cols), tol2(cols);
   std::vector<std::uint8_t> bad(cols);
   for (int v = 0; v < depth.rows; ++v) {
     const auto* d = depth.ptr<std::uint16_t>(v);
-    int* o = out.labels.ptr<int>(v);
-    const int vc = std::min(v / ds, labels.rows - 1);
-    const int* l = labels.ptr<int>(vc);
+    auto* o = out.ptr<std::uint16_t>(v);
+    const int vc = std::min(v / 2, labels.rows - 1);
+    const auto* l = labels.ptr<std::uint16_t>(vc);
     const auto* dc = w.depth.ptr<std::uint16_t>(vc);
-    if (v % ds == 0) {
+    if (v % 2 == 0) {
       for (int u = 0; u < cols; ++u) {
         const int uc = std::min(u >> 1, labels.cols - 1);
         const float z = dc[uc];
-        lab2[u] = std::max(l[uc], 0);
+        lab2[u] = l[uc];
         dep2[u] = dc[uc];
         tol2[u] = static_cast<std::uint16_t>(std::min(k * z * z + 2.0f, 65535.0f));
       }
     }
-    std::uint8_t any_bad = 0;
+    unsigned any_bad = 0;
     for (int u = 0; u < cols; ++u) {
       const std::uint16_t z = d[u], c = dep2[u];
-      const std::uint16_t diff = z > c ? z - c : c - z;
-      o[u] = z == 0 ? 0 : lab2[u];
-      bad[u] = static_cast<std::uint8_t>((z != 0) & (diff > tol2[u]));
+      const std::uint16_t diff = static_cast<std::uint16_t>(z > c ? z - c : c - z);
+      const std::uint16_t valid = z != 0 ? 0xFFFF : 0;
+      o[u] = static_cast<std::uint16_t>(lab2[u] & valid);
+      bad[u] = static_cast<std::uint8_t>((valid & (diff > tol2[u] ? 1 : 0)));
       any_bad |= bad[u];
     }
-    if (any_bad) {
-      for (int u = 0; u < cols; ++u) {
-        if (!bad[u]) continue;
-        const int uc = std::min(u >> 1, labels.cols - 1);
-        float best = 1e9f;
-        for (int dv = -1; dv <= 1; ++dv) {
-          const int vv = vc + dv;
-          if (vv < 0 || vv >= labels.rows) continue;
-          const int* lr = labels.ptr<int>(vv);
-          const auto* dr = w.depth.ptr<std::uint16_t>(vv);
-          for (int du = -1; du <= 1; ++du) {
-            const int uu = uc + du;
-            if (uu < 0 || uu >= labels.cols || dr[uu] == 0 || lr[uu] <= 0) continue;
-            const float diff = std::fabs(static_cast<float>(d[u]) - static_cast<float>(dr[uu]));
-            if (diff < best) {
-              best = diff;
-              o[u] = lr[uu];
-            }
+    if (!any_bad) continue;
+    for (int u = 0; u < cols; ++u) {
+      if (!bad[u]) continue;
+      const int uc = std::min(u >> 1, labels.cols - 1);
+      int best = 1 << 30;
+      for (int dv = -1; dv <= 1; ++dv) {
+        const int vv = vc + dv;
+        if (vv < 0 || vv >= labels.rows) continue;
+        const auto* lr = labels.ptr<std::uint16_t>(vv);
+        const auto* dr = w.depth.ptr<std::uint16_t>(vv);
+        for (int du = -1; du <= 1; ++du) {
+          const int uu = uc + du;
+          if (uu < 0 || uu >= labels.cols || dr[uu] == 0 || lr[uu] == 0) continue;
+          const int diff = std::abs(static_cast<int>(d[u]) - static_cast<int>(dr[uu]));
+          if (diff < best) {
+            best = diff;
+            o[u] = lr[uu];
           }
         }
       }
     }
-    for (int u = 0; u < cols; ++u) count.add(o[u]);
   }
-  count.flush();
   return out;
 }
 
-// Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance.
-cv::Mat compact(const FullLabels& full, int min_px) {
-  std::vector<std::uint16_t> remap(full.size.size(), 0);
+// Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance,
+// in place (CV_16UC1).
+void compact(cv::Mat& labels, int min_px) {
+  // Sizes by runs of equal labels: consecutive pixels mostly share a label, and a per-pixel
+  // ++size[label] is a serial memory dependency that costs more than the upsampling.
+  std::vector<int> size(65536, 0);
+  std::vector<std::uint16_t> order;  // labels in raster order of first appearance
+  for (int v = 0; v < labels.rows; ++v) {
+    const auto* l = labels.ptr<std::uint16_t>(v);
+    int u = 0;
+    while (u < labels.cols) {
+      const std::uint16_t x = l[u];
+      int end = u + 1;
+      while (end < labels.cols && l[end] == x) ++end;
+      if (x != 0 && size[x] == 0) order.push_back(x);
+      size[x] += end - u;
+      u = end;
+    }
+  }
+  std::vector<std::uint16_t> remap(65536, 0);
   int next = 0;
-  for (int label : full.first_seen) {
-    if (full.size[label] >= min_px && next < 65535) remap[label] = static_cast<std::uint16_t>(++next);
+  for (std::uint16_t x : order) {
+    if (size[x] >= min_px) remap[x] = static_cast<std::uint16_t>(++next);
   }
-  cv::Mat out(full.labels.size(), CV_16UC1);
-  for (int v = 0; v < out.rows; ++v) {
-    const int* l = full.labels.ptr<int>(v);
-    auto* o = out.ptr<std::uint16_t>(v);
-    for (int u = 0; u < out.cols; ++u) o[u] = remap[l[u]];
+  for (int v = 0; v < labels.rows; ++v) {
+    auto* l = labels.ptr<std::uint16_t>(v);
+    for (int u = 0; u < labels.cols; ++u) l[u] = remap[l[u]];
   }
-  return out;
 }
 
 // Greedy merge of coplanar regions (see RegionParams::merge_coplanar). Moments of
@@ -610,7 +600,9 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
 cv::Mat finish(cv::Mat& markers, const cv::Mat& edges, const Working& w, const cv::Mat& depth,
                const RegionParams& rp) {
   mergeCoplanar(markers, edges, w, rp);
-  return compact(upsample(markers, w, depth, rp.noise), rp.min_region_px);
+  cv::Mat full = upsample(denseLabels(markers), w, depth, rp.noise);
+  compact(full, rp.min_region_px);
+  return full;
 }
 
 // ---------------------------------------------------------------------------------------------

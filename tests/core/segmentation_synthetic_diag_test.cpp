@@ -4,7 +4,10 @@
 // Env: SEG_DIAG_METHOD (default depth_step / plane_prediction), SEG_DIAG_VERBOSE=1 (per truth
 // surface), SEG_DIAG_PAIRS (oracle contact length, default 10), SEG_DIAG_RMS (coplanar merge),
 // SEG_FUSED_{ANGLE,WIN,SMOOTH}, SEG_DIAG_DUMP=<dir> (colour images of regions and edges).
+#include <algorithm>
 #include <cstdio>
+#include <ctime>
+#include <vector>
 #include <cstdlib>
 #include <cmath>
 #include <functional>
@@ -246,6 +249,39 @@ TEST(SegmentationSyntheticDiag, DISABLED_EdgeCompare) {
   cv::Mat row;
   cv::hconcat(std::vector<cv::Mat>{en * 10, ef * 10, ed * 10}, row);
   if (const char* dump = std::getenv("SEG_DIAG_DUMP")) cv::imwrite(std::string(dump) + "/edges.png", row);
+}
+}  // namespace
+}  // namespace shapesense
+
+namespace shapesense {
+namespace {
+// A fixed amount of segmentation work for profiling (perf stat / perf record): SEG_PROFILE_REPS
+// runs (default 200) of SEG_DIAG_METHOD (default depth_step) on synthetic seed 1, frame 0.
+TEST(SegmentationSyntheticDiag, DISABLED_ProfileLoop) {
+  synthetic::SceneParams p;
+  p.seed = 1;
+  p.render_colour = false;
+  const synthetic::SyntheticScene scene(p);
+  const synthetic::RenderedFrame f = scene.render(0, 0);
+  const char* env = std::getenv("SEG_DIAG_METHOD");
+  const SegmentationMethod m = parseSegmentationMethod(env ? env : "depth_step").value_or(SegmentationMethod::kDepthStep);
+  const int reps = std::getenv("SEG_PROFILE_REPS") ? std::atoi(std::getenv("SEG_PROFILE_REPS")) : 200;
+  int regions = 0;
+  std::vector<double> ms;
+  for (int i = 0; i < reps; ++i) {
+    timespec a{}, b{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
+    const cv::Mat r = segmentDepth(f.frame.depth, f.frame.intrinsics, m);
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &b);
+    ms.push_back((b.tv_sec - a.tv_sec) * 1e3 + (b.tv_nsec - a.tv_nsec) * 1e-6);
+    double mx;
+    cv::minMaxLoc(r, nullptr, &mx);
+    regions += static_cast<int>(mx);
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("[profile] %s %d runs, %d regions per run, thread-CPU median %.2f ms min %.2f ms\n",
+              std::string(formatSegmentationMethod(m)).c_str(), reps, regions / std::max(reps, 1),
+              ms.empty() ? 0.0 : ms[ms.size() / 2], ms.empty() ? 0.0 : ms.front());
 }
 }  // namespace
 }  // namespace shapesense
