@@ -212,7 +212,9 @@ cv::Mat inverseDepth(const cv::Mat& depth) {
 
 // Plane-prediction edge strength: planes are affine in inverse depth w = 1/z, so each neighbour's
 // w is predicted from the centre's smoothed w and gradient; E = number of anomalous neighbours.
-cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise) {
+// With `short_edges`, also returns the dense-window count alone (for the fallback markers).
+cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise,
+                             cv::Mat* short_edges = nullptr) {
   const cv::Mat& d = w.depth;
   const int rows = d.rows, cols = d.cols;
   cv::Mat inv = inverseDepth(d);
@@ -253,10 +255,28 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
       else if (b > 0 && c[u] > 0 && v + g < rows) oy[u] = (b - c[u]) / static_cast<float>(g);
     }
   }
-  const int r = std::clamp(p.window_radius, 1, 7);
   const float thr = static_cast<float>(p.noise_steps * inverseDepthStep(noise));
+  const float thr_long = static_cast<float>(p.long_noise_steps * inverseDepthStep(noise));
+  // Offsets: the dense window, then the long-range ring (the outer ring of a grid with spacing
+  // long_range / 2, i.e. 16 neighbours at distance long_range).
+  struct Offset {
+    int du, dv;
+    bool long_range;
+  };
+  std::vector<Offset> offsets;
+  const int r = std::clamp(p.window_radius, 1, 7);
+  for (int dv = -r; dv <= r; ++dv)
+    for (int du = -r; du <= r; ++du)
+      if (du != 0 || dv != 0) offsets.push_back({du, dv, false});
+  const int half = std::clamp(p.long_range, 0, 16) / 2;
+  if (half > 0 && 2 * half > r) {
+    for (int j = -2; j <= 2; ++j)
+      for (int i = -2; i <= 2; ++i)
+        if (std::max(std::abs(i), std::abs(j)) == 2) offsets.push_back({i * half, j * half, true});
+  }
   cv::Mat edges(rows, cols, CV_8UC1);
-  std::vector<std::uint8_t> acc(cols);
+  if (short_edges) short_edges->create(rows, cols, CV_8UC1);
+  std::vector<std::uint8_t> acc_short(cols), acc_long(cols);
   std::vector<float> centre(cols);
   for (int v = 0; v < rows; ++v) {
     const float* wc = inv.ptr<float>(v);
@@ -264,25 +284,28 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
     const float* gxp = gx.ptr<float>(v);
     const float* gyp = gy.ptr<float>(v);
     for (int u = 0; u < cols; ++u) centre[u] = smc[u] > 0 ? smc[u] : wc[u];
-    std::fill(acc.begin(), acc.end(), 0);
-    for (int dv = -r; dv <= r; ++dv) {
-      const int vq = v + dv;
+    std::fill(acc_short.begin(), acc_short.end(), 0);
+    std::fill(acc_long.begin(), acc_long.end(), 0);
+    for (const Offset& o : offsets) {
+      const int vq = v + o.dv;
       if (vq < 0 || vq >= rows) continue;
       const float* wq = inv.ptr<float>(vq);
-      const float fdv = static_cast<float>(dv);
-      for (int du = -r; du <= r; ++du) {
-        if (du == 0 && dv == 0) continue;
-        const float fdu = static_cast<float>(du);
-        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
-        for (int u = u0; u < u1; ++u) {
-          const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
-          const float y = wq[u + du];
-          acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > thr));
-        }
+      const float fdu = static_cast<float>(o.du), fdv = static_cast<float>(o.dv);
+      const float t = o.long_range ? thr_long : thr;
+      std::uint8_t* acc = o.long_range ? acc_long.data() : acc_short.data();
+      const int u0 = std::max(0, -o.du), u1 = std::min(cols, cols - o.du);
+      for (int u = u0; u < u1; ++u) {
+        const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
+        const float y = wq[u + o.du];
+        acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > t));
       }
     }
     auto* e = edges.ptr<std::uint8_t>(v);
-    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : acc[u];
+    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);
+    if (short_edges) {
+      auto* es = short_edges->ptr<std::uint8_t>(v);
+      for (int u = 0; u < cols; ++u) es[u] = wc[u] == 0.0f ? kNoDepth : acc_short[u];
+    }
   }
   return edges;
 }
@@ -330,8 +353,11 @@ const RegionParams& regionParams(SegmentationMethod method, const SegmentationPa
 }
 
 // Markers: 4-connected components of pixels with edge <= max_edge, components below min_px
-// dropped. CV_32SC1, 0 = unmarked. Returns the number of the largest label used.
-int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& markers) {
+// dropped. With `fallback` (a second relief, e.g. plane prediction's dense window alone), its
+// low-edge components that contain no marker pixel become markers too. CV_32SC1, 0 = unmarked.
+// Returns the number of the largest label used.
+int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& markers,
+                     const cv::Mat& fallback = {}) {
   cv::Mat mask = edges <= std::min(max_edge, 254);
   cv::Mat labels;
   const int n = cv::connectedComponents(mask, labels, 4, CV_32S);
@@ -348,6 +374,28 @@ int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& ma
     const int* l = labels.ptr<int>(v);
     int* m = markers.ptr<int>(v);
     for (int u = 0; u < labels.cols; ++u) m[u] = remap[l[u]];
+  }
+  if (fallback.empty()) return next;
+  cv::Mat fb_labels;
+  const int nf = cv::connectedComponents(fallback <= std::min(max_edge, 254), fb_labels, 4, CV_32S);
+  std::vector<int> fb_size(nf, 0);
+  std::vector<char> has_marker(nf, 0);
+  for (int v = 0; v < fb_labels.rows; ++v) {
+    const int* l = fb_labels.ptr<int>(v);
+    const int* m = markers.ptr<int>(v);
+    for (int u = 0; u < fb_labels.cols; ++u) {
+      ++fb_size[l[u]];
+      has_marker[l[u]] |= m[u] > 0;
+    }
+  }
+  std::vector<int> fb_remap(nf, 0);
+  for (int i = 1; i < nf; ++i) fb_remap[i] = (!has_marker[i] && fb_size[i] >= min_px) ? ++next : 0;
+  for (int v = 0; v < fb_labels.rows; ++v) {
+    const int* l = fb_labels.ptr<int>(v);
+    int* m = markers.ptr<int>(v);
+    for (int u = 0; u < fb_labels.cols; ++u) {
+      if (fb_remap[l[u]]) m[u] = fb_remap[l[u]];
+    }
   }
   return next;
 }
@@ -854,10 +902,16 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
   }
   const RegionParams& rp = regionParams(method, params);
   const Working w = makeWorking(depth_mm, intrinsics, rp);
-  const cv::Mat edges = edgeStrength(w, method, params);
+  cv::Mat edges, fallback;
+  if (method == SegmentationMethod::kPlanePrediction) {
+    const auto& pp = params.plane_prediction;
+    edges = planePredictionEdges(w, pp, rp.noise, pp.curved_fallback_markers ? &fallback : nullptr);
+  } else {
+    edges = edgeStrength(w, method, params);
+  }
   cv::Mat markers;
   const int min_marker = std::max(1, rp.min_marker_px / (w.ds * w.ds));
-  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers) == 0) {
+  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers, fallback) == 0) {
     return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
   }
   flood(edges, markers);

@@ -132,6 +132,11 @@ TEST(SegmentationSyntheticDiag, DISABLED_PerRegionLoss) {
     if (const char* e = std::getenv("SEG_FUSED_ANGLE")) base.fused.normal.max_angle_deg = std::atof(e);
     if (const char* e = std::getenv("SEG_FUSED_WIN")) base.fused.normal.window_radius = std::atoi(e);
     if (const char* e = std::getenv("SEG_FUSED_SMOOTH")) base.fused.normal.normals.smoothing_radius_px = std::atof(e);
+    if (const char* e = std::getenv("SEG_PP_RADIUS")) base.plane_prediction.window_radius = std::atoi(e);
+    if (const char* e = std::getenv("SEG_PP_LONG")) base.plane_prediction.long_range = std::atoi(e);
+    if (const char* e = std::getenv("SEG_PP_LSTEPS")) base.plane_prediction.long_noise_steps = std::atof(e);
+    if (const char* e = std::getenv("SEG_PP_FALLBACK")) base.plane_prediction.curved_fallback_markers = std::atoi(e) != 0;
+    if (const char* e = std::getenv("SEG_PP_STEPS")) base.plane_prediction.noise_steps = std::atof(e);
     SegmentationParams full = base;
     full.depth_step.region.downsample = full.normal_edges.region.downsample = full.fused.region.downsample =
         full.plane_prediction.region.downsample = full.tiled_ransac.region.downsample = 1;
@@ -282,6 +287,62 @@ TEST(SegmentationSyntheticDiag, DISABLED_ProfileLoop) {
   std::printf("[profile] %s %d runs, %d regions per run, thread-CPU median %.2f ms min %.2f ms\n",
               std::string(formatSegmentationMethod(m)).c_str(), reps, regions / std::max(reps, 1),
               ms.empty() ? 0.0 : ms[ms.size() / 2], ms.empty() ? 0.0 : ms.front());
+}
+}  // namespace
+}  // namespace shapesense
+
+namespace shapesense {
+namespace {
+// Parameter sweep helper: mean pixel accuracy / correct fraction of SEG_DIAG_METHOD over seeds 1-6
+// and the worst mosd_tabletop table coverage, with plane-prediction parameters from the env
+// (SEG_PP_{RADIUS,STEPS,SMOOTH,GRAD,LONG,LSTEPS,FALLBACK}).
+TEST(SegmentationSyntheticDiag, DISABLED_Sweep) {
+  const char* env = std::getenv("SEG_DIAG_METHOD");
+  const SegmentationMethod m = parseSegmentationMethod(env ? env : "plane_prediction").value_or(SegmentationMethod::kPlanePrediction);
+  SegmentationParams sp;
+  auto& pp = sp.plane_prediction;
+  if (const char* e = std::getenv("SEG_PP_RADIUS")) pp.window_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_LONG")) pp.long_range = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_LSTEPS")) pp.long_noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_PP_FALLBACK")) pp.curved_fallback_markers = std::atoi(e) != 0;
+  if (const char* e = std::getenv("SEG_PP_STEPS")) pp.noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_PP_SMOOTH")) pp.smoothing_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_GRAD")) pp.gradient_step = std::atoi(e);
+  double acc = 0, cor = 0;
+  for (std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
+    synthetic::SceneParams p;
+    p.seed = seed;
+    p.render_colour = false;
+    const synthetic::SyntheticScene scene(p);
+    const synthetic::RenderedFrame f = scene.render(0, 0);
+    const SegCompScore s = scoreSegmentation(segmentDepth(f.frame.depth, f.frame.intrinsics, m, sp), f.truth.surface_labels);
+    std::printf(" %.3f", s.pixel_accuracy);
+    acc += s.pixel_accuracy / 6;
+    cor += s.correct_fraction / 6;
+  }
+  const std::string dir = std::string(SHAPESENSE_SHARED_DIR) + "/data/real/mosd_tabletop";
+  double worst = 1.0;
+  for (const char* name : {"1600000000.000000", "1600000000.033333", "1600000000.066667", "1600000000.100000", "1600000000.133333", "1600000000.166667"}) {
+    const cv::Mat raw = cv::imread(dir + "/depth/" + name + ".png", cv::IMREAD_UNCHANGED);
+    const cv::Mat labels = cv::imread(dir + "/labels/" + name + ".png", cv::IMREAD_UNCHANGED);
+    if (raw.empty() || labels.empty()) continue;
+    cv::Mat depth;
+    raw.convertTo(depth, CV_16UC1, 0.2);
+    const cv::Mat r = segmentDepth(depth, CameraIntrinsics{}, m, sp);
+    std::map<int, int> ov;
+    int table = 0;
+    for (int v = 0; v < r.rows; ++v)
+      for (int u = 0; u < r.cols; ++u) {
+        const int l = labels.at<std::uint16_t>(v, u);
+        if (l < 1 || l > 9 || depth.at<std::uint16_t>(v, u) == 0) continue;
+        ++table;
+        if (const int id = r.at<std::uint16_t>(v, u)) ++ov[id];
+      }
+    int best = 0;
+    for (auto [id, c] : ov) best = std::max(best, c);
+    worst = std::min(worst, table ? double(best) / table : 0.0);
+  }
+  std::printf("\n[sweep] %s acc %.3f correct %.3f mosd worst table %.3f\n", std::string(formatSegmentationMethod(m)).c_str(), acc, cor, worst);
 }
 }  // namespace
 }  // namespace shapesense
