@@ -295,7 +295,8 @@ namespace shapesense {
 namespace {
 // Parameter sweep helper: mean pixel accuracy / correct fraction of SEG_DIAG_METHOD over seeds 1-6
 // and the worst mosd_tabletop table coverage, with plane-prediction parameters from the env
-// (SEG_PP_{RADIUS,STEPS,SMOOTH,GRAD,LONG,LSTEPS,FALLBACK}).
+// (SEG_PP_{RADIUS,STEPS,SMOOTH,GRAD,LONG,LSTEPS,FALLBACK}) and
+// depth-step parameters (SEG_DS_{STEPS,SLOPE,MIN,RADIUS,MINPX,DOWNSAMPLE}).
 TEST(SegmentationSyntheticDiag, DISABLED_Sweep) {
   const char* env = std::getenv("SEG_DIAG_METHOD");
   const SegmentationMethod m = parseSegmentationMethod(env ? env : "plane_prediction").value_or(SegmentationMethod::kPlanePrediction);
@@ -305,6 +306,13 @@ TEST(SegmentationSyntheticDiag, DISABLED_Sweep) {
   if (const char* e = std::getenv("SEG_PP_LONG")) pp.long_range = std::atoi(e);
   if (const char* e = std::getenv("SEG_PP_LSTEPS")) pp.long_noise_steps = std::atof(e);
   if (const char* e = std::getenv("SEG_PP_FALLBACK")) pp.curved_fallback_markers = std::atoi(e) != 0;
+  auto& ds = sp.depth_step;
+  if (const char* e = std::getenv("SEG_DS_STEPS")) ds.noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_SLOPE")) ds.slope_factor = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_MIN")) ds.min_threshold_mm = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_RADIUS")) ds.window_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_DS_MINPX")) ds.region.min_marker_px = std::atoi(e);
+  if (const char* e = std::getenv("SEG_DS_DOWNSAMPLE")) ds.region.downsample = std::atoi(e);
   if (const char* e = std::getenv("SEG_PP_STEPS")) pp.noise_steps = std::atof(e);
   if (const char* e = std::getenv("SEG_PP_SMOOTH")) pp.smoothing_radius = std::atoi(e);
   if (const char* e = std::getenv("SEG_PP_GRAD")) pp.gradient_step = std::atoi(e);
