@@ -449,7 +449,7 @@ void flood(const cv::Mat& edges, cv::Mat& markers) {
 // first appearance, so that the full-resolution passes below run on uint16. K is at most the
 // number of pixels / min marker size, far below 65535 for any sane parameters; ids past 65535
 // become 0 (unassigned) rather than wrapping.
-cv::Mat denseLabels(const cv::Mat& labels) {
+cv::Mat denseLabels(const cv::Mat& labels, int& count) {
   double mx = 0;
   cv::minMaxLoc(labels, nullptr, &mx);
   std::vector<std::uint16_t> remap(static_cast<std::size_t>(std::max(mx, 0.0)) + 1, 0);
@@ -468,6 +468,7 @@ cv::Mat denseLabels(const cv::Mat& labels) {
       o[u] = remap[x];
     }
   }
+  count = std::min(next, 65535);
   return out;
 }
 
@@ -500,12 +501,16 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, 
     const auto* l = labels.ptr<std::uint16_t>(vc);
     const auto* dc = w.depth.ptr<std::uint16_t>(vc);
     if (v % 2 == 0) {
-      for (int u = 0; u < cols; ++u) {
+      for (int u = 0; u < cols; u += 2) {
         const int uc = std::min(u >> 1, labels.cols - 1);
         const float z = dc[uc];
-        lab2[u] = l[uc];
-        dep2[u] = dc[uc];
-        tol2[u] = static_cast<std::uint16_t>(std::min(k * z * z + 2.0f, 65535.0f));
+        const auto t = static_cast<std::uint16_t>(std::min(k * z * z + 2.0f, 65535.0f));
+        const int n = std::min(2, cols - u);
+        for (int i = 0; i < n; ++i) {
+          lab2[u + i] = l[uc];
+          dep2[u + i] = dc[uc];
+          tol2[u + i] = t;
+        }
       }
     }
     unsigned any_bad = 0;
@@ -543,11 +548,11 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, 
 }
 
 // Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance,
-// in place (CV_16UC1).
-void compact(cv::Mat& labels, int min_px) {
+// in place (CV_16UC1 with labels <= max_label).
+void compact(cv::Mat& labels, int max_label, int min_px) {
   // Sizes by runs of equal labels: consecutive pixels mostly share a label, and a per-pixel
   // ++size[label] is a serial memory dependency that costs more than the upsampling.
-  std::vector<int> size(65536, 0);
+  std::vector<int> size(static_cast<std::size_t>(max_label) + 1, 0);
   std::vector<std::uint16_t> order;  // labels in raster order of first appearance
   for (int v = 0; v < labels.rows; ++v) {
     const auto* l = labels.ptr<std::uint16_t>(v);
@@ -561,7 +566,7 @@ void compact(cv::Mat& labels, int min_px) {
       u = end;
     }
   }
-  std::vector<std::uint16_t> remap(65536, 0);
+  std::vector<std::uint16_t> remap(static_cast<std::size_t>(max_label) + 1, 0);
   int next = 0;
   for (std::uint16_t x : order) {
     if (size[x] >= min_px) remap[x] = static_cast<std::uint16_t>(++next);
@@ -648,8 +653,9 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
 cv::Mat finish(cv::Mat& markers, const cv::Mat& edges, const Working& w, const cv::Mat& depth,
                const RegionParams& rp) {
   mergeCoplanar(markers, edges, w, rp);
-  cv::Mat full = upsample(denseLabels(markers), w, depth, rp.noise);
-  compact(full, rp.min_region_px);
+  int count = 0;
+  cv::Mat full = upsample(denseLabels(markers, count), w, depth, rp.noise);
+  compact(full, count, rp.min_region_px);
   return full;
 }
 
