@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
 #include <vector>
 
@@ -560,6 +561,12 @@ void compact(cv::Mat& labels, int max_label, int min_px) {
     while (u < labels.cols) {
       const std::uint16_t x = l[u];
       int end = u + 1;
+      // Four labels per compare while the run lasts (runs are long: regions are large).
+      const std::uint64_t four = x * 0x0001000100010001ull;
+      for (std::uint64_t chunk; end + 4 <= labels.cols; end += 4) {
+        std::memcpy(&chunk, l + end, sizeof chunk);
+        if (chunk != four) break;
+      }
       while (end < labels.cols && l[end] == x) ++end;
       if (x != 0 && size[x] == 0) order.push_back(x);
       size[x] += end - u;
@@ -568,9 +575,12 @@ void compact(cv::Mat& labels, int max_label, int min_px) {
   }
   std::vector<std::uint16_t> remap(static_cast<std::size_t>(max_label) + 1, 0);
   int next = 0;
+  bool identity = true;
   for (std::uint16_t x : order) {
     if (size[x] >= min_px) remap[x] = static_cast<std::uint16_t>(++next);
+    identity = identity && remap[x] == x;
   }
+  if (identity && static_cast<int>(order.size()) == max_label) return;
   for (int v = 0; v < labels.rows; ++v) {
     auto* l = labels.ptr<std::uint16_t>(v);
     for (int u = 0; u < labels.cols; ++u) l[u] = remap[l[u]];
@@ -588,20 +598,35 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
   using Moments = std::array<double, 10>;  // n u v w uu uv vv uw vw ww
   std::vector<Moments> m(n, Moments{});
   const double uc = labels.cols * 0.5, vc = labels.rows * 0.5;
+  // Row-local sums over runs of one label, flushed into the region's moments when the label
+  // changes: no per-pixel read-modify-write of a region's moments in memory.
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
     const auto* d = w.depth.ptr<std::uint16_t>(v);
     const auto* e = edges.ptr<std::uint8_t>(v);
     const double fv = v - vc;
+    int cur = 0;
+    double c = 0, su = 0, suu = 0, sw = 0, suw = 0, sww = 0;
+    auto flush = [&] {
+      if (cur <= 0 || c == 0) return;
+      Moments& a = m[cur];
+      a[0] += c; a[1] += su; a[2] += fv * c; a[3] += sw;
+      a[4] += suu; a[5] += fv * su; a[6] += fv * fv * c;
+      a[7] += suw; a[8] += fv * sw; a[9] += sww;
+      c = su = suu = sw = suw = sww = 0;
+    };
     for (int u = 0; u < labels.cols; ++u) {
       // Only the regions' cores (low edge strength): flooded edge bands hold mixed pixels.
       if (l[u] <= 0 || d[u] == 0 || e[u] > rp.marker_max_edge) continue;
-      const double fu = u - uc, iw = 1000.0 / d[u];
-      Moments& a = m[l[u]];
-      a[0] += 1; a[1] += fu; a[2] += fv; a[3] += iw;
-      a[4] += fu * fu; a[5] += fu * fv; a[6] += fv * fv;
-      a[7] += fu * iw; a[8] += fv * iw; a[9] += iw * iw;
+      if (l[u] != cur) {
+        flush();
+        cur = l[u];
+      }
+      const double fu = u - uc, iw = 1000.0f / static_cast<float>(d[u]);
+      c += 1; su += fu; suu += fu * fu;
+      sw += iw; suw += fu * iw; sww += iw * iw;
     }
+    flush();
   }
   auto rms = [](const Moments& a) {
     const cv::Matx33d A(a[4], a[5], a[1], a[5], a[6], a[2], a[1], a[2], a[0]);
