@@ -11,7 +11,10 @@
 //  - kFused:           E = E_depth + weight * E_normal,
 //  - kPlanePrediction: each neighbour's inverse depth is predicted from the centre's local
 //                      inverse-depth gradient (planes are affine in inverse depth); E = number of
-//                      anomalous neighbours. No explicit normals.
+//                      anomalous neighbours in a dense window plus a sparse long-range ring (far
+//                      creases bend inverse depth too little to show within a few pixels).
+//                      Curved surfaces, anomalous at long range everywhere, keep markers from
+//                      the dense window alone. No explicit normals.
 // and one is a plane segmenter:
 //  - kTiledRansac:     a RANSAC plane per tile (in inverse-depth space, where Kinect noise is
 //                      range-independent), tile planes merged across tile borders and flooded
