@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
 #include <vector>
 
@@ -212,7 +213,9 @@ cv::Mat inverseDepth(const cv::Mat& depth) {
 
 // Plane-prediction edge strength: planes are affine in inverse depth w = 1/z, so each neighbour's
 // w is predicted from the centre's smoothed w and gradient; E = number of anomalous neighbours.
-cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise) {
+// With `short_edges`, also returns the dense-window count alone (for the fallback markers).
+cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise,
+                             cv::Mat* short_edges = nullptr) {
   const cv::Mat& d = w.depth;
   const int rows = d.rows, cols = d.cols;
   cv::Mat inv = inverseDepth(d);
@@ -253,10 +256,28 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
       else if (b > 0 && c[u] > 0 && v + g < rows) oy[u] = (b - c[u]) / static_cast<float>(g);
     }
   }
-  const int r = std::clamp(p.window_radius, 1, 7);
   const float thr = static_cast<float>(p.noise_steps * inverseDepthStep(noise));
+  const float thr_long = static_cast<float>(p.long_noise_steps * inverseDepthStep(noise));
+  // Offsets: the dense window, then the long-range ring (the outer ring of a grid with spacing
+  // long_range / 2, i.e. 16 neighbours at distance long_range).
+  struct Offset {
+    int du, dv;
+    bool long_range;
+  };
+  std::vector<Offset> offsets;
+  const int r = std::clamp(p.window_radius, 1, 7);
+  for (int dv = -r; dv <= r; ++dv)
+    for (int du = -r; du <= r; ++du)
+      if (du != 0 || dv != 0) offsets.push_back({du, dv, false});
+  const int half = std::clamp(p.long_range, 0, 16) / 2;
+  if (half > 0 && 2 * half > r) {
+    for (int j = -2; j <= 2; ++j)
+      for (int i = -2; i <= 2; ++i)
+        if (std::max(std::abs(i), std::abs(j)) == 2) offsets.push_back({i * half, j * half, true});
+  }
   cv::Mat edges(rows, cols, CV_8UC1);
-  std::vector<std::uint8_t> acc(cols);
+  if (short_edges) short_edges->create(rows, cols, CV_8UC1);
+  std::vector<std::uint8_t> acc_short(cols), acc_long(cols);
   std::vector<float> centre(cols);
   for (int v = 0; v < rows; ++v) {
     const float* wc = inv.ptr<float>(v);
@@ -264,25 +285,28 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
     const float* gxp = gx.ptr<float>(v);
     const float* gyp = gy.ptr<float>(v);
     for (int u = 0; u < cols; ++u) centre[u] = smc[u] > 0 ? smc[u] : wc[u];
-    std::fill(acc.begin(), acc.end(), 0);
-    for (int dv = -r; dv <= r; ++dv) {
-      const int vq = v + dv;
+    std::fill(acc_short.begin(), acc_short.end(), 0);
+    std::fill(acc_long.begin(), acc_long.end(), 0);
+    for (const Offset& o : offsets) {
+      const int vq = v + o.dv;
       if (vq < 0 || vq >= rows) continue;
       const float* wq = inv.ptr<float>(vq);
-      const float fdv = static_cast<float>(dv);
-      for (int du = -r; du <= r; ++du) {
-        if (du == 0 && dv == 0) continue;
-        const float fdu = static_cast<float>(du);
-        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
-        for (int u = u0; u < u1; ++u) {
-          const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
-          const float y = wq[u + du];
-          acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > thr));
-        }
+      const float fdu = static_cast<float>(o.du), fdv = static_cast<float>(o.dv);
+      const float t = o.long_range ? thr_long : thr;
+      std::uint8_t* acc = o.long_range ? acc_long.data() : acc_short.data();
+      const int u0 = std::max(0, -o.du), u1 = std::min(cols, cols - o.du);
+      for (int u = u0; u < u1; ++u) {
+        const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
+        const float y = wq[u + o.du];
+        acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > t));
       }
     }
     auto* e = edges.ptr<std::uint8_t>(v);
-    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : acc[u];
+    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);
+    if (short_edges) {
+      auto* es = short_edges->ptr<std::uint8_t>(v);
+      for (int u = 0; u < cols; ++u) es[u] = wc[u] == 0.0f ? kNoDepth : acc_short[u];
+    }
   }
   return edges;
 }
@@ -330,8 +354,11 @@ const RegionParams& regionParams(SegmentationMethod method, const SegmentationPa
 }
 
 // Markers: 4-connected components of pixels with edge <= max_edge, components below min_px
-// dropped. CV_32SC1, 0 = unmarked. Returns the number of the largest label used.
-int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& markers) {
+// dropped. With `fallback` (a second relief, e.g. plane prediction's dense window alone), its
+// low-edge components that contain no marker pixel become markers too. CV_32SC1, 0 = unmarked.
+// Returns the number of the largest label used.
+int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& markers,
+                     const cv::Mat& fallback = {}) {
   cv::Mat mask = edges <= std::min(max_edge, 254);
   cv::Mat labels;
   const int n = cv::connectedComponents(mask, labels, 4, CV_32S);
@@ -348,6 +375,28 @@ int markersFromEdges(const cv::Mat& edges, int max_edge, int min_px, cv::Mat& ma
     const int* l = labels.ptr<int>(v);
     int* m = markers.ptr<int>(v);
     for (int u = 0; u < labels.cols; ++u) m[u] = remap[l[u]];
+  }
+  if (fallback.empty()) return next;
+  cv::Mat fb_labels;
+  const int nf = cv::connectedComponents(fallback <= std::min(max_edge, 254), fb_labels, 4, CV_32S);
+  std::vector<int> fb_size(nf, 0);
+  std::vector<char> has_marker(nf, 0);
+  for (int v = 0; v < fb_labels.rows; ++v) {
+    const int* l = fb_labels.ptr<int>(v);
+    const int* m = markers.ptr<int>(v);
+    for (int u = 0; u < fb_labels.cols; ++u) {
+      ++fb_size[l[u]];
+      has_marker[l[u]] |= m[u] > 0;
+    }
+  }
+  std::vector<int> fb_remap(nf, 0);
+  for (int i = 1; i < nf; ++i) fb_remap[i] = (!has_marker[i] && fb_size[i] >= min_px) ? ++next : 0;
+  for (int v = 0; v < fb_labels.rows; ++v) {
+    const int* l = fb_labels.ptr<int>(v);
+    int* m = markers.ptr<int>(v);
+    for (int u = 0; u < fb_labels.cols; ++u) {
+      if (fb_remap[l[u]]) m[u] = fb_remap[l[u]];
+    }
   }
   return next;
 }
@@ -397,66 +446,15 @@ void flood(const cv::Mat& edges, cv::Mat& markers) {
   }
 }
 
-// Upsamples working-resolution labels to the full image. A full-resolution pixel whose depth does
-// not match its block's depth (a block on a step took the foreground) takes the label of the
-// neighbouring block with the closest depth. Pixels without depth get 0.
-cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
-  cv::Mat out(depth.size(), CV_32SC1);
-  const int ds = w.ds;
-  const float k = static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
-  for (int v = 0; v < depth.rows; ++v) {
-    const auto* d = depth.ptr<std::uint16_t>(v);
-    int* o = out.ptr<int>(v);
-    const int vc = std::min(v / ds, labels.rows - 1);
-    const int* l = labels.ptr<int>(vc);
-    const auto* dc = w.depth.ptr<std::uint16_t>(vc);
-    for (int u = 0; u < depth.cols; ++u) {
-      if (d[u] == 0) {
-        o[u] = 0;
-        continue;
-      }
-      const int uc = std::min(u / ds, labels.cols - 1);
-      int label = l[uc];
-      if (ds > 1) {
-        const float z = d[u];
-        const float tol = k * z * z + 2.0f;
-        if (std::fabs(z - static_cast<float>(dc[uc])) > tol) {
-          float best = 1e9f;
-          for (int dv = -1; dv <= 1; ++dv) {
-            const int vv = vc + dv;
-            if (vv < 0 || vv >= labels.rows) continue;
-            const int* lr = labels.ptr<int>(vv);
-            const auto* dr = w.depth.ptr<std::uint16_t>(vv);
-            for (int du = -1; du <= 1; ++du) {
-              const int uu = uc + du;
-              if (uu < 0 || uu >= labels.cols || dr[uu] == 0 || lr[uu] <= 0) continue;
-              const float diff = std::fabs(z - static_cast<float>(dr[uu]));
-              if (diff < best) {
-                best = diff;
-                label = lr[uu];
-              }
-            }
-          }
-        }
-      }
-      o[u] = std::max(label, 0);
-    }
-  }
-  return out;
-}
-
-// Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance.
-cv::Mat compact(const cv::Mat& labels, int min_px) {
+// Working-resolution labels (CV_32SC1, any positive ids) renumbered 1..K in raster order of
+// first appearance, so that the full-resolution passes below run on uint16. K is at most the
+// number of pixels / min marker size, far below 65535 for any sane parameters; ids past 65535
+// become 0 (unassigned) rather than wrapping.
+cv::Mat denseLabels(const cv::Mat& labels, int& count) {
   double mx = 0;
   cv::minMaxLoc(labels, nullptr, &mx);
-  const int n = static_cast<int>(mx) + 1;
-  std::vector<int> size(n, 0);
-  for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u) ++size[std::max(l[u], 0)];
-  }
-  std::vector<int> remap(n, -1);
-  remap[0] = 0;
+  std::vector<std::uint16_t> remap(static_cast<std::size_t>(std::max(mx, 0.0)) + 1, 0);
+  std::vector<char> assigned(remap.size(), 0);
   int next = 0;
   cv::Mat out(labels.size(), CV_16UC1);
   for (int v = 0; v < labels.rows; ++v) {
@@ -464,12 +462,129 @@ cv::Mat compact(const cv::Mat& labels, int min_px) {
     auto* o = out.ptr<std::uint16_t>(v);
     for (int u = 0; u < labels.cols; ++u) {
       const int x = std::max(l[u], 0);
-      int& r = remap[x];
-      if (r < 0) r = (size[x] >= min_px && next < 65535) ? ++next : 0;
-      o[u] = static_cast<std::uint16_t>(r);
+      if (x > 0 && !assigned[x]) {
+        assigned[x] = 1;
+        remap[x] = next < 65535 ? static_cast<std::uint16_t>(++next) : 0;
+      }
+      o[u] = remap[x];
+    }
+  }
+  count = std::min(next, 65535);
+  return out;
+}
+
+// Upsamples working-resolution labels (dense uint16, see denseLabels) to the full image. A
+// full-resolution pixel whose depth does not match its block's depth (a block on a step took the
+// foreground) takes the label of the neighbouring block with the closest depth. Pixels without
+// depth get 0. CV_16UC1.
+cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
+  cv::Mat out(depth.size(), CV_16UC1);
+  if (w.ds == 1) {  // makeWorking clamps ds to 1 or 2
+    for (int v = 0; v < depth.rows; ++v) {
+      const auto* d = depth.ptr<std::uint16_t>(v);
+      const auto* l = labels.ptr<std::uint16_t>(v);
+      auto* o = out.ptr<std::uint16_t>(v);
+      for (int u = 0; u < depth.cols; ++u) o[u] = d[u] == 0 ? 0 : l[u];
+    }
+    return out;
+  }
+  // Per working row, the block label, depth and depth tolerance are expanded to full width once,
+  // so the per-pixel pass is branch-free uint16 arithmetic that vectorises; the few pixels that
+  // do not match their block (next to steps) are fixed afterwards.
+  const float k = static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
+  const int cols = depth.cols;
+  std::vector<std::uint16_t> lab2(cols), dep2(cols), tol2(cols);
+  std::vector<std::uint8_t> bad(cols);
+  for (int v = 0; v < depth.rows; ++v) {
+    const auto* d = depth.ptr<std::uint16_t>(v);
+    auto* o = out.ptr<std::uint16_t>(v);
+    const int vc = std::min(v / 2, labels.rows - 1);
+    const auto* l = labels.ptr<std::uint16_t>(vc);
+    const auto* dc = w.depth.ptr<std::uint16_t>(vc);
+    if (v % 2 == 0) {
+      for (int u = 0; u < cols; u += 2) {
+        const int uc = std::min(u >> 1, labels.cols - 1);
+        const float z = dc[uc];
+        const auto t = static_cast<std::uint16_t>(std::min(k * z * z + 2.0f, 65535.0f));
+        const int n = std::min(2, cols - u);
+        for (int i = 0; i < n; ++i) {
+          lab2[u + i] = l[uc];
+          dep2[u + i] = dc[uc];
+          tol2[u + i] = t;
+        }
+      }
+    }
+    unsigned any_bad = 0;
+    for (int u = 0; u < cols; ++u) {
+      const std::uint16_t z = d[u], c = dep2[u];
+      const std::uint16_t diff = static_cast<std::uint16_t>(z > c ? z - c : c - z);
+      const std::uint16_t valid = z != 0 ? 0xFFFF : 0;
+      o[u] = static_cast<std::uint16_t>(lab2[u] & valid);
+      bad[u] = static_cast<std::uint8_t>((valid & (diff > tol2[u] ? 1 : 0)));
+      any_bad |= bad[u];
+    }
+    if (!any_bad) continue;
+    for (int u = 0; u < cols; ++u) {
+      if (!bad[u]) continue;
+      const int uc = std::min(u >> 1, labels.cols - 1);
+      int best = 1 << 30;
+      for (int dv = -1; dv <= 1; ++dv) {
+        const int vv = vc + dv;
+        if (vv < 0 || vv >= labels.rows) continue;
+        const auto* lr = labels.ptr<std::uint16_t>(vv);
+        const auto* dr = w.depth.ptr<std::uint16_t>(vv);
+        for (int du = -1; du <= 1; ++du) {
+          const int uu = uc + du;
+          if (uu < 0 || uu >= labels.cols || dr[uu] == 0 || lr[uu] == 0) continue;
+          const int diff = std::abs(static_cast<int>(d[u]) - static_cast<int>(dr[uu]));
+          if (diff < best) {
+            best = diff;
+            o[u] = lr[uu];
+          }
+        }
+      }
     }
   }
   return out;
+}
+
+// Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance,
+// in place (CV_16UC1 with labels <= max_label).
+void compact(cv::Mat& labels, int max_label, int min_px) {
+  // Sizes by runs of equal labels: consecutive pixels mostly share a label, and a per-pixel
+  // ++size[label] is a serial memory dependency that costs more than the upsampling.
+  std::vector<int> size(static_cast<std::size_t>(max_label) + 1, 0);
+  std::vector<std::uint16_t> order;  // labels in raster order of first appearance
+  for (int v = 0; v < labels.rows; ++v) {
+    const auto* l = labels.ptr<std::uint16_t>(v);
+    int u = 0;
+    while (u < labels.cols) {
+      const std::uint16_t x = l[u];
+      int end = u + 1;
+      // Four labels per compare while the run lasts (runs are long: regions are large).
+      const std::uint64_t four = x * 0x0001000100010001ull;
+      for (std::uint64_t chunk; end + 4 <= labels.cols; end += 4) {
+        std::memcpy(&chunk, l + end, sizeof chunk);
+        if (chunk != four) break;
+      }
+      while (end < labels.cols && l[end] == x) ++end;
+      if (x != 0 && size[x] == 0) order.push_back(x);
+      size[x] += end - u;
+      u = end;
+    }
+  }
+  std::vector<std::uint16_t> remap(static_cast<std::size_t>(max_label) + 1, 0);
+  int next = 0;
+  bool identity = true;
+  for (std::uint16_t x : order) {
+    if (size[x] >= min_px) remap[x] = static_cast<std::uint16_t>(++next);
+    identity = identity && remap[x] == x;
+  }
+  if (identity && static_cast<int>(order.size()) == max_label) return;
+  for (int v = 0; v < labels.rows; ++v) {
+    auto* l = labels.ptr<std::uint16_t>(v);
+    for (int u = 0; u < labels.cols; ++u) l[u] = remap[l[u]];
+  }
 }
 
 // Greedy merge of coplanar regions (see RegionParams::merge_coplanar). Moments of
@@ -483,20 +598,35 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
   using Moments = std::array<double, 10>;  // n u v w uu uv vv uw vw ww
   std::vector<Moments> m(n, Moments{});
   const double uc = labels.cols * 0.5, vc = labels.rows * 0.5;
+  // Row-local sums over runs of one label, flushed into the region's moments when the label
+  // changes: no per-pixel read-modify-write of a region's moments in memory.
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
     const auto* d = w.depth.ptr<std::uint16_t>(v);
     const auto* e = edges.ptr<std::uint8_t>(v);
     const double fv = v - vc;
+    int cur = 0;
+    double c = 0, su = 0, suu = 0, sw = 0, suw = 0, sww = 0;
+    auto flush = [&] {
+      if (cur <= 0 || c == 0) return;
+      Moments& a = m[cur];
+      a[0] += c; a[1] += su; a[2] += fv * c; a[3] += sw;
+      a[4] += suu; a[5] += fv * su; a[6] += fv * fv * c;
+      a[7] += suw; a[8] += fv * sw; a[9] += sww;
+      c = su = suu = sw = suw = sww = 0;
+    };
     for (int u = 0; u < labels.cols; ++u) {
       // Only the regions' cores (low edge strength): flooded edge bands hold mixed pixels.
       if (l[u] <= 0 || d[u] == 0 || e[u] > rp.marker_max_edge) continue;
-      const double fu = u - uc, iw = 1000.0 / d[u];
-      Moments& a = m[l[u]];
-      a[0] += 1; a[1] += fu; a[2] += fv; a[3] += iw;
-      a[4] += fu * fu; a[5] += fu * fv; a[6] += fv * fv;
-      a[7] += fu * iw; a[8] += fv * iw; a[9] += iw * iw;
+      if (l[u] != cur) {
+        flush();
+        cur = l[u];
+      }
+      const double fu = u - uc, iw = 1000.0f / static_cast<float>(d[u]);
+      c += 1; su += fu; suu += fu * fu;
+      sw += iw; suw += fu * iw; sww += iw * iw;
     }
+    flush();
   }
   auto rms = [](const Moments& a) {
     const cv::Matx33d A(a[4], a[5], a[1], a[5], a[6], a[2], a[1], a[2], a[0]);
@@ -548,15 +678,10 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
 cv::Mat finish(cv::Mat& markers, const cv::Mat& edges, const Working& w, const cv::Mat& depth,
                const RegionParams& rp) {
   mergeCoplanar(markers, edges, w, rp);
-  cv::Mat full = w.ds > 1 ? upsample(markers, w, depth, rp.noise) : markers.clone();
-  if (w.ds == 1) {
-    for (int v = 0; v < full.rows; ++v) {
-      const auto* d = depth.ptr<std::uint16_t>(v);
-      int* o = full.ptr<int>(v);
-      for (int u = 0; u < full.cols; ++u) if (d[u] == 0 || o[u] < 0) o[u] = 0;
-    }
-  }
-  return compact(full, rp.min_region_px);
+  int count = 0;
+  cv::Mat full = upsample(denseLabels(markers, count), w, depth, rp.noise);
+  compact(full, count, rp.min_region_px);
+  return full;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -808,10 +933,16 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
   }
   const RegionParams& rp = regionParams(method, params);
   const Working w = makeWorking(depth_mm, intrinsics, rp);
-  const cv::Mat edges = edgeStrength(w, method, params);
+  cv::Mat edges, fallback;
+  if (method == SegmentationMethod::kPlanePrediction) {
+    const auto& pp = params.plane_prediction;
+    edges = planePredictionEdges(w, pp, rp.noise, pp.curved_fallback_markers ? &fallback : nullptr);
+  } else {
+    edges = edgeStrength(w, method, params);
+  }
   cv::Mat markers;
   const int min_marker = std::max(1, rp.min_marker_px / (w.ds * w.ds));
-  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers) == 0) {
+  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers, fallback) == 0) {
     return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
   }
   flood(edges, markers);

@@ -4,7 +4,10 @@
 // Env: SEG_DIAG_METHOD (default depth_step / plane_prediction), SEG_DIAG_VERBOSE=1 (per truth
 // surface), SEG_DIAG_PAIRS (oracle contact length, default 10), SEG_DIAG_RMS (coplanar merge),
 // SEG_FUSED_{ANGLE,WIN,SMOOTH}, SEG_DIAG_DUMP=<dir> (colour images of regions and edges).
+#include <algorithm>
 #include <cstdio>
+#include <ctime>
+#include <vector>
 #include <cstdlib>
 #include <cmath>
 #include <functional>
@@ -129,6 +132,11 @@ TEST(SegmentationSyntheticDiag, DISABLED_PerRegionLoss) {
     if (const char* e = std::getenv("SEG_FUSED_ANGLE")) base.fused.normal.max_angle_deg = std::atof(e);
     if (const char* e = std::getenv("SEG_FUSED_WIN")) base.fused.normal.window_radius = std::atoi(e);
     if (const char* e = std::getenv("SEG_FUSED_SMOOTH")) base.fused.normal.normals.smoothing_radius_px = std::atof(e);
+    if (const char* e = std::getenv("SEG_PP_RADIUS")) base.plane_prediction.window_radius = std::atoi(e);
+    if (const char* e = std::getenv("SEG_PP_LONG")) base.plane_prediction.long_range = std::atoi(e);
+    if (const char* e = std::getenv("SEG_PP_LSTEPS")) base.plane_prediction.long_noise_steps = std::atof(e);
+    if (const char* e = std::getenv("SEG_PP_FALLBACK")) base.plane_prediction.curved_fallback_markers = std::atoi(e) != 0;
+    if (const char* e = std::getenv("SEG_PP_STEPS")) base.plane_prediction.noise_steps = std::atof(e);
     SegmentationParams full = base;
     full.depth_step.region.downsample = full.normal_edges.region.downsample = full.fused.region.downsample =
         full.plane_prediction.region.downsample = full.tiled_ransac.region.downsample = 1;
@@ -246,6 +254,103 @@ TEST(SegmentationSyntheticDiag, DISABLED_EdgeCompare) {
   cv::Mat row;
   cv::hconcat(std::vector<cv::Mat>{en * 10, ef * 10, ed * 10}, row);
   if (const char* dump = std::getenv("SEG_DIAG_DUMP")) cv::imwrite(std::string(dump) + "/edges.png", row);
+}
+}  // namespace
+}  // namespace shapesense
+
+namespace shapesense {
+namespace {
+// A fixed amount of segmentation work for profiling (perf stat / perf record): SEG_PROFILE_REPS
+// runs (default 200) of SEG_DIAG_METHOD (default depth_step) on synthetic seed 1, frame 0.
+TEST(SegmentationSyntheticDiag, DISABLED_ProfileLoop) {
+  synthetic::SceneParams p;
+  p.seed = 1;
+  p.render_colour = false;
+  const synthetic::SyntheticScene scene(p);
+  const synthetic::RenderedFrame f = scene.render(0, 0);
+  const char* env = std::getenv("SEG_DIAG_METHOD");
+  const SegmentationMethod m = parseSegmentationMethod(env ? env : "depth_step").value_or(SegmentationMethod::kDepthStep);
+  const int reps = std::getenv("SEG_PROFILE_REPS") ? std::atoi(std::getenv("SEG_PROFILE_REPS")) : 200;
+  int regions = 0;
+  std::vector<double> ms;
+  for (int i = 0; i < reps; ++i) {
+    timespec a{}, b{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
+    const cv::Mat r = segmentDepth(f.frame.depth, f.frame.intrinsics, m);
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &b);
+    ms.push_back((b.tv_sec - a.tv_sec) * 1e3 + (b.tv_nsec - a.tv_nsec) * 1e-6);
+    double mx;
+    cv::minMaxLoc(r, nullptr, &mx);
+    regions += static_cast<int>(mx);
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("[profile] %s %d runs, %d regions per run, thread-CPU median %.2f ms min %.2f ms\n",
+              std::string(formatSegmentationMethod(m)).c_str(), reps, regions / std::max(reps, 1),
+              ms.empty() ? 0.0 : ms[ms.size() / 2], ms.empty() ? 0.0 : ms.front());
+}
+}  // namespace
+}  // namespace shapesense
+
+namespace shapesense {
+namespace {
+// Parameter sweep helper: mean pixel accuracy / correct fraction of SEG_DIAG_METHOD over seeds 1-6
+// and the worst mosd_tabletop table coverage, with plane-prediction parameters from the env
+// (SEG_PP_{RADIUS,STEPS,SMOOTH,GRAD,LONG,LSTEPS,FALLBACK}) and
+// depth-step parameters (SEG_DS_{STEPS,SLOPE,MIN,RADIUS,MINPX,DOWNSAMPLE}).
+TEST(SegmentationSyntheticDiag, DISABLED_Sweep) {
+  const char* env = std::getenv("SEG_DIAG_METHOD");
+  const SegmentationMethod m = parseSegmentationMethod(env ? env : "plane_prediction").value_or(SegmentationMethod::kPlanePrediction);
+  SegmentationParams sp;
+  auto& pp = sp.plane_prediction;
+  if (const char* e = std::getenv("SEG_PP_RADIUS")) pp.window_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_LONG")) pp.long_range = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_LSTEPS")) pp.long_noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_PP_FALLBACK")) pp.curved_fallback_markers = std::atoi(e) != 0;
+  auto& ds = sp.depth_step;
+  if (const char* e = std::getenv("SEG_DS_STEPS")) ds.noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_SLOPE")) ds.slope_factor = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_MIN")) ds.min_threshold_mm = std::atof(e);
+  if (const char* e = std::getenv("SEG_DS_RADIUS")) ds.window_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_DS_MINPX")) ds.region.min_marker_px = std::atoi(e);
+  if (const char* e = std::getenv("SEG_DS_DOWNSAMPLE")) ds.region.downsample = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_STEPS")) pp.noise_steps = std::atof(e);
+  if (const char* e = std::getenv("SEG_PP_SMOOTH")) pp.smoothing_radius = std::atoi(e);
+  if (const char* e = std::getenv("SEG_PP_GRAD")) pp.gradient_step = std::atoi(e);
+  double acc = 0, cor = 0;
+  for (std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
+    synthetic::SceneParams p;
+    p.seed = seed;
+    p.render_colour = false;
+    const synthetic::SyntheticScene scene(p);
+    const synthetic::RenderedFrame f = scene.render(0, 0);
+    const SegCompScore s = scoreSegmentation(segmentDepth(f.frame.depth, f.frame.intrinsics, m, sp), f.truth.surface_labels);
+    std::printf(" %.3f", s.pixel_accuracy);
+    acc += s.pixel_accuracy / 6;
+    cor += s.correct_fraction / 6;
+  }
+  const std::string dir = std::string(SHAPESENSE_SHARED_DIR) + "/data/real/mosd_tabletop";
+  double worst = 1.0;
+  for (const char* name : {"1600000000.000000", "1600000000.033333", "1600000000.066667", "1600000000.100000", "1600000000.133333", "1600000000.166667"}) {
+    const cv::Mat raw = cv::imread(dir + "/depth/" + name + ".png", cv::IMREAD_UNCHANGED);
+    const cv::Mat labels = cv::imread(dir + "/labels/" + name + ".png", cv::IMREAD_UNCHANGED);
+    if (raw.empty() || labels.empty()) continue;
+    cv::Mat depth;
+    raw.convertTo(depth, CV_16UC1, 0.2);
+    const cv::Mat r = segmentDepth(depth, CameraIntrinsics{}, m, sp);
+    std::map<int, int> ov;
+    int table = 0;
+    for (int v = 0; v < r.rows; ++v)
+      for (int u = 0; u < r.cols; ++u) {
+        const int l = labels.at<std::uint16_t>(v, u);
+        if (l < 1 || l > 9 || depth.at<std::uint16_t>(v, u) == 0) continue;
+        ++table;
+        if (const int id = r.at<std::uint16_t>(v, u)) ++ov[id];
+      }
+    int best = 0;
+    for (auto [id, c] : ov) best = std::max(best, c);
+    worst = std::min(worst, table ? double(best) / table : 0.0);
+  }
+  std::printf("\n[sweep] %s acc %.3f correct %.3f mosd worst table %.3f\n", std::string(formatSegmentationMethod(m)).c_str(), acc, cor, worst);
 }
 }  // namespace
 }  // namespace shapesense

@@ -1,6 +1,6 @@
 // Segmentation accuracy against the synthetic renderer's ground truth (one label per planar face
 // or curved object). Figures are printed; thresholds sit slightly below what each method reaches
-// (see the printed table), depth-step's pixel accuracy also at the issue's 0.9 (known unmet).
+// (see the printed table). Depth-step's 0.9 from the issue is unreachable (see below).
 #include <cstdio>
 #include <map>
 
@@ -44,25 +44,29 @@ TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
                 std::string(formatSegmentationMethod(m)).c_str(), correct[m], accuracy[m]);
   }
   // ISSUE 3 TARGET, KNOWN UNMET (depth_step reaches 0.67): depth-step edges only see depth
-  // discontinuities, and most truth surfaces here meet their neighbours at creases (wall/wall,
-  // wall/floor, box faces/table top, table edge/top), where the depth is continuous. The disabled
-  // SegmentationSyntheticDiag.PerRegionLoss shows every lost pixel is such a crease merge (0%
-  // unassigned; full resolution and disabling the coplanar merge change < 0.02), and a
-  // step-only oracle (truth surfaces merged when they share >= 150 step-free boundary pixel pairs)
-  // averages 0.77 on these seeds. So the issue's 0.9 is not asserted; the floor below holds what
-  // depth-step reaches, and the methods that also see creases (normal_edges, fused, tiled_ransac)
+  // discontinuities, and many truth surfaces here meet their neighbours at creases (wall/wall,
+  // wall/floor, box faces/table top, table edge/top), where the depth is continuous.
+  // SegmentationStepCeiling (segmentation_step_ceiling_test.cpp) merges the truth surfaces that
+  // touch along >= 150 step-free pixel pairs of noise-free depth: that partition scores 0.77 on
+  // these seeds, so no step-only criterion reaches 0.9; the disabled
+  // SegmentationSyntheticDiag.PerRegionLoss lists the lost surfaces per seed (all merged at
+  // creases, 0% unassigned). Variants measured (DISABLED_Sweep) stay within +-0.02 of the default:
+  // noise_steps 2, min_threshold_mm 4, slope_factor 0.005 / 0.02, window radius 1 / 3, full
+  // resolution, and a first-difference slope test (a step = a jump larger than 1.5-4x the
+  // one-sided differences beside it; not kept). So the issue's 0.9 is not asserted for depth_step; the methods that also see creases
   // are asserted above 0.9.
-  // Regression floors, slightly below the values measured (seeds 1-6, frame 0): pixel accuracy
-  // depth_step 0.668, normal_edges 0.936, fused 0.939, plane_prediction 0.811, tiled_ransac 0.950;
-  // correct fraction 0.19, 0.67, 0.71, 0.60, 0.67.
+  // Regression floors, about 0.02-0.03 below the values measured (seeds 1-6, frame 0): pixel
+  // accuracy depth_step 0.668, normal_edges 0.936, fused 0.939, plane_prediction 0.945,
+  // tiled_ransac 0.950; correct fraction 0.19, 0.67, 0.71, 0.67, 0.67.
   EXPECT_GE(accuracy[SegmentationMethod::kDepthStep], 0.65);
   EXPECT_GE(accuracy[SegmentationMethod::kNormalEdges], 0.92);
   EXPECT_GE(accuracy[SegmentationMethod::kFused], 0.92);
-  EXPECT_GE(accuracy[SegmentationMethod::kPlanePrediction], 0.79);
+  EXPECT_GE(accuracy[SegmentationMethod::kPlanePrediction], 0.92);
   EXPECT_GE(accuracy[SegmentationMethod::kTiledRansac], 0.93);
+  EXPECT_GE(correct[SegmentationMethod::kDepthStep], 0.16);
   EXPECT_GE(correct[SegmentationMethod::kNormalEdges], 0.64);
   EXPECT_GE(correct[SegmentationMethod::kFused], 0.68);
-  EXPECT_GE(correct[SegmentationMethod::kPlanePrediction], 0.57);
+  EXPECT_GE(correct[SegmentationMethod::kPlanePrediction], 0.64);
   EXPECT_GE(correct[SegmentationMethod::kTiledRansac], 0.64);
   // Fusion must use both cues: fused at least as good as normal edges alone.
   EXPECT_GE(accuracy[SegmentationMethod::kFused], accuracy[SegmentationMethod::kNormalEdges] - 0.005);

@@ -179,7 +179,7 @@ TEST(Segmentation, OutputIsCompactAndZeroWithoutDepth) {
 // angles meet their neighbours at creases that a 5x5 half-resolution window sees as a gradual
 // normal change, so watershed methods merge some of them. Floors sit just below what each method
 // reaches (correct / pixel accuracy: normal_edges and fused 4 of 7 / 0.885, plane_prediction
-// 3 of 7 / 0.795, tiled_ransac 6 of 7 / 0.979); nothing may shatter into noise regions.
+// 5 of 7 / 0.913, tiled_ransac 6 of 7 / 0.979); nothing may shatter into noise regions.
 TEST(Segmentation, RoomWithBoxSeparatesFaces) {
   const CameraIntrinsics K;
   cv::Mat depth, truth;
@@ -199,8 +199,8 @@ TEST(Segmentation, RoomWithBoxSeparatesFaces) {
     }
     const bool ransac = m == SegmentationMethod::kTiledRansac;
     const bool prediction = m == SegmentationMethod::kPlanePrediction;
-    EXPECT_GE(s.correct, ransac ? 6 : (prediction ? 3 : 4)) << methodName(m);
-    EXPECT_GE(s.pixel_accuracy, ransac ? 0.96 : (prediction ? 0.78 : 0.87)) << methodName(m);
+    EXPECT_GE(s.correct, ransac ? 6 : (prediction ? 5 : 4)) << methodName(m);
+    EXPECT_GE(s.pixel_accuracy, ransac ? 0.96 : (prediction ? 0.89 : 0.87)) << methodName(m);
     EXPECT_LE(s.noise, 1) << methodName(m);
   }
 }

@@ -11,7 +11,10 @@
 //  - kFused:           E = E_depth + weight * E_normal,
 //  - kPlanePrediction: each neighbour's inverse depth is predicted from the centre's local
 //                      inverse-depth gradient (planes are affine in inverse depth); E = number of
-//                      anomalous neighbours. No explicit normals.
+//                      anomalous neighbours in a dense window plus a sparse long-range ring (far
+//                      creases bend inverse depth too little to show within a few pixels).
+//                      Curved surfaces, anomalous at long range everywhere, keep markers from
+//                      the dense window alone. No explicit normals.
 // and one is a plane segmenter:
 //  - kTiledRansac:     a RANSAC plane per tile (in inverse-depth space, where Kinect noise is
 //                      range-independent), tile planes merged across tile borders and flooded
@@ -128,6 +131,17 @@ struct PlanePredictionParams {
   int gradient_step = 2;
   /// Window half-size (working pixels) of the predicted neighbours. Default 3.
   int window_radius = 3;
+  /// Also predict 16 neighbours at this distance (working pixels; the outer ring of a grid with
+  /// spacing long_range / 2). A crease between two far surfaces bends inverse depth by only
+  /// ~1 quantisation step per 2-3 pixels, below the noise within the dense window; farther
+  /// neighbours see it. 0 disables. Default 6.
+  int long_range = 6;
+  /// Anomaly threshold of the long-range neighbours (quantisation steps). Default 3.
+  double long_noise_steps = 3.0;
+  /// Curved surfaces (bowls, balls) are anomalous at long range everywhere and would have no
+  /// marker: a connected area without dense-window anomalies that holds no marker pixel becomes
+  /// a marker of its own. Default true.
+  bool curved_fallback_markers = true;
   /// A neighbour is anomalous when its inverse depth differs from the prediction by more than
   /// this many sensor quantisation steps (range-independent in inverse depth). Default 2.5.
   double noise_steps = 2.5;
