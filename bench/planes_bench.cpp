@@ -4,6 +4,14 @@
 // frame (cycling through the 30); counters give the SegComp correct-detection fraction
 // (T = 0.8, truth planar surfaces >= 0.5% of the image) over the 30 frames, the median angle and
 // distance errors of correctly detected planes, and the median per-frame thread CPU time.
+//
+// Public peers run on the same frames in the same run and are scored by the same code
+// (plane_peers.h converts their output; their parameters are documented there):
+//  - pcl_sac:    pcl::SACSegmentation sequential RANSAC on the organized cloud (SHAPESENSE_BENCH_PCL)
+//  - pcl_omps:   pcl::IntegralImageNormalEstimation + OrganizedMultiPlaneSegmentation (idem)
+//  - cv_rgbdplane: cv::rgbd::RgbdNormals (FALS) + cv::rgbd::RgbdPlane (SHAPESENSE_BENCH_OPENCV_RGBD)
+// Every method starts from the millimetre depth image; its cloud / normals are part of its time.
+// OpenCV runs single-threaded (cv::setNumThreads(1)) so that thread CPU time is all its work.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -11,6 +19,9 @@
 #include <ctime>
 #include <functional>
 
+#include <opencv2/core/utility.hpp>
+
+#include "plane_peers.h"
 #include "plane_scoring.h"
 #include "shapesense/core/plane_ransac.h"
 #include "shapesense/core/planes.h"
@@ -39,6 +50,7 @@ double threadCpuMs() {
 }
 
 void run(benchmark::State& state, const char* name, const std::function<PlaneDetection(const Frame&)>& detect) {
+  cv::setNumThreads(1);
   const auto& fs = frames();
   // Accuracy and per-frame CPU time, once per run (outside the timed loop).
   planetest::PlaneScore total;
@@ -56,7 +68,7 @@ void run(benchmark::State& state, const char* name, const std::function<PlaneDet
     benchmark::DoNotOptimize(out.planes.data());
   }
   const double median_ms = ms[ms.size() / 2];
-  std::printf("[%s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, median %.2f ms/frame (CPU)\n",
+  std::printf("[%-12s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, median %.2f ms/frame (CPU)\n",
               name, total.correctFraction(), total.correct, total.truth_regions, planetest::median(total.angle_deg),
               1e3 * planetest::median(total.dist_m), median_ms);
   state.counters["correct"] = total.correctFraction();
@@ -75,6 +87,27 @@ void BM_RansacPlanes(benchmark::State& state) {
   run(state, "ransac", [&](const Frame& f) { return detectPlanesRansac(f.depth, f.intrinsics, f.rgb); });
 }
 BENCHMARK(BM_RansacPlanes)->Unit(benchmark::kMillisecond);
+
+#ifdef SHAPESENSE_BENCH_PCL
+void BM_PclSacPlanes(benchmark::State& state) {
+  run(state, "pcl_sac", [&](const Frame& f) { return peers::detectPlanesPclSac(f.depth, f.intrinsics); });
+}
+BENCHMARK(BM_PclSacPlanes)->Unit(benchmark::kMillisecond);
+
+void BM_PclOmpsPlanes(benchmark::State& state) {
+  peers::PclOmpsDetector det;
+  run(state, "pcl_omps", [&](const Frame& f) { return det.detect(f.depth, f.intrinsics); });
+}
+BENCHMARK(BM_PclOmpsPlanes)->Unit(benchmark::kMillisecond);
+#endif
+
+#ifdef SHAPESENSE_BENCH_OPENCV_RGBD
+void BM_OpenCvRgbdPlanes(benchmark::State& state) {
+  peers::OpenCvRgbdPlaneDetector det(frames().front().frame.intrinsics);
+  run(state, "cv_rgbdplane", [&](const Frame& f) { return det.detect(f.depth); });
+}
+BENCHMARK(BM_OpenCvRgbdPlanes)->Unit(benchmark::kMillisecond);
+#endif
 
 }  // namespace
 }  // namespace shapesense

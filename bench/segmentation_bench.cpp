@@ -9,6 +9,14 @@
 //
 // OpenCV's cv::rgbd::RgbdNormals (FALS) peer is compiled only with SHAPESENSE_BENCH_OPENCV_RGBD
 // defined and opencv_rgbd linked (the bench target links core/imgproc/imgcodecs only).
+// PCL peers (SHAPESENSE_BENCH_PCL, bench/CMakeLists.txt): pcl::IntegralImageNormalEstimation in
+// its four modes (BM_PclNormals; the depth-to-cloud conversion is not timed, as depthTo3d for
+// OpenCV), and pcl::OrganizedMultiPlaneSegmentation on precomputed normals (BM_PclOmpsSegment,
+// the segmentation alone; plane_peers.h has its parameters).
+//
+// Accuracy: on the synthetic frame every segmenter (ours and OMPS) also reports the SegComp pixel
+// accuracy against the truth surfaces (counter pixel_acc, see segmentation_scoring.h), computed
+// once outside the timed loop.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -24,8 +32,10 @@
 #include <opencv2/rgbd.hpp>
 #endif
 
+#include "plane_peers.h"
 #include "shapesense/core/normals.h"
 #include "shapesense/core/segmentation.h"
+#include "shapesense/core/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {
@@ -34,6 +44,7 @@ namespace {
 struct Frames {
   std::vector<cv::Mat> synthetic;  // CV_16UC1 mm
   std::vector<cv::Mat> mosd;       // CV_16UC1 mm
+  cv::Mat synthetic_truth;         // CV_16UC1 truth surface ids of synthetic[0]
   CameraIntrinsics intrinsics;
 };
 
@@ -46,6 +57,7 @@ const Frames& frames() {
     const synthetic::SyntheticScene scene(p);
     const auto r = scene.render(0, 0);
     out.synthetic.push_back(r.frame.depth.clone());
+    out.synthetic_truth = r.truth.surface_labels.clone();
     out.intrinsics = r.frame.intrinsics;
     const std::filesystem::path dir = std::filesystem::path(SHAPESENSE_SHARED_DIR) / "data/real/mosd_tabletop";
     std::ifstream list(dir / "depth.txt");
@@ -108,6 +120,9 @@ void BM_Segment(benchmark::State& state) {
   const auto m = static_cast<SegmentationMethod>(state.range(0));
   state.SetLabel(std::string(formatSegmentationMethod(m)));
   const SegmentationParams params;
+  if (state.range(1) == 0)
+    state.counters["pixel_acc"] =
+        scoreSegmentation(segmentDepth(src[0], frames().intrinsics, m, params), frames().synthetic_truth).pixel_accuracy;
   std::size_t i = 0;
   for (auto _ : state) {
     cv::Mat r = segmentDepth(src[i++ % src.size()], frames().intrinsics, m, params);
@@ -139,6 +154,69 @@ void BM_OpenCvRgbdNormalsFals(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_OpenCvRgbdNormalsFals)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+#endif
+
+#ifdef SHAPESENSE_BENCH_PCL
+using PclNormalEstimation = pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal>;
+
+// PCL's integral image normals in each mode, with the settings of PCL's normal estimation
+// tutorial (max depth change factor 0.02, smoothing size 10 px) for all of them.
+void BM_PclNormals(benchmark::State& state) {
+  const auto& src = source(static_cast<int>(state.range(1)));
+  if (src.empty()) {
+    state.SkipWithError("no frames");
+    return;
+  }
+  static const char* names[] = {"covariance", "average_3d_gradient", "average_depth_change", "simple_3d_gradient"};
+  state.SetLabel(names[state.range(0)]);
+  PclNormalEstimation ne;
+  ne.setNormalEstimationMethod(static_cast<PclNormalEstimation::NormalEstimationMethod>(state.range(0)));
+  ne.setMaxDepthChangeFactor(0.02f);
+  ne.setNormalSmoothingSize(10.0f);
+  pcl::PointCloud<pcl::Normal> normals;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const auto cloud = peers::toPclCloud(src[i++ % src.size()], frames().intrinsics);
+    state.ResumeTiming();
+    ne.setInputCloud(cloud);
+    ne.compute(normals);
+    benchmark::DoNotOptimize(normals.points.data());
+  }
+}
+BENCHMARK(BM_PclNormals)
+    ->ArgNames({"method", "mosd"})
+    ->ArgsProduct({{PclNormalEstimation::COVARIANCE_MATRIX, PclNormalEstimation::AVERAGE_3D_GRADIENT,
+                    PclNormalEstimation::AVERAGE_DEPTH_CHANGE, PclNormalEstimation::SIMPLE_3D_GRADIENT},
+                   {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+// OrganizedMultiPlaneSegmentation (with refinement) on normals computed beforehand: the time
+// after normals. Its labels are planes only; everything else stays unassigned (0).
+void BM_PclOmpsSegment(benchmark::State& state) {
+  const auto& src = source(static_cast<int>(state.range(0)));
+  if (src.empty()) {
+    state.SkipWithError("no frames");
+    return;
+  }
+  peers::PclOmpsDetector omps;
+  std::vector<pcl::PointCloud<pcl::PointXYZ>::Ptr> clouds;
+  std::vector<pcl::PointCloud<pcl::Normal>::Ptr> normals;
+  for (const auto& d : src) {
+    clouds.push_back(peers::toPclCloud(d, frames().intrinsics));
+    normals.push_back(omps.normals(clouds.back()));
+  }
+  if (state.range(0) == 0)
+    state.counters["pixel_acc"] =
+        scoreSegmentation(omps.segment(clouds[0], normals[0]).labels, frames().synthetic_truth).pixel_accuracy;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % src.size();
+    PlaneDetection r = omps.segment(clouds[k], normals[k]);
+    benchmark::DoNotOptimize(r.labels.data);
+  }
+}
+BENCHMARK(BM_PclOmpsSegment)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 #endif
 
 }  // namespace

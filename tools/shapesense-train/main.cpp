@@ -4,6 +4,8 @@
 //   shapesense-train train --data DIR --out MODELS [--seed S] [--stages T] [--views a,b,c]
 //   shapesense-train eval --models MODELS --data DIR      (AP50, miss rate at 0.1 FPPI)
 //   shapesense-train real --models MODELS --tum DIR       (detections on a TUM recording)
+//   shapesense-train export-wbdetector --data DIR --out DIR   (image folders for the OpenCV
+//                                                              WBDetector peer, bench/bowls_bench)
 //
 // Training is deterministic for a given dataset and seed, and resumable: the state at every
 // negative-pool refill is checkpointed in MODELS/.checkpoints/ and a rerun continues from it.
@@ -30,6 +32,7 @@
 #include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/depth_preprocess.h"
+#include "wbdetector_export.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -394,6 +397,16 @@ int main(int argc, char** argv) {
   re->add_option("--tum", tum)->required();
   re->add_option("--threshold", threshold, "final score threshold");
 
+  WbDetectorExportParams wp;
+  fs::path wb_data, wb_out;
+  std::string wb_views = "top,middle,side";
+  auto* wb = app.add_subcommand("export-wbdetector", "positive crops and bowl-free images for OpenCV's WBDetector");
+  wb->add_option("--data", wb_data, "dataset folder")->required();
+  wb->add_option("--out", wb_out, "output folder (one subfolder per view)")->required();
+  wb->add_option("--views", wb_views);
+  wb->add_option("--max-bowls", wp.max_bowls_per_view, "bowls per view used as positives");
+  wb->add_option("--target-positives", wp.target_positives, "positives per view (shifted / mirrored variants)");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (gen->parsed()) {
@@ -408,6 +421,13 @@ int main(int argc, char** argv) {
     }
     if (ev->parsed()) return runEval(models, data, threshold, verbose);
     if (re->parsed()) return runReal(models, tum, threshold);
+    if (wb->parsed()) {
+      wp.views.clear();
+      std::stringstream ss(wb_views);
+      for (std::string v; std::getline(ss, v, ',');) wp.views.push_back(v);
+      exportWbDetectorData(wb_data, wb_out, wp);
+      return 0;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;
