@@ -97,6 +97,17 @@ TEST_F(BowlsCommand, TableAndOverlay) {
   EXPECT_GT(cv::norm(overlay, frame->rgb, cv::NORM_L1), 0.0);
 }
 
+TEST_F(BowlsCommand, WithoutAtTheNewestProcessedFrameIsUsed) {
+  // A newer frame the detectors have not processed yet, as in a daemon whose source is faster.
+  ASSERT_TRUE(srv.cache().insert(std::make_shared<const Frame>(
+      testing::makeTestFrame(kServerT0 + testing::kFramePeriodNs, frame->sequence + 1))));
+  const auto json = nlohmann::json::parse(runBowls(global, {"--json"}));
+  EXPECT_EQ(json["info"]["timestamp_ns"], std::to_string(kServerT0));
+  EXPECT_EQ(json["bowls"].size(), results->bowls->size());
+  // Asked for explicitly, the unprocessed frame is the daemon's error.
+  EXPECT_THROW(runBowls(global, {"--at", "1700000000.04"}), cli::RpcError);
+}
+
 TEST(BowlsCommandErrors, StageOffIsReportedWithItsStatus) {
   testing::TestServer srv;
   srv.add(kServerT0);  // results without a bowl stage
