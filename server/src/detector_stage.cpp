@@ -132,13 +132,31 @@ void BowlStage::run(const Frame& frame, FrameResults& results) {
   results.bowls = detectBowls(frame, *detector_, box_params_);
 }
 
-std::filesystem::path defaultBowlModelsDir() {
-  const std::filesystem::path installed = SHAPESENSE_INSTALLED_MODELS_DIR;
+namespace {
+
+bool holdsBowlModels(const std::filesystem::path& dir) {
   std::error_code error;
-  for (const auto& entry : std::filesystem::directory_iterator(installed, error)) {
+  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
     const std::string name = entry.path().filename().string();
-    if (name.starts_with("bowl_") && name.ends_with(".json")) return installed;
+    if (name.starts_with("bowl_") && name.ends_with(".json")) return true;
   }
+  return false;
+}
+
+}  // namespace
+
+std::filesystem::path defaultBowlModelsDir() {
+  // Beside the running binary first (<bin>/../share/...), so an install moved to another
+  // prefix (cmake --install --prefix, a package) still finds its own models; then the prefix
+  // configured at build time; then the source tree of a build that was never installed.
+  std::error_code error;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const auto beside = exe.parent_path().parent_path() / "share" / "shapesense" / "models";
+    if (holdsBowlModels(beside)) return beside;
+  }
+  const std::filesystem::path installed = SHAPESENSE_INSTALLED_MODELS_DIR;
+  if (holdsBowlModels(installed)) return installed;
   return SHAPESENSE_SOURCE_MODELS_DIR;
 }
 

@@ -114,9 +114,9 @@ class BowlStage : public DetectorStage {
 std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& detector,
                                       const BoxEstimationParams& box_params = {});
 
-/// Where the bowl models are when nobody says: the installed models folder
-/// (<prefix>/share/shapesense/models) when it holds models, else the source tree's models/
-/// (a build that was never installed).
+/// Where the bowl models are when nobody says: the first folder holding bowl_*.json of
+/// <binary's dir>/../share/shapesense/models, <configured prefix>/share/shapesense/models, and
+/// the source tree's models/ (a build that was never installed).
 std::filesystem::path defaultBowlModelsDir();
 
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
