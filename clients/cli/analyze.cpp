@@ -41,6 +41,14 @@ nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results
     write_labels("plane_labels", ".planes.png", results.planes->frame.labels);
   }
   json["bowls"] = nlohmann::json::array();
+  if (results.bowls) {
+    for (const auto& bowl : *results.bowls) {
+      const cv::Rect& box = bowl.detection.box;
+      json["bowls"].push_back({{"box", {box.x, box.y, box.width, box.height}},
+                               {"score", bowl.detection.score},
+                               {"view", bowl.detection.view}});
+    }
+  }
   nlohmann::json timings = nlohmann::json::object();
   for (const auto& [stage, ms] : results.timings_ms) timings[stage] = ms;
   json["timings_ms"] = timings;

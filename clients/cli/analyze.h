@@ -5,7 +5,7 @@
 //    "planes": [{"id": k, "normal": [nx, ny, nz], "d": d, "pixels": n}, ...],
 //    "plane_labels": "<uint16 PNG relative to DIR, 0 = no plane, else the plane's id>",
 //    "segment_labels": "<same for segments>",
-//    "bowls": [{"box": [x, y, w, h], "score": s, "view": "top|middle|side"}],
+//    "bowls": [{"box": [x, y, w, h], "score": s, "view": "top|middle|side"}],  // highest score first
 //    "timings_ms": {"<stage>": ms}}
 // Planes satisfy n.X + d = 0 in the camera frame, unit n towards the camera, d > 0 metres.
 // Fields of detectors that are not part of the chain are empty lists or absent. Frames the

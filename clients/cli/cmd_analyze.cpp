@@ -14,6 +14,8 @@ void addAnalyzeCommand(CLI::App& app) {
     bool quiet = false;
     std::string segmentation = "depth_step";
     std::string planes = "hough";
+    std::string bowls = "on";
+    std::string models;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("SOURCE", args->source, "Recording directory (TUM layout), or tum:DIR")->required();
@@ -27,12 +29,19 @@ void addAnalyzeCommand(CLI::App& app) {
   cmd->add_option("--planes", args->planes, "Plane detector: hough, ransac or none")
       ->check(CLI::IsMember({"hough", "ransac", "none"}))
       ->capture_default_str();
+  cmd->add_option("--bowls", args->bowls, "Bowl detector: on or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  cmd->add_option("--models", args->models,
+                  "Folder of the bowl models (bowl_*.json); default: " + defaultBowlModelsDir().string());
   cmd->callback([args] {
     std::string dir = args->source;
     if (dir.rfind("tum:", 0) == 0) dir = dir.substr(4);
     DetectorConfig config;
     config.segmentation = parseSegmentationMethod(args->segmentation);  // none -> off
     config.planes = parsePlaneDetector(args->planes);                    // none -> off
+    config.bowls = args->bowls == "on";
+    config.bowl_models = args->models;  // empty -> the default folder
     const DetectorChain chain = makeDetectorChain(config);
     const auto summary = analyzeRecording(dir, args->out, chain, [&](std::size_t done, std::size_t total) {
       if (!args->quiet) std::cerr << "\ranalyze: " << done << "/" << total << " frames" << std::flush;

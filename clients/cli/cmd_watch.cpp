@@ -30,7 +30,7 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
                     formatNsAsSeconds(summary.info().timestamp_ns()).c_str(),
                     static_cast<unsigned long long>(summary.info().sequence()), 100 * d.valid_fraction(),
                     d.min_m(), d.max_m(), d.median_m());
-        std::printf("  %u planes  %u segments", summary.planes(), summary.segments());
+        std::printf("  %u planes  %u segments  %u bowls", summary.planes(), summary.segments(), summary.bowls());
         for (const auto& t : summary.timings()) std::printf("  %s %.2f ms", t.stage().c_str(), t.ms());
         if (summary.dropped_before() > 0) {
           std::printf("  (%llu dropped)", static_cast<unsigned long long>(summary.dropped_before()));

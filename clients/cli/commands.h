@@ -14,6 +14,7 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global);
 void addBboxCommand(CLI::App& app, const GlobalOptions& global);
 void addSegmentsCommand(CLI::App& app, const GlobalOptions& global);
 void addPlanesCommand(CLI::App& app, const GlobalOptions& global);
+void addBowlsCommand(CLI::App& app, const GlobalOptions& global);
 void addRecordCommand(CLI::App& app, const GlobalOptions& global);
 void addSynthCommand(CLI::App& app);
 void addAnalyzeCommand(CLI::App& app);

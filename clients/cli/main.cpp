@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   addBboxCommand(app, global);
   addSegmentsCommand(app, global);
   addPlanesCommand(app, global);
+  addBowlsCommand(app, global);
   addRecordCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);

@@ -4,6 +4,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <cstdio>
+
+#include "shapesense/core/box_estimation.h"
 
 namespace shapesense::cli {
 namespace {
@@ -52,6 +55,28 @@ void paintLabels(cv::Mat& bgr, const cv::Mat& labels, double alpha) {
       }
     }
   }
+}
+
+void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& bowl) {
+  // One colour per view class (BGR), so a wrong view stands out across a sequence.
+  const cv::Scalar colour = bowl.view() == "top"      ? cv::Scalar(255, 160, 0)
+                            : bowl.view() == "middle" ? cv::Scalar(0, 220, 255)
+                            : bowl.view() == "side"   ? cv::Scalar(255, 0, 255)
+                                                      : cv::Scalar(255, 255, 255);
+  if (bowl.corners_size() == 8) {
+    BoxCorners corners;
+    for (int i = 0; i < 8; ++i) corners[i] = {bowl.corners(i).x(), bowl.corners(i).y(), bowl.corners(i).z()};
+    drawBox(bgr, intrinsics, corners, colour, 1);
+  }
+  const auto& b = bowl.box();
+  const cv::Rect box(b.x(), b.y(), b.width(), b.height());
+  cv::rectangle(bgr, box, colour, 2);
+  char label[48];
+  std::snprintf(label, sizeof label, "%.1f %s", bowl.score(), bowl.view().c_str());
+  // Above the box, or inside its top edge when the box touches the image's top.
+  const cv::Point origin(box.x, box.y >= 16 ? box.y - 5 : box.y + 14);
+  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv::LINE_AA);
 }
 
 FrameBackground fetchFrameBackground(Connection& connection, TimestampNs timestamp_ns) {

@@ -22,6 +22,10 @@ void paintLabels(cv::Mat& bgr, const cv::Mat& labels, double alpha = 0.55);
 /// The colour of label `id` in every overlay (stable across frames and commands).
 cv::Vec3b labelColour(std::uint32_t id);
 
+/// Draws a bowl: its image box and its 3D box in the colour of its view, and "score view"
+/// above the box.
+void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& bowl);
+
 /// A cached frame fetched for drawing: its picture (colour when the source has it, else
 /// coloured depth) and intrinsics.
 struct FrameBackground {

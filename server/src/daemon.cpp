@@ -36,8 +36,11 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
 }
 
 Daemon::Daemon(const DaemonOptions& options) : cache_(options.cache_frames) {
+  // The chain first: bad detector options (bowl models that do not load) should fail before a
+  // sensor is opened for nothing.
+  DetectorChain chain = makeDetectorChain(options.detectors);
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
-                                         makeDetectorChain(options.detectors), cache_, hub_, &tap_);
+                                         std::move(chain), cache_, hub_, &tap_);
   ServiceContext context{.cache = cache_, .hub = hub_};
   context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };

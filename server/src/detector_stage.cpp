@@ -2,6 +2,7 @@
 
 #include <array>
 #include <chrono>
+#include <stdexcept>
 
 namespace shapesense {
 
@@ -104,6 +105,61 @@ void ObjectBoxStage::run(const Frame& frame, FrameResults& results) {
                              results.segmentation->segments, results.planes->frame, params_);
 }
 
+std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& detector,
+                                      const BoxEstimationParams& box_params) {
+  std::vector<DetectedBowl> bowls;
+  const cv::Rect image(0, 0, frame.depth.cols, frame.depth.rows);
+  for (auto& detection : detector.detect(frame.depth, frame.intrinsics)) {
+    DetectedBowl bowl{.detection = std::move(detection), .box = std::nullopt};
+    // The detector was trained on the bounds of a bowl's whole silhouette, so its box contains
+    // the bowl's entire projection, rim and far side included: that is mode 2's reading of a
+    // ROI. Modes 1 and 3 take the ROI as the front face alone and would widen the back of the
+    // box beyond the silhouette by the bowl's depth.
+    // Pyramid rounding can put a box's edge a pixel past the image; estimateBox rejects that.
+    bowl.detection.box &= image;
+    const cv::Rect& roi = bowl.detection.box;
+    if (!roi.empty()) {
+      auto estimate = estimateBox(frame.depth, frame.intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
+                                  BoxMode::kAxisAlignedContained, box_params);
+      if (auto* box = std::get_if<BoxEstimate>(&estimate)) bowl.box = std::move(*box);
+    }
+    bowls.push_back(std::move(bowl));
+  }
+  return bowls;
+}
+
+void BowlStage::run(const Frame& frame, FrameResults& results) {
+  results.bowls = detectBowls(frame, *detector_, box_params_);
+}
+
+namespace {
+
+bool holdsBowlModels(const std::filesystem::path& dir) {
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    if (name.starts_with("bowl_") && name.ends_with(".json")) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::filesystem::path defaultBowlModelsDir() {
+  // Beside the running binary first (<bin>/../share/...), so an install moved to another
+  // prefix (cmake --install --prefix, a package) still finds its own models; then the prefix
+  // configured at build time; then the source tree of a build that was never installed.
+  std::error_code error;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const auto beside = exe.parent_path().parent_path() / "share" / "shapesense" / "models";
+    if (holdsBowlModels(beside)) return beside;
+  }
+  const std::filesystem::path installed = SHAPESENSE_INSTALLED_MODELS_DIR;
+  if (holdsBowlModels(installed)) return installed;
+  return SHAPESENSE_SOURCE_MODELS_DIR;
+}
+
 DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
@@ -116,6 +172,19 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
   }
   if (config.object_boxes && config.segmentation && config.planes) {
     chain.add(std::make_unique<ObjectBoxStage>(config.object_box_params));
+  }
+  if (config.bowls) {
+    const auto models = config.bowl_models.empty() ? defaultBowlModelsDir() : config.bowl_models;
+    BowlDetectorParams params = config.bowl_params;
+    params.parallel = false;  // one detector thread per pipeline; OpenCV's pool is not ours to fill
+    try {
+      chain.add(std::make_unique<BowlStage>(std::make_unique<const BowlDetector>(BowlDetector::load(models, params)),
+                                            config.bowl_box_params));
+    } catch (const std::exception& e) {
+      throw std::runtime_error("the bowl stage is on but its models in '" + models.string() +
+                               "' do not load (" + e.what() +
+                               "); point --models at a folder of bowl_*.json or use --bowls off");
+    }
   }
   return chain;
 }

@@ -62,6 +62,14 @@ int main(int argc, char** argv) {
   app.add_option("--planes", planes, "Plane detector run on every frame: hough, ransac or none")
       ->check(CLI::IsMember({"hough", "ransac", "none"}))
       ->capture_default_str();
+  std::string bowls = "on";
+  app.add_option("--bowls", bowls, "Bowl detector run on every frame (needs the models of --models): on or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  std::string models;
+  app.add_option("--models", models,
+                 "Folder of the bowl models (bowl_*.json); default: " +
+                     shapesense::defaultBowlModelsDir().string());
   std::string check_fakenect;
   app.add_option("--check-fakenect", check_fakenect,
                  "Only check that DIR is a fakenect dump Debian's fakenect library can replay, print "
@@ -81,6 +89,8 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::from_str(log_level));
   options.detectors.segmentation = shapesense::parseSegmentationMethod(segmentation);  // none -> off
   options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
+  options.detectors.bowls = bowls == "on";
+  options.detectors.bowl_models = models;  // empty -> the default folder
 
   const sigset_t signals = blockShutdownSignals();
   std::unique_ptr<shapesense::Daemon> daemon;

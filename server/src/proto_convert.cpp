@@ -104,4 +104,13 @@ void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out) {
   }
 }
 
+void toProto(const DetectedBowl& bowl, v1::Bowl* out) {
+  toProto(bowl.detection.box, out->mutable_box());
+  out->set_score(bowl.detection.score);
+  out->set_view(bowl.detection.view);
+  if (bowl.box) {
+    for (const auto& corner : bowl.box->corners) toProto(corner, out->add_corners());
+  }
+}
+
 }  // namespace shapesense

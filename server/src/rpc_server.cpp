@@ -46,6 +46,10 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
                          v1::GetPlanesResponse* response) override {
     return handleGetPlanes(context_, *request, response);
   }
+  grpc::Status GetBowls(grpc::ServerContext*, const v1::GetBowlsRequest* request,
+                        v1::GetBowlsResponse* response) override {
+    return handleGetBowls(context_, *request, response);
+  }
   grpc::Status Record(grpc::ServerContext* server_context, const v1::RecordRequest* request,
                       grpc::ServerWriter<v1::RecordProgress>* writer) override {
     return handleRecord(context_, server_context, *request, writer);

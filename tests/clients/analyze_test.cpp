@@ -12,7 +12,9 @@
 #include <nlohmann/json.hpp>
 
 #include "recording_fixture.h"
+#include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/timestamp.h"
+#include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
 #include "test_paths.h"
 
@@ -130,6 +132,100 @@ TEST(Analyze, SmallScratchRecordingWithAMissingFile) {
 TEST(Analyze, MissingRecordingThrows) {
   const auto dir = shapesense::testing::scratchDir("analyze_missing");
   EXPECT_THROW(analyzeRecording(dir / "nothing", dir / "out", makeDetectorChain({})), std::runtime_error);
+}
+
+// A held-out synthetic scene with a raised camera (bowls seen from 20-60 degrees) as a recording
+// with truth.jsonl; the same one tests/server/get_bowls_test.cpp checks through the daemon.
+std::filesystem::path bowlRecording(const std::filesystem::path& dir) {
+  synthetic::SceneParams params;
+  params.seed = 515152;
+  params.camera_height_min_m = 1.3;
+  params.camera_height_max_m = 1.6;
+  params.table_distance_min_m = 1.1;
+  params.table_distance_max_m = 1.8;
+  params.min_table_elevation_deg = 17.0;
+  synthetic::writeSyntheticRecording(dir / "rec", params, 2, 1'700'000'000'000'000'000LL);
+  return dir / "rec";
+}
+
+DetectorConfig bowlsOnly(bool bowls) {
+  DetectorConfig config;
+  config.segmentation.reset();
+  config.planes.reset();
+  config.bowls = bowls;
+  config.bowl_models = std::filesystem::path(SHAPESENSE_SOURCE_DIR) / "models";
+  return config;
+}
+
+TEST(Analyze, BowlsOfASyntheticRecordingMatchItsTruth) {
+  const auto dir = shapesense::testing::scratchDir("analyze_bowls");
+  const auto recording = bowlRecording(dir);
+  analyzeRecording(recording, dir / "out", makeDetectorChain(bowlsOnly(true)));
+  const auto lines = readLines(dir / "out" / "results.jsonl");
+  const auto truths = readLines(recording / "truth.jsonl");
+  ASSERT_EQ(lines.size(), 2u);
+  ASSERT_EQ(truths.size(), 2u);
+  const BowlDetectorParams defaults;
+  int truth_bowls = 0, found = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const auto json = nlohmann::json::parse(lines[i]);
+    ASSERT_TRUE(json["timings_ms"].contains("bowls"));
+    std::vector<cv::Rect> boxes;
+    double previous_score = 1e300;
+    for (const auto& bowl : json["bowls"]) {
+      ASSERT_EQ(bowl["box"].size(), 4u);
+      boxes.emplace_back(bowl["box"][0].get<int>(), bowl["box"][1].get<int>(), bowl["box"][2].get<int>(),
+                         bowl["box"][3].get<int>());
+      EXPECT_THAT(bowl["view"].get<std::string>(), ::testing::AnyOf("top", "middle", "side"));
+      const double score = bowl["score"].get<double>();
+      EXPECT_GE(score, defaults.score_threshold);
+      EXPECT_LE(score, previous_score) << "not highest score first";
+      previous_score = score;
+    }
+    // Every upright bowl the truth shows whole enough (at least 40 px wide) is in the list with
+    // an IoU of at least 0.5 (PASCAL VOC's match).
+    const auto truth_json = nlohmann::json::parse(truths[i]);
+    for (const auto& object : truth_json["objects"]) {
+      if (object["kind"] != "bowl" || !object["upright"].get<bool>()) continue;
+      const auto& b = object["image_box"];
+      const cv::Rect truth(b[0].get<int>(), b[1].get<int>(), b[2].get<int>(), b[3].get<int>());
+      if (truth.width < 40 || object["pixel_count"].get<double>() < 0.25 * truth.area()) continue;
+      ++truth_bowls;
+      double best = 0.0;
+      for (const auto& box : boxes) best = std::max(best, boxIoU(box, truth));
+      found += best >= 0.5;
+    }
+  }
+  ASSERT_GT(truth_bowls, 0) << "the scene must show a bowl";
+  EXPECT_EQ(found, truth_bowls);
+}
+
+TEST(Analyze, BowlsOffLeavesTheListEmptyAndNeedsNoModels) {
+  const auto dir = shapesense::testing::scratchDir("analyze_bowls_off");
+  const auto recording = bowlRecording(dir);
+  DetectorConfig config = bowlsOnly(false);
+  config.bowl_models = dir / "no_models_here";
+  analyzeRecording(recording, dir / "out", makeDetectorChain(config));
+  const auto lines = readLines(dir / "out" / "results.jsonl");
+  ASSERT_EQ(lines.size(), 2u);
+  for (const auto& line : lines) {
+    const auto json = nlohmann::json::parse(line);
+    EXPECT_TRUE(json["bowls"].is_array());
+    EXPECT_TRUE(json["bowls"].empty());
+    EXPECT_FALSE(json["timings_ms"].contains("bowls"));
+  }
+}
+
+TEST(Analyze, BowlsOnWithoutModelsThrowsNamingTheFolder) {
+  const auto dir = shapesense::testing::scratchDir("analyze_bowls_no_models");
+  DetectorConfig config = bowlsOnly(true);
+  config.bowl_models = dir / "no_models_here";
+  try {
+    makeDetectorChain(config);
+    FAIL() << "a chain with bowls on and no models";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr((dir / "no_models_here").string()));
+  }
 }
 
 TEST(SecondsForJson, PrintsTheShortestExactDecimal) {

@@ -3,6 +3,7 @@
 #include "shapesense/server/daemon.h"
 
 #include <chrono>
+#include <fstream>
 #include <future>
 #include <thread>
 
@@ -109,6 +110,46 @@ TEST(Daemon, NonexistentRecordingThrowsNamingThePath) {
   } catch (const std::exception& e) {
     EXPECT_THAT(e.what(), HasSubstr(missing.string()));
   }
+}
+
+TEST(Daemon, BowlStageRunsByDefaultWithTheShippedModels) {
+  const auto recording = testing::makeSmallRecording("daemon_bowls_default", 2);
+  Daemon daemon(optionsFor(recording, Pacing::kAsFastAsPossible));
+  auto stub = connect(daemon.port());
+  const auto detectors = status(*stub).detectors();
+  EXPECT_THAT(std::vector<std::string>(detectors.begin(), detectors.end()), ::testing::Contains("bowls"));
+}
+
+TEST(Daemon, BowlsOnWithMissingOrCorruptModelsIsAStartupErrorNamingTheFolder) {
+  const auto scratch = testing::scratchDir("daemon_bowl_models");
+  const auto recording = testing::makeSmallRecording("daemon_bowl_models_rec", 2);
+  const auto corrupt = scratch / "corrupt";
+  std::filesystem::create_directories(corrupt);
+  std::ofstream(corrupt / "bowl_top.json") << "{\"view\": \"top\", \"stages\": [";
+  for (const auto& models : {scratch / "missing", scratch / "empty", corrupt}) {
+    std::filesystem::create_directories(scratch / "empty");
+    DaemonOptions options = optionsFor(recording, Pacing::kAsFastAsPossible);
+    options.detectors.bowl_models = models;
+    try {
+      Daemon daemon(options);
+      FAIL() << "Daemon started with bowl models " << models;
+    } catch (const std::runtime_error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(models.string()));
+      EXPECT_THAT(e.what(), HasSubstr("--bowls off"));
+    }
+  }
+}
+
+TEST(Daemon, BowlsOffNeedsNoModels) {
+  const auto recording = testing::makeSmallRecording("daemon_bowls_off", 2);
+  DaemonOptions options = optionsFor(recording, Pacing::kAsFastAsPossible);
+  options.detectors.bowls = false;
+  options.detectors.bowl_models = testing::scratchDir("daemon_bowls_off_models") / "missing";
+  Daemon daemon(options);
+  auto stub = connect(daemon.port());
+  const auto detectors = status(*stub).detectors();
+  EXPECT_THAT(std::vector<std::string>(detectors.begin(), detectors.end()),
+              ::testing::Not(::testing::Contains("bowls")));
 }
 
 TEST(Daemon, UnknownSourceSpecIsInvalidArgument) {

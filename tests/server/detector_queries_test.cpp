@@ -109,9 +109,13 @@ TEST_F(DetectorQueries, DetectedBoxesAreTheObjectBoxesOfTheFrame) {
   request.set_at_ns(kServerT0);
   v1::GetDetectedBoxesResponse response;
   ASSERT_TRUE(srv.stub().GetDetectedBoxes(clientContext().get(), request, &response).ok());
+  // Segment boxes first, then the bowl stage's (on by default; tests/server/get_bowls_test.cpp).
   const auto& expected = results[0]->object_boxes;
-  ASSERT_EQ(response.boxes_size(), static_cast<int>(expected.size()));
-  for (int i = 0; i < response.boxes_size(); ++i) {
+  ASSERT_TRUE(results[0]->bowls.has_value());
+  int bowl_boxes = 0;
+  for (const auto& bowl : *results[0]->bowls) bowl_boxes += bowl.box.has_value();
+  ASSERT_EQ(response.boxes_size(), static_cast<int>(expected.size()) + bowl_boxes);
+  for (int i = 0; i < static_cast<int>(expected.size()); ++i) {
     const auto& box = response.boxes(i);
     EXPECT_EQ(box.source(), "segment");
     EXPECT_EQ(box.source_id(), expected[i].segment_id);
@@ -119,6 +123,9 @@ TEST_F(DetectorQueries, DetectedBoxesAreTheObjectBoxesOfTheFrame) {
     EXPECT_EQ(box.p2().y(), expected[i].roi.y + expected[i].roi.height - 1);
     ASSERT_EQ(box.corners_size(), 8);
     EXPECT_DOUBLE_EQ(box.corners(6).z(), expected[i].box.corners[6].z());
+  }
+  for (int i = static_cast<int>(expected.size()); i < response.boxes_size(); ++i) {
+    EXPECT_EQ(response.boxes(i).source(), "bowl");
   }
 }
 

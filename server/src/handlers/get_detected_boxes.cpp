@@ -24,6 +24,23 @@ grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
     box->mutable_p2()->set_y(object.roi.y + object.roi.height - 1);
     for (const auto& corner : object.box.corners) toProto(corner, box->add_corners());
   }
+  if (entry.results->bowls) {
+    const auto& bowls = *entry.results->bowls;
+    for (std::size_t i = 0; i < bowls.size(); ++i) {
+      if (!bowls[i].box) continue;  // no depth in its image box: nothing to place in 3D
+      const cv::Rect& roi = bowls[i].detection.box;
+      auto* box = response->add_boxes();
+      box->set_source("bowl");
+      box->set_source_id(static_cast<std::uint32_t>(i));
+      box->mutable_p1()->set_x(roi.x);
+      box->mutable_p1()->set_y(roi.y);
+      box->mutable_p2()->set_x(roi.x + roi.width - 1);
+      box->mutable_p2()->set_y(roi.y + roi.height - 1);
+      for (const auto& corner : bowls[i].box->corners) toProto(corner, box->add_corners());
+      box->set_score(bowls[i].detection.score);
+      box->set_view(bowls[i].detection.view);
+    }
+  }
   return grpc::Status::OK;
 }
 

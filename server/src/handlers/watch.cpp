@@ -28,6 +28,7 @@ grpc::Status handleWatch(const ServiceContext& context, grpc::ServerContext* ser
       if (results->segmentation) {
         summary.set_segments(static_cast<std::uint32_t>(results->segmentation->segments.size()));
       }
+      if (results->bowls) summary.set_bowls(static_cast<std::uint32_t>(results->bowls->size()));
       for (const auto& [stage, ms] : results->timings_ms) {
         auto* timing = summary.add_timings();
         timing->set_stage(stage);

@@ -2,12 +2,15 @@
 // A detector stage: one algorithm of core/ adapted to the pipeline. Each stage reads the frame
 // and writes its own member of FrameResults.
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "shapesense/core/bowl_detector.h"
+#include "shapesense/core/box_estimation.h"
 #include "shapesense/core/frame.h"
 #include "shapesense/core/plane_accumulator.h"
 #include "shapesense/core/plane_ransac.h"
@@ -93,6 +96,29 @@ class ObjectBoxStage : public DetectorStage {
   ObjectBoxParams params_;
 };
 
+/// Finds bowls with the trained depth-only detector and gives each the 3D box behind its image
+/// box. Stateless per frame; the detector runs single-threaded (the pipeline owns the threads).
+class BowlStage : public DetectorStage {
+ public:
+  BowlStage(std::unique_ptr<const BowlDetector> detector, BoxEstimationParams box_params)
+      : detector_(std::move(detector)), box_params_(box_params) {}
+  std::string name() const override { return "bowls"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  std::unique_ptr<const BowlDetector> detector_;
+  BoxEstimationParams box_params_;
+};
+
+/// The bowls of one frame with their boxes: what BowlStage computes, as a pure function.
+std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& detector,
+                                      const BoxEstimationParams& box_params = {});
+
+/// Where the bowl models are when nobody says: the first folder holding bowl_*.json of
+/// <binary's dir>/../share/shapesense/models, <configured prefix>/share/shapesense/models, and
+/// the source tree's models/ (a build that was never installed).
+std::filesystem::path defaultBowlModelsDir();
+
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
                                 const SegmentationParams& params = {});
@@ -110,13 +136,22 @@ struct DetectorConfig {
   /// Boxes for segments standing on planes; only when both stages above are on.
   bool object_boxes = true;
   ObjectBoxParams object_box_params;
+  /// The bowl stage; on by default. makeDetectorChain loads its models and throws when they
+  /// do not load, so a daemon started with bowls on and no usable models fails at startup.
+  bool bowls = true;
+  /// Folder of bowl_*.json models (or one model file); empty = defaultBowlModelsDir().
+  std::filesystem::path bowl_models;
+  /// Default: the parameters the shipped models were evaluated with, single thread.
+  BowlDetectorParams bowl_params;
+  BoxEstimationParams bowl_box_params;
 };
 
 /// "hough" / "ransac" <-> PlaneDetectorKind.
 std::optional<PlaneDetectorKind> parsePlaneDetector(std::string_view name);
 const char* toString(PlaneDetectorKind kind);
 
-/// The standard chain for `config`.
+/// The standard chain for `config`. Throws std::runtime_error naming the folder when the bowl
+/// stage is on and its models do not load.
 DetectorChain makeDetectorChain(const DetectorConfig& config);
 
 }  // namespace shapesense

@@ -9,6 +9,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "shapesense/core/bowl_detector.h"
+#include "shapesense/core/box_estimation.h"
 #include "shapesense/core/object_boxes.h"
 #include "shapesense/core/planes.h"
 #include "shapesense/core/segment_statistics.h"
@@ -38,12 +40,22 @@ struct PlaneResult {
   std::vector<DetectedPlane> accumulated;  ///< stable planes over time (ids are track ids)
 };
 
+/// A bowl the bowl stage found, with the 3D box behind its image box.
+struct DetectedBowl {
+  BowlDetection detection;  ///< box clipped to the image
+  /// From estimateBox over detection.box; nullopt when the box holds no valid depth reading.
+  std::optional<BoxEstimate> box;
+};
+
 struct FrameResults {
   std::optional<DepthStatistics> depth_stats;
   std::optional<SegmentationResult> segmentation;
   std::optional<PlaneResult> planes;
   /// Boxes of segments standing on a plane (needs both the segmentation and plane stages).
   std::vector<ObjectBox> object_boxes;
+  /// Bowls of the bowl stage, highest score first; nullopt when the stage is off (an empty
+  /// list means it ran and found none).
+  std::optional<std::vector<DetectedBowl>> bowls;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

@@ -36,6 +36,9 @@ grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegme
 grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesRequest& request,
                              v1::GetPlanesResponse* response);
 
+grpc::Status handleGetBowls(const ServiceContext& context, const v1::GetBowlsRequest& request,
+                            v1::GetBowlsResponse* response);
+
 grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* server_context,
                           const v1::RecordRequest& request,
                           grpc::ServerWriter<v1::RecordProgress>* writer);

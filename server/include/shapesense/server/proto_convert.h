@@ -20,5 +20,6 @@ void toProto(const RoiDepthStatistics& stats, v1::RoiDepthStats* out);
 void toProto(const cv::Rect& box, v1::PixelBox* out);
 void toProto(const SegmentStatistics& segment, v1::Segment* out);
 void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out);
+void toProto(const DetectedBowl& bowl, v1::Bowl* out);
 
 }  // namespace shapesense
