@@ -1,5 +1,9 @@
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
 
 #include "shapesense/core/plane_labeling.h"
 #include "shapesense/core/planes.h"
@@ -8,6 +12,86 @@ namespace shapesense {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+// Sequential RANSAC on a leftover component that is not one plane: the two visible faces of a
+// small box or a table leg (joined at their convex edge), or a face joined to a curved surface
+// by depth continuity. Extracts planes while the best hypothesis has enough inliers; a plane is
+// kept only if the inliers that have a normal mostly agree with it (a band of a bowl lies
+// within the tolerance of some plane but its normals fan out). Deterministic (fixed LCG).
+void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, const HoughPlaneParams& P,
+                            std::vector<PlaneHypothesis>& planes, cv::Mat& sample_labels) {
+  const auto* pts = grid.points.ptr<cv::Vec3f>(0);
+  const auto* nrm = grid.normals.ptr<cv::Vec3f>(0);
+  int* lab = sample_labels.ptr<int>(0);
+  const PlaneTolerance& tol = P.labeling.tolerance;
+  const double cos_agree = std::cos(P.leftover_normal_agreement_deg * kDegToRad);
+  std::uint32_t rng = 0x9E3779B9u ^ static_cast<std::uint32_t>(rest.size());
+  auto next = [&rng](std::size_t n) {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<std::size_t>((rng >> 8) % n);
+  };
+  auto dist = [&](const Eigen::Vector3d& n, double d, int i) {
+    return std::fabs(n.x() * pts[i][0] + n.y() * pts[i][1] + n.z() * pts[i][2] + d);
+  };
+  std::vector<int> inliers, outliers;
+  for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples; ++extracted) {
+    Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
+    double best_d = 0.0;
+    std::size_t best_count = 0;
+    for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
+      const auto& a = pts[rest[next(rest.size())]];
+      const auto& b = pts[rest[next(rest.size())]];
+      const auto& c = pts[rest[next(rest.size())]];
+      const Eigen::Vector3d pa(a[0], a[1], a[2]), pb(b[0], b[1], b[2]), pc(c[0], c[1], c[2]);
+      Eigen::Vector3d n = (pb - pa).cross(pc - pa);
+      if (!(n.norm() > 1e-9)) continue;
+      n.normalize();
+      double d = -n.dot(pa);
+      if (d < 0) {
+        n = -n;
+        d = -d;
+      }
+      std::size_t count = 0;
+      for (int i : rest) count += dist(n, d, i) <= tol.at(pts[i][2]);
+      if (count > best_count) {
+        best_count = count;
+        best_n = n;
+        best_d = d;
+      }
+    }
+    if (static_cast<int>(best_count) < P.min_plane_samples) return;
+    // Least-squares refit on the inliers, twice.
+    for (int it = 0; it < 2; ++it) {
+      PlaneMoments mom;
+      for (int i : rest)
+        if (dist(best_n, best_d, i) <= tol.at(pts[i][2])) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      const PlaneFit fit = mom.fit();
+      if (!fit.valid) return;
+      best_n = fit.normal;
+      best_d = fit.d;
+    }
+    inliers.clear();
+    outliers.clear();
+    int with_normal = 0, agreeing = 0;
+    for (int i : rest) {
+      if (dist(best_n, best_d, i) > tol.at(pts[i][2])) {
+        outliers.push_back(i);
+        continue;
+      }
+      inliers.push_back(i);
+      const cv::Vec3f& n = nrm[i];
+      if (!(n[2] == n[2])) continue;
+      ++with_normal;
+      agreeing += best_n.x() * n[0] + best_n.y() * n[1] + best_n.z() * n[2] >= cos_agree;
+    }
+    if (static_cast<int>(inliers.size()) < P.min_plane_samples) return;
+    if (with_normal >= 6 && agreeing < P.leftover_min_inlier_fraction * with_normal) return;
+    const int id = static_cast<int>(planes.size());
+    for (int i : inliers) lab[i] = id;
+    planes.push_back({best_n, best_d});
+    rest.swap(outliers);
+  }
+}
 
 }  // namespace
 
@@ -289,8 +373,10 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         fit = m2.fit();
       }
       if (!fit.valid || static_cast<int>(inl) < P.min_plane_samples ||
-          static_cast<double>(inl) < P.leftover_min_inlier_fraction * static_cast<double>(members.size()))
+          static_cast<double>(inl) < P.leftover_min_inlier_fraction * static_cast<double>(members.size())) {
+        if (P.leftover_ransac_hypotheses > 0) splitLeftoverComponent(members, s.grid, P, planes, s.sample_labels);
         continue;
+      }
       const int id = static_cast<int>(planes.size());
       for (int i : members) {
         const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +

@@ -93,6 +93,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   };
   const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
+  const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
   for (int i = 0; i < R * C; ++i)
@@ -106,10 +107,11 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
       const cv::Vec3f& p = point(j);
       if (!(p[2] > 0) || !samplesContinuous(z, p[2], grid, params)) continue;
       if (std::fabs(dist(L, p)) > tol.at(p[2])) continue;
-      if (with_normals && grid.reliable.ptr<std::uint8_t>(0)[j]) {
+      if (with_normals) {
         const cv::Vec3f& n = grid.normals.ptr<cv::Vec3f>(0)[j];
         const auto& h = planes[L].normal;
-        if (h.x() * n[0] + h.y() * n[1] + h.z() * n[2] < cos_gate) continue;
+        const double c = grid.reliable.ptr<std::uint8_t>(0)[j] ? cos_gate : cos_unreliable;
+        if (h.x() * n[0] + h.y() * n[1] + h.z() * n[2] < c) continue;  // NaN normals pass
       }
       lab[j] = L;
       queue.push_back(j);

@@ -80,6 +80,11 @@ struct PlaneLabelingParams {
   /// Region growing does not take samples with a reliable normal further off the plane than
   /// this (see growSampleLabels). Default 15 deg.
   double grow_max_normal_deg = 15.0;
+  /// ...nor samples whose normal is valid but unreliable (blurred by an edge) further off than
+  /// this: without it a plane grows over a narrow perpendicular strip (a table's front edge)
+  /// whenever the strip's depth stays within the range-dependent tolerance. Default 45 deg
+  /// (the blurred samples right at the fold are ~45 deg off either surface).
+  double grow_max_unreliable_normal_deg = 45.0;
   /// Split planes into connected regions (one id per physical surface, SegComp-style). Default true.
   bool split_connected_regions = true;
   /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
@@ -133,6 +138,12 @@ struct HoughPlaneParams {
   bool fit_leftover_components = true;
   /// ...accepting a component when this fraction of its samples fits one plane. Default 0.8.
   double leftover_min_inlier_fraction = 0.8;
+  /// Components that are not one plane are split by sequential RANSAC with this many
+  /// hypotheses per extracted plane (0 = off). Default 64.
+  int leftover_ransac_hypotheses = 64;
+  /// ...keeping a RANSAC plane only when leftover_min_inlier_fraction of its inliers that have a
+  /// normal agree with it within this angle. Default 30 deg.
+  double leftover_normal_agreement_deg = 30.0;
 
   /// NormalParams suited to a grid subsampled by `step` (windows and gaps in grid cells).
   static NormalParams defaultSampleNormalParams(int step);

@@ -1,0 +1,67 @@
+// Diagnostics of the Hough plane detector on the 30 frames of bench/planes_bench.cpp (DISABLED_:
+// prints, asserts nothing; run with --gtest_also_run_disabled_tests). Per missed truth plane: its
+// name and size, and the found regions that overlap it (fraction of the truth region, fraction
+// of the found region on planar truth), which tells split (several partial overlaps), merged
+// (one found region much larger than the truth) and missed (no overlap) apart.
+#include <cstdio>
+#include <map>
+
+#include <gtest/gtest.h>
+
+#include "plane_scoring.h"
+#include "shapesense/core/planes.h"
+#include "shapesense/driver/synthetic_scene.h"
+
+namespace shapesense {
+namespace {
+
+TEST(PlaneHoughDiag, DISABLED_MissedTruthPlanes) {
+  HoughPlaneDetector det;
+  planetest::PlaneScore total;
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    synthetic::SceneParams sp;
+    sp.seed = seed;
+    const auto f = synthetic::SyntheticScene(sp).render(0, 0);
+    const auto out = det.detect(f.frame.depth, f.frame.intrinsics, f.frame.rgb);
+    const auto s = planetest::scorePlanes(out.labels, out.planes, f.truth);
+    total.add(s);
+    const cv::Mat t = planetest::planarTruth(f.truth);
+    std::map<int, long> tsize, fsize;
+    std::map<std::pair<int, int>, long> ov;
+    for (int v = 0; v < t.rows; ++v)
+      for (int u = 0; u < t.cols; ++u) {
+        const int tl = t.at<std::uint16_t>(v, u), fl = out.labels.at<std::uint16_t>(v, u);
+        if (!tl) continue;
+        ++tsize[tl];
+        if (fl) ++fsize[fl];
+        ++ov[{tl, fl}];
+      }
+    std::map<int, bool> correct;
+    for (const auto& [tid, fid] : s.matches) correct[tid] = true;
+    const double min_px = 0.005 * t.total();
+    for (const auto& ts : f.truth.surfaces) {
+      if (ts.kind != synthetic::SurfaceKind::kPlane || tsize[ts.id] < min_px || correct[ts.id]) continue;
+      std::printf("seed %2llu MISS %-18s %5.2f%% of image:", static_cast<unsigned long long>(seed), ts.name.c_str(),
+                  100.0 * tsize[ts.id] / t.total());
+      for (const auto& [key, o] : ov) {
+        if (key.first != ts.id || o < 0.05 * tsize[ts.id]) continue;
+        if (key.second == 0) {
+          std::printf(" [unlabelled %.2f]", double(o) / tsize[ts.id]);
+          continue;
+        }
+        // Which truth plane does this found region mostly cover?
+        int main_t = 0;
+        long main_o = 0;
+        for (const auto& [k2, o2] : ov)
+          if (k2.second == key.second && o2 > main_o) main_o = o2, main_t = k2.first;
+        std::printf(" [found %d: %.2f of truth, %.2f of found, mostly %d]", key.second, double(o) / tsize[ts.id],
+                    double(o) / fsize[key.second], main_t == ts.id ? 0 : main_t);
+      }
+      std::printf("\n");
+    }
+  }
+  std::printf("correct %.3f (%d/%d)\n", total.correctFraction(), total.correct, total.truth_regions);
+}
+
+}  // namespace
+}  // namespace shapesense
