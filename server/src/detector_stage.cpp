@@ -111,14 +111,14 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
   const cv::Rect image(0, 0, frame.depth.cols, frame.depth.rows);
   for (auto& detection : detector.detect(frame.depth, frame.intrinsics)) {
     DetectedBowl bowl{.detection = std::move(detection), .box = std::nullopt};
-    // The detector was trained on the bounds of a bowl's whole silhouette, so its box contains
-    // the bowl's entire projection, rim and far side included: that is mode 2's reading of a
-    // ROI. Modes 1 and 3 take the ROI as the front face alone and would widen the back of the
-    // box beyond the silhouette by the bowl's depth.
     // Pyramid rounding can put a box's edge a pixel past the image; estimateBox rejects that.
     bowl.detection.box &= image;
     const cv::Rect& roi = bowl.detection.box;
     if (!roi.empty()) {
+      // The detector was trained on the bounds of a bowl's whole silhouette, so its box
+      // contains the bowl's entire projection, rim and far side included: that is mode 2's
+      // reading of a ROI. Modes 1 and 3 take the ROI as the front face alone and would widen
+      // the back of the box beyond the silhouette by the bowl's depth.
       auto estimate = estimateBox(frame.depth, frame.intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
                                   BoxMode::kAxisAlignedContained, box_params);
       if (auto* box = std::get_if<BoxEstimate>(&estimate)) bowl.box = std::move(*box);

@@ -141,8 +141,10 @@ struct DetectorConfig {
   bool bowls = true;
   /// Folder of bowl_*.json models (or one model file); empty = defaultBowlModelsDir().
   std::filesystem::path bowl_models;
-  /// Default: the parameters the shipped models were evaluated with, single thread.
+  /// Default: the parameters the shipped models were evaluated with. `parallel` is ignored:
+  /// the stage always runs single-threaded on the pipeline's detector thread.
   BowlDetectorParams bowl_params;
+  /// How each bowl's 3D box is estimated (always mode 2, see detectBowls). Default: defaults.
   BoxEstimationParams bowl_box_params;
 };
 
