@@ -55,6 +55,8 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
   CV_Assert(depth.type() == CV_16UC1);
   Working w;
   w.ds = std::clamp(rp.downsample, 1, 2);
+  // An image with a single row or column has no 2x2 block to reduce.
+  if (depth.rows < 2 || depth.cols < 2) w.ds = 1;
   if (w.ds == 1) {
     w.depth = depth;
     w.intr = intr;

@@ -306,3 +306,26 @@ TEST(Segmentation, TimingPrint) {
 
 }  // namespace
 }  // namespace shapesense
+
+namespace shapesense {
+namespace {
+// Degenerate sizes must give a clear error or a valid label image, never a crash.
+TEST(Segmentation, TinyImagesDoNotCrash) {
+  for (cv::Size size : {cv::Size(1, 1), cv::Size(5, 1), cv::Size(1, 5), cv::Size(3, 3), cv::Size(7, 5)}) {
+    const cv::Mat depth(size, CV_16UC1, cv::Scalar(1500));
+    CameraIntrinsics K;
+    K.width = size.width;
+    K.height = size.height;
+    for (auto m : kAll) {
+      try {
+        const cv::Mat r = segmentDepth(depth, K, m);
+        EXPECT_EQ(r.size(), size) << methodName(m);
+        EXPECT_EQ(r.type(), CV_16UC1) << methodName(m);
+      } catch (const cv::Exception& e) {
+        EXPECT_FALSE(std::string(e.what()).empty());
+      }
+    }
+  }
+}
+}  // namespace
+}  // namespace shapesense
