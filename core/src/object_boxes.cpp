@@ -10,17 +10,20 @@ namespace shapesense {
 namespace {
 
 // Which segments touch which, across depth-continuous pixel pairs only (an object's faces touch;
-// an object and the wall behind it only meet across a depth step).
+// an object and the wall behind it only meet across a depth step). Pairs are collected flat and
+// deduplicated once: most pixel pairs lie inside one segment, and the boundary pairs repeat.
 std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::Mat& labels,
                                                                       const cv::Mat& depth_mm,
                                                                       const KinectNoiseModel& noise) {
-  std::map<std::uint16_t, std::set<std::uint16_t>> neighbours;
+  // The largest depth difference (mm) still continuous at each depth (mm), as a table: the
+  // noise model is evaluated per distinct depth instead of per pixel pair.
+  std::vector<float> max_jump_mm(65536);
+  for (int z = 0; z < 65536; ++z) max_jump_mm[z] = static_cast<float>(1e3 * (0.01 + 3 * noise.depthStep(1e-3 * z)));
+  std::vector<std::uint32_t> pairs;
   const auto consider = [&](std::uint16_t a, std::uint16_t b, std::uint16_t za, std::uint16_t zb) {
     if (a == b || a == 0 || b == 0 || za == 0 || zb == 0) return;
-    const double z = 1e-3 * std::min(za, zb);
-    if (std::abs(za - zb) * 1e-3 > 0.01 + 3 * noise.depthStep(z)) return;
-    neighbours[a].insert(b);
-    neighbours[b].insert(a);
+    if (std::abs(za - zb) > max_jump_mm[std::min(za, zb)]) return;
+    pairs.push_back(static_cast<std::uint32_t>(std::min(a, b)) << 16 | std::max(a, b));
   };
   for (int v = 0; v + 1 < labels.rows; ++v) {
     const auto* l0 = labels.ptr<std::uint16_t>(v);
@@ -31,6 +34,14 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::
       consider(l0[u], l0[u + 1], d0[u], d0[u + 1]);
       consider(l0[u], l1[u], d0[u], d1[u]);
     }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::map<std::uint16_t, std::set<std::uint16_t>> neighbours;
+  for (const std::uint32_t pair : pairs) {
+    const auto a = static_cast<std::uint16_t>(pair >> 16), b = static_cast<std::uint16_t>(pair & 0xFFFF);
+    neighbours[a].insert(b);
+    neighbours[b].insert(a);
   }
   return neighbours;
 }
@@ -70,6 +81,9 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const Cam
   //    segment's edge) are looked through, not taken as support.
   std::map<std::uint16_t, const DetectedPlane*> standing;
   for (const auto& segment : segments) {
+    // Structure (walls, floor, the table itself) is never an object; checking first spares
+    // scanning its large bounding box.
+    if (segment.pixels > params.max_image_fraction * image_pixels) continue;
     const cv::Rect r = segment.box;
     std::map<std::uint16_t, int> own_overlap;
     for (int v = r.y; v < r.y + r.height; ++v) {
