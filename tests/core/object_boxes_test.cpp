@@ -54,11 +54,11 @@ TEST(ObjectBoxes, ObjectsOnTheTableGetBoxesAndStructureDoesNot) {
   std::printf("[object boxes] %d of %d visible objects boxed; %d of %d boxes match an object\n", found,
               objects, boxes_matched, boxes_total);
   ASSERT_GT(objects, 20);
-  // Measured on seeds 1-6 (fused segmentation, Hough planes): 13 of 42 objects boxed, 13 of 20
+  // Measured on seeds 1-6 (fused segmentation, Hough planes): 18 of 42 objects boxed, 18 of 25
   // boxes on an object. Floors just below; the misses are objects whose faces the segmentation
   // merges with a neighbour touching them without a depth step (a box behind a bowl).
-  EXPECT_GE(static_cast<double>(found) / objects, 0.28);
-  EXPECT_GE(static_cast<double>(boxes_matched) / std::max(1, boxes_total), 0.6);
+  EXPECT_GE(static_cast<double>(found) / objects, 0.38);
+  EXPECT_GE(static_cast<double>(boxes_matched) / std::max(1, boxes_total), 0.65);
 }
 
 TEST(ObjectBoxes, NoPlanesMeansNoBoxes) {
