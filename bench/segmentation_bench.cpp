@@ -25,6 +25,7 @@
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -222,4 +223,13 @@ BENCHMARK(BM_PclOmpsSegment)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark
 }  // namespace
 }  // namespace shapesense
 
-BENCHMARK_MAIN();
+// One thread for OpenCV too (its box filters and peers would otherwise use the pool), so every
+// figure is single-threaded work.
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
