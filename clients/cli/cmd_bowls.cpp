@@ -7,22 +7,6 @@
 #include "time_arg.h"
 
 namespace shapesense::cli {
-namespace {
-
-// The newest frame the detectors have processed, or 0 (the newest) when none is. The newest
-// frame itself is usually still in the detectors when a source runs faster than they do, and
-// "the newest bowls" is what a person asking without --at means.
-TimestampNs newestProcessedFrame(Connection& connection) {
-  v1::ListFramesResponse frames;
-  Connection::check(connection.stub().ListFrames(connection.context().get(), {}, &frames));
-  for (auto it = frames.frames().rbegin(); it != frames.frames().rend(); ++it) {
-    if (it->processed()) return it->timestamp_ns();
-  }
-  return 0;
-}
-
-}  // namespace
-
 void addBowlsCommand(CLI::App& app, const GlobalOptions& global) {
   auto* cmd = app.add_subcommand("bowls", "The bowls found in the frame at T, with their 3D boxes");
   struct Args {
@@ -37,7 +21,7 @@ void addBowlsCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->callback([&global, args] {
     Connection connection(global);
     v1::GetBowlsRequest request;
-    request.set_at_ns(args->at.empty() ? newestProcessedFrame(connection) : parseTimeArgument(args->at));
+    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame() : parseTimeArgument(args->at));
     v1::GetBowlsResponse response;
     Connection::check(connection.stub().GetBowls(connection.context().get(), request, &response));
     if (!args->out.empty()) {

@@ -40,17 +40,17 @@ void addPlanesCommand(CLI::App& app, const GlobalOptions& global) {
     std::string out;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame)");
+  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame the detectors processed)");
   cmd->add_flag("--accumulated", args->accumulated, "The planes accumulated over time, not the frame's");
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_option("--out", args->out, "Write an overlay PNG: plane regions and outlines over the frame");
   cmd->callback([&global, args] {
+    Connection connection(global);
     v1::GetPlanesRequest request;
-    request.set_at_ns(parseTimeArgument(args->at));
+    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame() : parseTimeArgument(args->at));
     request.set_view(args->accumulated ? v1::GetPlanesRequest::ACCUMULATED : v1::GetPlanesRequest::FRAME);
     request.set_skip_labels(args->out.empty());
     request.set_skip_polygons(args->out.empty() && !args->json);
-    Connection connection(global);
     v1::GetPlanesResponse response;
     Connection::check(connection.stub().GetPlanes(connection.context().get(), request, &response));
     if (!args->out.empty()) {

@@ -19,7 +19,7 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
     bool json = false;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame)");
+  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame the detectors processed)");
   cmd->add_option("--method", args->method,
                   "depth_step, normal_edges, fused, plane_prediction or tiled_ransac "
                   "(default: the daemon's)");
@@ -28,11 +28,11 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
                   "<name>.overlay.png");
   cmd->add_flag("--json", args->json, "Print JSON (statistics; the region image only with --out)");
   cmd->callback([&global, args] {
+    Connection connection(global);
     v1::GetSegmentsRequest request;
-    request.set_at_ns(parseTimeArgument(args->at));
+    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame() : parseTimeArgument(args->at));
     request.set_method(args->method);
     request.set_skip_labels(args->out.empty());
-    Connection connection(global);
     v1::GetSegmentsResponse response;
     Connection::check(connection.stub().GetSegments(connection.context().get(), request, &response));
     if (!args->out.empty()) {

@@ -60,4 +60,13 @@ std::string toJson(const google::protobuf::Message& message) {
   return json;
 }
 
+std::int64_t Connection::newestProcessedFrame() {
+  v1::ListFramesResponse frames;
+  check(stub().ListFrames(context().get(), {}, &frames));
+  for (auto it = frames.frames().rbegin(); it != frames.frames().rend(); ++it) {
+    if (it->processed()) return it->timestamp_ns();
+  }
+  return 0;
+}
+
 }  // namespace shapesense::cli

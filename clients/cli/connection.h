@@ -38,6 +38,12 @@ class Connection {
   /// Throws RpcError unless `status` is OK.
   static void check(const grpc::Status& status);
 
+  /// Capture time of the newest cached frame the detectors have processed, or 0 (= the newest)
+  /// when none is. Detector queries without --at use it: when the source runs faster than the
+  /// detectors, the newest frame is usually still being processed (or skipped), and "the
+  /// newest planes" is what a person asking without a time means.
+  std::int64_t newestProcessedFrame();
+
  private:
   GlobalOptions options_;
   std::unique_ptr<v1::ShapeSense::Stub> stub_;
