@@ -4,6 +4,7 @@
 // of the found region on planar truth), which tells split (several partial overlaps), merged
 // (one found region much larger than the truth) and missed (no overlap) apart.
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 
 #include <gtest/gtest.h>
@@ -15,8 +16,16 @@
 namespace shapesense {
 namespace {
 
+// Parameter overrides for experiments: PLANE_DIAG_TOL_FACTOR, PLANE_DIAG_MIN_TOL_STEPS.
+HoughPlaneParams diagParams() {
+  HoughPlaneParams p;
+  if (const char* e = std::getenv("PLANE_DIAG_TOL_FACTOR")) p.labeling.adaptive_tolerance_factor = std::atof(e);
+  if (const char* e = std::getenv("PLANE_DIAG_MIN_TOL_STEPS")) p.labeling.min_tolerance_steps = std::atof(e);
+  return p;
+}
+
 TEST(PlaneHoughDiag, DISABLED_MissedTruthPlanes) {
-  HoughPlaneDetector det;
+  HoughPlaneDetector det(diagParams());
   planetest::PlaneScore total;
   for (std::uint64_t seed = 1; seed <= 30; ++seed) {
     synthetic::SceneParams sp;

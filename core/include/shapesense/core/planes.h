@@ -85,6 +85,14 @@ struct PlaneLabelingParams {
   /// whenever the strip's depth stays within the range-dependent tolerance. Default 45 deg
   /// (the blurred samples right at the fold are ~45 deg off either surface).
   double grow_max_unreliable_normal_deg = 45.0;
+  /// Per-plane inlier tolerance for region growing and pixel labelling: this factor times the
+  /// RMS residual (in sensor depth steps) of the plane's samples, clamped to
+  /// [min_tolerance_steps, tolerance.noise_steps]. Clean planes get a tighter band, so a plane
+  /// stops claiming the first centimetres of every surface that meets it (a table top the
+  /// front edge, a leg front the leg side) where the fixed tolerance is several cm at range.
+  /// 0 = always the fixed tolerance. Defaults 3 and 1.5 steps.
+  double adaptive_tolerance_factor = 3.0;
+  double min_tolerance_steps = 1.5;
   /// Split planes into connected regions (one id per physical surface, SegComp-style). Default true.
   bool split_connected_regions = true;
   /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
