@@ -355,6 +355,58 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
   }
 
+  // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
+  //     strip fitted in pieces, a face found once by the Hough stage and once among the
+  //     leftovers); the sample-level merge misses them when the sample fits of the pieces are
+  //     poor. Merge depth-continuous neighbours whose full-resolution fits agree: joint RMS
+  //     within max(merge_rms_factor x the worse RMS, tolerance / 3 at their range).
+  std::vector<int> merged_into(nreg);
+  std::iota(merged_into.begin(), merged_into.end(), 0);
+  if (params.merge_coplanar_regions) {
+    std::vector<std::pair<int, int>> adjacent;
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        const int i = r * C + c, a = region_of[i];
+        if (a < 0) continue;
+        for (const int j : {c + 1 < C ? i + 1 : -1, r + 1 < R ? i + C : -1}) {
+          if (j < 0) continue;
+          const int b = region_of[j];
+          if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) continue;
+          adjacent.emplace_back(std::min(a, b), std::max(a, b));
+        }
+      }
+    std::sort(adjacent.begin(), adjacent.end());
+    adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
+    const double cos_merge = std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
+    for (const auto& [a0, b0] : adjacent) {
+      const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
+      if (a == b) continue;
+      const PlaneFit fa = regions[a].moments.fit(), fb = regions[b].moments.fit();
+      if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
+      PlaneMoments joint = regions[a].moments;
+      joint.merge(regions[b].moments);
+      const PlaneFit f = joint.fit();
+      const double z = std::max(fa.centroid.z(), fb.centroid.z());
+      if (!f.valid || f.rms_m > std::max(params.merge_coplanar_rms_factor * std::max(fa.rms_m, fb.rms_m), tol.at(z) / 3.0))
+        continue;
+      auto& ra = regions[std::min(a, b)];
+      auto& rb = regions[std::max(a, b)];
+      ra.moments = joint;
+      ra.count += rb.count;
+      ra.samples += rb.samples;
+      ra.sample_box |= rb.sample_box;
+      ra.u0 = std::min(ra.u0, rb.u0);
+      ra.v0 = std::min(ra.v0, rb.v0);
+      ra.u1 = std::max(ra.u1, rb.u1);
+      ra.v1 = std::max(ra.v1, rb.v1);
+      for (int ch = 0; ch < 3; ++ch) ra.colour[ch] += rb.colour[ch];
+      rb.count = 0;  // dropped below; its pixels are renumbered to the merged region
+      merged_into[std::max(a, b)] = std::min(a, b);
+    }
+    for (int i = 0; i < R * C; ++i)
+      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into, region_of[i]);
+  }
+
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
@@ -395,6 +447,13 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
                     p.polygon, p.triangles);
     }
     out.planes.push_back(std::move(p));
+  }
+  for (std::size_t k = 0; k < nreg; ++k) {
+    const int root = findRoot(merged_into, static_cast<int>(k));
+    if (root != static_cast<int>(k)) {
+      lut[k + 1] = lut[root + 1];
+      renumber = true;
+    }
   }
   if (renumber) {
     for (int v = 0; v < out.labels.rows; ++v) {

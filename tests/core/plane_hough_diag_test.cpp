@@ -63,7 +63,9 @@ TEST(PlaneHoughDiag, DISABLED_MissedTruthPlanes) {
         long main_o = 0;
         for (const auto& [k2, o2] : ov)
           if (k2.second == key.second && o2 > main_o) main_o = o2, main_t = k2.first;
-        std::printf(" [found %d: %.2f of truth, %.2f of found, mostly %d]", key.second, double(o) / tsize[ts.id],
+        const auto& fp = out.planes[key.second - 1];
+        std::printf(" [found %d (group %d, n %.2f %.2f %.2f, d %.3f): %.2f of truth, %.2f of found, mostly %d]", key.second,
+                    fp.group, fp.normal.x(), fp.normal.y(), fp.normal.z(), fp.d, double(o) / tsize[ts.id],
                     double(o) / fsize[key.second], main_t == ts.id ? 0 : main_t);
       }
       std::printf("\n");

@@ -98,6 +98,13 @@ struct PlaneLabelingParams {
   /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
   /// plane itself (floor between table legs): one id per physical surface. Default true.
   bool merge_occluded_pieces = true;
+  /// Merge adjacent, depth-continuous regions whose full-resolution fits are within
+  /// merge_coplanar_max_angle_deg and whose joint fit has RMS <= max(merge_coplanar_rms_factor
+  /// x the worse of the two, tolerance / 3): one surface found as two pieces of two nearly
+  /// identical hypotheses. Defaults true, 10 deg, 1.3.
+  bool merge_coplanar_regions = true;
+  double merge_coplanar_max_angle_deg = 10.0;
+  double merge_coplanar_rms_factor = 1.3;
   /// Compute polygon and triangles. Default true.
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.
