@@ -18,11 +18,14 @@
 //     `refine_iterations` times); accepted planes take their samples. Unclaimed samples vote
 //     again in the next round (`rounds`), which finds planes hidden next to bigger parallel ones
 //     (a box top 5 cm above the table shares the table's smoothed peak).
-//  4. Near-duplicate planes are merged (angle and distance gates).
+//  4. Near-duplicate planes are merged (angle and distance gates). Depth-continuous components
+//     of samples no plane took (thin strips, small faces without reliable normals) are fitted
+//     by least squares, or split by sequential RANSAC when they hold several faces.
 //  5. Labelling (plane_labeling.h): region growing on the sample grid, connected regions (a
 //     region = one physical surface: two box tops at the same height get two ids), every
 //     full-resolution pixel takes the closest plane among the regions of its neighbouring
-//     samples within the tolerance, each region is refitted on its full-resolution pixels.
+//     samples within that plane's tolerance (tightened from the plane's own residuals), each
+//     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge.
 //
 // Output: one DetectedPlane per connected region; `group` tells which regions share a
 // supporting plane. See DetectedPlane.
