@@ -38,6 +38,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
     double best_d = 0.0;
     std::size_t best_count = 0;
+    const std::size_t stride = std::max<std::size_t>(1, rest.size() / 128);
     for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
       const auto& a = pts[rest[next(rest.size())]];
       const auto& b = pts[rest[next(rest.size())]];
@@ -51,15 +52,16 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
         n = -n;
         d = -d;
       }
+      // Scored on an even subset of at most ~128 members (the refit below uses all of them).
       std::size_t count = 0;
-      for (int i : rest) count += dist(n, d, i) <= tol.at(pts[i][2]);
+      for (std::size_t k = 0; k < rest.size(); k += stride) count += dist(n, d, rest[k]) <= tol.at(pts[rest[k]][2]);
       if (count > best_count) {
         best_count = count;
         best_n = n;
         best_d = d;
       }
     }
-    if (static_cast<int>(best_count) < P.min_plane_samples) return;
+    if (static_cast<int>(best_count * stride) < P.min_plane_samples) return;
     // Least-squares refit on the inliers, twice.
     for (int it = 0; it < 2; ++it) {
       PlaneMoments mom;

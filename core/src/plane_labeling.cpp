@@ -40,6 +40,36 @@ struct RegionAccumulator {
 
 }  // namespace
 
+std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+                                              const std::vector<PlaneHypothesis>& planes,
+                                              const PlaneLabelingParams& params) {
+  const PlaneTolerance& tol = params.tolerance;
+  const std::size_t planes_count = planes.size();
+  const double step1 = tol.noise.depthStep(1.0);  // depth step at 1 m; depthStep(z) = step1 z^2
+  std::vector<float> coef(planes_count, static_cast<float>(tol.noise_steps * step1));
+  if (!(params.adaptive_tolerance_factor > 0.0)) return coef;
+  std::vector<double> sum(planes_count, 0.0);
+  std::vector<int> count(planes_count, 0);
+  const auto* pts = grid.points.ptr<cv::Vec3f>(0);
+  const int* lab = sample_labels.ptr<int>(0);
+  for (int i = 0; i < grid.points.rows * grid.points.cols; ++i) {
+    const int L = lab[i];
+    if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
+    const auto& h = planes[L];
+    const cv::Vec3f& p = pts[i];
+    const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) / (step1 * p[2] * p[2]);
+    sum[L] += r * r;
+    ++count[L];
+  }
+  const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
+  for (std::size_t L = 0; L < planes_count; ++L) {
+    if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
+    const double steps = std::clamp(params.adaptive_tolerance_factor * std::sqrt(sum[L] / count[L]), lo, tol.noise_steps);
+    coef[L] = static_cast<float>(steps * step1);
+  }
+  return coef;
+}
+
 void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full, int sample_step) {
   CV_Assert(depth_full_mm.type() == CV_16UC1);
   step = std::max(1, sample_step);
@@ -94,6 +124,8 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
   const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
+  const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
+  const float tol_floor = static_cast<float>(tol.floor_m);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
   for (int i = 0; i < R * C; ++i)
@@ -106,7 +138,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
       if (j < 0 || lab[j] != -1) continue;
       const cv::Vec3f& p = point(j);
       if (!(p[2] > 0) || !samplesContinuous(z, p[2], grid, params)) continue;
-      if (std::fabs(dist(L, p)) > tol.at(p[2])) continue;
+      if (std::fabs(dist(L, p)) > std::max(tol_floor, tol_coef[L] * p[2] * p[2])) continue;
       if (with_normals) {
         const cv::Vec3f& n = grid.normals.ptr<cv::Vec3f>(0)[j];
         const auto& h = planes[L].normal;
@@ -126,12 +158,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
             sample_labels.size() == grid.points.size());
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const PlaneTolerance& tol = params.tolerance;
-  const float tol_k = static_cast<float>(tol.noise_steps * tol.noise.depthStep(1.0));
   const float tol_floor = static_cast<float>(tol.floor_m);
   auto continuous = [&](float z1, float z2) { return samplesContinuous(z1, z2, grid, params); };
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
   int* lab = sample_labels.ptr<int>(0);
 
+  const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
   growSampleLabels(grid, sample_labels, planes, params);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
@@ -244,7 +276,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   //    of a region's pixels fit its plane as well as all of them (the fit error is dominated by
   //    the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
   const std::size_t nreg = regions.size();
-  std::vector<float> coef(4 * nreg);
+  std::vector<float> coef(4 * nreg), region_tol(nreg);
+  for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
   for (std::size_t k = 0; k < nreg; ++k) {
     const auto& h = planes[regions[k].plane];
     coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
@@ -275,12 +308,13 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       if (raw == 0 || list[0] < 0) continue;
       const float z = static_cast<float>(raw) * 0.001f;
       const float fu = static_cast<float>(u);
-      float best = std::max(tol_floor, tol_k * z * z);
+      const float z2 = z * z;
+      float best = std::numeric_limits<float>::max();
       int best_k = -1;
       for (int k = 0; k < 4 && list[k] >= 0; ++k) {
         const float* q = &coef[4 * list[k]];
         const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
-        if (dd <= best) {
+        if (dd <= best && dd <= std::max(tol_floor, region_tol[list[k]] * z2)) {
           best = dd;
           best_k = list[k];
         }
@@ -319,6 +353,58 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         reg.colour[2] += crow[u][2];
       }
     }
+  }
+
+  // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
+  //     strip fitted in pieces, a face found once by the Hough stage and once among the
+  //     leftovers); the sample-level merge misses them when the sample fits of the pieces are
+  //     poor. Merge depth-continuous neighbours whose full-resolution fits agree: joint RMS
+  //     within max(merge_rms_factor x the worse RMS, tolerance / 3 at their range).
+  std::vector<int> merged_into(nreg);
+  std::iota(merged_into.begin(), merged_into.end(), 0);
+  if (params.merge_coplanar_regions) {
+    std::vector<std::pair<int, int>> adjacent;
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        const int i = r * C + c, a = region_of[i];
+        if (a < 0) continue;
+        for (const int j : {c + 1 < C ? i + 1 : -1, r + 1 < R ? i + C : -1}) {
+          if (j < 0) continue;
+          const int b = region_of[j];
+          if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) continue;
+          adjacent.emplace_back(std::min(a, b), std::max(a, b));
+        }
+      }
+    std::sort(adjacent.begin(), adjacent.end());
+    adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
+    const double cos_merge = std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
+    for (const auto& [a0, b0] : adjacent) {
+      const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
+      if (a == b) continue;
+      const PlaneFit fa = regions[a].moments.fit(), fb = regions[b].moments.fit();
+      if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
+      PlaneMoments joint = regions[a].moments;
+      joint.merge(regions[b].moments);
+      const PlaneFit f = joint.fit();
+      const double z = std::max(fa.centroid.z(), fb.centroid.z());
+      if (!f.valid || f.rms_m > std::max(params.merge_coplanar_rms_factor * std::max(fa.rms_m, fb.rms_m), tol.at(z) / 3.0))
+        continue;
+      auto& ra = regions[std::min(a, b)];
+      auto& rb = regions[std::max(a, b)];
+      ra.moments = joint;
+      ra.count += rb.count;
+      ra.samples += rb.samples;
+      ra.sample_box |= rb.sample_box;
+      ra.u0 = std::min(ra.u0, rb.u0);
+      ra.v0 = std::min(ra.v0, rb.v0);
+      ra.u1 = std::max(ra.u1, rb.u1);
+      ra.v1 = std::max(ra.v1, rb.v1);
+      for (int ch = 0; ch < 3; ++ch) ra.colour[ch] += rb.colour[ch];
+      rb.count = 0;  // dropped below; its pixels are renumbered to the merged region
+      merged_into[std::max(a, b)] = std::min(a, b);
+    }
+    for (int i = 0; i < R * C; ++i)
+      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into, region_of[i]);
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
@@ -361,6 +447,13 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
                     p.polygon, p.triangles);
     }
     out.planes.push_back(std::move(p));
+  }
+  for (std::size_t k = 0; k < nreg; ++k) {
+    const int root = findRoot(merged_into, static_cast<int>(k));
+    if (root != static_cast<int>(k)) {
+      lut[k + 1] = lut[root + 1];
+      renumber = true;
+    }
   }
   if (renumber) {
     for (int v = 0; v < out.labels.rows; ++v) {

@@ -71,9 +71,20 @@ void regionPolygon(const cv::Mat& mask, cv::Point origin, double scale, double o
   const auto& best = *std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
     return std::fabs(cv::contourArea(a)) < std::fabs(cv::contourArea(b));
   });
-  std::vector<cv::Point> simple;
-  cv::approxPolyDP(best, simple, epsilon_cells, true);
-  if (simple.size() < 3) return;
+  std::vector<cv::Point> approx;
+  cv::approxPolyDP(best, approx, epsilon_cells, true);
+  std::vector<cv::Point2f> simple(approx.begin(), approx.end());
+  if (approx.size() < 3 || std::fabs(cv::contourArea(approx)) < 1.0) {
+    // A region one cell wide (a thin strip: a table's front edge seen from above) has a
+    // degenerate contour; its samples stand for step x step cells, so use their bounding
+    // rotated rectangle grown by one cell.
+    cv::RotatedRect r = cv::minAreaRect(best);
+    r.size.width += 1.0f;
+    r.size.height += 1.0f;
+    cv::Point2f corners[4];
+    r.points(corners);
+    simple.assign(corners, corners + 4);
+  }
   std::vector<cv::Point2f> kept;
   for (const auto& c : simple) {
     const double u = offset + scale * (c.x + origin.x), v = offset + scale * (c.y + origin.y);

@@ -45,6 +45,12 @@ struct PlaneHypothesis {
 void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                       const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params);
 
+/// Per plane, the coefficient c of its inlier tolerance max(tolerance.floor_m, c z^2) (see
+/// PlaneLabelingParams::adaptive_tolerance_factor), from the samples currently labelled with it.
+std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+                                              const std::vector<PlaneHypothesis>& planes,
+                                              const PlaneLabelingParams& params);
+
 /// Whether two neighbouring samples at ranges z1, z2 (m) are depth-continuous (one surface):
 /// |z1 - z2| <= max(1% of the range per sample step, the tolerance at that range).
 bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const PlaneLabelingParams& params);

@@ -18,11 +18,14 @@
 //     `refine_iterations` times); accepted planes take their samples. Unclaimed samples vote
 //     again in the next round (`rounds`), which finds planes hidden next to bigger parallel ones
 //     (a box top 5 cm above the table shares the table's smoothed peak).
-//  4. Near-duplicate planes are merged (angle and distance gates).
+//  4. Near-duplicate planes are merged (angle and distance gates). Depth-continuous components
+//     of samples no plane took (thin strips, small faces without reliable normals) are fitted
+//     by least squares, or split by sequential RANSAC when they hold several faces.
 //  5. Labelling (plane_labeling.h): region growing on the sample grid, connected regions (a
 //     region = one physical surface: two box tops at the same height get two ids), every
 //     full-resolution pixel takes the closest plane among the regions of its neighbouring
-//     samples within the tolerance, each region is refitted on its full-resolution pixels.
+//     samples within that plane's tolerance (tightened from the plane's own residuals), each
+//     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge.
 //
 // Output: one DetectedPlane per connected region; `group` tells which regions share a
 // supporting plane. See DetectedPlane.
@@ -85,11 +88,26 @@ struct PlaneLabelingParams {
   /// whenever the strip's depth stays within the range-dependent tolerance. Default 45 deg
   /// (the blurred samples right at the fold are ~45 deg off either surface).
   double grow_max_unreliable_normal_deg = 45.0;
+  /// Per-plane inlier tolerance for region growing and pixel labelling: this factor times the
+  /// RMS residual (in sensor depth steps) of the plane's samples, clamped to
+  /// [min_tolerance_steps, tolerance.noise_steps]. Clean planes get a tighter band, so a plane
+  /// stops claiming the first centimetres of every surface that meets it (a table top the
+  /// front edge, a leg front the leg side) where the fixed tolerance is several cm at range.
+  /// 0 = always the fixed tolerance. Defaults 3 and 1.5 steps.
+  double adaptive_tolerance_factor = 3.0;
+  double min_tolerance_steps = 1.5;
   /// Split planes into connected regions (one id per physical surface, SegComp-style). Default true.
   bool split_connected_regions = true;
   /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
   /// plane itself (floor between table legs): one id per physical surface. Default true.
   bool merge_occluded_pieces = true;
+  /// Merge adjacent, depth-continuous regions whose full-resolution fits are within
+  /// merge_coplanar_max_angle_deg and whose joint fit has RMS <= max(merge_coplanar_rms_factor
+  /// x the worse of the two, tolerance / 3): one surface found as two pieces of two nearly
+  /// identical hypotheses. Defaults true, 10 deg, 1.3.
+  bool merge_coplanar_regions = true;
+  double merge_coplanar_max_angle_deg = 10.0;
+  double merge_coplanar_rms_factor = 1.3;
   /// Compute polygon and triangles. Default true.
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.
