@@ -6,12 +6,7 @@ namespace shapesense {
 grpc::Status handleGetBowls(const ServiceContext& context, const v1::GetBowlsRequest& request,
                             v1::GetBowlsResponse* response) {
   CachedFrame entry;
-  if (auto status = lookupFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
-  if (!entry.results) {
-    return {grpc::StatusCode::FAILED_PRECONDITION,
-            "the detectors have not processed this frame (it was skipped or is still being "
-            "processed); ask for a neighbouring frame"};
-  }
+  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
   if (!entry.results->bowls) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "the bowl stage is off; start shapesensed with --bowls on (and --models DIR if the "

@@ -11,12 +11,7 @@ grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesR
     return {grpc::StatusCode::INVALID_ARGUMENT, "view must be FRAME (0) or ACCUMULATED (1)"};
   }
   CachedFrame entry;
-  if (auto status = lookupFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
-  if (!entry.results) {
-    return {grpc::StatusCode::FAILED_PRECONDITION,
-            "the detectors have not processed this frame (it was skipped or is still being "
-            "processed); ask for a neighbouring frame"};
-  }
+  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
   if (!entry.results->planes) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "the plane stage is off; start shapesensed with --planes hough or --planes ransac"};

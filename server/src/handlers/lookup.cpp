@@ -17,4 +17,14 @@ grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFram
   return grpc::Status::OK;
 }
 
+grpc::Status lookupProcessedFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out) {
+  if (auto status = lookupFrame(cache, at_ns, out); !status.ok()) return status;
+  if (!out.results) {
+    return {grpc::StatusCode::FAILED_PRECONDITION,
+            "the detectors have not processed this frame (it was skipped or is still being "
+            "processed); ask for a neighbouring frame"};
+  }
+  return grpc::Status::OK;
+}
+
 }  // namespace shapesense

@@ -38,4 +38,8 @@ struct ServiceContext {
 /// for T before the cache.
 grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out);
 
+/// lookupFrame for queries of detector results: also FAILED_PRECONDITION when the detectors
+/// have not processed the frame (skipped, or still running). On OK, out.results is set.
+grpc::Status lookupProcessedFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out);
+
 }  // namespace shapesense
