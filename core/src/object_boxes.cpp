@@ -15,14 +15,11 @@ namespace {
 std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::Mat& labels,
                                                                       const cv::Mat& depth_mm,
                                                                       const KinectNoiseModel& noise) {
-  // The largest depth difference (mm) still continuous at each depth (mm), as a table: the
-  // noise model is evaluated per distinct depth instead of per pixel pair.
-  std::vector<float> max_jump_mm(65536);
-  for (int z = 0; z < 65536; ++z) max_jump_mm[z] = static_cast<float>(1e3 * (0.01 + 3 * noise.depthStep(1e-3 * z)));
   std::vector<std::uint32_t> pairs;
   const auto consider = [&](std::uint16_t a, std::uint16_t b, std::uint16_t za, std::uint16_t zb) {
     if (a == b || a == 0 || b == 0 || za == 0 || zb == 0) return;
-    if (std::abs(za - zb) > max_jump_mm[std::min(za, zb)]) return;
+    const double z = 1e-3 * std::min(za, zb);
+    if (std::abs(za - zb) * 1e-3 > 0.01 + 3 * noise.depthStep(z)) return;
     pairs.push_back(static_cast<std::uint32_t>(std::min(a, b)) << 16 | std::max(a, b));
   };
   for (int v = 0; v + 1 < labels.rows; ++v) {

@@ -21,6 +21,7 @@
 #include "shapesense/core/segmentation.h"
 #include "shapesense/core/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "mosd_table.h"
 
 namespace shapesense {
 namespace {
@@ -337,18 +338,7 @@ TEST(SegmentationSyntheticDiag, DISABLED_Sweep) {
     cv::Mat depth;
     raw.convertTo(depth, CV_16UC1, 0.2);
     const cv::Mat r = segmentDepth(depth, CameraIntrinsics{}, m, sp);
-    std::map<int, int> ov;
-    int table = 0;
-    for (int v = 0; v < r.rows; ++v)
-      for (int u = 0; u < r.cols; ++u) {
-        const int l = labels.at<std::uint16_t>(v, u);
-        if (l < 1 || l > 9 || depth.at<std::uint16_t>(v, u) == 0) continue;
-        ++table;
-        if (const int id = r.at<std::uint16_t>(v, u)) ++ov[id];
-      }
-    int best = 0;
-    for (auto [id, c] : ov) best = std::max(best, c);
-    worst = std::min(worst, table ? double(best) / table : 0.0);
+    worst = std::min(worst, testing::mosdTableCoverage(r, labels, depth));
   }
   std::printf("\n[sweep] %s acc %.3f correct %.3f mosd worst table %.3f\n", std::string(formatSegmentationMethod(m)).c_str(), acc, cor, worst);
 }

@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "shapesense/core/segmentation_scoring.h"
+#include "mosd_table.h"
 #include "test_paths.h"
 
 namespace shapesense {
@@ -268,19 +269,7 @@ TEST(Segmentation, MosdTabletopTablePlaneIsOneRegion) {
     ++frames;
     for (auto m : kAll) {
       const cv::Mat r = segmentDepth(depth, K, m);
-      std::map<int, int> overlap;
-      int table = 0;
-      for (int v = 0; v < r.rows; ++v)
-        for (int u = 0; u < r.cols; ++u) {
-          const int l = labels.at<std::uint16_t>(v, u);
-          if (l < 1 || l > 9 || depth.at<std::uint16_t>(v, u) == 0) continue;
-          ++table;
-          const int id = r.at<std::uint16_t>(v, u);
-          if (id) ++overlap[id];
-        }
-      int best = 0;
-      for (auto [id, c] : overlap) best = std::max(best, c);
-      const double frac = table ? static_cast<double>(best) / table : 0.0;
+      const double frac = testing::mosdTableCoverage(r, labels, depth);
       std::printf("[seg mosd] %s %-16s regions %3d  table coverage by one region %.3f\n", name.c_str(),
                   methodName(m).c_str(), regionCount(r), frac);
       worst[m] = std::min(worst[m], frac);
