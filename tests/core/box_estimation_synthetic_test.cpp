@@ -1,13 +1,18 @@
 // estimateBox against ground truth: synthetic table-top scenes (driver's SyntheticScene), every
-// visible non-table object, its true 2D box as ROI. Measures, per mode, the fraction of the
-// object's measured 3D points inside the estimated box and the estimated / true volume ratio.
-// The issue's target for mode 2 was median containment >= 0.95 with median volume ratio <= 2.5.
-// Mode 2's geometry (the box's projection must stay inside the ROI) cannot reach 0.95 on these
-// scenes: mode2Oracle below measures the best containment any choice of face depths could give,
-// and its median is ~0.91. So the test asserts what the statistics control: mode 2 reaches at
-// least 90% of that ceiling and 0.8 absolute, within the volume bound.
-// Modes 1 and 3 are reported (their ROI semantics - ROI = front face - do not match a silhouette
-// ROI, so no target is asserted for them beyond sanity bounds).
+// visible non-table object with one of its true 2D boxes as ROI. Measures, per mode, the
+// fraction of the object's measured 3D points inside the estimated box and the estimated / true
+// volume ratio. The issue's target for mode 2: containment >= 0.95 with volume <= 2.5x the true
+// box's (asserted on the medians over all objects).
+// Two ROIs, because "the object's true 2D box" has two readings (see RoiKind):
+//  - the projection of the object's true box (mode 2's premise: the ROI contains the whole
+//    projection of the box). Here the target is asserted.
+//  - the bounds of its visible pixels (a silhouette). Mode 2's geometry (the box's projection
+//    must stay inside the ROI) cannot reach 0.95 with it: points that project near the ROI's
+//    edge at a depth other than the bounding face's are outside whatever the face depths are.
+//    mode2Oracle measures the best containment any face depths could give (median ~0.88), and
+//    the test asserts that mode 2 reaches at least 90% of that ceiling.
+// Modes 1 and 3 are reported (their ROI is a front face, which neither ROI is), with sanity
+// bounds only.
 
 #include <algorithm>
 #include <cstdint>
@@ -60,8 +65,8 @@ double mode2Oracle(const std::vector<Eigen::Vector3d>& points, const CameraIntri
       extent(yt, yb, z1, z2, y0, y1);
       std::size_t inside = 0;
       for (const auto& p : points) {
-        inside += p.z() >= z1 && p.z() <= z2 && p.x() >= x0 && p.x() <= x1 && p.y() >= y0 &&
-                  p.y() <= y1;
+        inside +=
+            p.z() >= z1 && p.z() <= z2 && p.x() >= x0 && p.x() <= x1 && p.y() >= y0 && p.y() <= y1;
       }
       best = std::max(best, static_cast<double>(inside) / points.size());
     }
@@ -82,7 +87,46 @@ double quantile(std::vector<double> v, double q) {
 constexpr std::size_t kMinObjectPixels = 200;
 constexpr int kScenes = 10;  // one frame from each of 10 scenes (seeds 1..10): varied layouts
 
-std::map<BoxMode, std::vector<Sample>> measure(std::vector<double>* oracle) {
+// Which 2D box of the object is the ROI.
+enum class RoiKind {
+  /// Bounds of the object's labelled pixels: what a detector or an operator outlining the
+  /// visible object draws.
+  kSilhouette,
+  /// Bounds of the projection of the object's true box made axis-aligned in the camera frame
+  /// (the box of its 8 true corners): exactly mode 2's premise, "the ROI contains the whole
+  /// projection of an axis-aligned box".
+  kProjectedBox,
+};
+
+// The projected true box; empty when any of it falls outside the image (then the ROI would be
+// clipped and no longer contain the projection).
+cv::Rect projectedAxisAlignedBox(const synthetic::TruthObject& object, const CameraIntrinsics& k,
+                                 cv::Size image) {
+  Eigen::Vector3d lo = object.corners[0], hi = object.corners[0];
+  for (const auto& c : object.corners) {
+    lo = lo.cwiseMin(c);
+    hi = hi.cwiseMax(c);
+  }
+  if (lo.z() <= 0.0) return {};
+  double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d c((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(),
+                            (i & 4) ? hi.z() : lo.z());
+    const Eigen::Vector2d p = k.project(c);
+    u0 = std::min(u0, p.x());
+    v0 = std::min(v0, p.y());
+    u1 = std::max(u1, p.x());
+    v1 = std::max(v1, p.y());
+  }
+  // Inclusive pixels whose footprint [u - 0.5, u + 0.5] covers the projection.
+  const cv::Point tl(static_cast<int>(std::floor(u0 + 0.5)),
+                     static_cast<int>(std::floor(v0 + 0.5)));
+  const cv::Point br(static_cast<int>(std::ceil(u1 - 0.5)), static_cast<int>(std::ceil(v1 - 0.5)));
+  const cv::Rect r(tl, br + cv::Point(1, 1));
+  return (r & cv::Rect({0, 0}, image)) == r ? r : cv::Rect{};
+}
+
+std::map<BoxMode, std::vector<Sample>> measure(RoiKind roi, std::vector<double>* oracle) {
   std::map<BoxMode, std::vector<Sample>> out;
   const std::array<BoxMode, 3> modes{BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
                                      BoxMode::kAxisAlignedFrontFace};
@@ -100,7 +144,10 @@ std::map<BoxMode, std::vector<Sample>> measure(std::vector<double>* oracle) {
           object.pixel_count < kMinObjectPixels) {
         continue;
       }
-      const cv::Rect r = object.image_box;
+      const cv::Rect r = roi == RoiKind::kSilhouette
+                             ? object.image_box
+                             : projectedAxisAlignedBox(object, k, depth.size());
+      if (r.empty()) continue;
       // The object's visible points, from the measured depth.
       std::vector<Eigen::Vector3d> points;
       for (int v = r.y; v < r.y + r.height; ++v) {
@@ -114,8 +161,8 @@ std::map<BoxMode, std::vector<Sample>> measure(std::vector<double>* oracle) {
       const double true_volume = object.size.prod();
       oracle->push_back(mode2Oracle(points, k, r));
       for (BoxMode mode : modes) {
-        const auto result = estimateBox(depth, k, r.tl(), {r.x + r.width - 1, r.y + r.height - 1},
-                                        mode);
+        const auto result =
+            estimateBox(depth, k, r.tl(), {r.x + r.width - 1, r.y + r.height - 1}, mode);
         const auto* box = std::get_if<BoxEstimate>(&result);
         if (box == nullptr) {
           ADD_FAILURE() << "no box for " << object.name << " in scene " << s << ": "
@@ -142,10 +189,10 @@ std::string summary(const std::vector<Sample>& samples, double* median_containme
   *median_containment = quantile(c, 0.5);
   *median_volume = quantile(v, 0.5);
   std::ostringstream os;
-  os << std::fixed << std::setprecision(3) << "n=" << samples.size()
-     << " containment median " << *median_containment << " (p10 " << quantile(c, 0.1)
-     << ", min " << quantile(c, 0.0) << ") volume ratio median " << *median_volume << " (p90 "
-     << quantile(v, 0.9) << ", max " << quantile(v, 1.0) << ")";
+  os << std::fixed << std::setprecision(3) << "n=" << samples.size() << " containment median "
+     << *median_containment << " (p10 " << quantile(c, 0.1) << ", min " << quantile(c, 0.0)
+     << ") volume ratio median " << *median_volume << " (p90 " << quantile(v, 0.9) << ", max "
+     << quantile(v, 1.0) << ")";
   // Per kind, to see where a mode struggles.
   std::map<std::string, std::vector<const Sample*>> by_kind;
   for (const auto& s : samples) by_kind[s.kind].push_back(&s);
@@ -163,13 +210,13 @@ std::string summary(const std::vector<Sample>& samples, double* median_containme
 
 TEST(BoxEstimationSynthetic, ContainmentAndVolumeAgainstGroundTruth) {
   std::vector<double> oracle;
-  const auto results = measure(&oracle);
+  const auto results = measure(RoiKind::kSilhouette, &oracle);
   const double oracle_median = quantile(oracle, 0.5);
   std::cout << "[ box vs truth ] mode 2 best possible (any face depths, hindsight): containment "
             << "median " << oracle_median << "\n";
   RecordProperty("mode2_oracle_median_containment", std::to_string(oracle_median));
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     const auto it = results.find(mode);
     ASSERT_NE(it, results.end()) << toString(mode);
     ASSERT_GE(it->second.size(), 20u) << "too few objects measured";
@@ -193,6 +240,35 @@ TEST(BoxEstimationSynthetic, ContainmentAndVolumeAgainstGroundTruth) {
       EXPECT_GE(containment, 0.5) << toString(mode);
       EXPECT_LE(volume, 10.0) << toString(mode);
       EXPECT_GE(volume, 0.1) << toString(mode);
+    }
+  }
+}
+
+// Mode 2 on its own premise: the ROI is the projection of the object's true box (made
+// axis-aligned in the camera frame), so a box that holds every visible point exists (the
+// hindsight ceiling is 1) and the issue's targets apply to what the statistics choose.
+// Failures left in the low tail are occlusions: an object hidden behind another covers a
+// minority of its ROI and the robust centre lands on the occluder.
+TEST(BoxEstimationSynthetic, Mode2MeetsTargetsWithProjectedTrueBoxAsRoi) {
+  std::vector<double> oracle;
+  const auto results = measure(RoiKind::kProjectedBox, &oracle);
+  const double oracle_median = quantile(oracle, 0.5);
+  std::cout << "[ box vs truth, projected-box ROI ] mode 2 best possible (hindsight): "
+            << "containment median " << oracle_median << "\n";
+  for (const auto& [mode, samples] : results) {
+    ASSERT_GE(samples.size(), 20u) << "too few objects wholly in view";
+    double containment = 0.0, volume = 0.0;
+    const std::string text = summary(samples, &containment, &volume);
+    std::cout << "[ box vs truth, projected-box ROI ] mode " << static_cast<int>(mode) << " ("
+              << toString(mode) << "): " << text << "\n";
+    const std::string key =
+        std::string("projected_roi_mode") + std::to_string(static_cast<int>(mode));
+    RecordProperty(key + "_median_containment", std::to_string(containment));
+    RecordProperty(key + "_median_volume_ratio", std::to_string(volume));
+    if (mode == BoxMode::kAxisAlignedContained) {
+      EXPECT_GE(oracle_median, 0.99) << "the ROI no longer contains the box's projection";
+      EXPECT_GE(containment, 0.95);
+      EXPECT_LE(volume, 2.5);
     }
   }
 }
