@@ -11,6 +11,7 @@
 #include <benchmark/benchmark.h>
 #include <grpcpp/grpcpp.h>
 
+#include "shapesense/core/box_estimation.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
@@ -70,15 +71,20 @@ void BM_EstimateBoxLoopback(benchmark::State& state) {
           v1::EstimateBoxResponse response;
           grpc::ClientContext context;
           if (!stub->EstimateBox(&context, request, &response).ok()) ++failures;
-          per_thread[t].push_back(std::chrono::duration<double, std::milli>(Clock::now() - due).count());
+          per_thread[t].push_back(
+              std::chrono::duration<double, std::milli>(Clock::now() - due).count());
         }
       });
     }
     for (auto& client : clients) client.join();
-    for (auto& samples : per_thread) latencies_ms.insert(latencies_ms.end(), samples.begin(), samples.end());
+    for (auto& samples : per_thread)
+      latencies_ms.insert(latencies_ms.end(), samples.begin(), samples.end());
   }
   std::sort(latencies_ms.begin(), latencies_ms.end());
-  auto quantile = [&](double q) { return latencies_ms[std::min(latencies_ms.size() - 1, static_cast<std::size_t>(q * latencies_ms.size()))]; };
+  auto quantile = [&](double q) {
+    return latencies_ms[std::min(latencies_ms.size() - 1,
+                                 static_cast<std::size_t>(q * latencies_ms.size()))];
+  };
   state.counters["requests"] = static_cast<double>(latencies_ms.size());
   state.counters["failures"] = failures.load();
   state.counters["p50_ms"] = quantile(0.50);
@@ -86,7 +92,40 @@ void BM_EstimateBoxLoopback(benchmark::State& state) {
   state.counters["max_ms"] = latencies_ms.back();
   server.shutdown();
 }
-BENCHMARK(BM_EstimateBoxLoopback)->Args({1000, 4})->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The estimate alone, in process, per ROI of the same frame (no gRPC): what each request costs
+// the server before serialisation. Argument: index into the frame's object ROIs, largest first.
+void BM_EstimateBoxInProcess(benchmark::State& state) {
+  synthetic::SceneParams params;
+  params.render_colour = false;
+  const synthetic::SyntheticScene scene(params);
+  const auto rendered = scene.render(0, 0);
+  std::vector<cv::Rect> rois;
+  for (const auto& object : rendered.truth.objects) {
+    if (object.pixel_count > 200) rois.push_back(object.image_box);
+  }
+  std::sort(rois.begin(), rois.end(),
+            [](const cv::Rect& a, const cv::Rect& b) { return a.area() > b.area(); });
+  const auto index = static_cast<std::size_t>(state.range(0));
+  if (index >= rois.size()) {
+    state.SkipWithError("no such ROI");
+    return;
+  }
+  const cv::Rect r = rois[index];
+  for (auto _ : state) {
+    auto result =
+        estimateBox(rendered.frame.depth, rendered.frame.intrinsics, r.tl(),
+                    {r.x + r.width - 1, r.y + r.height - 1}, BoxMode::kAxisAlignedContained);
+    benchmark::DoNotOptimize(result);
+  }
+  state.counters["roi_pixels"] = r.area();
+}
+BENCHMARK(BM_EstimateBoxInProcess)->DenseRange(0, 2)->Arg(5)->Unit(benchmark::kMicrosecond);
+
+BENCHMARK(BM_EstimateBoxLoopback)
+    ->Args({1000, 4})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace shapesense

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -20,19 +21,128 @@ BoxEstimationFailure fail(BoxEstimationError code, std::string message) {
   return BoxEstimationFailure{code, std::move(message)};
 }
 
-// Lower median: always one of the values, so a zero-width window around it keeps something.
-double lowerMedian(std::vector<double>& v) {
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>((v.size() - 1) / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+// The readings counted in 1 mm bins, the depth image's own resolution: Z readings (modes 2 and
+// 3) fall exactly on bins, ranges (mode 1) are rounded by at most 0.5 mm, far below the
+// sensor's noise. Every statistic of the robust window is then a walk over at most a few
+// thousand bins instead of a selection over every reading, and the ROI is read once: an ROI
+// covering half the image costs one pass over its pixels.
+class MillimetreHistogram {
+ public:
+  /// Bins for readings in [min_mm, max_mm].
+  MillimetreHistogram(int min_mm, int max_mm)
+      : origin_mm_(min_mm), counts_(static_cast<std::size_t>(max_mm - min_mm) + 1, 0) {}
+
+  void add(int mm) { ++counts_[static_cast<std::size_t>(mm - origin_mm_)]; }
+  /// Call once after the last add, before any query.
+  void finish() {
+    prefix_.assign(counts_.size() + 1, 0);
+    for (std::size_t b = 0; b < counts_.size(); ++b) prefix_[b + 1] = prefix_[b] + counts_[b];
+  }
+
+  double metres(int bin) const { return 0.001 * (origin_mm_ + bin); }
+  int lastBin() const { return static_cast<int>(counts_.size()) - 1; }
+  int countAt(int bin) const { return counts_[static_cast<std::size_t>(bin)]; }
+  /// Readings in bins [lo, hi].
+  int count(int lo, int hi) const {
+    return prefix_[static_cast<std::size_t>(hi) + 1] - prefix_[static_cast<std::size_t>(lo)];
+  }
+
+  /// Bin of the reading of 0-based `rank` in sorted order among bins [lo, hi].
+  int binOfRank(int lo, int hi, int rank) const {
+    // First bin b in [lo, hi) whose cumulative count passes the rank.
+    const auto first = prefix_.begin() + lo + 1;
+    const auto last = prefix_.begin() + hi + 1;
+    const auto it = std::upper_bound(first, last, prefix_[static_cast<std::size_t>(lo)] + rank);
+    return it == last ? hi : static_cast<int>(it - prefix_.begin()) - 1;
+  }
+
+  /// Lower median, over the readings in bins [lo, hi], of their distance in bins to `center`.
+  int medianDistance(int lo, int hi, int center) const {
+    const int rank = (count(lo, hi) - 1) / 2;
+    int seen = 0;
+    for (int k = 0;; ++k) {
+      if (center - k >= lo) seen += countAt(center - k);
+      if (k > 0 && center + k <= hi) seen += countAt(center + k);
+      if (seen > rank || (center - k <= lo && center + k >= hi)) return k;
+    }
+  }
+
+ private:
+  int origin_mm_;
+  std::vector<int> counts_;
+  std::vector<int> prefix_;
+};
+
+// The robust window and its statistics (see RoiDepthStatistics) over a finished histogram.
+RoiDepthStatistics windowStatistics(const MillimetreHistogram& histogram,
+                                    const BoxEstimationParams& params) {
+  RoiDepthStatistics stats;
+  // The kept set is always a window of bins [lo, hi]: it starts as all readings.
+  int lo = 0;
+  int hi = histogram.lastBin();
+  int kept = histogram.count(lo, hi);
+  stats.valid_pixels = kept;
+  int center_bin = 0;
+  double sigma = 0.0;
+  const int iterations = std::max(0, params.refine_iterations);
+  for (int it = 0; it <= iterations; ++it) {
+    // Centre and spread from the current kept set, window applied to all readings: a window
+    // that once excluded a reading may take it back after re-centring.
+    center_bin = histogram.binOfRank(lo, hi, (kept - 1) / 2);
+    const double center = histogram.metres(center_bin);
+    sigma = kMadToSigma * 0.001 * histogram.medianDistance(lo, hi, center_bin);
+    const double floor_sigma =
+        std::max(params.min_sigma_m, params.min_sigma_steps * params.noise.depthStep(center));
+    const double window = params.inlier_sigmas * std::max(sigma, floor_sigma);
+    // A reading exactly on the window's edge is kept (hence the rounding slack).
+    const int half_bins = static_cast<int>(std::floor(window / 0.001 + 1e-6));
+    const int next_lo = std::max(0, center_bin - half_bins);
+    const int next_hi = std::min(histogram.lastBin(), center_bin + half_bins);
+    // The centre is one of the readings, so the window is never empty.
+    const int next_kept = histogram.count(next_lo, next_hi);
+    const bool converged = next_kept == kept;
+    lo = next_lo;
+    hi = next_hi;
+    kept = next_kept;
+    if (converged && it > 0) break;
+  }
+
+  // Moments in bins relative to the centre (small numbers, no cancellation).
+  double sum = 0.0;
+  double sq = 0.0;
+  for (int b = lo; b <= hi; ++b) {
+    const double offset = b - center_bin;
+    sum += histogram.countAt(b) * offset;
+    sq += histogram.countAt(b) * offset * offset;
+  }
+  const auto n = static_cast<double>(kept);
+  const double mean_offset = sum / n;
+  const double mean = histogram.metres(center_bin) + 0.001 * mean_offset;
+  const double stddev = 0.001 * std::sqrt(std::max(0.0, sq / n - mean_offset * mean_offset));
+
+  stats.used_pixels = kept;
+  stats.mean_m = mean;
+  stats.std_m = stddev;
+  stats.median_m = histogram.metres(center_bin);
+  stats.mad_sigma_m = sigma;
+  stats.min_m = histogram.metres(histogram.binOfRank(lo, hi, 0));
+  stats.max_m = histogram.metres(histogram.binOfRank(lo, hi, kept - 1));
+  stats.near_m = mean - params.std_scale * stddev;
+  stats.far_m = mean + params.std_scale * stddev;
+  if (params.clamp_to_kept_range) {
+    // Past the (trimmed) extremes of the kept readings there is no evidence of the object: a
+    // skewed set (object plus some table behind it) would otherwise push the opposite face out.
+    const double trim = std::clamp(params.range_trim, 0.0, 0.5);
+    const double last = static_cast<double>(kept - 1);
+    const int lo_rank = static_cast<int>(std::floor(trim * last));
+    const int hi_rank = static_cast<int>(std::ceil((1.0 - trim) * last));
+    stats.near_m = std::max(stats.near_m, histogram.metres(histogram.binOfRank(lo, hi, lo_rank)));
+    stats.far_m = std::min(stats.far_m, histogram.metres(histogram.binOfRank(lo, hi, hi_rank)));
+  }
+  return stats;
 }
 
-double madSigma(const std::vector<double>& v, double center, std::vector<double>& scratch) {
-  scratch.resize(v.size());
-  std::transform(v.begin(), v.end(), scratch.begin(),
-                 [center](double x) { return std::abs(x - center); });
-  return kMadToSigma * lowerMedian(scratch);
-}
+int roundToMillimetres(double metres) { return static_cast<int>(std::lround(metres * 1000.0)); }
 
 // Widest interval [lo, hi] (one axis, metres) of an axis-aligned box spanning depths [z1, z2]
 // whose projection stays within the normalised ROI interval [a, b] (a < b). Along one axis the
@@ -57,10 +167,10 @@ AxisExtent containedExtent(double a, double b, double z1, double z2) {
 
 BoxCorners axisAlignedCorners(double x_left, double x_right, double y_top, double y_bottom,
                               double z_front, double z_back) {
-  return {Eigen::Vector3d(x_left, y_top, z_front),  Eigen::Vector3d(x_right, y_top, z_front),
+  return {Eigen::Vector3d(x_left, y_top, z_front),     Eigen::Vector3d(x_right, y_top, z_front),
           Eigen::Vector3d(x_right, y_bottom, z_front), Eigen::Vector3d(x_left, y_bottom, z_front),
-          Eigen::Vector3d(x_left, y_top, z_back),   Eigen::Vector3d(x_right, y_top, z_back),
-          Eigen::Vector3d(x_right, y_bottom, z_back), Eigen::Vector3d(x_left, y_bottom, z_back)};
+          Eigen::Vector3d(x_left, y_top, z_back),      Eigen::Vector3d(x_right, y_top, z_back),
+          Eigen::Vector3d(x_right, y_bottom, z_back),  Eigen::Vector3d(x_left, y_bottom, z_back)};
 }
 
 // Faces as corner cycles, and the face opposite each (for degenerate-face fallbacks).
@@ -118,74 +228,14 @@ bool clipSegment(Eigen::Vector2d& p0, Eigen::Vector2d& p1, double xmin, double x
 
 }  // namespace
 
-RoiDepthStatistics robustDepthStatistics(std::vector<double>& values,
+RoiDepthStatistics robustDepthStatistics(const std::vector<double>& values,
                                          const BoxEstimationParams& params) {
-  RoiDepthStatistics stats;
-  stats.valid_pixels = static_cast<int>(values.size());
-  if (values.empty()) return stats;
-
-  std::vector<double> scratch;
-  std::vector<double> kept = values;
-  double center = 0.0;
-  double sigma = 0.0;
-  double window = 0.0;
-  const int iterations = std::max(0, params.refine_iterations);
-  for (int it = 0; it <= iterations; ++it) {
-    // Centre and spread from the current kept set, window applied to all values: a window that
-    // once excluded a reading may take it back after re-centring.
-    center = lowerMedian(kept);
-    sigma = madSigma(kept, center, scratch);
-    const double floor_sigma = std::max(params.min_sigma_m,
-                                        params.min_sigma_steps * params.noise.depthStep(center));
-    window = params.inlier_sigmas * std::max(sigma, floor_sigma);
-    std::vector<double> next;
-    next.reserve(values.size());
-    for (double x : values) {
-      if (std::abs(x - center) <= window) next.push_back(x);
-    }
-    // The centre is one of the values, so `next` is never empty.
-    const bool converged = next.size() == kept.size();
-    kept = std::move(next);
-    if (converged && it > 0) break;
-  }
-
-  double sum = 0.0;
-  double min_v = kept.front();
-  double max_v = kept.front();
-  for (double x : kept) {
-    sum += x;
-    min_v = std::min(min_v, x);
-    max_v = std::max(max_v, x);
-  }
-  const double mean = sum / static_cast<double>(kept.size());
-  double sq = 0.0;
-  for (double x : kept) sq += (x - mean) * (x - mean);
-  const double stddev = std::sqrt(sq / static_cast<double>(kept.size()));
-
-  stats.used_pixels = static_cast<int>(kept.size());
-  stats.mean_m = mean;
-  stats.std_m = stddev;
-  stats.median_m = center;
-  stats.mad_sigma_m = sigma;
-  stats.min_m = min_v;
-  stats.max_m = max_v;
-  stats.near_m = mean - params.std_scale * stddev;
-  stats.far_m = mean + params.std_scale * stddev;
-  if (params.clamp_to_kept_range) {
-    // Past the (trimmed) extremes of the kept readings there is no evidence of the object: a
-    // skewed set (object plus some table behind it) would otherwise push the opposite face out.
-    const double trim = std::clamp(params.range_trim, 0.0, 0.5);
-    const auto n = static_cast<double>(kept.size() - 1);
-    const auto lo_it = kept.begin() + static_cast<std::ptrdiff_t>(std::floor(trim * n));
-    std::nth_element(kept.begin(), lo_it, kept.end());
-    const double lo = *lo_it;
-    const auto hi_it = kept.begin() + static_cast<std::ptrdiff_t>(std::ceil((1.0 - trim) * n));
-    std::nth_element(kept.begin(), hi_it, kept.end());
-    const double hi = *hi_it;
-    stats.near_m = std::max(stats.near_m, lo);
-    stats.far_m = std::min(stats.far_m, hi);
-  }
-  return stats;
+  if (values.empty()) return {};
+  const auto [min_it, max_it] = std::minmax_element(values.begin(), values.end());
+  MillimetreHistogram histogram(roundToMillimetres(*min_it), roundToMillimetres(*max_it));
+  for (double x : values) histogram.add(roundToMillimetres(x));
+  histogram.finish();
+  return windowStatistics(histogram, params);
 }
 
 std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth_mm,
@@ -216,33 +266,71 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
   const int v0 = std::min(p1.y, p2.y);
   const int v1 = std::max(p1.y, p2.y);
   if (u0 < 0 || v0 < 0 || u1 >= depth_mm.cols || v1 >= depth_mm.rows) {
-    return fail(Err::kRoiOutsideImage,
-                "ROI (" + std::to_string(u0) + "," + std::to_string(v0) + ")-(" +
-                    std::to_string(u1) + "," + std::to_string(v1) + ") is not inside the " +
-                    std::to_string(depth_mm.cols) + "x" + std::to_string(depth_mm.rows) +
-                    " image");
+    return fail(Err::kRoiOutsideImage, "ROI (" + std::to_string(u0) + "," + std::to_string(v0) +
+                                           ")-(" + std::to_string(u1) + "," + std::to_string(v1) +
+                                           ") is not inside the " + std::to_string(depth_mm.cols) +
+                                           "x" + std::to_string(depth_mm.rows) + " image");
   }
 
   // Mode 1 works on distances from the optical centre, modes 2 and 3 on Z (the design).
   const bool use_range = mode == BoxMode::kFrustumAligned;
-  std::vector<double> values;
-  values.reserve(static_cast<std::size_t>(u1 - u0 + 1) * static_cast<std::size_t>(v1 - v0 + 1));
+  const double max_valid_mm = params.max_valid_depth_m * 1000.0;
+  const int max_valid =
+      max_valid_mm >= 65535.0 ? 65535 : static_cast<int>(std::floor(max_valid_mm + 1e-6));
+  int min_mm = 65536;
+  int max_mm = 0;
   for (int v = v0; v <= v1; ++v) {
     const auto* row = depth_mm.ptr<std::uint16_t>(v);
     for (int u = u0; u <= u1; ++u) {
-      if (row[u] == 0) continue;
-      const double z = 0.001 * row[u];
-      if (z > params.max_valid_depth_m) continue;
-      values.push_back(use_range ? z * intrinsics.ray(u, v).norm() : z);
+      const int mm = row[u];
+      if (mm == 0 || mm > max_valid) continue;
+      min_mm = std::min(min_mm, mm);
+      max_mm = std::max(max_mm, mm);
     }
   }
-  if (values.empty()) {
+  if (max_mm == 0) {
     return fail(Err::kNoValidDepth, "no depth reading in the ROI (all pixels are 0 or too far)");
   }
 
+  const auto countRoi = [&](MillimetreHistogram& histogram, auto&& to_bin_mm) {
+    for (int v = v0; v <= v1; ++v) {
+      const auto* row = depth_mm.ptr<std::uint16_t>(v);
+      for (int u = u0; u <= u1; ++u) {
+        const int mm = row[u];
+        if (mm != 0 && mm <= max_valid) histogram.add(to_bin_mm(mm, u, v));
+      }
+    }
+    histogram.finish();
+    return windowStatistics(histogram, params);
+  };
   BoxEstimate out;
   out.mode = mode;
-  out.stats = robustDepthStatistics(values, params);
+  if (use_range) {
+    // Range = Z * |ray|; |ray| is at least 1 and largest at one of the ROI's corners.
+    const auto ray_norm = [&](int u, int v) { return intrinsics.ray(u, v).norm(); };
+    const double max_norm =
+        std::max({ray_norm(u0, v0), ray_norm(u1, v0), ray_norm(u0, v1), ray_norm(u1, v1)});
+    MillimetreHistogram histogram(min_mm, static_cast<int>(std::ceil(max_mm * max_norm)) + 1);
+    std::vector<double> column_sq(static_cast<std::size_t>(u1 - u0 + 1));
+    for (int u = u0; u <= u1; ++u) {
+      const double x = (u - intrinsics.cx) / intrinsics.fx;
+      column_sq[static_cast<std::size_t>(u - u0)] = x * x;
+    }
+    int row_v = -1;
+    double row_sq = 0.0;
+    out.stats = countRoi(histogram, [&](int mm, int u, int v) {
+      if (v != row_v) {
+        const double y = (v - intrinsics.cy) / intrinsics.fy;
+        row_sq = 1.0 + y * y;
+        row_v = v;
+      }
+      return static_cast<int>(
+          std::lround(mm * std::sqrt(row_sq + column_sq[static_cast<std::size_t>(u - u0)])));
+    });
+  } else {
+    MillimetreHistogram histogram(min_mm, max_mm);
+    out.stats = countRoi(histogram, [](int mm, int, int) { return mm; });
+  }
   out.stats.range_from_origin = use_range;
   double near = out.stats.near_m;
   double far = out.stats.far_m;
@@ -258,11 +346,11 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
   if (mode == BoxMode::kFrustumAligned) {
     // Edge rays (z = 1) in corner order, and the central axis through the ROI centre. The
     // front face is the plane axis . p = near; its corners are where the edge rays cross it.
-    const std::array<Eigen::Vector3d, 4> rays{Eigen::Vector3d(xl, yt, 1.0),
-                                              Eigen::Vector3d(xr, yt, 1.0),
-                                              Eigen::Vector3d(xr, yb, 1.0),
-                                              Eigen::Vector3d(xl, yb, 1.0)};
-    const Eigen::Vector3d axis = Eigen::Vector3d(0.5 * (xl + xr), 0.5 * (yt + yb), 1.0).normalized();
+    const std::array<Eigen::Vector3d, 4> rays{
+        Eigen::Vector3d(xl, yt, 1.0), Eigen::Vector3d(xr, yt, 1.0), Eigen::Vector3d(xr, yb, 1.0),
+        Eigen::Vector3d(xl, yb, 1.0)};
+    const Eigen::Vector3d axis =
+        Eigen::Vector3d(0.5 * (xl + xr), 0.5 * (yt + yb), 1.0).normalized();
     // A corner on ray r at plane distance d has z = d / (axis . r): the nearest front corner
     // is the one whose ray is closest to the axis. Move the plane (and the back face with it)
     // back until that corner reaches the near limit.
@@ -356,26 +444,33 @@ void drawBox(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const BoxCorners&
     if (!clipSegment(pa, pb, -2.0, bgr.cols + 1.0, -2.0, bgr.rows + 1.0)) continue;
     const int t = e < 4 ? thickness + 1 : thickness;  // front face thicker: shows orientation
     cv::line(bgr, cv::Point(cvRound(pa.x() * kScale), cvRound(pa.y() * kScale)),
-             cv::Point(cvRound(pb.x() * kScale), cvRound(pb.y() * kScale)), color,
-             std::max(1, t), cv::LINE_AA, kShift);
+             cv::Point(cvRound(pb.x() * kScale), cvRound(pb.y() * kScale)), color, std::max(1, t),
+             cv::LINE_AA, kShift);
   }
 }
 
 const char* toString(BoxMode mode) {
   switch (mode) {
-    case BoxMode::kFrustumAligned: return "FrustumAligned";
-    case BoxMode::kAxisAlignedContained: return "AxisAlignedContained";
-    case BoxMode::kAxisAlignedFrontFace: return "AxisAlignedFrontFace";
+    case BoxMode::kFrustumAligned:
+      return "FrustumAligned";
+    case BoxMode::kAxisAlignedContained:
+      return "AxisAlignedContained";
+    case BoxMode::kAxisAlignedFrontFace:
+      return "AxisAlignedFrontFace";
   }
   return "Unknown";
 }
 
 const char* toString(BoxEstimationError code) {
   switch (code) {
-    case BoxEstimationError::kRoiOutsideImage: return "RoiOutsideImage";
-    case BoxEstimationError::kEmptyRoi: return "EmptyRoi";
-    case BoxEstimationError::kNoValidDepth: return "NoValidDepth";
-    case BoxEstimationError::kInvalidArgument: return "InvalidArgument";
+    case BoxEstimationError::kRoiOutsideImage:
+      return "RoiOutsideImage";
+    case BoxEstimationError::kEmptyRoi:
+      return "EmptyRoi";
+    case BoxEstimationError::kNoValidDepth:
+      return "NoValidDepth";
+    case BoxEstimationError::kInvalidArgument:
+      return "InvalidArgument";
   }
   return "Unknown";
 }

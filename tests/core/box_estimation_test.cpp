@@ -8,14 +8,17 @@
 #include <variant>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 namespace shapesense {
 namespace {
 
 constexpr double kTightM = 1e-9;  // pure arithmetic on the same inputs
+// Mode 1's ranges are counted in 1 mm bins (rounded by <= 0.5 mm each); their mean and std
+// are then off by far less than that.
+constexpr double kBinnedRangeM = 0.5e-3;
 
 cv::Mat wall(double z_m, int width = 640, int height = 480) {
   return cv::Mat(height, width, CV_16UC1, cv::Scalar(std::round(z_m * 1000.0)));
@@ -38,8 +41,8 @@ struct Moments {
 
 // Mean / population std of Z (or of the distance from the origin) over the ROI's readings,
 // computed independently of the implementation.
-Moments roiMoments(const cv::Mat& depth, const CameraIntrinsics& k, int u0, int v0, int u1,
-                   int v1, bool range) {
+Moments roiMoments(const cv::Mat& depth, const CameraIntrinsics& k, int u0, int v0, int u1, int v1,
+                   bool range) {
   std::vector<double> vals;
   for (int v = v0; v <= v1; ++v) {
     for (int u = u0; u <= u1; ++u) {
@@ -61,8 +64,7 @@ Moments roiMoments(const cv::Mat& depth, const CameraIntrinsics& k, int u0, int 
 
 BoxEstimate expectBox(const std::variant<BoxEstimate, BoxEstimationFailure>& result) {
   if (const auto* failure = std::get_if<BoxEstimationFailure>(&result)) {
-    ADD_FAILURE() << "estimateBox failed: " << toString(failure->code) << ": "
-                  << failure->message;
+    ADD_FAILURE() << "estimateBox failed: " << toString(failure->code) << ": " << failure->message;
     return {};
   }
   return std::get<BoxEstimate>(result);
@@ -100,8 +102,8 @@ TEST(BoxEstimationMode3, CleanTiltedPlaneFacesAtMeanMinusPlusStdAndFrontProjects
   BoxEstimationParams params;
   params.std_scale = 1.0;  // the seed's choice, so the expectation is literally mean -/+ std
 
-  const auto box = expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1},
-                                         BoxMode::kAxisAlignedFrontFace, params));
+  const auto box =
+      expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1}, BoxMode::kAxisAlignedFrontFace, params));
   const Moments m = roiMoments(depth, k, u0, v0, u1, v1, false);
   EXPECT_EQ(box.stats.valid_pixels, (u1 - u0 + 1) * (v1 - v0 + 1));
   EXPECT_EQ(box.stats.used_pixels, box.stats.valid_pixels);  // an even spread is all inliers
@@ -117,10 +119,9 @@ TEST(BoxEstimationMode3, CleanTiltedPlaneFacesAtMeanMinusPlusStdAndFrontProjects
   // Front corners project onto the ROI's corners: within 0.5 px of the corner pixel centres
   // (exactly onto their outer edges, the ROI's footprint).
   const RoiEdges e = edges(u0, v0, u1, v1);
-  const std::array<Eigen::Vector2d, 4> expected{Eigen::Vector2d(e.left, e.top),
-                                                Eigen::Vector2d(e.right, e.top),
-                                                Eigen::Vector2d(e.right, e.bottom),
-                                                Eigen::Vector2d(e.left, e.bottom)};
+  const std::array<Eigen::Vector2d, 4> expected{
+      Eigen::Vector2d(e.left, e.top), Eigen::Vector2d(e.right, e.top),
+      Eigen::Vector2d(e.right, e.bottom), Eigen::Vector2d(e.left, e.bottom)};
   const std::array<Eigen::Vector2d, 4> pixel{Eigen::Vector2d(u0, v0), Eigen::Vector2d(u1, v0),
                                              Eigen::Vector2d(u1, v1), Eigen::Vector2d(u0, v1)};
   for (int i = 0; i < 4; ++i) {
@@ -151,8 +152,8 @@ TEST(BoxEstimationMode3, DefaultsReachTheEndsOfAnEvenSpreadButNotBeyond) {
   // Without the clamp the faces are literally mean -/+ std_scale * std.
   BoxEstimationParams unclamped;
   unclamped.clamp_to_kept_range = false;
-  const auto wide = expectBox(estimateBox(depth, k, {300, 200}, {360, 260},
-                                          BoxMode::kAxisAlignedFrontFace, unclamped));
+  const auto wide = expectBox(
+      estimateBox(depth, k, {300, 200}, {360, 260}, BoxMode::kAxisAlignedFrontFace, unclamped));
   EXPECT_NEAR(wide.corners[0].z(), wide.stats.mean_m - unclamped.std_scale * wide.stats.std_m,
               kTightM);
   EXPECT_NEAR(wide.corners[4].z(), wide.stats.mean_m + unclamped.std_scale * wide.stats.std_m,
@@ -162,8 +163,8 @@ TEST(BoxEstimationMode3, DefaultsReachTheEndsOfAnEvenSpreadButNotBeyond) {
 TEST(BoxEstimationMode3, OneByOneRoiIsAValidNonDegenerateBox) {
   const CameraIntrinsics k;
   cv::Mat depth = wall(1.5);
-  const auto box = expectBox(estimateBox(depth, k, {100, 50}, {100, 50},
-                                         BoxMode::kAxisAlignedFrontFace));
+  const auto box =
+      expectBox(estimateBox(depth, k, {100, 50}, {100, 50}, BoxMode::kAxisAlignedFrontFace));
   // One pixel at 1.5 m spans 1.5 / 525 m.
   EXPECT_NEAR(box.corners[1].x() - box.corners[0].x(), 1.5 / 525.0, 1e-9);
   EXPECT_NEAR(box.corners[3].y() - box.corners[0].y(), 1.5 / 525.0, 1e-9);
@@ -174,8 +175,8 @@ TEST(BoxEstimation, CornerArgumentOrderDoesNotMatter) {
   const CameraIntrinsics k;
   cv::Mat depth = wall(2.5);
   paint(depth, 200, 150, 260, 230, tiltedX(200, 260, 1.1, 0.15));
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     const auto a = expectBox(estimateBox(depth, k, {200, 150}, {260, 230}, mode));
     const auto b = expectBox(estimateBox(depth, k, {260, 150}, {200, 230}, mode));
     const auto c = expectBox(estimateBox(depth, k, {260, 230}, {200, 150}, mode));
@@ -202,8 +203,8 @@ TEST(BoxEstimationMode1, CornersOnFrustumEdgesFrontFacePerpendicularToCentralAxi
 
   // Distances from the origin, not Z: mean / std of the ranges.
   const Moments m = roiMoments(depth, k, u0, v0, u1, v1, true);
-  EXPECT_NEAR(box.stats.mean_m, m.mean, kTightM);
-  EXPECT_NEAR(box.stats.std_m, m.stddev, kTightM);
+  EXPECT_NEAR(box.stats.mean_m, m.mean, kBinnedRangeM);
+  EXPECT_NEAR(box.stats.std_m, m.stddev, kBinnedRangeM);
 
   const RoiEdges e = edges(u0, v0, u1, v1);
   const std::array<Eigen::Vector3d, 4> rays{k.ray(e.left, e.top), k.ray(e.right, e.top),
@@ -216,11 +217,12 @@ TEST(BoxEstimationMode1, CornersOnFrustumEdgesFrontFacePerpendicularToCentralAxi
     EXPECT_LT(dir.cross(rays[i].normalized()).norm(), 1e-9) << "front corner " << i;
     EXPECT_GT(box.corners[i].z(), 0.0);
     // Front face in the plane perpendicular to the axis through the axis point at mean - std.
-    EXPECT_NEAR(axis.dot(box.corners[i]), m.mean - m.stddev, 1e-9) << "front corner " << i;
+    EXPECT_NEAR(axis.dot(box.corners[i]), box.stats.mean_m - box.stats.std_m, 1e-9)
+        << "front corner " << i;
     // Back face: the front face pushed along the axis to the axis point at mean + std.
     const Eigen::Vector3d push = box.corners[i + 4] - box.corners[i];
     EXPECT_LT(push.normalized().cross(axis).norm(), 1e-9) << "corner " << i;
-    EXPECT_NEAR(push.norm(), 2.0 * m.stddev, 1e-9) << "corner " << i;
+    EXPECT_NEAR(push.norm(), 2.0 * box.stats.std_m, 1e-9) << "corner " << i;
     EXPECT_GT(push.dot(axis), 0.0);
   }
   for (int i = 0; i < 4; ++i) {
@@ -285,8 +287,8 @@ TEST(BoxEstimationMode2, OffCentreBoxProjectsInsideRoiWithFacesAtMeanMinusPlusSt
   paint(depth, u0, v0, u1, v1, tiltedX(u0, u1, 1.0, 0.2));
   BoxEstimationParams params;
   params.std_scale = 1.0;
-  const auto box = expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1},
-                                         BoxMode::kAxisAlignedContained, params));
+  const auto box =
+      expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1}, BoxMode::kAxisAlignedContained, params));
   const Moments m = roiMoments(depth, k, u0, v0, u1, v1, false);
   for (int i = 0; i < 4; ++i) {
     EXPECT_NEAR(box.corners[i].z(), m.mean - m.stddev, kTightM);
@@ -371,8 +373,8 @@ TEST_P(BoxEstimationMoveBack, FrontCornerNeverCloserThanTheNearLimitAndDepthExte
   paint(depth, u0, v0, u1, v1, tiltedX(u0, u1, 1.2, 0.1));
   BoxEstimationParams free_params;
   free_params.min_front_depth_m = 0.0;
-  const auto free_box = expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1}, GetParam(),
-                                              free_params));
+  const auto free_box =
+      expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1}, GetParam(), free_params));
   BoxEstimationParams params;
   params.min_front_depth_m = 1.4;  // behind the object's near face: the rule must kick in
   const auto box = expectBox(estimateBox(depth, k, {u0, v0}, {u1, v1}, GetParam(), params));
@@ -396,8 +398,7 @@ TEST_P(BoxEstimationMoveBack, FrontCornerNeverCloserThanTheNearLimitAndDepthExte
 }
 
 INSTANTIATE_TEST_SUITE_P(AllModes, BoxEstimationMoveBack,
-                         ::testing::Values(BoxMode::kFrustumAligned,
-                                           BoxMode::kAxisAlignedContained,
+                         ::testing::Values(BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
                                            BoxMode::kAxisAlignedFrontFace),
                          [](const auto& info) { return std::string(toString(info.param)); });
 
@@ -408,8 +409,8 @@ TEST(BoxEstimation, HugeSpreadNeverPutsTheBoxBehindTheCamera) {
   paint(depth, 100, 100, 149, 199, [](int, int) { return 0.5; });
   BoxEstimationParams params;
   params.inlier_sigmas = 100.0;  // defeat the robust window on purpose
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     const auto box = expectBox(estimateBox(depth, k, {100, 100}, {199, 199}, mode, params));
     for (const auto& c : box.corners) EXPECT_GE(c.z(), 0.4 - 1e-9) << toString(mode);
   }
@@ -434,8 +435,8 @@ TEST(BoxEstimationRobustness, TenPercentWallPixelsBarelyMoveTheBox) {
       if (rng.uniform(0.0, 1.0) < 0.10) dirty.at<std::uint16_t>(v, u) = 2500;
     }
   }
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     const auto ref = expectBox(estimateBox(clean, k, {u0, v0}, {u1, v1}, mode));
     const auto got = expectBox(estimateBox(dirty, k, {u0 - 4, v0 - 4}, {u1 + 4, v1 + 4}, mode));
     EXPECT_LT(got.stats.used_pixels, got.stats.valid_pixels);
@@ -449,8 +450,8 @@ TEST(BoxEstimationRobustness, TenPercentWallPixelsBarelyMoveTheBox) {
     // Plain mean/std over all readings, for contrast (documents why the window exists).
     BoxEstimationParams plain;
     plain.inlier_sigmas = 1e6;
-    const auto naive = expectBox(estimateBox(dirty, k, {u0 - 4, v0 - 4}, {u1 + 4, v1 + 4}, mode,
-                                             plain));
+    const auto naive =
+        expectBox(estimateBox(dirty, k, {u0 - 4, v0 - 4}, {u1 + 4, v1 + 4}, mode, plain));
     EXPECT_GT(naive.stats.far_m - got.stats.far_m, 0.3) << toString(mode);
   }
 }
@@ -460,8 +461,8 @@ TEST(BoxEstimationRobustness, FlatFaceWithQuantisedDepthKeepsItsPixels) {
   const CameraIntrinsics k;
   cv::Mat depth = wall(3.0);
   paint(depth, 200, 200, 260, 260, [](int, int) { return 1.5; });
-  const auto box = expectBox(
-      estimateBox(depth, k, {195, 195}, {265, 265}, BoxMode::kAxisAlignedFrontFace));
+  const auto box =
+      expectBox(estimateBox(depth, k, {195, 195}, {265, 265}, BoxMode::kAxisAlignedFrontFace));
   EXPECT_EQ(box.stats.used_pixels, 61 * 61);
   EXPECT_NEAR(box.corners[0].z(), 1.5, 1e-9);
   EXPECT_NEAR(box.corners[4].z(), 1.5, 1e-9);
@@ -475,14 +476,37 @@ TEST(BoxEstimationRobustness, StatisticOnSamples) {
   const RoiDepthStatistics s = robustDepthStatistics(values);
   EXPECT_EQ(s.valid_pixels, 1000);
   EXPECT_EQ(s.used_pixels, 800);
-  EXPECT_NEAR(s.mean_m, 1.05, 1e-9);
+  // Values off the millimetre grid: the statistic counts them in 1 mm bins.
+  EXPECT_NEAR(s.mean_m, 1.05, 0.0005);
   EXPECT_NEAR(s.min_m, 1.0, 1e-12);
   EXPECT_NEAR(s.max_m, 1.1, 1e-12);
   EXPECT_NEAR(s.std_m, 0.1 / std::sqrt(12.0), 1e-4);
   // Faces: mean -/+ 2.5 std would pass both ends; clamped to the 1st / 99th percentiles of
-  // the 800 kept values (ranks floor(0.01 * 799) = 7 and ceil(0.99 * 799) = 792).
-  EXPECT_NEAR(s.near_m, 1.0 + 0.1 * 7 / 799.0, 1e-12);
-  EXPECT_NEAR(s.far_m, 1.0 + 0.1 * 792 / 799.0, 1e-12);
+  // the 800 kept values (ranks floor(0.01 * 799) = 7 and ceil(0.99 * 799) = 792), which the
+  // statistic reads from its 1 mm bins: within half a bin of the values.
+  EXPECT_NEAR(s.near_m, 1.0 + 0.1 * 7 / 799.0, 0.0005 + 1e-12);
+  EXPECT_NEAR(s.far_m, 1.0 + 0.1 * 792 / 799.0, 0.0005 + 1e-12);
+}
+
+TEST(BoxEstimationRobustness, StatisticIsExactOnMillimetreDepths) {
+  // Depth images hold whole millimetres: then the binned medians and percentiles are the
+  // readings' own. 800 object readings, 8 at each millimetre from 1.000 to 1.099 m, and 200
+  // wall readings at 2.5 m.
+  std::vector<double> values;
+  for (int i = 0; i < 800; ++i) values.push_back(0.001 * (1000 + i / 8));
+  for (int i = 0; i < 200; ++i) values.push_back(2.5);
+  const RoiDepthStatistics s = robustDepthStatistics(values);
+  EXPECT_EQ(s.used_pixels, 800);
+  // Lower median: rank 399 -> 1000 + 49 mm.
+  EXPECT_NEAR(s.median_m, 1.049, 1e-12);
+  // MAD: distances 0..50 mm, 8 readings each but 16 for 1..49: rank 399 -> 25 mm.
+  EXPECT_NEAR(s.mad_sigma_m, 1.4826 * 0.025, 1e-12);
+  EXPECT_NEAR(s.min_m, 1.000, 1e-12);
+  EXPECT_NEAR(s.max_m, 1.099, 1e-12);
+  EXPECT_NEAR(s.mean_m, 1.0495, 1e-12);
+  // Ranks 7 and 792 of the kept readings.
+  EXPECT_NEAR(s.near_m, 1.000, 1e-12);
+  EXPECT_NEAR(s.far_m, 1.099, 1e-12);
 }
 
 TEST(BoxEstimation, ZeroDepthIsIgnored) {
@@ -526,8 +550,8 @@ TEST(BoxEstimationErrors, NoValidDepthIsAnErrorNotABoxOfZeros) {
   const CameraIntrinsics k;
   cv::Mat depth = wall(1.0);
   paint(depth, 10, 10, 50, 50, [](int, int) { return 0.0; });
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     EXPECT_EQ(expectError(estimateBox(depth, k, {10, 10}, {50, 50}, mode)),
               BoxEstimationError::kNoValidDepth);
   }
@@ -539,9 +563,9 @@ TEST(BoxEstimationErrors, NoValidDepthIsAnErrorNotABoxOfZeros) {
 
 TEST(BoxEstimationErrors, WrongTypeBadIntrinsicsUnknownMode) {
   const CameraIntrinsics k;
-  EXPECT_EQ(expectError(estimateBox(cv::Mat(480, 640, CV_32FC1, cv::Scalar(1.0f)), k, {0, 0},
-                                    {10, 10})),
-            BoxEstimationError::kInvalidArgument);
+  EXPECT_EQ(
+      expectError(estimateBox(cv::Mat(480, 640, CV_32FC1, cv::Scalar(1.0f)), k, {0, 0}, {10, 10})),
+      BoxEstimationError::kInvalidArgument);
   CameraIntrinsics bad = k;
   bad.fx = 0.0;
   EXPECT_EQ(expectError(estimateBox(wall(1.0), bad, {0, 0}, {10, 10})),

@@ -115,18 +115,21 @@ struct BoxEstimationParams {
 /// Depth statistics behind an estimate. In mode 1 the values are distances from the optical
 /// centre (range_from_origin = true), otherwise Z depths; all in metres.
 struct RoiDepthStatistics {
-  int valid_pixels = 0;    ///< ROI pixels with a reading in (0, max_valid_depth_m]
-  int used_pixels = 0;     ///< of those, kept by the robust window (mean/std/min/max are over these)
-  double mean_m = 0.0;     ///< mean of the kept values
-  double std_m = 0.0;      ///< population standard deviation of the kept values
-  double median_m = 0.0;   ///< robust centre of the final window (median of the kept set it was built on)
-  double mad_sigma_m = 0.0;///< 1.4826 * MAD behind the final window, before the min-sigma floors
-  double min_m = 0.0;      ///< nearest kept value
-  double max_m = 0.0;      ///< farthest kept value
-  double near_m = 0.0;     ///< front face distance used: mean - std_scale * std, clamped, after the near-limit rule
-  double far_m = 0.0;      ///< back face distance used: mean + std_scale * std, clamped, after the near-limit rule
-  double moved_back_m = 0.0; ///< shift applied by the near-limit rule (0 = not applied)
-  bool range_from_origin = false; ///< values are distances from the optical centre (mode 1)
+  int valid_pixels = 0;  ///< ROI pixels with a reading in (0, max_valid_depth_m]
+  int used_pixels = 0;   ///< of those, kept by the robust window (mean/std/min/max are over these)
+  double mean_m = 0.0;   ///< mean of the kept values
+  double std_m = 0.0;    ///< population standard deviation of the kept values
+  double median_m =
+      0.0;  ///< robust centre of the final window (median of the kept set it was built on)
+  double mad_sigma_m = 0.0;  ///< 1.4826 * MAD behind the final window, before the min-sigma floors
+  double min_m = 0.0;        ///< nearest kept value
+  double max_m = 0.0;        ///< farthest kept value
+  double near_m = 0.0;  ///< front face distance used: mean - std_scale * std, clamped, after the
+                        ///< near-limit rule
+  double far_m =
+      0.0;  ///< back face distance used: mean + std_scale * std, clamped, after the near-limit rule
+  double moved_back_m = 0.0;       ///< shift applied by the near-limit rule (0 = not applied)
+  bool range_from_origin = false;  ///< values are distances from the optical centre (mode 1)
 };
 
 /// Corner order: front (near) face first, then the back face, each as seen in the image:
@@ -135,16 +138,25 @@ struct RoiDepthStatistics {
 using BoxCorners = std::array<Eigen::Vector3d, 8>;
 
 /// The 12 edges of a BoxCorners box as index pairs (front face, back face, connecting edges).
-inline constexpr std::array<std::array<int, 2>, 12> kBoxEdges{{{0, 1}, {1, 2}, {2, 3}, {3, 0},
-                                                              {4, 5}, {5, 6}, {6, 7}, {7, 4},
-                                                              {0, 4}, {1, 5}, {2, 6}, {3, 7}}};
+inline constexpr std::array<std::array<int, 2>, 12> kBoxEdges{{{0, 1},
+                                                               {1, 2},
+                                                               {2, 3},
+                                                               {3, 0},
+                                                               {4, 5},
+                                                               {5, 6},
+                                                               {6, 7},
+                                                               {7, 4},
+                                                               {0, 4},
+                                                               {1, 5},
+                                                               {2, 6},
+                                                               {3, 7}}};
 
 struct BoxEstimate {
-  BoxCorners corners;         ///< camera frame, metres, order as documented at BoxCorners
+  BoxCorners corners;  ///< camera frame, metres, order as documented at BoxCorners
   RoiDepthStatistics stats;
   BoxMode mode = BoxMode::kFrustumAligned;
-  bool collapsed_x = false;   ///< mode 2: no box of that depth fits the ROI in x; x collapsed
-  bool collapsed_y = false;   ///< mode 2: same for y
+  bool collapsed_x = false;  ///< mode 2: no box of that depth fits the ROI in x; x collapsed
+  bool collapsed_y = false;  ///< mode 2: same for y
 };
 
 enum class BoxEstimationError {
@@ -175,9 +187,12 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
                                                             const BoxEstimationParams& params = {});
 
 /// Robust near/far statistics of the values (metres, > 0) using params' window; exposed so
-/// callers and tests can inspect the statistic on their own samples. `values` is reordered.
-/// near_m/far_m are mean -/+ std_scale * std, clamped to the kept range (no near-limit rule). Requires a non-empty input.
-RoiDepthStatistics robustDepthStatistics(std::vector<double>& values,
+/// callers and tests can inspect the statistic on their own samples. The values are counted in
+/// 1 mm bins and every statistic is of the binned values: exact for millimetre depths (what
+/// estimateBox's modes 2 and 3 see), within 0.5 mm otherwise (mode 1's ranges). near_m/far_m are
+/// mean -/+ std_scale * std, clamped to the kept range (no near-limit rule). Requires a non-empty
+/// input.
+RoiDepthStatistics robustDepthStatistics(const std::vector<double>& values,
                                          const BoxEstimationParams& params = {});
 
 /// Volume (m^3) of a box given by corners in BoxCorners order (any hexahedron with planar
