@@ -274,9 +274,8 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
 
   // Mode 1 works on distances from the optical centre, modes 2 and 3 on Z (the design).
   const bool use_range = mode == BoxMode::kFrustumAligned;
-  const double max_valid_mm = params.max_valid_depth_m * 1000.0;
-  const int max_valid =
-      max_valid_mm >= 65535.0 ? 65535 : static_cast<int>(std::floor(max_valid_mm + 1e-6));
+  const int max_valid = static_cast<int>(
+      std::clamp(std::floor(params.max_valid_depth_m * 1000.0 + 1e-6), 0.0, 65535.0));
   int min_mm = 65536;
   int max_mm = 0;
   for (int v = v0; v <= v1; ++v) {
