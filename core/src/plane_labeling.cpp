@@ -38,6 +38,208 @@ struct RegionAccumulator {
   std::array<std::uint64_t, 3> colour{};
 };
 
+// The regions a sample's pixels may take: the distinct regions of its 3x3 sample
+// neighbourhood, its own first, -1 terminated (at most 4).
+using CandidateList = std::array<int, 4>;
+
+std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
+  std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      auto& list = cand[r * C + c];
+      list.fill(-1);
+      const int own = region_of[r * C + c];
+      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
+      // Inside a region (most samples) the neighbourhood is uniform: one candidate.
+      bool uniform = true;
+      for (int rr = r0; rr <= r1 && uniform; ++rr)
+        for (int cc = c0; cc <= c1; ++cc)
+          if (region_of[rr * C + cc] != own) {
+            uniform = false;
+            break;
+          }
+      list[0] = own;
+      if (uniform) continue;
+      int n = own >= 0 ? 1 : 0;
+      for (int rr = r0; rr <= r1; ++rr)
+        for (int cc = c0; cc <= c1; ++cc) {
+          const int reg = region_of[rr * C + cc];
+          if (reg < 0 || n == 4 || std::find(list.begin(), list.begin() + n, reg) != list.begin() + n) continue;
+          list[n++] = reg;
+        }
+    }
+  return cand;
+}
+
+// A horizontal run of pixels of one image row whose samples share one candidate list.
+struct PixelRun {
+  int u0 = 0, u1 = 0;  // [u0, u1)
+  CandidateList list{};
+};
+
+// The runs of pixel rows that map to sample row r (consecutive samples with equal lists merge,
+// so a row crossing one plane is a single run). sample_u0/u1: pixel range of each sample column.
+void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
+                   std::vector<PixelRun>& runs) {
+  runs.clear();
+  for (std::size_t c = 0; c < sample_u0.size(); ++c) {
+    if (sample_u0[c] >= sample_u1[c]) continue;
+    if (!runs.empty() && runs.back().list == row_cand[c] && runs.back().u1 == sample_u0[c]) {
+      runs.back().u1 = sample_u1[c];
+      continue;
+    }
+    if (row_cand[c][0] < 0) continue;  // no candidate: the pixels stay 0
+    runs.push_back({sample_u0[c], sample_u1[c], row_cand[c]});
+  }
+}
+
+// Pinhole form of the plane distance: a pixel (u, v) with depth z is z (A u + B v + C) + D from
+// the plane (floats; coef holds A, B, C, D per region).
+std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& regions,
+                                          const std::vector<PlaneHypothesis>& planes, const CameraIntrinsics& K) {
+  std::vector<float> coef(4 * regions.size());
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    const auto& h = planes[regions[k].plane];
+    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
+    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
+    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
+    coef[4 * k + 3] = static_cast<float>(h.d);
+  }
+  return coef;
+}
+
+// Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
+// the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises.
+void labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
+                             float tol_coef, float tol_floor, std::uint16_t label) {
+  const float qa = q[0], qc = q[2], qd = q[3];
+  for (int u = u0; u < u1; ++u) {
+    const float z = static_cast<float>(drow[u]) * 0.001f;
+    const float dd = std::fabs(z * (qa * static_cast<float>(u) + qv + qc) + qd);
+    // Bitwise, not &&: a branch would keep the loop from vectorising.
+    const int inside = static_cast<int>(drow[u] != 0) & static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
+    lrow[u] = static_cast<std::uint16_t>(label * inside);
+  }
+}
+
+// The same for several candidates: the closest within its tolerance (ties to the later one).
+void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                            const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
+                            float tol_floor) {
+  for (int u = run.u0; u < run.u1; ++u) {
+    const std::uint16_t raw = drow[u];
+    if (raw == 0) {
+      lrow[u] = 0;
+      continue;
+    }
+    const float z = static_cast<float>(raw) * 0.001f;
+    const float fu = static_cast<float>(u);
+    const float z2 = z * z;
+    float best = std::numeric_limits<float>::max();
+    int best_k = -1;
+    for (int k = 0; k < 4 && run.list[k] >= 0; ++k) {
+      const float* q = &coef[4 * run.list[k]];
+      const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
+      if (dd <= best && dd <= std::max(tol_floor, region_tol[run.list[k]] * z2)) {
+        best = dd;
+        best_k = run.list[k];
+      }
+    }
+    lrow[u] = static_cast<std::uint16_t>(best_k + 1);
+  }
+}
+
+// Pixel counts and bounds of the regions in lrow[u0, u1) of row v.
+void addRunStatistics(const std::uint16_t* lrow, int u0, int u1, int v, bool single, std::vector<RegionAccumulator>& regions) {
+  if (single) {
+    int n = 0;
+    for (int u = u0; u < u1; ++u) n += lrow[u] != 0;
+    if (n == 0) return;
+    int first = u0, last = u1 - 1;
+    while (!lrow[first]) ++first;
+    while (!lrow[last]) --last;
+    auto& reg = regions[lrow[first] - 1];
+    reg.count += static_cast<std::size_t>(n);
+    reg.u0 = std::min(reg.u0, first);
+    reg.u1 = std::max(reg.u1, last);
+    reg.v0 = std::min(reg.v0, v);
+    reg.v1 = std::max(reg.v1, v);
+    return;
+  }
+  for (int u = u0; u < u1; ++u) {
+    if (!lrow[u]) continue;
+    auto& reg = regions[lrow[u] - 1];
+    ++reg.count;
+    reg.u0 = std::min(reg.u0, u);
+    reg.u1 = std::max(reg.u1, u);
+    reg.v0 = std::min(reg.v0, v);
+    reg.v1 = std::max(reg.v1, v);
+  }
+}
+
+// Every full-resolution pixel takes the closest candidate plane of its sample within the
+// tolerance. Moments and colour are accumulated on every second pixel of every second row: a
+// quarter of a region's pixels fit its plane as well as all of them (the fit error is dominated
+// by the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
+// Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
+// the common case is a tight single-plane loop.
+void labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr, const PlaneSampleGrid& grid,
+                 const std::vector<CandidateList>& cand, const std::vector<PlaneHypothesis>& planes,
+                 const std::vector<float>& region_tol, float tol_floor, std::vector<RegionAccumulator>& regions,
+                 cv::Mat& labels) {
+  const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
+  const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
+  labels.create(depth_mm.size(), CV_16UC1);
+  labels.setTo(0);
+  auto sampleOf = [&](int x, int n) {
+    return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
+  };
+  // Pixel columns of each sample column (contiguous: the mapping is monotonic).
+  std::vector<int> sample_u0(C, 0), sample_u1(C, 0);
+  for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
+  for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
+  std::vector<float> xr(depth_mm.cols);
+  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = static_cast<float>((u - K.cx) / K.fx);
+  std::vector<PixelRun> runs;
+  int runs_row = -1;
+  for (int v = 0; v < depth_mm.rows; ++v) {
+    const int r = sampleOf(v, R);
+    if (r != runs_row) {
+      candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, runs);
+      runs_row = r;
+    }
+    const auto* drow = depth_mm.ptr<std::uint16_t>(v);
+    auto* lrow = labels.ptr<std::uint16_t>(v);
+    const float fv = static_cast<float>(v);
+    const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
+    const float yr = static_cast<float>((v - K.cy) / K.fy);
+    for (const PixelRun& run : runs) {
+      const bool single = run.list[1] < 0;
+      if (single) {
+        const float* q = &coef[4 * run.list[0]];
+        labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
+                                static_cast<std::uint16_t>(run.list[0] + 1));
+      } else {
+        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
+      }
+      addRunStatistics(lrow, run.u0, run.u1, v, single, regions);
+      if (v & 1) continue;
+      for (int u = run.u0 + (run.u0 & 1); u < run.u1; u += 2) {
+        const int l = lrow[u];
+        if (!l) continue;
+        auto& reg = regions[l - 1];
+        const float z = static_cast<float>(drow[u]) * 0.001f;
+        reg.moments.add(xr[u] * z, yr * z, z);
+        if (crow) {
+          reg.colour[0] += crow[u][0];
+          reg.colour[1] += crow[u][1];
+          reg.colour[2] += crow[u][2];
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
@@ -249,111 +451,15 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (int i = 0; i < R * C; ++i)
     if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
 
-  // 3. Candidate regions per sample: the distinct regions of its 3x3 neighbourhood.
-  std::vector<std::array<int, 4>> cand(static_cast<std::size_t>(R) * C);
-  for (int r = 0; r < R; ++r)
-    for (int c = 0; c < C; ++c) {
-      auto& list = cand[r * C + c];
-      list.fill(-1);
-      int n = 0;
-      auto addc = [&](int reg) {
-        if (reg < 0 || n == 4) return;
-        for (int k = 0; k < n; ++k)
-          if (list[k] == reg) return;
-        list[n++] = reg;
-      };
-      addc(region_of[r * C + c]);  // own region first
-      for (int dr = -1; dr <= 1; ++dr)
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int rr = r + dr, cc = c + dc;
-          if (rr >= 0 && cc >= 0 && rr < R && cc < C) addc(region_of[rr * C + cc]);
-        }
-    }
-
-  // 4. Every pixel takes the closest candidate plane within the tolerance. The distance of a
-  //    pixel with depth z to a plane is z * (A u + B v + C) + D (pinhole form, in floats).
-  //    Moments and colour are accumulated on every second pixel of every second row: a quarter
-  //    of a region's pixels fit its plane as well as all of them (the fit error is dominated by
-  //    the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
+  // 3-4. Every pixel takes the closest candidate plane (the regions of its 3x3 sample
+  //      neighbourhood) within the tolerance; see labelPixels.
   const std::size_t nreg = regions.size();
-  std::vector<float> coef(4 * nreg), region_tol(nreg);
+  std::vector<float> region_tol(nreg);
   for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
-  for (std::size_t k = 0; k < nreg; ++k) {
-    const auto& h = planes[regions[k].plane];
-    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
-    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
-    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
-    coef[4 * k + 3] = static_cast<float>(h.d);
-  }
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
-  out.labels.create(depth_mm.size(), CV_16UC1);
-  out.labels.setTo(0);
-  std::vector<int> col_sample(depth_mm.cols);
-  for (int u = 0; u < depth_mm.cols; ++u)
-    col_sample[u] = std::clamp(static_cast<int>(std::lround(static_cast<double>(u - off) / step)), 0, C - 1);
-  std::vector<float> xr(depth_mm.cols);
-  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = static_cast<float>((u - K.cx) / K.fx);
-  std::vector<int> row_u0(nreg + 1), row_u1(nreg + 1), row_n(nreg + 1);
-  for (int v = 0; v < depth_mm.rows; ++v) {
-    const int r = std::clamp(static_cast<int>(std::lround(static_cast<double>(v - off) / step)), 0, R - 1);
-    const auto* drow = depth_mm.ptr<std::uint16_t>(v);
-    auto* lrow = out.labels.ptr<std::uint16_t>(v);
-    const float fv = static_cast<float>(v);
-    const std::array<int, 4>* crow_cand = &cand[static_cast<std::size_t>(r) * C];
-    // Pass A: labels only (tight loop).
-    for (int u = 0; u < depth_mm.cols; ++u) {
-      const std::uint16_t raw = drow[u];
-      const auto& list = crow_cand[col_sample[u]];
-      if (raw == 0 || list[0] < 0) continue;
-      const float z = static_cast<float>(raw) * 0.001f;
-      const float fu = static_cast<float>(u);
-      const float z2 = z * z;
-      float best = std::numeric_limits<float>::max();
-      int best_k = -1;
-      for (int k = 0; k < 4 && list[k] >= 0; ++k) {
-        const float* q = &coef[4 * list[k]];
-        const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
-        if (dd <= best && dd <= std::max(tol_floor, region_tol[list[k]] * z2)) {
-          best = dd;
-          best_k = list[k];
-        }
-      }
-      lrow[u] = static_cast<std::uint16_t>(best_k + 1);
-    }
-    // Pass B: counts and bounds per row; moments and colour on even rows and columns.
-    for (int u = 0; u < depth_mm.cols; ++u) {
-      const int l = lrow[u];
-      if (!l) continue;
-      if (row_n[l]++ == 0) row_u0[l] = u;
-      row_u1[l] = u;
-    }
-    for (std::size_t l = 1; l <= nreg; ++l) {
-      if (!row_n[l]) continue;
-      auto& reg = regions[l - 1];
-      reg.count += static_cast<std::size_t>(row_n[l]);
-      reg.u0 = std::min(reg.u0, row_u0[l]);
-      reg.u1 = std::max(reg.u1, row_u1[l]);
-      reg.v0 = std::min(reg.v0, v);
-      reg.v1 = v;
-      row_n[l] = 0;
-    }
-    if (v & 1) continue;
-    const cv::Vec3b* crow = with_colour ? bgr.ptr<cv::Vec3b>(v) : nullptr;
-    const float yr = static_cast<float>((v - K.cy) / K.fy);
-    for (int u = 0; u < depth_mm.cols; u += 2) {
-      const int l = lrow[u];
-      if (!l) continue;
-      auto& reg = regions[l - 1];
-      const float z = static_cast<float>(drow[u]) * 0.001f;
-      reg.moments.add(xr[u] * z, yr * z, z);
-      if (crow) {
-        reg.colour[0] += crow[u][0];
-        reg.colour[1] += crow[u][1];
-        reg.colour[2] += crow[u][2];
-      }
-    }
-  }
+  labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, candidateRegions(region_of, R, C), planes, region_tol,
+              tol_floor, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
