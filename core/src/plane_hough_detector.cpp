@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -119,8 +120,11 @@ struct HoughPlaneDetector::Impl {
   HoughAccumulator raw, smooth;
   cv::Mat sample_labels;
   // Structure of arrays of the samples still free in a round (cache-friendly refinement scans).
+  // fgate: the widest refinement gate of a free sample, -1 once a plane claims it (so the
+  // candidate scan needs no look-up of the label).
   std::vector<int> free_idx;
-  std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol;
+  std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
+  std::vector<int> cand, next;  // refinement inlier sets (indices into the free arrays)
 
   explicit Impl(const HoughPlaneParams& p) : normals_est(p.normals), raw(p.space), smooth(p.space) {}
 };
@@ -177,22 +181,28 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   const float min_peak = static_cast<float>(0.5 * P.min_plane_samples * peak_per_vote);
   const float min_block_mass = std::max(2.0f, P.min_plane_samples / 6.0f);
 
-  std::vector<int> cand, next;
+  // Widest gate first: the peak's d is only as good as the kernel (a parallel plane nearby
+  // shifts it), so start at the kernel's spread and shrink to the sensor tolerance.
+  const float wide = static_cast<float>(2.5 * P.sigma_d_m);
+  std::vector<int>& cand = s.cand;
+  std::vector<int>& next = s.next;
+  for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
+  s.free_idx.resize(N);
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
-    int votes = 0;
-    s.free_idx.clear();
-    s.fx.clear(); s.fy.clear(); s.fz.clear(); s.fnx.clear(); s.fny.clear(); s.fnz.clear(); s.ftol.clear();
+    int votes = 0, F = 0;
     for (int i = 0; i < N; ++i) {
       if (lab[i] >= 0) continue;
       const cv::Vec3f& n = nrm[i];
       if (!(n[2] == n[2])) continue;
       const cv::Vec3f& p = pts[i];
-      s.free_idx.push_back(i);
-      s.fx.push_back(p[0]); s.fy.push_back(p[1]); s.fz.push_back(p[2]);
-      s.fnx.push_back(n[0]); s.fny.push_back(n[1]); s.fnz.push_back(n[2]);
-      s.ftol.push_back(static_cast<float>(tol.at(p[2])));
+      s.free_idx[F] = i;
+      s.fx[F] = p[0], s.fy[F] = p[1], s.fz[F] = p[2];
+      s.fnx[F] = n[0], s.fny[F] = n[1], s.fnz[F] = n[2];
+      s.ftol[F] = static_cast<float>(tol.at(p[2]));
+      s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
+      ++F;
       if (!reliable[i]) continue;
       const Eigen::Vector3d nd(n[0], n[1], n[2]);
       s.raw.vote(nd, -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]));
@@ -204,24 +214,23 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
 
     // 4. Refine the maxima, strongest first; accepted planes claim their samples.
     int accepted = 0;
-    const int F = static_cast<int>(s.free_idx.size());
     for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round); ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
-      // Widest gate first: the peak's d is only as good as the kernel (a parallel plane nearby
-      // shifts it), so start at the kernel's spread and shrink to the sensor tolerance.
-      const float wide = static_cast<float>(2.5 * P.sigma_d_m);
-      cand.clear();
+      cand.resize(F);
       {
+        // Branch-free (most samples fail, unpredictably): every index is written, only the
+        // kept ones advance the end.
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
+        int kept = 0;
         for (int f = 0; f < F; ++f) {
-          if (lab[s.free_idx[f]] >= 0) continue;
           const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          if (dist > std::max(wide, 2.0f * s.ftol[f])) continue;
-          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier) continue;
-          cand.push_back(f);
+          const bool in = (dist <= s.fgate[f]) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
+          cand[kept] = f;
+          kept += in;
         }
+        cand.resize(kept);
       }
       if (static_cast<int>(cand.size()) < P.min_plane_samples) continue;
       bool ok = true;
@@ -239,7 +248,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         next.clear();
         for (int f : cand) {
           const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          const float g = gate_mult < 0 ? std::max(wide, 2.0f * s.ftol[f]) : gate_mult * s.ftol[f];
+          const float g = gate_mult < 0 ? s.fgate[f] : gate_mult * s.ftol[f];
           if (dist > g) continue;
           if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_gate) continue;
           next.push_back(f);
@@ -270,7 +279,10 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       }
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
-      for (int f : next) lab[s.free_idx[f]] = id;
+      for (int f : next) {
+        lab[s.free_idx[f]] = id;
+        s.fgate[f] = -1.0f;
+      }
       planes.push_back({n, d});
       ++accepted;
     }
@@ -286,16 +298,20 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   //    table fails by far (the union's RMS is ~2.5 cm).
   auto mergePlanes = [&]() {
     const double cos_merge = std::cos(P.merge_angle_deg * kDegToRad);
+    // Moments once; a merge then adds the pair's moments and relabels at the end.
+    std::vector<PlaneMoments> mom(planes.size());
+    std::vector<double> zsum(planes.size(), 0.0);
+    for (int i = 0; i < N; ++i) {
+      if (lab[i] < 0) continue;
+      mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
+      zsum[lab[i]] += pts[i][2];
+    }
+    std::vector<PlaneFit> fits(planes.size());
+    for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
+    std::vector<int> merged_into(planes.size());
+    std::iota(merged_into.begin(), merged_into.end(), 0);
+    bool merged_any = false;
     for (;;) {
-      std::vector<PlaneMoments> mom(planes.size());
-      std::vector<double> zsum(planes.size(), 0.0);
-      for (int i = 0; i < N; ++i) {
-        if (lab[i] < 0) continue;
-        mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
-        zsum[lab[i]] += pts[i][2];
-      }
-      std::vector<PlaneFit> fits(planes.size());
-      for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
       double best = 1e30;
       int bi = -1, bj = -1;
       for (std::size_t i = 0; i < planes.size(); ++i) {
@@ -315,15 +331,27 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           }
         }
       }
-      if (bi < 0) return;
-      for (int i = 0; i < N; ++i)
-        if (lab[i] == bj) lab[i] = bi;
-      PlaneMoments u = mom[bi];
-      u.merge(mom[bj]);
-      const PlaneFit f = u.fit();
-      planes[bi] = {f.normal, f.d};
+      if (bi < 0) break;
+      mom[bi].merge(mom[bj]);
+      mom[bj] = PlaneMoments();
+      zsum[bi] += zsum[bj];
+      zsum[bj] = 0.0;
+      fits[bi] = mom[bi].fit();
+      fits[bj] = PlaneFit();
+      merged_into[bj] = bi;
+      merged_any = true;
+      planes[bi] = {fits[bi].normal, fits[bi].d};
       planes[bj] = {Eigen::Vector3d(0, 0, -1), -1.0};  // unused from now on (no samples)
     }
+    if (!merged_any) return;
+    std::vector<int> survivor(planes.size());
+    for (std::size_t j = 0; j < planes.size(); ++j) {
+      int k = static_cast<int>(j);
+      while (merged_into[k] != k) k = merged_into[k];
+      survivor[j] = k;
+    }
+    for (int i = 0; i < N; ++i)
+      if (lab[i] >= 0) lab[i] = survivor[lab[i]];
   };
   mergePlanes();
 

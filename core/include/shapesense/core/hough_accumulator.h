@@ -117,6 +117,7 @@ class HoughAccumulator {
   std::vector<std::int32_t> index_;       // top level: block number or -1
   std::vector<float> cells_;              // pool: block b at [b * kBlockCells, ...)
   std::vector<std::int32_t> block_keys_;  // top-level key of each pooled block
+  std::vector<float> scratch_;            // smoothInto's intermediate pass, kept between frames
 };
 
 }  // namespace shapesense
