@@ -31,8 +31,11 @@ struct RegionAccumulator {
   int plane = -1;            // index into the hypotheses
   int samples = 0;
   cv::Rect sample_box;       // on the sample grid
-  // Full-resolution accumulation.
+  // Full-resolution accumulation. The labelling loop sums raw moments (camera frame, in double:
+  // the covariance of a region metres away keeps ~8 significant digits) and turns them into
+  // `moments` after it.
   PlaneMoments moments;
+  std::array<double, 10> sums{};  // n, x, y, z, xx, xy, xz, yy, yz, zz
   std::size_t count = 0;
   int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
   std::array<std::uint64_t, 3> colour{};
@@ -122,60 +125,117 @@ void labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int
   }
 }
 
+// Pixel count and bounds of one region in one row.
+struct RowSpan {
+  int n = 0, first = std::numeric_limits<int>::max(), last = -1;
+  void add(int u) {
+    ++n;
+    first = std::min(first, u);
+    last = u;
+  }
+};
+
+void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
+  if (!span.n) return;
+  reg.count += static_cast<std::size_t>(span.n);
+  reg.u0 = std::min(reg.u0, span.first);
+  reg.u1 = std::max(reg.u1, span.last);
+  reg.v0 = std::min(reg.v0, v);
+  reg.v1 = std::max(reg.v1, v);
+}
+
 // The same for several candidates: the closest within its tolerance (ties to the later one).
+// Branch-free over a fixed 4 slots (an unused one can never win) so that it vectorises too.
 void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
                             const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
                             float tol_floor) {
+  float qa[4], qv[4], qc[4], qd[4], tk[4];
+  std::uint16_t label[4];
+  for (int k = 0; k < 4; ++k) {
+    const int reg = run.list[k];
+    const float* q = &coef[4 * std::max(reg, 0)];
+    qa[k] = reg >= 0 ? q[0] : 0.0f;
+    qv[k] = reg >= 0 ? q[1] * fv : 0.0f;
+    qc[k] = reg >= 0 ? q[2] : 0.0f;
+    qd[k] = reg >= 0 ? q[3] : std::numeric_limits<float>::infinity();
+    tk[k] = reg >= 0 ? region_tol[reg] : 0.0f;
+    label[k] = static_cast<std::uint16_t>(reg + 1);
+  }
   for (int u = run.u0; u < run.u1; ++u) {
-    const std::uint16_t raw = drow[u];
-    if (raw == 0) {
-      lrow[u] = 0;
-      continue;
-    }
-    const float z = static_cast<float>(raw) * 0.001f;
-    const float fu = static_cast<float>(u);
-    const float z2 = z * z;
+    const float z = static_cast<float>(drow[u]) * 0.001f;
+    const float fu = static_cast<float>(u), z2 = z * z;
     float best = std::numeric_limits<float>::max();
-    int best_k = -1;
-    for (int k = 0; k < 4 && run.list[k] >= 0; ++k) {
-      const float* q = &coef[4 * run.list[k]];
-      const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
-      if (dd <= best && dd <= std::max(tol_floor, region_tol[run.list[k]] * z2)) {
-        best = dd;
-        best_k = run.list[k];
-      }
+    std::uint16_t best_label = 0;
+    for (int k = 0; k < 4; ++k) {
+      const float dd = std::fabs(z * (qa[k] * fu + qv[k] + qc[k]) + qd[k]);
+      const bool take = (dd <= best) & (dd <= std::max(tol_floor, tk[k] * z2));
+      best = take ? dd : best;
+      best_label = take ? label[k] : best_label;
     }
-    lrow[u] = static_cast<std::uint16_t>(best_k + 1);
+    lrow[u] = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
   }
 }
 
-// Pixel counts and bounds of the regions in lrow[u0, u1) of row v.
-void addRunStatistics(const std::uint16_t* lrow, int u0, int u1, int v, bool single, std::vector<RegionAccumulator>& regions) {
-  if (single) {
-    int n = 0;
-    for (int u = u0; u < u1; ++u) n += lrow[u] != 0;
-    if (n == 0) return;
-    int first = u0, last = u1 - 1;
-    while (!lrow[first]) ++first;
-    while (!lrow[last]) --last;
-    auto& reg = regions[lrow[first] - 1];
-    reg.count += static_cast<std::size_t>(n);
-    reg.u0 = std::min(reg.u0, first);
-    reg.u1 = std::max(reg.u1, last);
-    reg.v0 = std::min(reg.v0, v);
-    reg.v1 = std::max(reg.v1, v);
-    return;
+// Pixel span of the pixels labelled `label` in lrow[u0, u1).
+RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label) {
+  RowSpan span;
+  for (int u = u0; u < u1; ++u) span.n += lrow[u] == label;  // vectorises
+  if (!span.n) return span;
+  span.first = u0;
+  span.last = u1 - 1;
+  while (lrow[span.first] != label) ++span.first;
+  while (lrow[span.last] != label) --span.last;
+  return span;
+}
+
+// Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
+// their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
+// sums (yr is constant along it) and the loop keeps them in registers.
+void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow, int u0, int u1,
+                   std::uint16_t label, const double* xr, double yr, RegionAccumulator& reg) {
+  double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
+  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+    if (lrow[u] != label) continue;
+    const double z = drow[u] * 0.001, xz = xr[u] * z;
+    n += 1.0;
+    sz += z;
+    szz += z * z;
+    sxz += xz;
+    sxzz += xz * z;
+    sxxzz += xz * xz;
   }
-  for (int u = u0; u < u1; ++u) {
-    if (!lrow[u]) continue;
-    auto& reg = regions[lrow[u] - 1];
-    ++reg.count;
-    reg.u0 = std::min(reg.u0, u);
-    reg.u1 = std::max(reg.u1, u);
-    reg.v0 = std::min(reg.v0, v);
-    reg.v1 = std::max(reg.v1, v);
+  if (n == 0) return;
+  auto& m = reg.sums;
+  m[0] += n;
+  m[1] += sxz;
+  m[2] += yr * sz;
+  m[3] += sz;
+  m[4] += sxxzz;
+  m[5] += yr * sxzz;
+  m[6] += sxzz;
+  m[7] += yr * yr * szz;
+  m[8] += yr * szz;
+  m[9] += szz;
+  if (!crow) return;
+  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+    if (lrow[u] != label) continue;
+    for (int ch = 0; ch < 3; ++ch) reg.colour[ch] += crow[u][ch];
   }
 }
+
+PlaneMoments momentsOf(const RegionAccumulator& reg) {
+  const auto& m = reg.sums;
+  Eigen::Matrix3d ss;
+  ss << m[4], m[5], m[6], m[5], m[7], m[8], m[6], m[8], m[9];
+  return PlaneMoments::fromSums(Eigen::Vector3d::Zero(), m[0], Eigen::Vector3d(m[1], m[2], m[3]), ss);
+}
+
+// The candidate runs of every sample row, kept for the renumbering at the end.
+struct LabelRuns {
+  std::vector<PixelRun> runs;
+  std::vector<int> row_begin;  // runs of sample row r: [row_begin[r], row_begin[r + 1])
+  std::vector<int> row_sample;  // sample row of each image row
+};
 
 // Every full-resolution pixel takes the closest candidate plane of its sample within the
 // tolerance. Moments and colour are accumulated on every second pixel of every second row: a
@@ -183,10 +243,10 @@ void addRunStatistics(const std::uint16_t* lrow, int u0, int u1, int v, bool sin
 // by the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
 // Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
 // the common case is a tight single-plane loop.
-void labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr, const PlaneSampleGrid& grid,
-                 const std::vector<CandidateList>& cand, const std::vector<PlaneHypothesis>& planes,
-                 const std::vector<float>& region_tol, float tol_floor, std::vector<RegionAccumulator>& regions,
-                 cv::Mat& labels) {
+LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+                      const PlaneSampleGrid& grid, const std::vector<CandidateList>& cand,
+                      const std::vector<PlaneHypothesis>& planes, const std::vector<float>& region_tol,
+                      float tol_floor, std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
   labels.create(depth_mm.size(), CV_16UC1);
@@ -198,44 +258,61 @@ void labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::M
   std::vector<int> sample_u0(C, 0), sample_u1(C, 0);
   for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
   for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
-  std::vector<float> xr(depth_mm.cols);
-  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = static_cast<float>((u - K.cx) / K.fx);
-  std::vector<PixelRun> runs;
-  int runs_row = -1;
+  LabelRuns lr;
+  lr.row_begin.assign(R + 1, 0);
+  std::vector<PixelRun> row_runs;
+  for (int r = 0; r < R; ++r) {
+    candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, row_runs);
+    lr.runs.insert(lr.runs.end(), row_runs.begin(), row_runs.end());
+    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
+  }
+  lr.row_sample.resize(depth_mm.rows);
+  for (int v = 0; v < depth_mm.rows; ++v) lr.row_sample[v] = sampleOf(v, R);
+  std::vector<double> xr(depth_mm.cols);
+  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = (u - K.cx) / K.fx;
   for (int v = 0; v < depth_mm.rows; ++v) {
-    const int r = sampleOf(v, R);
-    if (r != runs_row) {
-      candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, runs);
-      runs_row = r;
-    }
+    const int r = lr.row_sample[v];
     const auto* drow = depth_mm.ptr<std::uint16_t>(v);
     auto* lrow = labels.ptr<std::uint16_t>(v);
     const float fv = static_cast<float>(v);
     const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
-    const float yr = static_cast<float>((v - K.cy) / K.fy);
-    for (const PixelRun& run : runs) {
-      const bool single = run.list[1] < 0;
-      if (single) {
+    const double yr = (v - K.cy) / K.fy;
+    for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
+      const PixelRun& run = lr.runs[k];
+      if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
         labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
                                 static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
         labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
       }
-      addRunStatistics(lrow, run.u0, run.u1, v, single, regions);
-      if (v & 1) continue;
-      for (int u = run.u0 + (run.u0 & 1); u < run.u1; u += 2) {
-        const int l = lrow[u];
-        if (!l) continue;
-        auto& reg = regions[l - 1];
-        const float z = static_cast<float>(drow[u]) * 0.001f;
-        reg.moments.add(xr[u] * z, yr * z, z);
-        if (crow) {
-          reg.colour[0] += crow[u][0];
-          reg.colour[1] += crow[u][1];
-          reg.colour[2] += crow[u][2];
-        }
+      for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
+        const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
+        auto& reg = regions[run.list[slot]];
+        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label), v);
+        if (!(v & 1)) addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
       }
+    }
+  }
+  for (auto& reg : regions) reg.moments = momentsOf(reg);
+  return lr;
+}
+
+// Applies `lut` (new label of each label; lut[l] <= l) to the labelled pixels, run by run: a
+// single-candidate run holds one label, so its pixels are rewritten without a look-up.
+void renumberLabels(cv::Mat& labels, const LabelRuns& lr, const std::vector<std::uint16_t>& lut) {
+  for (int v = 0; v < labels.rows; ++v) {
+    auto* l = labels.ptr<std::uint16_t>(v);
+    const int r = lr.row_sample[v];
+    for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
+      const PixelRun& run = lr.runs[k];
+      if (run.list[1] < 0) {
+        const std::uint16_t from = static_cast<std::uint16_t>(run.list[0] + 1), to = lut[from];
+        if (to == from) continue;
+        for (int u = run.u0; u < run.u1; ++u) l[u] = static_cast<std::uint16_t>((l[u] != 0) * to);
+        continue;
+      }
+      for (int u = run.u0; u < run.u1; ++u) l[u] = lut[l[u]];
     }
   }
 }
@@ -458,8 +535,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
-  labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, candidateRegions(region_of, R, C), planes, region_tol,
-              tol_floor, regions, out.labels);
+  const LabelRuns label_runs = labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid,
+                                           candidateRegions(region_of, R, C), planes, region_tol, tol_floor, regions,
+                                           out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
@@ -561,13 +639,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       renumber = true;
     }
   }
-  if (renumber) {
-    for (int v = 0; v < out.labels.rows; ++v) {
-      auto* l = out.labels.ptr<std::uint16_t>(v);
-      for (int u = 0; u < out.labels.cols; ++u)
-        if (l[u]) l[u] = lut[l[u]];
-    }
-  }
+  if (renumber) renumberLabels(out.labels, label_runs, lut);
   return out;
 }
 
