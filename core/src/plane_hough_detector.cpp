@@ -124,6 +124,7 @@ struct HoughPlaneDetector::Impl {
   // candidate scan needs no look-up of the label).
   std::vector<int> free_idx;
   std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
+  std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
   std::vector<int> cand, next;  // refinement inlier sets (indices into the free arrays)
 
   explicit Impl(const HoughPlaneParams& p) : normals_est(p.normals), raw(p.space), smooth(p.space) {}
@@ -188,6 +189,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   std::vector<int>& next = s.next;
   for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
   s.free_idx.resize(N);
+  s.fin.resize(N);
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
@@ -217,18 +219,24 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round); ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
-      cand.resize(F);
       {
-        // Branch-free (most samples fail, unpredictably): every index is written, only the
-        // kept ones advance the end.
+        // Two branch-free loops (most samples fail, unpredictably): the tests, which
+        // vectorise, then the compaction, where every index is written and only the kept ones
+        // advance the end.
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
+        const float *fx = s.fx.data(), *fy = s.fy.data(), *fz = s.fz.data();
+        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(), *fgate = s.fgate.data();
+        std::uint8_t* in = s.fin.data();
+        for (int f = 0; f < F; ++f) {
+          const float dist = std::fabs(nx * fx[f] + ny * fy[f] + nz * fz[f] + df);
+          in[f] = static_cast<std::uint8_t>((dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
+        }
+        cand.resize(F);
         int kept = 0;
         for (int f = 0; f < F; ++f) {
-          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          const bool in = (dist <= s.fgate[f]) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
           cand[kept] = f;
-          kept += in;
+          kept += in[f];
         }
         cand.resize(kept);
       }

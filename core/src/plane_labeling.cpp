@@ -47,22 +47,26 @@ using CandidateList = std::array<int, 4>;
 
 std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
   std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
+  // Inside a region (most samples) the neighbourhood is uniform: one candidate. Tested as three
+  // rows of three equal values (row_uniform), which is cheap.
+  std::vector<std::uint8_t> row_uniform(static_cast<std::size_t>(R) * C);
+  for (int r = 0; r < R; ++r) {
+    const int* reg = &region_of[static_cast<std::size_t>(r) * C];
+    std::uint8_t* ru = &row_uniform[static_cast<std::size_t>(r) * C];
+    for (int c = 0; c < C; ++c)
+      ru[c] = (c == 0 || reg[c - 1] == reg[c]) && (c + 1 == C || reg[c + 1] == reg[c]);
+  }
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
-      auto& list = cand[r * C + c];
+      const int i = r * C + c;
+      auto& list = cand[i];
       list.fill(-1);
-      const int own = region_of[r * C + c];
-      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
-      // Inside a region (most samples) the neighbourhood is uniform: one candidate.
-      bool uniform = true;
-      for (int rr = r0; rr <= r1 && uniform; ++rr)
-        for (int cc = c0; cc <= c1; ++cc)
-          if (region_of[rr * C + cc] != own) {
-            uniform = false;
-            break;
-          }
+      const int own = region_of[i];
       list[0] = own;
-      if (uniform) continue;
+      if (row_uniform[i] && (r == 0 || (row_uniform[i - C] && region_of[i - C] == own)) &&
+          (r + 1 == R || (row_uniform[i + C] && region_of[i + C] == own)))
+        continue;
+      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
       int n = own >= 0 ? 1 : 0;
       for (int rr = r0; rr <= r1; ++rr)
         for (int cc = c0; cc <= c1; ++cc) {
@@ -217,10 +221,16 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   m[8] += yr * szz;
   m[9] += szz;
   if (!crow) return;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
   for (int u = u0 + (u0 & 1); u < u1; u += 2) {
     if (lrow[u] != label) continue;
-    for (int ch = 0; ch < 3; ++ch) reg.colour[ch] += crow[u][ch];
+    b += crow[u][0];
+    g += crow[u][1];
+    r += crow[u][2];
   }
+  reg.colour[0] += b;
+  reg.colour[1] += g;
+  reg.colour[2] += r;
 }
 
 PlaneMoments momentsOf(const RegionAccumulator& reg) {
@@ -390,8 +400,11 @@ bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const Pl
   return std::fabs(z1 - z2) <= std::max(0.01f * static_cast<float>(grid.step) * z, tol_k * z * z);
 }
 
-void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+namespace {
+
+// growSampleLabels with the planes' tolerance coefficients already computed.
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const std::vector<PlaneHypothesis>& planes,
+                      const PlaneLabelingParams& params, const std::vector<float>& tol_coef) {
   const int R = grid.points.rows, C = grid.points.cols;
   const PlaneTolerance& tol = params.tolerance;
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
@@ -403,12 +416,19 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
   const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
-  const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
   const float tol_floor = static_cast<float>(tol.floor_m);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
-  for (int i = 0; i < R * C; ++i)
-    if (lab[i] >= 0) queue.push_back(i);
+  // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
+  // others could never take a neighbour, so the growth is that of seeding every labelled sample.
+  auto open = [&](int j) { return lab[j] == -1 && point(j)[2] > 0; };
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      const int i = r * C + c;
+      if (lab[i] < 0) continue;
+      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) || (r + 1 < R && open(i + C)))
+        queue.push_back(i);
+    }
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const int i = queue[q], r = i / C, c = i % C, L = lab[i];
     const float z = point(i)[2];
@@ -430,6 +450,13 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   }
 }
 
+}  // namespace
+
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+  growSampleLabels(grid, sample_labels, planes, params, planeToleranceCoefficients(grid, sample_labels, planes, params));
+}
+
 PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                            const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                            const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
@@ -443,7 +470,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   int* lab = sample_labels.ptr<int>(0);
 
   const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
-  growSampleLabels(grid, sample_labels, planes, params);
+  growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
   std::iota(parent.begin(), parent.end(), 0);
