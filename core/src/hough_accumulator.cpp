@@ -34,6 +34,8 @@ inline int cellInBlock(int li, int lj, int lk) {
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
   a_cell_ = std::max(1e-4, params_.angle_cell_deg * kDegToRad);
+  inv_a_cell_ = 1.0 / a_cell_;
+  inv_d_cell_ = 1.0 / params_.d_cell_m;
   na_ = std::max(1, static_cast<int>(std::ceil(2.0 * params_.lambert_extent / a_cell_)));
   nd_ = std::max(1, static_cast<int>(std::ceil(params_.max_d_m / std::max(1e-4, params_.d_cell_m))));
   nba_ = (na_ + kBlock - 1) / kBlock;
@@ -58,8 +60,8 @@ Eigen::Vector3d HoughAccumulator::cellCoordinates(const Eigen::Vector3d& n, doub
   const double den = 1.0 - n.z();
   if (!(den > 1e-9)) return {-1e9, -1e9, -1e9};
   const double s = std::sqrt(2.0 / den);
-  return {(s * n.x() + params_.lambert_extent) / a_cell_ - 0.5,
-          (s * n.y() + params_.lambert_extent) / a_cell_ - 0.5, d / params_.d_cell_m - 0.5};
+  return {(s * n.x() + params_.lambert_extent) * inv_a_cell_ - 0.5,
+          (s * n.y() + params_.lambert_extent) * inv_a_cell_ - 0.5, d * inv_d_cell_ - 0.5};
 }
 
 bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
@@ -247,9 +249,25 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
 }
 
 std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a, int window_d) const {
+  // The window's offsets, nearest first: a cell that is not a maximum almost always has a larger
+  // direct neighbour, so the test usually ends after a few look-ups. `earlier`: the plateau
+  // tie-break (the lexicographically first cell of a plateau wins).
+  struct Offset {
+    int di, dj, dk;
+    bool earlier;
+  };
+  std::vector<Offset> window;
+  for (int dk = -window_d; dk <= window_d; ++dk)
+    for (int dj = -window_a; dj <= window_a; ++dj)
+      for (int di = -window_a; di <= window_a; ++di)
+        if (di || dj || dk) window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
+  std::stable_sort(window.begin(), window.end(), [](const Offset& a, const Offset& b) {
+    return std::abs(a.di) + std::abs(a.dj) + std::abs(a.dk) < std::abs(b.di) + std::abs(b.dj) + std::abs(b.dk);
+  });
   std::vector<HoughMaximum> maxima;
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     const float* cells = &cells_[b * kBlockCells];
+    if (*std::max_element(cells, cells + kBlockCells) < min_value) continue;
     const int key = block_keys_[b];
     const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
     for (int c = 0; c < kBlockCells; ++c) {
@@ -258,17 +276,13 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
       const int i = bi * kBlock + c % kBlock, j = bj * kBlock + (c / kBlock) % kBlock;
       const int k = bk * kBlock + c / (kBlock * kBlock);
       bool is_max = true;
-      for (int dk = -window_d; dk <= window_d && is_max; ++dk)
-        for (int dj = -window_a; dj <= window_a && is_max; ++dj)
-          for (int di = -window_a; di <= window_a; ++di) {
-            if (!di && !dj && !dk) continue;
-            const float o = at(i + di, j + dj, k + dk);
-            // Plateau tie-break: the lexicographically first cell of a plateau wins.
-            if (o > v || (o == v && std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0))) {
-              is_max = false;
-              break;
-            }
-          }
+      for (const Offset& w : window) {
+        const float o = at(i + w.di, j + w.dj, k + w.dk);
+        if (o > v || (o == v && w.earlier)) {
+          is_max = false;
+          break;
+        }
+      }
       if (!is_max) continue;
       double sw = 0, si = 0, sj = 0, sk = 0;
       for (int dk = -1; dk <= 1; ++dk)
