@@ -170,57 +170,63 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // 2. Three separable passes: this -> out.cells_ (x), out -> scratch (y), scratch -> out (z).
   //    Every pass writes the same block set; reads see zeros outside it (and, for the first,
   //    the light blocks of this space).
-  const std::array<std::vector<float>, 3> taps = {
-      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
-      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
-      gaussianTaps(sigma_d_m / params_.d_cell_m, kBlock)};
+  // Taps padded to the largest radius (kBlock) with zeros: fixed-size loops that unroll and
+  // vectorise; the extra terms add exact zeros.
+  constexpr int kTaps = 2 * kBlock + 1;
+  std::array<std::array<float, kTaps>, 3> taps{};
+  const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_, sigma_angle_deg * kDegToRad / a_cell_,
+                                             sigma_d_m / params_.d_cell_m};
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::vector<float> w = gaussianTaps(sigma_cells[axis], kBlock);
+    const int r = static_cast<int>(w.size() / 2);
+    for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
+  }
   out.scratch_.assign(out.cells_.size(), 0.0f);
   const std::array<int, 3> nb = {nba_, nba_, nbd_};
   const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
+  static constexpr std::array<float, kBlockCells> kZeros{};
 
-  // The source blocks before, at and after output block `key` along `axis` (null = no votes).
+  // The source blocks before, at and after output block `key` along `axis` (zeros = no votes).
   auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
                         std::array<const float*, 3>& blocks) {
     const int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
+    bool any = false;
     for (int s = -1; s <= 1; ++s) {
       int c[3] = {bc[0], bc[1], bc[2]};
       c[axis] += s;
       const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
       const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
-      blocks[s + 1] = idx < 0 ? nullptr : &src[static_cast<std::size_t>(idx) * kBlockCells];
+      blocks[s + 1] = idx < 0 ? kZeros.data() : &src[static_cast<std::size_t>(idx) * kBlockCells];
+      any |= idx >= 0;
     }
+    return any;
   };
   // Along x the 4 cells of a block line are contiguous: each output line is 4 running sums over
   // a 12-cell window of the three blocks (the compiler vectorises the 4 sums).
   auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src, std::vector<float>& dst) {
-    const std::vector<float>& w = taps[0];
-    const int r = static_cast<int>(w.size() / 2);
+    const auto& w = taps[0];
     std::array<const float*, 3> blocks{};
     for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
-      neighbours(out.block_keys_[b], 0, src_index, src, blocks);
       float* o = &dst[b * kBlockCells];
-      if (!blocks[0] && !blocks[1] && !blocks[2]) {
+      if (!neighbours(out.block_keys_[b], 0, src_index, src, blocks)) {
         std::fill_n(o, kBlockCells, 0.0f);
         continue;
       }
       for (int line = 0; line < kBlockCells; line += kBlock) {
-        std::array<float, 3 * kBlock> in{};
-        for (int s = 0; s < 3; ++s)
-          if (blocks[s]) std::copy_n(blocks[s] + line, kBlock, &in[s * kBlock]);
+        std::array<float, 3 * kBlock> in;
+        for (int s = 0; s < 3; ++s) std::copy_n(blocks[s] + line, kBlock, &in[s * kBlock]);
         std::array<float, kBlock> acc{};
-        for (int u = -r; u <= r; ++u)
-          for (int t = 0; t < kBlock; ++t) acc[t] += w[u + r] * in[kBlock + t + u];
+        for (int u = -kBlock; u <= kBlock; ++u)
+          for (int t = 0; t < kBlock; ++t) acc[t] += w[u + kBlock] * in[kBlock + t + u];
         std::copy_n(acc.data(), kBlock, o + line);
       }
     }
   };
   // Along y and z a block line's cells are kBlock (or kBlock^2) apart, but the 4 lines that
-  // differ only in x are contiguous: smooth those 4 at once. Rows of empty source blocks add
-  // nothing and are skipped (the sums are the same: every term is >= 0).
+  // differ only in x are contiguous: smooth those 4 at once.
   auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
                     std::vector<float>& dst) {
-    const std::vector<float>& w = taps[axis];
-    const int r = static_cast<int>(w.size() / 2);
+    const auto& w = taps[axis];
     const int other = axis == 1 ? 2 : 1;
     std::array<const float*, 3> blocks{};
     for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
@@ -228,15 +234,14 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
       float* o = &dst[b * kBlockCells];
       for (int p = 0; p < kBlock; ++p) {
         // rows[g]: the 4 x-cells at position g - kBlock along `axis`, g in [0, 3 kBlock).
-        std::array<const float*, 3 * kBlock> rows{};
+        std::array<const float*, 3 * kBlock> rows;
         for (int g = 0; g < 3 * kBlock; ++g)
-          rows[g] = blocks[g / kBlock] ? blocks[g / kBlock] + p * stride[other] + (g % kBlock) * stride[axis] : nullptr;
+          rows[g] = blocks[g / kBlock] + p * stride[other] + (g % kBlock) * stride[axis];
         for (int t = 0; t < kBlock; ++t) {
           std::array<float, kBlock> acc{};
-          for (int u = -r; u <= r; ++u) {
+          for (int u = -kBlock; u <= kBlock; ++u) {
             const float* row = rows[kBlock + t + u];
-            if (!row) continue;
-            for (int i = 0; i < kBlock; ++i) acc[i] += w[u + r] * row[i];
+            for (int i = 0; i < kBlock; ++i) acc[i] += w[u + kBlock] * row[i];
           }
           std::copy_n(acc.data(), kBlock, o + p * stride[other] + t * stride[axis]);
         }

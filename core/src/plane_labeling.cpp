@@ -533,21 +533,32 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
   std::vector<RegionAccumulator> regions;
   {
+    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
+    // pointing at its root.
+    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
     std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
     std::vector<int> plane_region(planes.size(), -1);
-    for (int i = 0; i < R * C; ++i) {
-      if (lab[i] < 0) continue;
-      int& slot = params.split_connected_regions ? root_region[findRoot(parent, i)] : plane_region[lab[i]];
-      if (slot < 0) {
-        slot = static_cast<int>(regions.size());
-        regions.emplace_back();
-        regions.back().plane = lab[i];
-        regions.back().sample_box = cv::Rect(i % C, i / C, 1, 1);
+    std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        if (lab[i] < 0) continue;
+        int& slot = params.split_connected_regions ? root_region[parent[i]] : plane_region[lab[i]];
+        if (slot < 0) {
+          slot = static_cast<int>(regions.size());
+          regions.emplace_back();
+          regions.back().plane = lab[i];
+          bounds.push_back({c, r, c, r});
+        }
+        region_of[i] = slot;
+        ++regions[slot].samples;
+        auto& b = bounds[slot];
+        b[0] = std::min(b[0], c);
+        b[2] = std::max(b[2], c);
+        b[3] = r;  // rows ascend
       }
-      region_of[i] = slot;
-      auto& reg = regions[slot];
-      ++reg.samples;
-      reg.sample_box |= cv::Rect(i % C, i / C, 1, 1);
+    for (std::size_t k = 0; k < regions.size(); ++k) {
+      const auto& b = bounds[k];
+      regions[k].sample_box = cv::Rect(b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
     }
   }
   // Pre-filter on sample counts (half the pixel threshold: edges add pixels at full resolution).
