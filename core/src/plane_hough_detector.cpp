@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -95,6 +96,37 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     rest.swap(outliers);
   }
 }
+
+// Moment sums of one refinement pass, relative to its first point. PlaneMoments::add per point
+// costs a branch and Eigen temporaries; these stay in registers.
+class RefineSums {
+ public:
+  void add(float x, float y, float z) {
+    if (n_ == 0) ref_ = {x, y, z};
+    const double a = x - ref_[0], b = y - ref_[1], c = z - ref_[2];
+    n_ += 1.0;
+    s_[0] += a;
+    s_[1] += b;
+    s_[2] += c;
+    ss_[0] += a * a;
+    ss_[1] += a * b;
+    ss_[2] += a * c;
+    ss_[3] += b * b;
+    ss_[4] += b * c;
+    ss_[5] += c * c;
+  }
+  PlaneFit fit() const {
+    Eigen::Matrix3d ss;
+    ss << ss_[0], ss_[1], ss_[2], ss_[1], ss_[3], ss_[4], ss_[2], ss_[4], ss_[5];
+    return PlaneMoments::fromSums(Eigen::Vector3d(ref_[0], ref_[1], ref_[2]), n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), ss)
+        .fit();
+  }
+
+ private:
+  std::array<double, 3> ref_{}, s_{};
+  std::array<double, 6> ss_{};
+  double n_ = 0.0;
+};
 
 }  // namespace
 
@@ -252,7 +284,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         const float cos_gate = cos_inlier;
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
-        PlaneMoments mom;
+        RefineSums mom;
         next.clear();
         for (int f : cand) {
           const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);

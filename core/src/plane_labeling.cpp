@@ -116,17 +116,21 @@ std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& 
 }
 
 // Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
-// the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises.
-void labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
-                             float tol_coef, float tol_floor, std::uint16_t label) {
+// the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
+// number of pixels labelled.
+int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
+                            float tol_coef, float tol_floor, std::uint16_t label) {
   const float qa = q[0], qc = q[2], qd = q[3];
+  int n = 0;
   for (int u = u0; u < u1; ++u) {
     const float z = static_cast<float>(drow[u]) * 0.001f;
     const float dd = std::fabs(z * (qa * static_cast<float>(u) + qv + qc) + qd);
     // Bitwise, not &&: a branch would keep the loop from vectorising.
     const int inside = static_cast<int>(drow[u] != 0) & static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
     lrow[u] = static_cast<std::uint16_t>(label * inside);
+    n += inside;
   }
+  return n;
 }
 
 // Pixel count and bounds of one region in one row.
@@ -180,10 +184,15 @@ void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, cons
   }
 }
 
-// Pixel span of the pixels labelled `label` in lrow[u0, u1).
-RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label) {
+// Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
+// count them).
+RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, int count = -1) {
   RowSpan span;
-  for (int u = u0; u < u1; ++u) span.n += lrow[u] == label;  // vectorises
+  span.n = count;
+  if (count < 0) {
+    span.n = 0;
+    for (int u = u0; u < u1; ++u) span.n += lrow[u] == label;  // vectorises
+  }
   if (!span.n) return span;
   span.first = u0;
   span.last = u1 - 1;
@@ -259,8 +268,7 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
                       float tol_floor, std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
-  labels.create(depth_mm.size(), CV_16UC1);
-  labels.setTo(0);
+  labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
   auto sampleOf = [&](int x, int n) {
     return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
   };
@@ -287,22 +295,27 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     const float fv = static_cast<float>(v);
     const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
+    int gap_u0 = 0;
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
       const PixelRun& run = lr.runs[k];
+      std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
+      gap_u0 = run.u1;
+      int count = -1;
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
-                                static_cast<std::uint16_t>(run.list[0] + 1));
+        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
+                                        static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
         labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
-        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label), v);
+        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, count), v);
         if (!(v & 1)) addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
       }
     }
+    std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
   }
   for (auto& reg : regions) reg.moments = momentsOf(reg);
   return lr;
