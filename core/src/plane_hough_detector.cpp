@@ -97,14 +97,15 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   }
 }
 
-// Moment sums of one refinement pass, relative to its first point. PlaneMoments::add per point
-// costs a branch and Eigen temporaries; these stay in registers.
+// Moment sums of one refinement pass, relative to a point of the candidate set. add() takes
+// every candidate and a flag, without a branch: whether a candidate passes the shrinking gates
+// is unpredictable. (PlaneMoments::add also costs a branch and Eigen temporaries.)
 class RefineSums {
  public:
-  void add(float x, float y, float z) {
-    if (n_ == 0) ref_ = {x, y, z};
-    const double a = x - ref_[0], b = y - ref_[1], c = z - ref_[2];
-    n_ += 1.0;
+  explicit RefineSums(float x, float y, float z) : ref_{x, y, z} {}
+  void add(float x, float y, float z, bool in) {
+    const double a = in ? x - ref_[0] : 0.0, b = in ? y - ref_[1] : 0.0, c = in ? z - ref_[2] : 0.0;
+    n_ += in;
     s_[0] += a;
     s_[1] += b;
     s_[2] += c;
@@ -272,7 +273,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         }
         cand.resize(kept);
       }
-      if (static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      if (cand.empty() || static_cast<int>(cand.size()) < P.min_plane_samples) continue;
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
@@ -284,16 +285,18 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         const float cos_gate = cos_inlier;
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
-        RefineSums mom;
-        next.clear();
+        RefineSums mom(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]);
+        next.resize(cand.size());
+        int kept = 0;
         for (int f : cand) {
           const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
           const float g = gate_mult < 0 ? s.fgate[f] : gate_mult * s.ftol[f];
-          if (dist > g) continue;
-          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_gate) continue;
-          next.push_back(f);
-          mom.add(s.fx[f], s.fy[f], s.fz[f]);
+          const bool in = (dist <= g) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_gate);
+          next[kept] = f;
+          kept += in;
+          mom.add(s.fx[f], s.fy[f], s.fz[f], in);
         }
+        next.resize(kept);
         if (static_cast<int>(next.size()) < P.min_plane_samples) {
           ok = false;
           break;
