@@ -2,6 +2,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -354,21 +355,34 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     std::vector<int> merged_into(planes.size());
     std::iota(merged_into.begin(), merged_into.end(), 0);
     bool merged_any = false;
+    // Pair scores (joint RMS / limit; infinity = no merge) are kept between iterations: a merge
+    // changes only the pairs of its two planes, and each score costs an eigen-solve.
+    const std::size_t P_count = planes.size();
+    constexpr double kUnknown = -1.0;
+    std::vector<double> score(P_count * P_count, kUnknown);
+    auto pairScore = [&](std::size_t i, std::size_t j) {
+      double& sc = score[i * P_count + j];
+      if (sc != kUnknown) return sc;
+      sc = std::numeric_limits<double>::infinity();
+      if (!fits[i].valid || !fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) return sc;
+      PlaneMoments u = mom[i];
+      u.merge(mom[j]);
+      const PlaneFit f = u.fit();
+      const double z = std::max(zsum[i] / mom[i].count(), zsum[j] / mom[j].count());
+      const double limit = std::max(P.merge_rms_factor * std::max(fits[i].rms_m, fits[j].rms_m),
+                                    P.merge_tolerance_factor * tol.at(z) / 3.0);
+      if (f.valid && f.rms_m <= limit) sc = f.rms_m / limit;
+      return sc;
+    };
     for (;;) {
       double best = 1e30;
       int bi = -1, bj = -1;
-      for (std::size_t i = 0; i < planes.size(); ++i) {
+      for (std::size_t i = 0; i < P_count; ++i) {
         if (!fits[i].valid) continue;
-        for (std::size_t j = i + 1; j < planes.size(); ++j) {
-          if (!fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) continue;
-          PlaneMoments u = mom[i];
-          u.merge(mom[j]);
-          const PlaneFit f = u.fit();
-          const double z = std::max(zsum[i] / mom[i].count(), zsum[j] / mom[j].count());
-          const double limit = std::max(P.merge_rms_factor * std::max(fits[i].rms_m, fits[j].rms_m),
-                                        P.merge_tolerance_factor * tol.at(z) / 3.0);
-          if (f.valid && f.rms_m <= limit && f.rms_m / limit < best) {
-            best = f.rms_m / limit;
+        for (std::size_t j = i + 1; j < P_count; ++j) {
+          const double sc = pairScore(i, j);
+          if (sc < best) {
+            best = sc;
             bi = static_cast<int>(i);
             bj = static_cast<int>(j);
           }
@@ -381,6 +395,8 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       zsum[bj] = 0.0;
       fits[bi] = mom[bi].fit();
       fits[bj] = PlaneFit();
+      for (std::size_t k = 0; k < P_count; ++k)
+        for (const int m : {bi, bj}) score[k * P_count + m] = score[m * P_count + k] = kUnknown;
       merged_into[bj] = bi;
       merged_any = true;
       planes[bi] = {fits[bi].normal, fits[bi].d};

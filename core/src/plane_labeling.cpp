@@ -597,6 +597,17 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   //     within max(merge_rms_factor x the worse RMS, tolerance / 3 at their range).
   std::vector<int> merged_into(nreg);
   std::iota(merged_into.begin(), merged_into.end(), 0);
+  // Fits of the regions' full-resolution moments, computed once each (an eigen-solve costs more
+  // than everything else a region pair needs).
+  std::vector<PlaneFit> region_fit(nreg);
+  std::vector<bool> has_fit(nreg, false);
+  auto fitOf = [&](int k) -> const PlaneFit& {
+    if (!has_fit[k]) {
+      region_fit[k] = regions[k].moments.fit();
+      has_fit[k] = true;
+    }
+    return region_fit[k];
+  };
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
     for (int r = 0; r < R; ++r)
@@ -616,7 +627,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     for (const auto& [a0, b0] : adjacent) {
       const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
       if (a == b) continue;
-      const PlaneFit fa = regions[a].moments.fit(), fb = regions[b].moments.fit();
+      const PlaneFit &fa = fitOf(a), &fb = fitOf(b);
       if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
       PlaneMoments joint = regions[a].moments;
       joint.merge(regions[b].moments);
@@ -627,6 +638,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       auto& ra = regions[std::min(a, b)];
       auto& rb = regions[std::max(a, b)];
       ra.moments = joint;
+      region_fit[std::min(a, b)] = f;
       ra.count += rb.count;
       ra.samples += rb.samples;
       ra.sample_box |= rb.sample_box;
@@ -652,7 +664,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       renumber = true;
       continue;
     }
-    const PlaneFit fit = reg.moments.fit();
+    const PlaneFit& fit = fitOf(static_cast<int>(k));
     if (!fit.valid) {
       renumber = true;
       continue;
