@@ -45,27 +45,38 @@ struct RegionAccumulator {
 // neighbourhood, its own first, -1 terminated (at most 4).
 using CandidateList = std::array<int, 4>;
 
+// Summary of a set of region ids: -1 none (only unlabelled samples), -2 several, else the one
+// region.
+inline int mergeRegionSummary(int a, int b) {
+  if (a == -1) return b;
+  if (b == -1 || a == b) return a;
+  return -2;
+}
+
 std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
   std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
-  // Inside a region (most samples) the neighbourhood is uniform: one candidate. Tested as three
-  // rows of three equal values (row_uniform), which is cheap.
-  std::vector<std::uint8_t> row_uniform(static_cast<std::size_t>(R) * C);
+  // Most neighbourhoods hold at most one region (inside a region, or a region next to
+  // unlabelled samples): one candidate. Found from summaries of the rows of three.
+  std::vector<int> row_summary(static_cast<std::size_t>(R) * C);
   for (int r = 0; r < R; ++r) {
     const int* reg = &region_of[static_cast<std::size_t>(r) * C];
-    std::uint8_t* ru = &row_uniform[static_cast<std::size_t>(r) * C];
+    int* sum = &row_summary[static_cast<std::size_t>(r) * C];
     for (int c = 0; c < C; ++c)
-      ru[c] = (c == 0 || reg[c - 1] == reg[c]) && (c + 1 == C || reg[c + 1] == reg[c]);
+      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]), c + 1 < C ? reg[c + 1] : -1);
   }
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       const int i = r * C + c;
       auto& list = cand[i];
       list.fill(-1);
+      const int one = mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
+                                         r + 1 < R ? row_summary[i + C] : -1);
+      if (one != -2) {
+        list[0] = one;
+        continue;
+      }
       const int own = region_of[i];
       list[0] = own;
-      if (row_uniform[i] && (r == 0 || (row_uniform[i - C] && region_of[i - C] == own)) &&
-          (r + 1 == R || (row_uniform[i + C] && region_of[i + C] == own)))
-        continue;
       const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
       int n = own >= 0 ? 1 : 0;
       for (int rr = r0; rr <= r1; ++rr)
