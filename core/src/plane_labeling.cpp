@@ -147,11 +147,6 @@ int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int 
 // Pixel count and bounds of one region in one row.
 struct RowSpan {
   int n = 0, first = std::numeric_limits<int>::max(), last = -1;
-  void add(int u) {
-    ++n;
-    first = std::min(first, u);
-    last = u;
-  }
 };
 
 void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
