@@ -34,6 +34,8 @@ inline int cellInBlock(int li, int lj, int lk) {
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
   a_cell_ = std::max(1e-4, params_.angle_cell_deg * kDegToRad);
+  inv_a_cell_ = 1.0 / a_cell_;
+  inv_d_cell_ = 1.0 / params_.d_cell_m;
   na_ = std::max(1, static_cast<int>(std::ceil(2.0 * params_.lambert_extent / a_cell_)));
   nd_ = std::max(1, static_cast<int>(std::ceil(params_.max_d_m / std::max(1e-4, params_.d_cell_m))));
   nba_ = (na_ + kBlock - 1) / kBlock;
@@ -58,8 +60,8 @@ Eigen::Vector3d HoughAccumulator::cellCoordinates(const Eigen::Vector3d& n, doub
   const double den = 1.0 - n.z();
   if (!(den > 1e-9)) return {-1e9, -1e9, -1e9};
   const double s = std::sqrt(2.0 / den);
-  return {(s * n.x() + params_.lambert_extent) / a_cell_ - 0.5,
-          (s * n.y() + params_.lambert_extent) / a_cell_ - 0.5, d / params_.d_cell_m - 0.5};
+  return {(s * n.x() + params_.lambert_extent) * inv_a_cell_ - 0.5,
+          (s * n.y() + params_.lambert_extent) * inv_a_cell_ - 0.5, d * inv_d_cell_ - 0.5};
 }
 
 bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
@@ -168,56 +170,109 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // 2. Three separable passes: this -> out.cells_ (x), out -> scratch (y), scratch -> out (z).
   //    Every pass writes the same block set; reads see zeros outside it (and, for the first,
   //    the light blocks of this space).
-  const std::array<std::vector<float>, 3> taps = {
-      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
-      gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock),
-      gaussianTaps(sigma_d_m / params_.d_cell_m, kBlock)};
-  std::vector<float> scratch(out.cells_.size(), 0.0f);
+  // Taps padded to the largest radius (kBlock) with zeros: fixed-size loops that unroll and
+  // vectorise; the extra terms add exact zeros.
+  constexpr int kTaps = 2 * kBlock + 1;
+  std::array<std::array<float, kTaps>, 3> taps{};
+  const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_, sigma_angle_deg * kDegToRad / a_cell_,
+                                             sigma_d_m / params_.d_cell_m};
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::vector<float> w = gaussianTaps(sigma_cells[axis], kBlock);
+    const int r = static_cast<int>(w.size() / 2);
+    for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
+  }
+  out.scratch_.assign(out.cells_.size(), 0.0f);
   const std::array<int, 3> nb = {nba_, nba_, nbd_};
   const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
+  static constexpr std::array<float, kBlockCells> kZeros{};
 
-  auto pass = [&](int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
-                  std::vector<float>& dst) {
-    const std::vector<float>& w = taps[axis];
-    const int r = static_cast<int>(w.size() / 2);
-    std::array<float, 3 * kBlock> line{};
+  // The source blocks before, at and after output block `key` along `axis` (zeros = no votes).
+  auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
+                        std::array<const float*, 3>& blocks) {
+    const int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
+    bool any = false;
+    for (int s = -1; s <= 1; ++s) {
+      int c[3] = {bc[0], bc[1], bc[2]};
+      c[axis] += s;
+      const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
+      const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
+      blocks[s + 1] = idx < 0 ? kZeros.data() : &src[static_cast<std::size_t>(idx) * kBlockCells];
+      any |= idx >= 0;
+    }
+    return any;
+  };
+  // Along x the 4 cells of a block line are contiguous: each output line is 4 running sums over
+  // a 12-cell window of the three blocks (the compiler vectorises the 4 sums).
+  auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src, std::vector<float>& dst) {
+    const auto& w = taps[0];
+    std::array<const float*, 3> blocks{};
     for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
-      const int key = out.block_keys_[b];
-      int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
-      const float* blocks[3];
-      for (int s = -1; s <= 1; ++s) {
-        int c[3] = {bc[0], bc[1], bc[2]};
-        c[axis] += s;
-        const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
-        const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
-        blocks[s + 1] = idx < 0 ? nullptr : &src[static_cast<std::size_t>(idx) * kBlockCells];
-      }
       float* o = &dst[b * kBlockCells];
-      // The two axes other than `axis` enumerate the 16 lines of the block.
-      const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
-      for (int p = 0; p < kBlock; ++p)
-        for (int q = 0; q < kBlock; ++q) {
-          const int base = p * stride[a1] + q * stride[a2];
-          for (int s = 0; s < 3; ++s)
-            for (int t = 0; t < kBlock; ++t)
-              line[s * kBlock + t] = blocks[s] ? blocks[s][base + t * stride[axis]] : 0.0f;
-          for (int t = 0; t < kBlock; ++t) {
-            float acc = 0;
-            for (int u = -r; u <= r; ++u) acc += w[u + r] * line[kBlock + t + u];
-            o[base + t * stride[axis]] = acc;
-          }
-        }
+      if (!neighbours(out.block_keys_[b], 0, src_index, src, blocks)) {
+        std::fill_n(o, kBlockCells, 0.0f);
+        continue;
+      }
+      for (int line = 0; line < kBlockCells; line += kBlock) {
+        std::array<float, 3 * kBlock> in;
+        for (int s = 0; s < 3; ++s) std::copy_n(blocks[s] + line, kBlock, &in[s * kBlock]);
+        std::array<float, kBlock> acc{};
+        for (int u = -kBlock; u <= kBlock; ++u)
+          for (int t = 0; t < kBlock; ++t) acc[t] += w[u + kBlock] * in[kBlock + t + u];
+        std::copy_n(acc.data(), kBlock, o + line);
+      }
     }
   };
-  pass(0, index_, cells_, out.cells_);
-  pass(1, out.index_, out.cells_, scratch);
-  pass(2, out.index_, scratch, out.cells_);
+  // Along y and z a block line's cells are kBlock (or kBlock^2) apart, but the 4 lines that
+  // differ only in x are contiguous: smooth those 4 at once.
+  auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
+                    std::vector<float>& dst) {
+    const auto& w = taps[axis];
+    const int other = axis == 1 ? 2 : 1;
+    std::array<const float*, 3> blocks{};
+    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
+      neighbours(out.block_keys_[b], axis, src_index, src, blocks);
+      float* o = &dst[b * kBlockCells];
+      for (int p = 0; p < kBlock; ++p) {
+        // rows[g]: the 4 x-cells at position g - kBlock along `axis`, g in [0, 3 kBlock).
+        std::array<const float*, 3 * kBlock> rows;
+        for (int g = 0; g < 3 * kBlock; ++g)
+          rows[g] = blocks[g / kBlock] + p * stride[other] + (g % kBlock) * stride[axis];
+        for (int t = 0; t < kBlock; ++t) {
+          std::array<float, kBlock> acc{};
+          for (int u = -kBlock; u <= kBlock; ++u) {
+            const float* row = rows[kBlock + t + u];
+            for (int i = 0; i < kBlock; ++i) acc[i] += w[u + kBlock] * row[i];
+          }
+          std::copy_n(acc.data(), kBlock, o + p * stride[other] + t * stride[axis]);
+        }
+      }
+    }
+  };
+  passX(index_, cells_, out.cells_);
+  passYZ(1, out.index_, out.cells_, out.scratch_);
+  passYZ(2, out.index_, out.scratch_, out.cells_);
 }
 
 std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a, int window_d) const {
+  // The window's offsets, nearest first: a cell that is not a maximum almost always has a larger
+  // direct neighbour, so the test usually ends after a few look-ups. `earlier`: the plateau
+  // tie-break (the lexicographically first cell of a plateau wins).
+  struct Offset {
+    int di, dj, dk;
+    bool earlier;
+  };
+  std::vector<Offset> window;
+  for (int dk = -window_d; dk <= window_d; ++dk)
+    for (int dj = -window_a; dj <= window_a; ++dj)
+      for (int di = -window_a; di <= window_a; ++di)
+        if (di || dj || dk) window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
+  std::stable_sort(window.begin(), window.end(), [](const Offset& a, const Offset& b) {
+    return std::abs(a.di) + std::abs(a.dj) + std::abs(a.dk) < std::abs(b.di) + std::abs(b.dj) + std::abs(b.dk);
+  });
   std::vector<HoughMaximum> maxima;
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     const float* cells = &cells_[b * kBlockCells];
+    if (*std::max_element(cells, cells + kBlockCells) < min_value) continue;
     const int key = block_keys_[b];
     const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
     for (int c = 0; c < kBlockCells; ++c) {
@@ -226,17 +281,13 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
       const int i = bi * kBlock + c % kBlock, j = bj * kBlock + (c / kBlock) % kBlock;
       const int k = bk * kBlock + c / (kBlock * kBlock);
       bool is_max = true;
-      for (int dk = -window_d; dk <= window_d && is_max; ++dk)
-        for (int dj = -window_a; dj <= window_a && is_max; ++dj)
-          for (int di = -window_a; di <= window_a; ++di) {
-            if (!di && !dj && !dk) continue;
-            const float o = at(i + di, j + dj, k + dk);
-            // Plateau tie-break: the lexicographically first cell of a plateau wins.
-            if (o > v || (o == v && std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0))) {
-              is_max = false;
-              break;
-            }
-          }
+      for (const Offset& w : window) {
+        const float o = at(i + w.di, j + w.dj, k + w.dk);
+        if (o > v || (o == v && w.earlier)) {
+          is_max = false;
+          break;
+        }
+      }
       if (!is_max) continue;
       double sw = 0, si = 0, sj = 0, sk = 0;
       for (int dk = -1; dk <= 1; ++dk)

@@ -1,6 +1,10 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
+#include <numeric>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -95,6 +99,38 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   }
 }
 
+// Moment sums of one refinement pass, relative to a point of the candidate set. add() takes
+// every candidate and a flag, without a branch: whether a candidate passes the shrinking gates
+// is unpredictable. (PlaneMoments::add also costs a branch and Eigen temporaries.)
+class RefineSums {
+ public:
+  explicit RefineSums(float x, float y, float z) : ref_{x, y, z} {}
+  void add(float x, float y, float z, bool in) {
+    const double a = in ? x - ref_[0] : 0.0, b = in ? y - ref_[1] : 0.0, c = in ? z - ref_[2] : 0.0;
+    n_ += in;
+    s_[0] += a;
+    s_[1] += b;
+    s_[2] += c;
+    ss_[0] += a * a;
+    ss_[1] += a * b;
+    ss_[2] += a * c;
+    ss_[3] += b * b;
+    ss_[4] += b * c;
+    ss_[5] += c * c;
+  }
+  PlaneFit fit() const {
+    Eigen::Matrix3d ss;
+    ss << ss_[0], ss_[1], ss_[2], ss_[1], ss_[3], ss_[4], ss_[2], ss_[4], ss_[5];
+    return PlaneMoments::fromSums(Eigen::Vector3d(ref_[0], ref_[1], ref_[2]), n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), ss)
+        .fit();
+  }
+
+ private:
+  std::array<double, 3> ref_{}, s_{};
+  std::array<double, 6> ss_{};
+  double n_ = 0.0;
+};
+
 }  // namespace
 
 NormalParams HoughPlaneParams::defaultSampleNormalParams(int step) {
@@ -119,8 +155,12 @@ struct HoughPlaneDetector::Impl {
   HoughAccumulator raw, smooth;
   cv::Mat sample_labels;
   // Structure of arrays of the samples still free in a round (cache-friendly refinement scans).
+  // fgate: the widest refinement gate of a free sample, -1 once a plane claims it (so the
+  // candidate scan needs no look-up of the label).
   std::vector<int> free_idx;
-  std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol;
+  std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
+  std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
+  std::vector<int> cand, next;  // refinement inlier sets (indices into the free arrays)
 
   explicit Impl(const HoughPlaneParams& p) : normals_est(p.normals), raw(p.space), smooth(p.space) {}
 };
@@ -177,22 +217,29 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   const float min_peak = static_cast<float>(0.5 * P.min_plane_samples * peak_per_vote);
   const float min_block_mass = std::max(2.0f, P.min_plane_samples / 6.0f);
 
-  std::vector<int> cand, next;
+  // Widest gate first: the peak's d is only as good as the kernel (a parallel plane nearby
+  // shifts it), so start at the kernel's spread and shrink to the sensor tolerance.
+  const float wide = static_cast<float>(2.5 * P.sigma_d_m);
+  std::vector<int>& cand = s.cand;
+  std::vector<int>& next = s.next;
+  for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
+  s.free_idx.resize(N);
+  s.fin.resize(N);
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
-    int votes = 0;
-    s.free_idx.clear();
-    s.fx.clear(); s.fy.clear(); s.fz.clear(); s.fnx.clear(); s.fny.clear(); s.fnz.clear(); s.ftol.clear();
+    int votes = 0, F = 0;
     for (int i = 0; i < N; ++i) {
       if (lab[i] >= 0) continue;
       const cv::Vec3f& n = nrm[i];
       if (!(n[2] == n[2])) continue;
       const cv::Vec3f& p = pts[i];
-      s.free_idx.push_back(i);
-      s.fx.push_back(p[0]); s.fy.push_back(p[1]); s.fz.push_back(p[2]);
-      s.fnx.push_back(n[0]); s.fny.push_back(n[1]); s.fnz.push_back(n[2]);
-      s.ftol.push_back(static_cast<float>(tol.at(p[2])));
+      s.free_idx[F] = i;
+      s.fx[F] = p[0], s.fy[F] = p[1], s.fz[F] = p[2];
+      s.fnx[F] = n[0], s.fny[F] = n[1], s.fnz[F] = n[2];
+      s.ftol[F] = static_cast<float>(tol.at(p[2]));
+      s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
+      ++F;
       if (!reliable[i]) continue;
       const Eigen::Vector3d nd(n[0], n[1], n[2]);
       s.raw.vote(nd, -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]));
@@ -204,26 +251,41 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
 
     // 4. Refine the maxima, strongest first; accepted planes claim their samples.
     int accepted = 0;
-    const int F = static_cast<int>(s.free_idx.size());
     for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round); ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
-      // Widest gate first: the peak's d is only as good as the kernel (a parallel plane nearby
-      // shifts it), so start at the kernel's spread and shrink to the sensor tolerance.
-      const float wide = static_cast<float>(2.5 * P.sigma_d_m);
-      cand.clear();
       {
+        // Two branch-free loops (most samples fail, unpredictably): the tests, which
+        // vectorise, then the compaction, where every index is written and only the kept ones
+        // advance the end.
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
+        const float *fx = s.fx.data(), *fy = s.fy.data(), *fz = s.fz.data();
+        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(), *fgate = s.fgate.data();
+        std::uint8_t* in = s.fin.data();
         for (int f = 0; f < F; ++f) {
-          if (lab[s.free_idx[f]] >= 0) continue;
-          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          if (dist > std::max(wide, 2.0f * s.ftol[f])) continue;
-          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier) continue;
-          cand.push_back(f);
+          const float dist = std::fabs(nx * fx[f] + ny * fy[f] + nz * fz[f] + df);
+          in[f] = static_cast<std::uint8_t>((dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
         }
+        cand.resize(F);
+        int kept = 0, f = 0;
+        // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
+        for (; f + 8 <= F; f += 8) {
+          std::uint64_t any;
+          std::memcpy(&any, in + f, sizeof any);
+          if (!any) continue;
+          for (int t = f; t < f + 8; ++t) {
+            cand[kept] = t;
+            kept += in[t];
+          }
+        }
+        for (; f < F; ++f) {
+          cand[kept] = f;
+          kept += in[f];
+        }
+        cand.resize(kept);
       }
-      if (static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      if (cand.empty() || static_cast<int>(cand.size()) < P.min_plane_samples) continue;
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
@@ -235,16 +297,18 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         const float cos_gate = cos_inlier;
         const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
-        PlaneMoments mom;
-        next.clear();
+        RefineSums mom(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]);
+        next.resize(cand.size());
+        int kept = 0;
         for (int f : cand) {
           const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          const float g = gate_mult < 0 ? std::max(wide, 2.0f * s.ftol[f]) : gate_mult * s.ftol[f];
-          if (dist > g) continue;
-          if (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_gate) continue;
-          next.push_back(f);
-          mom.add(s.fx[f], s.fy[f], s.fz[f]);
+          const float g = gate_mult < 0 ? s.fgate[f] : gate_mult * s.ftol[f];
+          const bool in = (dist <= g) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_gate);
+          next[kept] = f;
+          kept += in;
+          mom.add(s.fx[f], s.fy[f], s.fz[f], in);
         }
+        next.resize(kept);
         if (static_cast<int>(next.size()) < P.min_plane_samples) {
           ok = false;
           break;
@@ -270,7 +334,10 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       }
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
-      for (int f : next) lab[s.free_idx[f]] = id;
+      for (int f : next) {
+        lab[s.free_idx[f]] = id;
+        s.fgate[f] = -1.0f;
+      }
       planes.push_back({n, d});
       ++accepted;
     }
@@ -286,44 +353,75 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   //    table fails by far (the union's RMS is ~2.5 cm).
   auto mergePlanes = [&]() {
     const double cos_merge = std::cos(P.merge_angle_deg * kDegToRad);
+    // Moments once; a merge then adds the pair's moments and relabels at the end.
+    std::vector<PlaneMoments> mom(planes.size());
+    std::vector<double> zsum(planes.size(), 0.0);
+    for (int i = 0; i < N; ++i) {
+      if (lab[i] < 0) continue;
+      mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
+      zsum[lab[i]] += pts[i][2];
+    }
+    std::vector<PlaneFit> fits(planes.size());
+    for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
+    std::vector<int> merged_into(planes.size());
+    std::iota(merged_into.begin(), merged_into.end(), 0);
+    bool merged_any = false;
+    // Pair scores (joint RMS / limit; infinity = no merge) are kept between iterations: a merge
+    // changes only the pairs of its two planes, and each score costs an eigen-solve.
+    const std::size_t P_count = planes.size();
+    constexpr double kUnknown = -1.0;
+    std::vector<double> score(P_count * P_count, kUnknown);
+    auto pairScore = [&](std::size_t i, std::size_t j) {
+      double& sc = score[i * P_count + j];
+      if (sc != kUnknown) return sc;
+      sc = std::numeric_limits<double>::infinity();
+      if (!fits[i].valid || !fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) return sc;
+      PlaneMoments u = mom[i];
+      u.merge(mom[j]);
+      const PlaneFit f = u.fit();
+      const double z = std::max(zsum[i] / mom[i].count(), zsum[j] / mom[j].count());
+      const double limit = std::max(P.merge_rms_factor * std::max(fits[i].rms_m, fits[j].rms_m),
+                                    P.merge_tolerance_factor * tol.at(z) / 3.0);
+      if (f.valid && f.rms_m <= limit) sc = f.rms_m / limit;
+      return sc;
+    };
     for (;;) {
-      std::vector<PlaneMoments> mom(planes.size());
-      std::vector<double> zsum(planes.size(), 0.0);
-      for (int i = 0; i < N; ++i) {
-        if (lab[i] < 0) continue;
-        mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
-        zsum[lab[i]] += pts[i][2];
-      }
-      std::vector<PlaneFit> fits(planes.size());
-      for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
       double best = 1e30;
       int bi = -1, bj = -1;
-      for (std::size_t i = 0; i < planes.size(); ++i) {
+      for (std::size_t i = 0; i < P_count; ++i) {
         if (!fits[i].valid) continue;
-        for (std::size_t j = i + 1; j < planes.size(); ++j) {
-          if (!fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) continue;
-          PlaneMoments u = mom[i];
-          u.merge(mom[j]);
-          const PlaneFit f = u.fit();
-          const double z = std::max(zsum[i] / mom[i].count(), zsum[j] / mom[j].count());
-          const double limit = std::max(P.merge_rms_factor * std::max(fits[i].rms_m, fits[j].rms_m),
-                                        P.merge_tolerance_factor * tol.at(z) / 3.0);
-          if (f.valid && f.rms_m <= limit && f.rms_m / limit < best) {
-            best = f.rms_m / limit;
+        for (std::size_t j = i + 1; j < P_count; ++j) {
+          const double sc = pairScore(i, j);
+          if (sc < best) {
+            best = sc;
             bi = static_cast<int>(i);
             bj = static_cast<int>(j);
           }
         }
       }
-      if (bi < 0) return;
-      for (int i = 0; i < N; ++i)
-        if (lab[i] == bj) lab[i] = bi;
-      PlaneMoments u = mom[bi];
-      u.merge(mom[bj]);
-      const PlaneFit f = u.fit();
-      planes[bi] = {f.normal, f.d};
+      if (bi < 0) break;
+      mom[bi].merge(mom[bj]);
+      mom[bj] = PlaneMoments();
+      zsum[bi] += zsum[bj];
+      zsum[bj] = 0.0;
+      fits[bi] = mom[bi].fit();
+      fits[bj] = PlaneFit();
+      for (std::size_t k = 0; k < P_count; ++k)
+        for (const int m : {bi, bj}) score[k * P_count + m] = score[m * P_count + k] = kUnknown;
+      merged_into[bj] = bi;
+      merged_any = true;
+      planes[bi] = {fits[bi].normal, fits[bi].d};
       planes[bj] = {Eigen::Vector3d(0, 0, -1), -1.0};  // unused from now on (no samples)
     }
+    if (!merged_any) return;
+    std::vector<int> survivor(planes.size());
+    for (std::size_t j = 0; j < planes.size(); ++j) {
+      int k = static_cast<int>(j);
+      while (merged_into[k] != k) k = merged_into[k];
+      survivor[j] = k;
+    }
+    for (int i = 0; i < N; ++i)
+      if (lab[i] >= 0) lab[i] = survivor[lab[i]];
   };
   mergePlanes();
 

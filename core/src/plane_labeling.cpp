@@ -31,12 +31,320 @@ struct RegionAccumulator {
   int plane = -1;            // index into the hypotheses
   int samples = 0;
   cv::Rect sample_box;       // on the sample grid
-  // Full-resolution accumulation.
+  // Full-resolution accumulation. The labelling loop sums raw moments (camera frame, in double:
+  // the covariance of a region metres away keeps ~8 significant digits) and turns them into
+  // `moments` after it.
   PlaneMoments moments;
+  std::array<double, 10> sums{};  // n, x, y, z, xx, xy, xz, yy, yz, zz
   std::size_t count = 0;
   int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
   std::array<std::uint64_t, 3> colour{};
 };
+
+// The regions a sample's pixels may take: the distinct regions of its 3x3 sample
+// neighbourhood, its own first, -1 terminated (at most 4).
+using CandidateList = std::array<int, 4>;
+
+// Summary of a set of region ids: -1 none (only unlabelled samples), -2 several, else the one
+// region.
+inline int mergeRegionSummary(int a, int b) {
+  if (a == -1) return b;
+  if (b == -1 || a == b) return a;
+  return -2;
+}
+
+std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
+  std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
+  // Most neighbourhoods hold at most one region (inside a region, or a region next to
+  // unlabelled samples): one candidate. Found from summaries of the rows of three.
+  std::vector<int> row_summary(static_cast<std::size_t>(R) * C);
+  for (int r = 0; r < R; ++r) {
+    const int* reg = &region_of[static_cast<std::size_t>(r) * C];
+    int* sum = &row_summary[static_cast<std::size_t>(r) * C];
+    for (int c = 0; c < C; ++c)
+      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]), c + 1 < C ? reg[c + 1] : -1);
+  }
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      const int i = r * C + c;
+      auto& list = cand[i];
+      list.fill(-1);
+      const int one = mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
+                                         r + 1 < R ? row_summary[i + C] : -1);
+      if (one != -2) {
+        list[0] = one;
+        continue;
+      }
+      const int own = region_of[i];
+      list[0] = own;
+      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
+      int n = own >= 0 ? 1 : 0;
+      for (int rr = r0; rr <= r1; ++rr)
+        for (int cc = c0; cc <= c1; ++cc) {
+          const int reg = region_of[rr * C + cc];
+          if (reg < 0 || n == 4 || std::find(list.begin(), list.begin() + n, reg) != list.begin() + n) continue;
+          list[n++] = reg;
+        }
+    }
+  return cand;
+}
+
+// A horizontal run of pixels of one image row whose samples share one candidate list.
+struct PixelRun {
+  int u0 = 0, u1 = 0;  // [u0, u1)
+  CandidateList list{};
+};
+
+// The runs of pixel rows that map to sample row r (consecutive samples with equal lists merge,
+// so a row crossing one plane is a single run). sample_u0/u1: pixel range of each sample column.
+void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
+                   std::vector<PixelRun>& runs) {
+  runs.clear();
+  for (std::size_t c = 0; c < sample_u0.size(); ++c) {
+    if (sample_u0[c] >= sample_u1[c]) continue;
+    if (!runs.empty() && runs.back().list == row_cand[c] && runs.back().u1 == sample_u0[c]) {
+      runs.back().u1 = sample_u1[c];
+      continue;
+    }
+    if (row_cand[c][0] < 0) continue;  // no candidate: the pixels stay 0
+    runs.push_back({sample_u0[c], sample_u1[c], row_cand[c]});
+  }
+}
+
+// Pinhole form of the plane distance: a pixel (u, v) with depth z is z (A u + B v + C) + D from
+// the plane (floats; coef holds A, B, C, D per region).
+std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& regions,
+                                          const std::vector<PlaneHypothesis>& planes, const CameraIntrinsics& K) {
+  std::vector<float> coef(4 * regions.size());
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    const auto& h = planes[regions[k].plane];
+    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
+    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
+    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
+    coef[4 * k + 3] = static_cast<float>(h.d);
+  }
+  return coef;
+}
+
+// Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
+// the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
+// number of pixels labelled.
+int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
+                            float tol_coef, float tol_floor, std::uint16_t label) {
+  const float qa = q[0], qc = q[2], qd = q[3];
+  int n = 0;
+  for (int u = u0; u < u1; ++u) {
+    const float z = static_cast<float>(drow[u]) * 0.001f;
+    const float dd = std::fabs(z * (qa * static_cast<float>(u) + qv + qc) + qd);
+    // Bitwise, not &&: a branch would keep the loop from vectorising.
+    const int inside = static_cast<int>(drow[u] != 0) & static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
+    lrow[u] = static_cast<std::uint16_t>(label * inside);
+    n += inside;
+  }
+  return n;
+}
+
+// Pixel count and bounds of one region in one row.
+struct RowSpan {
+  int n = 0, first = std::numeric_limits<int>::max(), last = -1;
+};
+
+void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
+  if (!span.n) return;
+  reg.count += static_cast<std::size_t>(span.n);
+  reg.u0 = std::min(reg.u0, span.first);
+  reg.u1 = std::max(reg.u1, span.last);
+  reg.v0 = std::min(reg.v0, v);
+  reg.v1 = std::max(reg.v1, v);
+}
+
+// The same for several candidates: the closest within its tolerance (ties to the later one).
+// Branch-free over a fixed 4 slots (an unused one can never win) so that it vectorises too.
+void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                            const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
+                            float tol_floor) {
+  float qa[4], qv[4], qc[4], qd[4], tk[4];
+  std::uint16_t label[4];
+  for (int k = 0; k < 4; ++k) {
+    const int reg = run.list[k];
+    const float* q = &coef[4 * std::max(reg, 0)];
+    qa[k] = reg >= 0 ? q[0] : 0.0f;
+    qv[k] = reg >= 0 ? q[1] * fv : 0.0f;
+    qc[k] = reg >= 0 ? q[2] : 0.0f;
+    qd[k] = reg >= 0 ? q[3] : std::numeric_limits<float>::infinity();
+    tk[k] = reg >= 0 ? region_tol[reg] : 0.0f;
+    label[k] = static_cast<std::uint16_t>(reg + 1);
+  }
+  for (int u = run.u0; u < run.u1; ++u) {
+    const float z = static_cast<float>(drow[u]) * 0.001f;
+    const float fu = static_cast<float>(u), z2 = z * z;
+    float best = std::numeric_limits<float>::max();
+    std::uint16_t best_label = 0;
+    for (int k = 0; k < 4; ++k) {
+      const float dd = std::fabs(z * (qa[k] * fu + qv[k] + qc[k]) + qd[k]);
+      const bool take = (dd <= best) & (dd <= std::max(tol_floor, tk[k] * z2));
+      best = take ? dd : best;
+      best_label = take ? label[k] : best_label;
+    }
+    lrow[u] = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
+  }
+}
+
+// Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
+// count them).
+RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, int count = -1) {
+  RowSpan span;
+  span.n = count;
+  if (count < 0) {
+    span.n = 0;
+    for (int u = u0; u < u1; ++u) span.n += lrow[u] == label;  // vectorises
+  }
+  if (!span.n) return span;
+  span.first = u0;
+  span.last = u1 - 1;
+  while (lrow[span.first] != label) ++span.first;
+  while (lrow[span.last] != label) --span.last;
+  return span;
+}
+
+// Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
+// their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
+// sums (yr is constant along it) and the loop keeps them in registers.
+void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow, int u0, int u1,
+                   std::uint16_t label, const double* xr, double yr, RegionAccumulator& reg) {
+  double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
+  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+    if (lrow[u] != label) continue;
+    const double z = drow[u] * 0.001, xz = xr[u] * z;
+    n += 1.0;
+    sz += z;
+    szz += z * z;
+    sxz += xz;
+    sxzz += xz * z;
+    sxxzz += xz * xz;
+  }
+  if (n == 0) return;
+  auto& m = reg.sums;
+  m[0] += n;
+  m[1] += sxz;
+  m[2] += yr * sz;
+  m[3] += sz;
+  m[4] += sxxzz;
+  m[5] += yr * sxzz;
+  m[6] += sxzz;
+  m[7] += yr * yr * szz;
+  m[8] += yr * szz;
+  m[9] += szz;
+  if (!crow) return;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
+  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+    if (lrow[u] != label) continue;
+    b += crow[u][0];
+    g += crow[u][1];
+    r += crow[u][2];
+  }
+  reg.colour[0] += b;
+  reg.colour[1] += g;
+  reg.colour[2] += r;
+}
+
+PlaneMoments momentsOf(const RegionAccumulator& reg) {
+  const auto& m = reg.sums;
+  Eigen::Matrix3d ss;
+  ss << m[4], m[5], m[6], m[5], m[7], m[8], m[6], m[8], m[9];
+  return PlaneMoments::fromSums(Eigen::Vector3d::Zero(), m[0], Eigen::Vector3d(m[1], m[2], m[3]), ss);
+}
+
+// The candidate runs of every sample row, kept for the renumbering at the end.
+struct LabelRuns {
+  std::vector<PixelRun> runs;
+  std::vector<int> row_begin;  // runs of sample row r: [row_begin[r], row_begin[r + 1])
+  std::vector<int> row_sample;  // sample row of each image row
+};
+
+// Every full-resolution pixel takes the closest candidate plane of its sample within the
+// tolerance. Moments and colour are accumulated on every second pixel of every second row: a
+// quarter of a region's pixels fit its plane as well as all of them (the fit error is dominated
+// by the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
+// Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
+// the common case is a tight single-plane loop.
+LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+                      const PlaneSampleGrid& grid, const std::vector<CandidateList>& cand,
+                      const std::vector<PlaneHypothesis>& planes, const std::vector<float>& region_tol,
+                      float tol_floor, std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
+  const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
+  const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
+  labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
+  auto sampleOf = [&](int x, int n) {
+    return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
+  };
+  // Pixel columns of each sample column (contiguous: the mapping is monotonic).
+  std::vector<int> sample_u0(C, 0), sample_u1(C, 0);
+  for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
+  for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
+  LabelRuns lr;
+  lr.row_begin.assign(R + 1, 0);
+  std::vector<PixelRun> row_runs;
+  for (int r = 0; r < R; ++r) {
+    candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, row_runs);
+    lr.runs.insert(lr.runs.end(), row_runs.begin(), row_runs.end());
+    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
+  }
+  lr.row_sample.resize(depth_mm.rows);
+  for (int v = 0; v < depth_mm.rows; ++v) lr.row_sample[v] = sampleOf(v, R);
+  std::vector<double> xr(depth_mm.cols);
+  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = (u - K.cx) / K.fx;
+  for (int v = 0; v < depth_mm.rows; ++v) {
+    const int r = lr.row_sample[v];
+    const auto* drow = depth_mm.ptr<std::uint16_t>(v);
+    auto* lrow = labels.ptr<std::uint16_t>(v);
+    const float fv = static_cast<float>(v);
+    const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
+    const double yr = (v - K.cy) / K.fy;
+    int gap_u0 = 0;
+    for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
+      const PixelRun& run = lr.runs[k];
+      std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
+      gap_u0 = run.u1;
+      int count = -1;
+      if (run.list[1] < 0) {
+        const float* q = &coef[4 * run.list[0]];
+        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
+                                        static_cast<std::uint16_t>(run.list[0] + 1));
+      } else {
+        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
+      }
+      for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
+        const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
+        auto& reg = regions[run.list[slot]];
+        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, count), v);
+        if (!(v & 1)) addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+      }
+    }
+    std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
+  }
+  for (auto& reg : regions) reg.moments = momentsOf(reg);
+  return lr;
+}
+
+// Applies `lut` (new label of each label; lut[l] <= l) to the labelled pixels, run by run: a
+// single-candidate run holds one label, so its pixels are rewritten without a look-up.
+void renumberLabels(cv::Mat& labels, const LabelRuns& lr, const std::vector<std::uint16_t>& lut) {
+  for (int v = 0; v < labels.rows; ++v) {
+    auto* l = labels.ptr<std::uint16_t>(v);
+    const int r = lr.row_sample[v];
+    for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
+      const PixelRun& run = lr.runs[k];
+      if (run.list[1] < 0) {
+        const std::uint16_t from = static_cast<std::uint16_t>(run.list[0] + 1), to = lut[from];
+        if (to == from) continue;
+        for (int u = run.u0; u < run.u1; ++u) l[u] = static_cast<std::uint16_t>((l[u] != 0) * to);
+        continue;
+      }
+      for (int u = run.u0; u < run.u1; ++u) l[u] = lut[l[u]];
+    }
+  }
+}
 
 }  // namespace
 
@@ -111,8 +419,11 @@ bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const Pl
   return std::fabs(z1 - z2) <= std::max(0.01f * static_cast<float>(grid.step) * z, tol_k * z * z);
 }
 
-void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+namespace {
+
+// growSampleLabels with the planes' tolerance coefficients already computed.
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const std::vector<PlaneHypothesis>& planes,
+                      const PlaneLabelingParams& params, const std::vector<float>& tol_coef) {
   const int R = grid.points.rows, C = grid.points.cols;
   const PlaneTolerance& tol = params.tolerance;
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
@@ -124,12 +435,19 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
   const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
-  const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
   const float tol_floor = static_cast<float>(tol.floor_m);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
-  for (int i = 0; i < R * C; ++i)
-    if (lab[i] >= 0) queue.push_back(i);
+  // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
+  // others could never take a neighbour, so the growth is that of seeding every labelled sample.
+  auto open = [&](int j) { return lab[j] == -1 && point(j)[2] > 0; };
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      const int i = r * C + c;
+      if (lab[i] < 0) continue;
+      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) || (r + 1 < R && open(i + C)))
+        queue.push_back(i);
+    }
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const int i = queue[q], r = i / C, c = i % C, L = lab[i];
     const float z = point(i)[2];
@@ -151,6 +469,13 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   }
 }
 
+}  // namespace
+
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+  growSampleLabels(grid, sample_labels, planes, params, planeToleranceCoefficients(grid, sample_labels, planes, params));
+}
+
 PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                            const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                            const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
@@ -164,7 +489,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   int* lab = sample_labels.ptr<int>(0);
 
   const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
-  growSampleLabels(grid, sample_labels, planes, params);
+  growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
   std::iota(parent.begin(), parent.end(), 0);
@@ -227,21 +552,32 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
   std::vector<RegionAccumulator> regions;
   {
+    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
+    // pointing at its root.
+    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
     std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
     std::vector<int> plane_region(planes.size(), -1);
-    for (int i = 0; i < R * C; ++i) {
-      if (lab[i] < 0) continue;
-      int& slot = params.split_connected_regions ? root_region[findRoot(parent, i)] : plane_region[lab[i]];
-      if (slot < 0) {
-        slot = static_cast<int>(regions.size());
-        regions.emplace_back();
-        regions.back().plane = lab[i];
-        regions.back().sample_box = cv::Rect(i % C, i / C, 1, 1);
+    std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        if (lab[i] < 0) continue;
+        int& slot = params.split_connected_regions ? root_region[parent[i]] : plane_region[lab[i]];
+        if (slot < 0) {
+          slot = static_cast<int>(regions.size());
+          regions.emplace_back();
+          regions.back().plane = lab[i];
+          bounds.push_back({c, r, c, r});
+        }
+        region_of[i] = slot;
+        ++regions[slot].samples;
+        auto& b = bounds[slot];
+        b[0] = std::min(b[0], c);
+        b[2] = std::max(b[2], c);
+        b[3] = r;  // rows ascend
       }
-      region_of[i] = slot;
-      auto& reg = regions[slot];
-      ++reg.samples;
-      reg.sample_box |= cv::Rect(i % C, i / C, 1, 1);
+    for (std::size_t k = 0; k < regions.size(); ++k) {
+      const auto& b = bounds[k];
+      regions[k].sample_box = cv::Rect(b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
     }
   }
   // Pre-filter on sample counts (half the pixel threshold: edges add pixels at full resolution).
@@ -249,111 +585,16 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (int i = 0; i < R * C; ++i)
     if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
 
-  // 3. Candidate regions per sample: the distinct regions of its 3x3 neighbourhood.
-  std::vector<std::array<int, 4>> cand(static_cast<std::size_t>(R) * C);
-  for (int r = 0; r < R; ++r)
-    for (int c = 0; c < C; ++c) {
-      auto& list = cand[r * C + c];
-      list.fill(-1);
-      int n = 0;
-      auto addc = [&](int reg) {
-        if (reg < 0 || n == 4) return;
-        for (int k = 0; k < n; ++k)
-          if (list[k] == reg) return;
-        list[n++] = reg;
-      };
-      addc(region_of[r * C + c]);  // own region first
-      for (int dr = -1; dr <= 1; ++dr)
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int rr = r + dr, cc = c + dc;
-          if (rr >= 0 && cc >= 0 && rr < R && cc < C) addc(region_of[rr * C + cc]);
-        }
-    }
-
-  // 4. Every pixel takes the closest candidate plane within the tolerance. The distance of a
-  //    pixel with depth z to a plane is z * (A u + B v + C) + D (pinhole form, in floats).
-  //    Moments and colour are accumulated on every second pixel of every second row: a quarter
-  //    of a region's pixels fit its plane as well as all of them (the fit error is dominated by
-  //    the correlated quantisation pattern, not by the pixel count) at a quarter of the cost.
+  // 3-4. Every pixel takes the closest candidate plane (the regions of its 3x3 sample
+  //      neighbourhood) within the tolerance; see labelPixels.
   const std::size_t nreg = regions.size();
-  std::vector<float> coef(4 * nreg), region_tol(nreg);
+  std::vector<float> region_tol(nreg);
   for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
-  for (std::size_t k = 0; k < nreg; ++k) {
-    const auto& h = planes[regions[k].plane];
-    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
-    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
-    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
-    coef[4 * k + 3] = static_cast<float>(h.d);
-  }
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
-  out.labels.create(depth_mm.size(), CV_16UC1);
-  out.labels.setTo(0);
-  std::vector<int> col_sample(depth_mm.cols);
-  for (int u = 0; u < depth_mm.cols; ++u)
-    col_sample[u] = std::clamp(static_cast<int>(std::lround(static_cast<double>(u - off) / step)), 0, C - 1);
-  std::vector<float> xr(depth_mm.cols);
-  for (int u = 0; u < depth_mm.cols; ++u) xr[u] = static_cast<float>((u - K.cx) / K.fx);
-  std::vector<int> row_u0(nreg + 1), row_u1(nreg + 1), row_n(nreg + 1);
-  for (int v = 0; v < depth_mm.rows; ++v) {
-    const int r = std::clamp(static_cast<int>(std::lround(static_cast<double>(v - off) / step)), 0, R - 1);
-    const auto* drow = depth_mm.ptr<std::uint16_t>(v);
-    auto* lrow = out.labels.ptr<std::uint16_t>(v);
-    const float fv = static_cast<float>(v);
-    const std::array<int, 4>* crow_cand = &cand[static_cast<std::size_t>(r) * C];
-    // Pass A: labels only (tight loop).
-    for (int u = 0; u < depth_mm.cols; ++u) {
-      const std::uint16_t raw = drow[u];
-      const auto& list = crow_cand[col_sample[u]];
-      if (raw == 0 || list[0] < 0) continue;
-      const float z = static_cast<float>(raw) * 0.001f;
-      const float fu = static_cast<float>(u);
-      const float z2 = z * z;
-      float best = std::numeric_limits<float>::max();
-      int best_k = -1;
-      for (int k = 0; k < 4 && list[k] >= 0; ++k) {
-        const float* q = &coef[4 * list[k]];
-        const float dd = std::fabs(z * (q[0] * fu + q[1] * fv + q[2]) + q[3]);
-        if (dd <= best && dd <= std::max(tol_floor, region_tol[list[k]] * z2)) {
-          best = dd;
-          best_k = list[k];
-        }
-      }
-      lrow[u] = static_cast<std::uint16_t>(best_k + 1);
-    }
-    // Pass B: counts and bounds per row; moments and colour on even rows and columns.
-    for (int u = 0; u < depth_mm.cols; ++u) {
-      const int l = lrow[u];
-      if (!l) continue;
-      if (row_n[l]++ == 0) row_u0[l] = u;
-      row_u1[l] = u;
-    }
-    for (std::size_t l = 1; l <= nreg; ++l) {
-      if (!row_n[l]) continue;
-      auto& reg = regions[l - 1];
-      reg.count += static_cast<std::size_t>(row_n[l]);
-      reg.u0 = std::min(reg.u0, row_u0[l]);
-      reg.u1 = std::max(reg.u1, row_u1[l]);
-      reg.v0 = std::min(reg.v0, v);
-      reg.v1 = v;
-      row_n[l] = 0;
-    }
-    if (v & 1) continue;
-    const cv::Vec3b* crow = with_colour ? bgr.ptr<cv::Vec3b>(v) : nullptr;
-    const float yr = static_cast<float>((v - K.cy) / K.fy);
-    for (int u = 0; u < depth_mm.cols; u += 2) {
-      const int l = lrow[u];
-      if (!l) continue;
-      auto& reg = regions[l - 1];
-      const float z = static_cast<float>(drow[u]) * 0.001f;
-      reg.moments.add(xr[u] * z, yr * z, z);
-      if (crow) {
-        reg.colour[0] += crow[u][0];
-        reg.colour[1] += crow[u][1];
-        reg.colour[2] += crow[u][2];
-      }
-    }
-  }
+  const LabelRuns label_runs = labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid,
+                                           candidateRegions(region_of, R, C), planes, region_tol, tol_floor, regions,
+                                           out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
@@ -362,6 +603,17 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   //     within max(merge_rms_factor x the worse RMS, tolerance / 3 at their range).
   std::vector<int> merged_into(nreg);
   std::iota(merged_into.begin(), merged_into.end(), 0);
+  // Fits of the regions' full-resolution moments, computed once each (an eigen-solve costs more
+  // than everything else a region pair needs).
+  std::vector<PlaneFit> region_fit(nreg);
+  std::vector<bool> has_fit(nreg, false);
+  auto fitOf = [&](int k) -> const PlaneFit& {
+    if (!has_fit[k]) {
+      region_fit[k] = regions[k].moments.fit();
+      has_fit[k] = true;
+    }
+    return region_fit[k];
+  };
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
     for (int r = 0; r < R; ++r)
@@ -381,7 +633,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     for (const auto& [a0, b0] : adjacent) {
       const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
       if (a == b) continue;
-      const PlaneFit fa = regions[a].moments.fit(), fb = regions[b].moments.fit();
+      const PlaneFit &fa = fitOf(a), &fb = fitOf(b);
       if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
       PlaneMoments joint = regions[a].moments;
       joint.merge(regions[b].moments);
@@ -392,6 +644,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       auto& ra = regions[std::min(a, b)];
       auto& rb = regions[std::max(a, b)];
       ra.moments = joint;
+      region_fit[std::min(a, b)] = f;
       ra.count += rb.count;
       ra.samples += rb.samples;
       ra.sample_box |= rb.sample_box;
@@ -417,7 +670,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       renumber = true;
       continue;
     }
-    const PlaneFit fit = reg.moments.fit();
+    const PlaneFit& fit = fitOf(static_cast<int>(k));
     if (!fit.valid) {
       renumber = true;
       continue;
@@ -455,13 +708,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       renumber = true;
     }
   }
-  if (renumber) {
-    for (int v = 0; v < out.labels.rows; ++v) {
-      auto* l = out.labels.ptr<std::uint16_t>(v);
-      for (int u = 0; u < out.labels.cols; ++u)
-        if (l[u]) l[u] = lut[l[u]];
-    }
-  }
+  if (renumber) renumberLabels(out.labels, label_runs, lut);
   return out;
 }
 

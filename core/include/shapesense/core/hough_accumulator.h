@@ -113,10 +113,12 @@ class HoughAccumulator {
 
   HoughSpaceParams params_;
   double a_cell_ = 0;  // Lambert units per cell
+  double inv_a_cell_ = 0, inv_d_cell_ = 0;  // voting multiplies (a division per vote costs more than the rest)
   int na_ = 0, nd_ = 0, nba_ = 0, nbd_ = 0;
   std::vector<std::int32_t> index_;       // top level: block number or -1
   std::vector<float> cells_;              // pool: block b at [b * kBlockCells, ...)
   std::vector<std::int32_t> block_keys_;  // top-level key of each pooled block
+  std::vector<float> scratch_;            // smoothInto's intermediate pass, kept between frames
 };
 
 }  // namespace shapesense

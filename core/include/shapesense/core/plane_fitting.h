@@ -45,6 +45,17 @@ class PlaneMoments {
     ss_(2, 2) += w * c * c;
   }
   void add(const Eigen::Vector3d& p, double w = 1.0) { add(p.x(), p.y(), p.z(), w); }
+  /// The moments of a point set of total weight n whose offsets from `reference` sum to `sum`
+  /// and whose offsets' outer products sum to `sum_sq`: for loops that keep raw sums in
+  /// registers instead of calling add() per point.
+  static PlaneMoments fromSums(const Eigen::Vector3d& reference, double n, const Eigen::Vector3d& sum,
+                               const Eigen::Matrix3d& sum_sq) {
+    PlaneMoments m(reference);
+    m.n_ = n;
+    m.s_ = sum;
+    m.ss_ = sum_sq.triangularView<Eigen::Upper>().toDenseMatrix();
+    return m;
+  }
   /// Adds another set's moments (any reference).
   void merge(const PlaneMoments& other);
   /// Multiplies the weight of every point so far by f (exponential forgetting).
