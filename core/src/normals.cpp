@@ -16,7 +16,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline bool validZ(float z) { return z > 0.0f; }  // NaN compares false
 
-// Four uint32 lanes (count | steps << 16, X, Y, Z) of one element of the packed integral image:
+// Four uint32 lanes (X, Y, Z, count | steps << 16) of one element of the packed integral image:
 // one 16-byte load fetches a corner for every channel, one vector op combines them.
 using v4u = std::uint32_t __attribute__((vector_size(16)));
 using v4i = std::int32_t __attribute__((vector_size(16)));
@@ -112,21 +112,50 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
+  vstep_.resize(static_cast<std::size_t>(cols));
+  vrow_.resize(static_cast<std::size_t>(cols));
+  float* last_z = last_z_.data();
+  int* last_v = last_v_.data();
+  int* vrow = vrow_.data();
+  std::uint8_t* vstep = vstep_.data();
   for (int v = 0; v < rows; ++v) {
-    const auto* p = points_.ptr<cv::Vec3f>(v);
+    const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     auto* s = steps_.ptr<std::uint8_t>(v);
+    // Vertical steps, against the last valid pixel above in the same column: branch-free so that
+    // it vectorises across the row; the (rare) marks are written afterwards, as they go to the
+    // row of that pixel.
+    for (int u = 0; u < cols; ++u) {
+      const float z = zrow[u], za = last_z[u];
+      const int lv = last_v[u];
+      const int ok = validZ(z);
+      const int gap = v - lv - 1;
+      // isStep(z, za, gap), spelt out with selects.
+      const float zmin = za < z ? za : z;
+      const float by_factor = factor * zmin * static_cast<float>(gap + 1), by_noise = noise_k * zmin * zmin;
+      const float threshold = by_factor < by_noise ? by_noise : by_factor;
+      const int step = std::fabs(z - za) > threshold;
+      vstep[u] = static_cast<std::uint8_t>(ok & (gap <= max_gap) & step);
+      last_z[u] = ok ? z : za;
+      last_v[u] = ok ? v : lv;
+      vrow[u] = lv;
+    }
+    for (int u0 = 0; u0 < cols; u0 += 8) {
+      std::uint64_t any = 0;  // eight flags at once: most of a row has none
+      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
+      if (any == 0) continue;
+      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
+        if (vstep[u]) steps_.ptr<std::uint8_t>(vrow[u])[u] = 1;
+      }
+    }
+    // Horizontal steps, against the last valid pixel to the left.
     float prev_z = 0.0f;
     int prev_u = -1000000;
     for (int u = 0; u < cols; ++u) {
-      const float z = p[u][2];
+      const float z = zrow[u];
       if (!validZ(z)) continue;
       if (u - prev_u - 1 <= max_gap && isStep(z, prev_z, u - prev_u - 1)) s[prev_u] = 1;
       prev_z = z;
       prev_u = u;
-      const int lv = last_v_[u];
-      if (v - lv - 1 <= max_gap && isStep(z, last_z_[u], v - lv - 1)) steps_.ptr<std::uint8_t>(lv)[u] = 1;
-      last_z_[u] = z;
-      last_v_[u] = v;
     }
   }
 }
@@ -322,7 +351,7 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
 }
 
 // The gradient modes: one packed integral image (count | steps << 16 and the 0.1 mm sums), read
-// with one load per corner: 4 uint32 lanes (count, X, Y, Z) for the 3D gradient, one uint64
+// with one load per corner: 4 uint32 lanes (X, Y, Z, count) for the 3D gradient, one uint64
 // (count | steps << 16 in the low half, Z in the high half) for the depth change. All sums wrap
 // around; window sums are exact because no field of a window sum overflows.
 template <int M>
@@ -330,6 +359,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   const int rows = points_.rows, cols = points_.cols;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
+  constexpr int kCountLane = M == kGrad ? 3 : 0;  // the uint32 holding count | steps << 16
   const std::size_t rstride = estride * L;
   packed_.resize(static_cast<std::size_t>(rows + 1) * rstride + 4);
   std::fill(packed_.begin(), packed_.begin() + rstride, 0u);
@@ -343,14 +373,25 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     if constexpr (M == kGrad) {
       v4u acc = {0, 0, 0, 0};
       store4(row, acc);
-      for (int u = 0; u < cols; ++u) {
-        const float z = p[u][2];
-        const bool ok = validZ(z);
-        const v4u e = {static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16), fixed(p[u][0], ok),
-                       fixed(p[u][1], ok), fixed(z, ok)};
+      const float* pf = points_.ptr<float>(v);
+      // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
+      // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
+      auto element = [&](int u, v4f xyz) {
+        const bool ok = validZ(xyz[2]);
+        const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
+        v4u e = reinterpret_cast<v4u>(__builtin_convertvector(kept, v4i));
+        e[3] = static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16);
         acc += e;
         store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
+      };
+      for (int u = 0; u + 1 < cols; ++u) {
+        v4f xyz;
+        std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
+        element(u, xyz);
       }
+      v4f last = {0.0f, 0.0f, 0.0f, 0.0f};
+      std::memcpy(&last, pf + 3 * (cols - 1), 3 * sizeof(float));
+      element(cols - 1, last);
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
@@ -386,24 +427,37 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   float* rny = rnx + cols;
   float* rnz = rny + cols;
   const float ifx = 1.0f / fx, ify = 1.0f / fy;
+  // 1 / count by table lookup: the same value as the division, without a division per window.
+  const std::size_t max_count = static_cast<std::size_t>(2 * max_r + 1) * static_cast<std::size_t>(2 * max_r + 1);
+  if (inv_count_.size() != max_count + 1) {
+    inv_count_.resize(max_count + 1);
+    inv_count_[0] = 0.0f;
+    for (std::size_t n = 1; n <= max_count; ++n) inv_count_[n] = 1.0f / static_cast<float>(n);
+  }
+  const float min_rf = static_cast<float>(min_r), max_rf = static_cast<float>(max_r);
+  // Largest r that the image width leaves at each column (reach r + 1).
+  col_bound_.resize(static_cast<std::size_t>(cols));
+  for (int u = 0; u < cols; ++u) col_bound_[u] = static_cast<float>(std::min(u, cols - 1 - u) - 1);
+  const float* colb = col_bound_.data();
   int built = 0;  // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
     for (const int need = std::min(rows, v + max_r + 2); built < need; ++built) buildRow(built);
     const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     const int border_v = std::min(v, rows - 1 - v) - 1;  // largest r inside the image (reach r + 1)
-    // (a) r = 0 marks an invalid pixel (no depth, or no room).
+    // (a) r = 0 marks an invalid pixel (no depth, or no room). Clamped in float before the
+    // truncation (same result: the bounds are integers and r >= 0) because SSE2 has no int32
+    // min / max: the loop vectorises.
+    const float bv = static_cast<float>(border_v);
     for (int u = 0; u < cols; ++u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
-      const float z = ok ? zp : 0.0f;
-      int r = static_cast<int>(base_r * z + const_r + 0.5f);
-      r = r < min_r ? min_r : r;
-      r = r > max_r ? max_r : r;
-      const int bu = (u < cols - 1 - u ? u : cols - 1 - u) - 1;
-      const int b = bu < border_v ? bu : border_v;
-      r = r < b ? r : b;
-      rr[u] = ok & (r >= min_r) ? r : 0;
+      float r = base_r * (ok ? zp : 0.0f) + const_r + 0.5f;
+      r = r < min_rf ? min_rf : r;
+      r = r > max_rf ? max_rf : r;
+      r = r < colb[u] ? r : colb[u];
+      r = r < bv ? r : bv;
+      rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     }
     // (b)
     const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
@@ -417,7 +471,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       for (; r >= min_r; --r) {
         const int R = r + 1, W = 2 * R + 1;
         const std::uint32_t* a = c0 - R * rs - R * L;
-        const std::uint32_t st = a[W * rs + W * L] - a[W * L] - a[W * rs] + a[0];
+        const std::uint32_t st = a[W * rs + W * L + kCountLane] - a[W * L + kCountLane] - a[W * rs + kCountLane] + a[kCountLane];
         if ((st >> 16) == 0) break;
       }
       if (r < min_r) continue;
@@ -428,22 +482,23 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
       const std::uint32_t* ad = au + 2 * rs;
       const int min_n = std::max(4, static_cast<int>(min_frac * static_cast<float>(w * w)));
+      const float* inv = inv_count_.data();
       if constexpr (M == kGrad) {
         auto win = [&](const std::uint32_t* a) { return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a); };
         const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl[0] & 0xFFFFu), nr = static_cast<int>(sr[0] & 0xFFFFu);
-        const int nu = static_cast<int>(su[0] & 0xFFFFu), nd = static_cast<int>(sd[0] & 0xFFFFu);
+        const int nl = static_cast<int>(sl[3] & 0xFFFFu), nr = static_cast<int>(sr[3] & 0xFFFFu);
+        const int nu = static_cast<int>(su[3] & 0xFFFFu), nd = static_cast<int>(sd[3] & 0xFFFFu);
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * (1.0f / static_cast<float>(nl));
-        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * (1.0f / static_cast<float>(nr));
-        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * (1.0f / static_cast<float>(nu));
-        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * (1.0f / static_cast<float>(nd));
+        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * inv[nl];
+        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * inv[nr];
+        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * inv[nu];
+        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * inv[nd];
         // Differences of the means of the four windows: the averaged tangents (for a plane the
         // mean of 3D points lies on the plane).
         const v4f h = mr - ml, t = md - mu;
-        rnx[u] = h[2] * t[3] - h[3] * t[2];
-        rny[u] = h[3] * t[1] - h[1] * t[3];
-        rnz[u] = h[1] * t[2] - h[2] * t[1];
+        rnx[u] = h[1] * t[2] - h[2] * t[1];
+        rny[u] = h[2] * t[0] - h[0] * t[2];
+        rnz[u] = h[0] * t[1] - h[1] * t[0];
       } else {
         const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
         const std::ptrdiff_t rs64 = rs / 2;
@@ -455,10 +510,10 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         const int nl = static_cast<int>(sl & 0xFFFFu), nr = static_cast<int>(sr & 0xFFFFu);
         const int nu = static_cast<int>(su & 0xFFFFu), nd = static_cast<int>(sd & 0xFFFFu);
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * (1.0f / static_cast<float>(nl));
-        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * (1.0f / static_cast<float>(nr));
-        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * (1.0f / static_cast<float>(nu));
-        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * (1.0f / static_cast<float>(nd));
+        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
+        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
+        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * inv[nu];
+        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * inv[nd];
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);

@@ -85,9 +85,13 @@ class NormalEstimator {
   std::vector<std::uint32_t> packed_;   // gradients: packed integral of (count | steps << 16, sums)
   std::vector<float> zplane_;           // z of points_ (contiguous), NaN invalid
   std::vector<int> rad_;                // one row of window radii
+  std::vector<float> col_bound_;        // largest window radius the image width allows per column
   std::vector<float> row_n_;            // one row of unnormalised normals (x, y, z planes)
+  std::vector<float> inv_count_;        // 1 / n for every window pixel count n
   std::vector<float> last_z_;           // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
+  std::vector<std::uint8_t> vstep_;     // one row of vertical step flags...
+  std::vector<int> vrow_;               // ... and the row each one marks
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
