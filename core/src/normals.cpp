@@ -16,7 +16,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline bool validZ(float z) { return z > 0.0f; }  // NaN compares false
 
-// Four uint32 lanes (X, Y, Z, count | steps << 16) of one element of the packed integral image:
+// Four uint32 lanes (X, Y, Z, count) of one element of the packed integral image:
 // one 16-byte load fetches a corner for every channel, one vector op combines them.
 using v4u = std::uint32_t __attribute__((vector_size(16)));
 using v4i = std::int32_t __attribute__((vector_size(16)));
@@ -157,6 +157,47 @@ void NormalEstimator::markSteps() {
       prev_z = z;
       prev_u = u;
     }
+  }
+}
+
+// Chessboard distance from every pixel to the nearest step mark, capped at `cap`: the square
+// window of radius R centred on a pixel holds no mark iff R < distance, so one lookup replaces
+// shrinking the window through the integral image. Two raster passes with the 3x3 unit mask,
+// which is exact for the chessboard metric; each row's vertical terms vectorise, leaving a
+// running-minimum scan along the row.
+void NormalEstimator::stepDistance(int cap) {
+  const int rows = steps_.rows, cols = steps_.cols;
+  step_dist_.resize(static_cast<std::size_t>(rows) * cols);
+  const auto far = static_cast<std::int16_t>(cap);
+  auto scan = [cols](std::int16_t* d, int dir) {
+    const int first = dir > 0 ? 1 : cols - 2, end = dir > 0 ? cols : -1;
+    for (int u = first; u != end; u += dir) {
+      const auto next = static_cast<std::int16_t>(d[u - dir] + 1);
+      d[u] = next < d[u] ? next : d[u];
+    }
+  };
+  // Folds in the row before (forward) or after (backward) in the pass: neighbours u - 1, u, u + 1.
+  auto fold = [cols](std::int16_t* d, const std::int16_t* o) {
+    d[0] = std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
+    for (int u = 1; u + 1 < cols; ++u) {
+      const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
+      const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
+      d[u] = m < d[u] ? m : d[u];
+    }
+    d[cols - 1] =
+        std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1), static_cast<std::int16_t>(o[cols - 2] + 1)});
+  };
+  for (int v = 0; v < rows; ++v) {
+    const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
+    std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
+    for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    if (v > 0 && cols > 1) fold(d, d - cols);
+    scan(d, 1);
+  }
+  for (int v = rows - 1; v >= 0; --v) {
+    std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
+    if (v + 1 < rows && cols > 1) fold(d, d + cols);
+    scan(d, -1);
   }
 }
 
@@ -350,16 +391,15 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   }
 }
 
-// The gradient modes: one packed integral image (count | steps << 16 and the 0.1 mm sums), read
-// with one load per corner: 4 uint32 lanes (X, Y, Z, count) for the 3D gradient, one uint64
-// (count | steps << 16 in the low half, Z in the high half) for the depth change. All sums wrap
-// around; window sums are exact because no field of a window sum overflows.
+// The gradient modes: one packed integral image (valid count and the 0.1 mm sums), read with one
+// load per corner: 4 uint32 lanes (X, Y, Z, count) for the 3D gradient, one uint64 (count in the
+// low half, Z in the high half) for the depth change. All sums wrap around; window sums are exact
+// because no field of a window sum overflows. Depth steps bound the radius through stepDistance().
 template <int M>
 void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals) {
   const int rows = points_.rows, cols = points_.cols;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
-  constexpr int kCountLane = M == kGrad ? 3 : 0;  // the uint32 holding count | steps << 16
   const std::size_t rstride = estride * L;
   packed_.resize(static_cast<std::size_t>(rows + 1) * rstride + 4);
   std::fill(packed_.begin(), packed_.begin() + rstride, 0u);
@@ -367,7 +407,6 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   // the rows it reads are still in cache.
   auto buildRow = [&](int v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    const auto* st = steps_.ptr<std::uint8_t>(v);
     std::uint32_t* row = packed_.data() + (v + 1) * rstride;
     const std::uint32_t* above = row - rstride;
     if constexpr (M == kGrad) {
@@ -380,7 +419,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         const bool ok = validZ(xyz[2]);
         const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
         v4u e = reinterpret_cast<v4u>(__builtin_convertvector(kept, v4i));
-        e[3] = static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16);
+        e[3] = static_cast<std::uint32_t>(ok);
         acc += e;
         store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
       };
@@ -400,7 +439,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       for (int u = 0; u < cols; ++u) {
         const float z = p[u][2];
         const bool ok = validZ(z);
-        acc += static_cast<std::uint64_t>(static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16)) +
+        acc += static_cast<std::uint64_t>(ok) +
                (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
         row64[u + 1] = above64[u + 1] + acc;
       }
@@ -439,6 +478,13 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   col_bound_.resize(static_cast<std::size_t>(cols));
   for (int u = 0; u < cols; ++u) col_bound_[u] = static_cast<float>(std::min(u, cols - 1 - u) - 1);
   const float* colb = col_bound_.data();
+  // Fewest valid pixels a window of each radius needs.
+  min_count_.resize(static_cast<std::size_t>(max_r) + 1);
+  for (int r = 0; r <= max_r; ++r) {
+    min_count_[r] = std::max(4, static_cast<int>(min_frac * static_cast<float>((2 * r + 1) * (2 * r + 1))));
+  }
+  const int* min_count = min_count_.data();
+  stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
   int built = 0;  // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
@@ -448,7 +494,10 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     // (a) r = 0 marks an invalid pixel (no depth, or no room). Clamped in float before the
     // truncation (same result: the bounds are integers and r >= 0) because SSE2 has no int32
     // min / max: the loop vectorises.
+    // The step distance bounds r so that the union of the four windows (radius r + 1) holds no
+    // step mark: r + 1 < distance.
     const float bv = static_cast<float>(border_v);
+    const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
     for (int u = 0; u < cols; ++u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
@@ -457,37 +506,30 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       r = r > max_rf ? max_rf : r;
       r = r < colb[u] ? r : colb[u];
       r = r < bv ? r : bv;
+      const float by_step = static_cast<float>(dist[u] - 2);
+      r = r < by_step ? r : by_step;
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     }
     // (b)
     const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
+    std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
     for (int u = 0; u < cols; ++u) {
-      rnx[u] = rny[u] = rnz[u] = 0.0f;
-      int r = rr[u];
+      const int r = rr[u];
       if (r == 0) continue;
       const std::uint32_t* c0 = crow + u * L;
-      // Shrink the window until the union of the four windows (radius r + 1) holds no step mark
-      // (most pixels pass at the first try).
-      for (; r >= min_r; --r) {
-        const int R = r + 1, W = 2 * R + 1;
-        const std::uint32_t* a = c0 - R * rs - R * L;
-        const std::uint32_t st = a[W * rs + W * L + kCountLane] - a[W * L + kCountLane] - a[W * rs + kCountLane] + a[kCountLane];
-        if ((st >> 16) == 0) break;
-      }
-      if (r < min_r) continue;
       const int w = 2 * r + 1;
       const std::ptrdiff_t dw = w * rs, dh = w * L;
       const std::uint32_t* al = c0 - r * rs - (r + 1) * L;  // top-left of the window at (u - 1, v)
       const std::uint32_t* ar = al + 2 * L;
       const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
       const std::uint32_t* ad = au + 2 * rs;
-      const int min_n = std::max(4, static_cast<int>(min_frac * static_cast<float>(w * w)));
+      const int min_n = min_count[r];
       const float* inv = inv_count_.data();
       if constexpr (M == kGrad) {
         auto win = [&](const std::uint32_t* a) { return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a); };
         const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl[3] & 0xFFFFu), nr = static_cast<int>(sr[3] & 0xFFFFu);
-        const int nu = static_cast<int>(su[3] & 0xFFFFu), nd = static_cast<int>(sd[3] & 0xFFFFu);
+        const int nl = static_cast<int>(sl[3]), nr = static_cast<int>(sr[3]);
+        const int nu = static_cast<int>(su[3]), nd = static_cast<int>(sd[3]);
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
         const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * inv[nl];
         const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * inv[nr];
@@ -507,8 +549,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
           return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
         };
         const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl & 0xFFFFu), nr = static_cast<int>(sr & 0xFFFFu);
-        const int nu = static_cast<int>(su & 0xFFFFu), nd = static_cast<int>(sd & 0xFFFFu);
+        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)), nr = static_cast<int>(static_cast<std::uint32_t>(sr));
+        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)), nd = static_cast<int>(static_cast<std::uint32_t>(sd));
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
         const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
         const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
