@@ -147,15 +147,30 @@ void NormalEstimator::markSteps() {
         if (vstep[u]) steps_.ptr<std::uint8_t>(vrow[u])[u] = 1;
       }
     }
-    // Horizontal steps, against the last valid pixel to the left.
-    float prev_z = 0.0f;
-    int prev_u = -1000000;
-    for (int u = 0; u < cols; ++u) {
-      const float z = zrow[u];
-      if (!validZ(z)) continue;
-      if (u - prev_u - 1 <= max_gap && isStep(z, prev_z, u - prev_u - 1)) s[prev_u] = 1;
-      prev_z = z;
-      prev_u = u;
+    // Horizontal steps, against the last valid pixel to the left: between neighbours branch-free
+    // (vectorises; nothing has marked this row yet), then across the gaps before the (fewer)
+    // pixels that follow a hole.
+    if (cols == 0) continue;
+    for (int u = 1; u < cols; ++u) {
+      const float z = zrow[u], zl = zrow[u - 1];
+      const float zmin = zl < z ? zl : z;
+      const float by_factor = factor * zmin, by_noise = noise_k * zmin * zmin;
+      const float threshold = by_factor < by_noise ? by_noise : by_factor;
+      s[u - 1] = static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
+      vstep[u] = static_cast<std::uint8_t>(validZ(z) & !validZ(zl));
+    }
+    s[cols - 1] = 0;
+    vstep[0] = 0;
+    for (int u0 = 0; u0 < cols; u0 += 8) {
+      std::uint64_t any = 0;
+      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
+      if (any == 0) continue;
+      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
+        if (!vstep[u]) continue;
+        int prev_u = u - 2;  // u - 1 has no depth
+        while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
+        if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1)) s[prev_u] = 1;
+      }
     }
   }
 }
@@ -283,8 +298,10 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   constexpr int reach = M == kCov ? 0 : 1;
   const std::uint32_t* Mi = mask_.data();
 
+  stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 1 + reach is "far"
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
+    const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
     auto* n_out = normals.ptr<cv::Vec3f>(v);
     const int border_v = std::min(v, rows - 1 - v) - reach;  // largest r inside the image
     for (int u = 0; u < cols; ++u) {
@@ -292,13 +309,8 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
       if (!validZ(z)) continue;
       int r = static_cast<int>(base_r * (scale_r ? z : 1.0f) + 0.5f);
       r = std::min({std::clamp(r, min_r, max_r), border_v, std::min(u, cols - 1 - u) - reach});
-      // Shrink the window until it holds no step mark (most pixels pass at the first try).
-      for (; r >= min_r; --r) {
-        const int R = r + reach;
-        const std::uint32_t* a = Mi + (v - R) * mstride + (u - R);
-        const std::uint32_t s = rectU32(a, a + 2 * R + 1, a + (2 * R + 1) * mstride, a + (2 * R + 1) * (mstride + 1));
-        if ((s >> 16) == 0) break;
-      }
+      // The largest window (radius r + reach) that holds no step mark.
+      r = std::min(r, dist[u] - 1 - reach);
       if (r < min_r) continue;
       const int w = 2 * r + 1;
       const float area = static_cast<float>(w * w);
@@ -326,20 +338,22 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
         // planar patch. Start from the viewing ray (visible surfaces face the camera).
         const double a00 = cyy * czz - cyz * cyz, a01 = cxz * cyz - cxy * czz, a02 = cxy * cyz - cxz * cyy;
         const double a11 = cxx * czz - cxz * cxz, a12 = cxy * cxz - cxx * cyz, a22 = cxx * cyy - cxy * cxy;
+        // The iterates are normalised once at the end (a direction is all that is needed, and the
+        // range of double covers three products by adj(C)), not at every step.
         double ex = -mx, ey = -my, ez = -mz;
         for (int it = 0; it < 3; ++it) {
           const double tx = a00 * ex + a01 * ey + a02 * ez;
           const double ty = a01 * ex + a11 * ey + a12 * ez;
           const double tz = a02 * ex + a12 * ey + a22 * ez;
-          const double len = std::sqrt(tx * tx + ty * ty + tz * tz);
-          if (!(len > 0.0)) break;
-          ex = tx / len;
-          ey = ty / len;
-          ez = tz / len;
+          if (!(tx * tx + ty * ty + tz * tz > 0.0)) break;
+          ex = tx;
+          ey = ty;
+          ez = tz;
         }
-        nx = static_cast<float>(ex);
-        ny = static_cast<float>(ey);
-        nz = static_cast<float>(ez);
+        const double inv_len = 1.0 / std::sqrt(ex * ex + ey * ey + ez * ez);
+        nx = static_cast<float>(ex * inv_len);
+        ny = static_cast<float>(ey * inv_len);
+        nz = static_cast<float>(ez * inv_len);
       } else {
         // Means of the four windows centred one pixel left/right/up/down; their differences are
         // the averaged tangents (for a plane the mean of 3D points lies on the plane).
@@ -578,15 +592,22 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     points_.create(rows, cols, CV_32FC3);
     const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
     const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
+    // Per-column ray x, so that the row loop is a plain vectorisable multiply.
+    ray_x_.resize(static_cast<std::size_t>(cols));
+    for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
+    const float* rx = ray_x_.data();
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
-      auto* p = points_.ptr<cv::Vec3f>(v);
+      float* p = points_.ptr<float>(v);
       const float ry = (static_cast<float>(v) - cy) * inv_fy;
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       for (int u = 0; u < cols; ++u) {
-        const float z = d[u] == 0 ? kNaN : static_cast<float>(d[u]) * 0.001f;
+        const float metres = static_cast<float>(d[u]) * 0.001f;
+        const float z = metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
         zr[u] = z;
-        p[u] = cv::Vec3f((static_cast<float>(u) - cx) * inv_fx * z, ry * z, z);
+        p[3 * u] = rx[u] * z;
+        p[3 * u + 1] = ry * z;
+        p[3 * u + 2] = z;
       }
     }
   } else {

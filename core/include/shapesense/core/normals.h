@@ -86,6 +86,7 @@ class NormalEstimator {
   std::vector<std::int32_t> iintegral_;  // gradients: integral of (x, y, z) or (z), 0.1 mm units
   std::vector<std::uint32_t> packed_;   // gradients: packed integral of (count | steps << 16, sums)
   std::vector<float> zplane_;           // z of points_ (contiguous), NaN invalid
+  std::vector<float> ray_x_;            // (u - cx) / fx per column
   std::vector<int> rad_;                // one row of window radii
   std::vector<int> min_count_;          // fewest valid pixels per window radius
   std::vector<float> col_bound_;        // largest window radius the image width allows per column
