@@ -552,9 +552,12 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // Differences of the means of the four windows: the averaged tangents (for a plane the
         // mean of 3D points lies on the plane).
         const v4f h = mr - ml, t = md - mu;
-        rnx[u] = h[1] * t[2] - h[2] * t[1];
-        rny[u] = h[2] * t[0] - h[0] * t[2];
-        rnz[u] = h[0] * t[1] - h[1] * t[0];
+        // h x t, three lanes at once.
+        const v4f n = __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
+                      __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
+        rnx[u] = n[0];
+        rny[u] = n[1];
+        rnz[u] = n[2];
       } else {
         const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
         const std::ptrdiff_t rs64 = rs / 2;
