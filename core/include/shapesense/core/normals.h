@@ -84,7 +84,7 @@ class NormalEstimator {
   std::vector<std::uint32_t> mask_;     // integral of (valid + (step << 16)), wrap-around
   std::vector<double> integral_;        // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
   std::vector<std::int32_t> iintegral_;  // gradients: integral of (x, y, z) or (z), 0.1 mm units
-  std::vector<std::uint32_t> packed_;   // gradients: packed integral of (count | steps << 16, sums)
+  std::vector<std::uint32_t> packed_;   // gradients: packed integral of (sums, valid count)
   std::vector<float> zplane_;           // z of points_ (contiguous), NaN invalid
   std::vector<float> ray_x_;            // (u - cx) / fx per column
   std::vector<int> rad_;                // one row of window radii
@@ -94,8 +94,8 @@ class NormalEstimator {
   std::vector<float> inv_count_;        // 1 / n for every window pixel count n
   std::vector<float> last_z_;           // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  std::vector<std::uint8_t> vstep_;     // one row of vertical step flags...
-  std::vector<int> vrow_;               // ... and the row each one marks
+  std::vector<std::uint8_t> vstep_;     // one row of flags: vertical steps, then pixels after a hole
+  std::vector<int> vrow_;               // the row each vertical step marks
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
