@@ -16,7 +16,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 inline bool validZ(float z) { return z > 0.0f; }  // NaN compares false
 
-// Four uint32 lanes (count | steps << 16, X, Y, Z) of one element of the packed integral image:
+// Four uint32 lanes (X, Y, Z, count) of one element of the packed integral image:
 // one 16-byte load fetches a corner for every channel, one vector op combines them.
 using v4u = std::uint32_t __attribute__((vector_size(16)));
 using v4i = std::int32_t __attribute__((vector_size(16)));
@@ -112,22 +112,107 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
+  vstep_.resize(static_cast<std::size_t>(cols));
+  vrow_.resize(static_cast<std::size_t>(cols));
+  float* last_z = last_z_.data();
+  int* last_v = last_v_.data();
+  int* vrow = vrow_.data();
+  std::uint8_t* vstep = vstep_.data();
   for (int v = 0; v < rows; ++v) {
-    const auto* p = points_.ptr<cv::Vec3f>(v);
+    const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     auto* s = steps_.ptr<std::uint8_t>(v);
-    float prev_z = 0.0f;
-    int prev_u = -1000000;
+    // Vertical steps, against the last valid pixel above in the same column: branch-free so that
+    // it vectorises across the row; the (rare) marks are written afterwards, as they go to the
+    // row of that pixel.
     for (int u = 0; u < cols; ++u) {
-      const float z = p[u][2];
-      if (!validZ(z)) continue;
-      if (u - prev_u - 1 <= max_gap && isStep(z, prev_z, u - prev_u - 1)) s[prev_u] = 1;
-      prev_z = z;
-      prev_u = u;
-      const int lv = last_v_[u];
-      if (v - lv - 1 <= max_gap && isStep(z, last_z_[u], v - lv - 1)) steps_.ptr<std::uint8_t>(lv)[u] = 1;
-      last_z_[u] = z;
-      last_v_[u] = v;
+      const float z = zrow[u], za = last_z[u];
+      const int lv = last_v[u];
+      const int ok = validZ(z);
+      const int gap = v - lv - 1;
+      // isStep(z, za, gap), spelt out with selects.
+      const float zmin = za < z ? za : z;
+      const float by_factor = factor * zmin * static_cast<float>(gap + 1), by_noise = noise_k * zmin * zmin;
+      const float threshold = by_factor < by_noise ? by_noise : by_factor;
+      const int step = std::fabs(z - za) > threshold;
+      vstep[u] = static_cast<std::uint8_t>(ok & (gap <= max_gap) & step);
+      last_z[u] = ok ? z : za;
+      last_v[u] = ok ? v : lv;
+      vrow[u] = lv;
     }
+    for (int u0 = 0; u0 < cols; u0 += 8) {
+      std::uint64_t any = 0;  // eight flags at once: most of a row has none
+      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
+      if (any == 0) continue;
+      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
+        if (vstep[u]) steps_.ptr<std::uint8_t>(vrow[u])[u] = 1;
+      }
+    }
+    // Horizontal steps, against the last valid pixel to the left: between neighbours branch-free
+    // (vectorises; nothing has marked this row yet), then across the gaps before the (fewer)
+    // pixels that follow a hole.
+    if (cols == 0) continue;
+    for (int u = 1; u < cols; ++u) {
+      const float z = zrow[u], zl = zrow[u - 1];
+      const float zmin = zl < z ? zl : z;
+      const float by_factor = factor * zmin, by_noise = noise_k * zmin * zmin;
+      const float threshold = by_factor < by_noise ? by_noise : by_factor;
+      s[u - 1] = static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
+      vstep[u] = static_cast<std::uint8_t>(validZ(z) & !validZ(zl));
+    }
+    s[cols - 1] = 0;
+    vstep[0] = 0;
+    for (int u0 = 0; u0 < cols; u0 += 8) {
+      std::uint64_t any = 0;
+      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
+      if (any == 0) continue;
+      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
+        if (!vstep[u]) continue;
+        int prev_u = u - 2;  // u - 1 has no depth
+        while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
+        if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1)) s[prev_u] = 1;
+      }
+    }
+  }
+}
+
+// Chessboard distance from every pixel to the nearest step mark, capped at `cap`: the square
+// window of radius R centred on a pixel holds no mark iff R < distance, so one lookup replaces
+// shrinking the window through the integral image. Two raster passes with the 3x3 unit mask,
+// which is exact for the chessboard metric; each row's vertical terms vectorise, leaving a
+// running-minimum scan along the row.
+void NormalEstimator::stepDistance(int cap) {
+  const int rows = steps_.rows, cols = steps_.cols;
+  step_dist_.resize(static_cast<std::size_t>(rows) * cols);
+  const auto far = static_cast<std::int16_t>(cap);
+  auto scan = [cols](std::int16_t* d, int dir) {
+    const int first = dir > 0 ? 1 : cols - 2, end = dir > 0 ? cols : -1;
+    for (int u = first; u != end; u += dir) {
+      const auto next = static_cast<std::int16_t>(d[u - dir] + 1);
+      d[u] = next < d[u] ? next : d[u];
+    }
+  };
+  // Folds in the row before (forward) or after (backward) in the pass: neighbours u - 1, u, u + 1.
+  auto fold = [cols](std::int16_t* d, const std::int16_t* o) {
+    d[0] = std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
+    for (int u = 1; u + 1 < cols; ++u) {
+      const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
+      const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
+      d[u] = m < d[u] ? m : d[u];
+    }
+    d[cols - 1] =
+        std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1), static_cast<std::int16_t>(o[cols - 2] + 1)});
+  };
+  for (int v = 0; v < rows; ++v) {
+    const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
+    std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
+    for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    if (v > 0 && cols > 1) fold(d, d - cols);
+    scan(d, 1);
+  }
+  for (int v = rows - 1; v >= 0; --v) {
+    std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
+    if (v + 1 < rows && cols > 1) fold(d, d + cols);
+    scan(d, -1);
   }
 }
 
@@ -213,8 +298,10 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   constexpr int reach = M == kCov ? 0 : 1;
   const std::uint32_t* Mi = mask_.data();
 
+  stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 1 + reach is "far"
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
+    const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
     auto* n_out = normals.ptr<cv::Vec3f>(v);
     const int border_v = std::min(v, rows - 1 - v) - reach;  // largest r inside the image
     for (int u = 0; u < cols; ++u) {
@@ -222,13 +309,8 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
       if (!validZ(z)) continue;
       int r = static_cast<int>(base_r * (scale_r ? z : 1.0f) + 0.5f);
       r = std::min({std::clamp(r, min_r, max_r), border_v, std::min(u, cols - 1 - u) - reach});
-      // Shrink the window until it holds no step mark (most pixels pass at the first try).
-      for (; r >= min_r; --r) {
-        const int R = r + reach;
-        const std::uint32_t* a = Mi + (v - R) * mstride + (u - R);
-        const std::uint32_t s = rectU32(a, a + 2 * R + 1, a + (2 * R + 1) * mstride, a + (2 * R + 1) * (mstride + 1));
-        if ((s >> 16) == 0) break;
-      }
+      // The largest window (radius r + reach) that holds no step mark.
+      r = std::min(r, dist[u] - 1 - reach);
       if (r < min_r) continue;
       const int w = 2 * r + 1;
       const float area = static_cast<float>(w * w);
@@ -256,20 +338,22 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
         // planar patch. Start from the viewing ray (visible surfaces face the camera).
         const double a00 = cyy * czz - cyz * cyz, a01 = cxz * cyz - cxy * czz, a02 = cxy * cyz - cxz * cyy;
         const double a11 = cxx * czz - cxz * cxz, a12 = cxy * cxz - cxx * cyz, a22 = cxx * cyy - cxy * cxy;
+        // The iterates are normalised once at the end (a direction is all that is needed, and the
+        // range of double covers three products by adj(C)), not at every step.
         double ex = -mx, ey = -my, ez = -mz;
         for (int it = 0; it < 3; ++it) {
           const double tx = a00 * ex + a01 * ey + a02 * ez;
           const double ty = a01 * ex + a11 * ey + a12 * ez;
           const double tz = a02 * ex + a12 * ey + a22 * ez;
-          const double len = std::sqrt(tx * tx + ty * ty + tz * tz);
-          if (!(len > 0.0)) break;
-          ex = tx / len;
-          ey = ty / len;
-          ez = tz / len;
+          if (!(tx * tx + ty * ty + tz * tz > 0.0)) break;
+          ex = tx;
+          ey = ty;
+          ez = tz;
         }
-        nx = static_cast<float>(ex);
-        ny = static_cast<float>(ey);
-        nz = static_cast<float>(ez);
+        const double inv_len = 1.0 / std::sqrt(ex * ex + ey * ey + ez * ez);
+        nx = static_cast<float>(ex * inv_len);
+        ny = static_cast<float>(ey * inv_len);
+        nz = static_cast<float>(ez * inv_len);
       } else {
         // Means of the four windows centred one pixel left/right/up/down; their differences are
         // the averaged tangents (for a plane the mean of 3D points lies on the plane).
@@ -321,10 +405,10 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   }
 }
 
-// The gradient modes: one packed integral image (count | steps << 16 and the 0.1 mm sums), read
-// with one load per corner: 4 uint32 lanes (count, X, Y, Z) for the 3D gradient, one uint64
-// (count | steps << 16 in the low half, Z in the high half) for the depth change. All sums wrap
-// around; window sums are exact because no field of a window sum overflows.
+// The gradient modes: one packed integral image (valid count and the 0.1 mm sums), read with one
+// load per corner: 4 uint32 lanes (X, Y, Z, count) for the 3D gradient, one uint64 (count in the
+// low half, Z in the high half) for the depth change. All sums wrap around; window sums are exact
+// because no field of a window sum overflows. Depth steps bound the radius through stepDistance().
 template <int M>
 void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals) {
   const int rows = points_.rows, cols = points_.cols;
@@ -337,20 +421,30 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   // the rows it reads are still in cache.
   auto buildRow = [&](int v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    const auto* st = steps_.ptr<std::uint8_t>(v);
     std::uint32_t* row = packed_.data() + (v + 1) * rstride;
     const std::uint32_t* above = row - rstride;
     if constexpr (M == kGrad) {
       v4u acc = {0, 0, 0, 0};
       store4(row, acc);
-      for (int u = 0; u < cols; ++u) {
-        const float z = p[u][2];
-        const bool ok = validZ(z);
-        const v4u e = {static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16), fixed(p[u][0], ok),
-                       fixed(p[u][1], ok), fixed(z, ok)};
+      const float* pf = points_.ptr<float>(v);
+      // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
+      // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
+      auto element = [&](int u, v4f xyz) {
+        const bool ok = validZ(xyz[2]);
+        const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
+        v4u e = reinterpret_cast<v4u>(__builtin_convertvector(kept, v4i));
+        e[3] = static_cast<std::uint32_t>(ok);
         acc += e;
         store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
+      };
+      for (int u = 0; u + 1 < cols; ++u) {
+        v4f xyz;
+        std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
+        element(u, xyz);
       }
+      v4f last = {0.0f, 0.0f, 0.0f, 0.0f};
+      std::memcpy(&last, pf + 3 * (cols - 1), 3 * sizeof(float));
+      element(cols - 1, last);
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
@@ -359,7 +453,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       for (int u = 0; u < cols; ++u) {
         const float z = p[u][2];
         const bool ok = validZ(z);
-        acc += static_cast<std::uint64_t>(static_cast<std::uint32_t>(ok) + (static_cast<std::uint32_t>(st[u]) << 16)) +
+        acc += static_cast<std::uint64_t>(ok) +
                (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
         row64[u + 1] = above64[u + 1] + acc;
       }
@@ -386,64 +480,84 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   float* rny = rnx + cols;
   float* rnz = rny + cols;
   const float ifx = 1.0f / fx, ify = 1.0f / fy;
+  // 1 / count by table lookup: the same value as the division, without a division per window.
+  const std::size_t max_count = static_cast<std::size_t>(2 * max_r + 1) * static_cast<std::size_t>(2 * max_r + 1);
+  if (inv_count_.size() != max_count + 1) {
+    inv_count_.resize(max_count + 1);
+    inv_count_[0] = 0.0f;
+    for (std::size_t n = 1; n <= max_count; ++n) inv_count_[n] = 1.0f / static_cast<float>(n);
+  }
+  const float min_rf = static_cast<float>(min_r), max_rf = static_cast<float>(max_r);
+  // Largest r that the image width leaves at each column (reach r + 1).
+  col_bound_.resize(static_cast<std::size_t>(cols));
+  for (int u = 0; u < cols; ++u) col_bound_[u] = static_cast<float>(std::min(u, cols - 1 - u) - 1);
+  const float* colb = col_bound_.data();
+  // Fewest valid pixels a window of each radius needs.
+  min_count_.resize(static_cast<std::size_t>(max_r) + 1);
+  for (int r = 0; r <= max_r; ++r) {
+    min_count_[r] = std::max(4, static_cast<int>(min_frac * static_cast<float>((2 * r + 1) * (2 * r + 1))));
+  }
+  const int* min_count = min_count_.data();
+  stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
   int built = 0;  // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
     for (const int need = std::min(rows, v + max_r + 2); built < need; ++built) buildRow(built);
     const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     const int border_v = std::min(v, rows - 1 - v) - 1;  // largest r inside the image (reach r + 1)
-    // (a) r = 0 marks an invalid pixel (no depth, or no room).
+    // (a) r = 0 marks an invalid pixel (no depth, or no room). Clamped in float before the
+    // truncation (same result: the bounds are integers and r >= 0) because SSE2 has no int32
+    // min / max: the loop vectorises.
+    // The step distance bounds r so that the union of the four windows (radius r + 1) holds no
+    // step mark: r + 1 < distance.
+    const float bv = static_cast<float>(border_v);
+    const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
     for (int u = 0; u < cols; ++u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
-      const float z = ok ? zp : 0.0f;
-      int r = static_cast<int>(base_r * z + const_r + 0.5f);
-      r = r < min_r ? min_r : r;
-      r = r > max_r ? max_r : r;
-      const int bu = (u < cols - 1 - u ? u : cols - 1 - u) - 1;
-      const int b = bu < border_v ? bu : border_v;
-      r = r < b ? r : b;
-      rr[u] = ok & (r >= min_r) ? r : 0;
+      float r = base_r * (ok ? zp : 0.0f) + const_r + 0.5f;
+      r = r < min_rf ? min_rf : r;
+      r = r > max_rf ? max_rf : r;
+      r = r < colb[u] ? r : colb[u];
+      r = r < bv ? r : bv;
+      const float by_step = static_cast<float>(dist[u] - 2);
+      r = r < by_step ? r : by_step;
+      rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     }
     // (b)
     const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
+    std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
     for (int u = 0; u < cols; ++u) {
-      rnx[u] = rny[u] = rnz[u] = 0.0f;
-      int r = rr[u];
+      const int r = rr[u];
       if (r == 0) continue;
       const std::uint32_t* c0 = crow + u * L;
-      // Shrink the window until the union of the four windows (radius r + 1) holds no step mark
-      // (most pixels pass at the first try).
-      for (; r >= min_r; --r) {
-        const int R = r + 1, W = 2 * R + 1;
-        const std::uint32_t* a = c0 - R * rs - R * L;
-        const std::uint32_t st = a[W * rs + W * L] - a[W * L] - a[W * rs] + a[0];
-        if ((st >> 16) == 0) break;
-      }
-      if (r < min_r) continue;
       const int w = 2 * r + 1;
       const std::ptrdiff_t dw = w * rs, dh = w * L;
       const std::uint32_t* al = c0 - r * rs - (r + 1) * L;  // top-left of the window at (u - 1, v)
       const std::uint32_t* ar = al + 2 * L;
       const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
       const std::uint32_t* ad = au + 2 * rs;
-      const int min_n = std::max(4, static_cast<int>(min_frac * static_cast<float>(w * w)));
+      const int min_n = min_count[r];
+      const float* inv = inv_count_.data();
       if constexpr (M == kGrad) {
         auto win = [&](const std::uint32_t* a) { return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a); };
         const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl[0] & 0xFFFFu), nr = static_cast<int>(sr[0] & 0xFFFFu);
-        const int nu = static_cast<int>(su[0] & 0xFFFFu), nd = static_cast<int>(sd[0] & 0xFFFFu);
+        const int nl = static_cast<int>(sl[3]), nr = static_cast<int>(sr[3]);
+        const int nu = static_cast<int>(su[3]), nd = static_cast<int>(sd[3]);
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * (1.0f / static_cast<float>(nl));
-        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * (1.0f / static_cast<float>(nr));
-        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * (1.0f / static_cast<float>(nu));
-        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * (1.0f / static_cast<float>(nd));
+        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * inv[nl];
+        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * inv[nr];
+        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * inv[nu];
+        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * inv[nd];
         // Differences of the means of the four windows: the averaged tangents (for a plane the
         // mean of 3D points lies on the plane).
         const v4f h = mr - ml, t = md - mu;
-        rnx[u] = h[2] * t[3] - h[3] * t[2];
-        rny[u] = h[3] * t[1] - h[1] * t[3];
-        rnz[u] = h[1] * t[2] - h[2] * t[1];
+        // h x t, three lanes at once.
+        const v4f n = __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
+                      __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
+        rnx[u] = n[0];
+        rny[u] = n[1];
+        rnz[u] = n[2];
       } else {
         const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
         const std::ptrdiff_t rs64 = rs / 2;
@@ -452,13 +566,13 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
           return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
         };
         const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl & 0xFFFFu), nr = static_cast<int>(sr & 0xFFFFu);
-        const int nu = static_cast<int>(su & 0xFFFFu), nd = static_cast<int>(sd & 0xFFFFu);
+        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)), nr = static_cast<int>(static_cast<std::uint32_t>(sr));
+        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)), nd = static_cast<int>(static_cast<std::uint32_t>(sd));
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * (1.0f / static_cast<float>(nl));
-        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * (1.0f / static_cast<float>(nr));
-        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * (1.0f / static_cast<float>(nu));
-        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * (1.0f / static_cast<float>(nd));
+        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
+        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
+        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * inv[nu];
+        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * inv[nd];
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
@@ -481,15 +595,22 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     points_.create(rows, cols, CV_32FC3);
     const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
     const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
+    // Per-column ray x, so that the row loop is a plain vectorisable multiply.
+    ray_x_.resize(static_cast<std::size_t>(cols));
+    for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
+    const float* rx = ray_x_.data();
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
-      auto* p = points_.ptr<cv::Vec3f>(v);
+      float* p = points_.ptr<float>(v);
       const float ry = (static_cast<float>(v) - cy) * inv_fy;
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       for (int u = 0; u < cols; ++u) {
-        const float z = d[u] == 0 ? kNaN : static_cast<float>(d[u]) * 0.001f;
+        const float metres = static_cast<float>(d[u]) * 0.001f;
+        const float z = metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
         zr[u] = z;
-        p[u] = cv::Vec3f((static_cast<float>(u) - cx) * inv_fx * z, ry * z, z);
+        p[3 * u] = rx[u] * z;
+        p[3 * u + 1] = ry * z;
+        p[3 * u + 2] = z;
       }
     }
   } else {
