@@ -453,6 +453,7 @@ int main(int argc, char** argv) {
   tr->add_option("--pool", to.pool, "negative pool size");
   tr->add_option("--refill-every", to.refill_every);
   tr->add_option("--window-width", to.window_width);
+  tr->add_option("--jitter", to.jitter, "positives shifted by up to this many pixels (plus shape), each also mirrored");
   tr->add_option("--views", views);
   tr->add_option("--threads", to.threads);
 

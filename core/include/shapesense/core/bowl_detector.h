@@ -45,9 +45,10 @@ struct BowlDetectorParams {
   bool depth_gate = true;      ///< skip windows whose size misfits the depth. Default true.
   /// Final score a window must reach (Real AdaBoost units, applied after the last stage).
   /// Default 12: chosen on the synthetic validation set (seed 5, never trained on) with the
-  /// shipped models: from 0 to 12 recall drops 0.5% (0.938 -> 0.933) while false positives fall
-  /// 300-fold (68 -> 0.23 per frame). Retrained models need it re-chosen (shapesense-train eval
-  /// --threshold).
+  /// shipped models: without box merging, from 0 to 12 recall drops 0.5% (0.938 -> 0.933) while
+  /// false positives fall 300-fold (68 -> 0.23 per frame). The threshold also decides which
+  /// windows a merged box averages (box_merge_iou): with merging, recall is 0.903 at 0 and 0.954
+  /// at 12. Retrained models need it re-chosen (shapesense-train eval --threshold).
   double score_threshold = 12.0;
   /// NMS: two detections are distinct objects when the circles inscribed in their boxes
   /// overlap by less than this fraction of the smaller circle's area. Default 0.10 (seed).
