@@ -8,6 +8,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/depth_preprocess.h"
 #include "shapesense/core/lbp.h"
 
@@ -51,18 +52,38 @@ double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b) {
   return std::clamp((a1 + a2 - k) / small_area, 0.0, 1.0);
 }
 
-std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap) {
+namespace {
+
+// The mean box (corner by corner) of the windows with IoU >= min_iou to `box`.
+cv::Rect meanOfNeighbours(const cv::Rect& box, const std::vector<BowlDetection>& windows, double min_iou) {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int n = 0;
+  for (const auto& w : windows) {
+    if (boxIoU(w.box, box) < min_iou) continue;
+    x0 += w.box.x, y0 += w.box.y, x1 += w.box.x + w.box.width, y1 += w.box.y + w.box.height;
+    ++n;
+  }
+  if (n == 0) return box;
+  const int left = static_cast<int>(std::lround(x0 / n)), top = static_cast<int>(std::lround(y0 / n));
+  return {left, top, static_cast<int>(std::lround(x1 / n)) - left, static_cast<int>(std::lround(y1 / n)) - top};
+}
+
+}  // namespace
+
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap, double merge_iou) {
   std::stable_sort(dets.begin(), dets.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
   std::vector<BowlDetection> kept;
-  for (auto& d : dets) {
+  for (const auto& d : dets) {
     bool distinct = true;
     for (const auto& k : kept)
       if (inscribedCircleOverlap(d.box, k.box) >= max_overlap) {
         distinct = false;
         break;
       }
-    if (distinct) kept.push_back(std::move(d));
+    if (distinct) kept.push_back(d);
   }
+  if (merge_iou > 0)
+    for (auto& k : kept) k.box = meanOfNeighbours(k.box, dets, merge_iou);
   return kept;
 }
 
@@ -257,7 +278,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
 }
 
 std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap);
+  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap, params_.box_merge_iou);
 }
 
 }  // namespace shapesense

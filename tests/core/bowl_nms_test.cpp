@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "shapesense/core/bowl_detector.h"
+#include "shapesense/core/bowl_eval.h"
 
 namespace shapesense {
 namespace {
@@ -52,6 +53,26 @@ TEST(BowlNms, DistinctBelowTenPercentSuppressedAbove) {
   EXPECT_EQ(kept[0].box, a);
   EXPECT_EQ(kept[0].view, "middle");
   EXPECT_EQ(kept[1].box, cv::Rect(200, 0, 40, 40));
+}
+
+TEST(BowlNms, MergedBoxIsTheMeanOfTheKeptWindowsNeighbours) {
+  // The best window is too small for the object; two neighbours at other scales straddle it.
+  // A distant window is neither merged nor merges.
+  const std::vector<BowlDetection> windows = {{{10, 10, 40, 20}, 3.0, "side"},
+                                              {{6, 8, 60, 30}, 2.0, "side"},
+                                              {{8, 6, 50, 34}, 1.5, "middle"},
+                                              {{300, 10, 40, 20}, 1.0, "side"}};
+  ASSERT_GE(boxIoU(windows[0].box, windows[1].box), 0.3);
+  ASSERT_GE(boxIoU(windows[0].box, windows[2].box), 0.3);
+  const auto kept = suppressNonMaxima(windows, 0.10, 0.3);
+  ASSERT_EQ(kept.size(), 2u);
+  // Corners: left (10+6+8)/3 = 8, top (10+8+6)/3 = 8, right (50+66+58)/3 = 58, bottom (30+38+40)/3 = 36.
+  EXPECT_EQ(kept[0].box, cv::Rect(8, 8, 50, 28));
+  EXPECT_DOUBLE_EQ(kept[0].score, 3.0);  // score and view stay the kept window's
+  EXPECT_EQ(kept[0].view, "side");
+  EXPECT_EQ(kept[1].box, cv::Rect(300, 10, 40, 20));
+  // 0 = no merging: the kept window's own box.
+  EXPECT_EQ(suppressNonMaxima(windows, 0.10, 0.0)[0].box, windows[0].box);
 }
 
 }  // namespace

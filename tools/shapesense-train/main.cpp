@@ -3,6 +3,7 @@
 //   shapesense-train generate --out DIR [--seed S] [--positive-scenes N] [--negative-scenes M]
 //   shapesense-train train --data DIR --out MODELS [--seed S] [--stages T] [--views a,b,c]
 //   shapesense-train eval --models MODELS --data DIR      (AP50, miss rate at 0.1 FPPI)
+//   shapesense-train diagnose --models MODELS --data DIR  (why each missed bowl is missed)
 //   shapesense-train real --models MODELS --tum DIR       (detections on a TUM recording)
 //   shapesense-train export-wbdetector --data DIR --out DIR   (image folders for the OpenCV
 //                                                              WBDetector peer, bench/bowls_bench)
@@ -289,10 +290,11 @@ std::vector<BowlTruthBox> truthOf(const DatasetFrame& f) {
   return t;
 }
 
-int runEval(const fs::path& models, const fs::path& data, double threshold, bool verbose) {
-  BowlDetectorParams p;
-  p.score_threshold = threshold;
+int runEval(const fs::path& models, const fs::path& data, const BowlDetectorParams& p, bool verbose,
+            const fs::path& raw_out) {
   const auto detector = BowlDetector::load(models, p);
+  std::ofstream raw_file;
+  if (!raw_out.empty()) raw_file.open(raw_out);
   const auto frames = readDataset(data);
   std::vector<BowlEvalFrame> eval;
   std::map<std::string, std::pair<int, int>> per_view;  // found, total
@@ -303,6 +305,14 @@ int runEval(const fs::path& models, const fs::path& data, double threshold, bool
     BowlEvalFrame e;
     e.detections = detector.detect(depth, f.intrinsics);
     secs += elapsed(t);
+    if (raw_file.is_open()) {  // accepted windows before NMS and the truth, for offline NMS studies
+      json line = {{"file", f.file}, {"truth", json::array()}, {"raw", json::array()}};
+      for (const auto& b : f.bowls)
+        if (b.upright) line["truth"].push_back({b.box.x, b.box.y, b.box.width, b.box.height, b.difficult, b.view});
+      for (const auto& d : detector.detectRaw(depth, f.intrinsics))
+        line["raw"].push_back({d.box.x, d.box.y, d.box.width, d.box.height, d.score, d.view});
+      raw_file << line.dump() << "\n";
+    }
     e.truth = truthOf(f);
     for (const auto& b : f.bowls) {
       if (!b.upright || b.difficult) continue;
@@ -326,6 +336,68 @@ int runEval(const fs::path& models, const fs::path& data, double threshold, bool
               r.frames, r.positives, r.ap, r.miss_rate_at_fppi, r.max_recall, r.true_positives, r.false_positives,
               1000.0 * secs / std::max<std::size_t>(1, frames.size()));
   for (const auto& [v, c] : per_view) std::printf("  view %-6s recall@IoU0.5 %d/%d\n", v.c_str(), c.first, c.second);
+  return 0;
+}
+
+// Why each non-difficult upright bowl is missed (the first cause that applies):
+//  found        a final detection has IoU >= 0.5;
+//  nms          an accepted window (before NMS) has IoU >= 0.5 but NMS kept another box;
+//  calibration  accepted windows lie on the bowl (IoU >= 0.25) but none reaches IoU 0.5;
+//  classifier   no accepted window on the bowl at the score threshold; the best final score
+//               of any window with IoU >= 0.5 that passes the stages' own thresholds
+//               (threshold -inf) is printed, "none" when every such window is rejected early.
+int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetectorParams& p) {
+  const auto detector = BowlDetector::load(models, p);
+  BowlDetectorParams all = p;
+  all.score_threshold = -1e6;
+  const auto loose = BowlDetector::load(models, all);
+  const auto frames = readDataset(data);
+  std::map<std::string, std::map<std::string, int>> causes;  // view -> cause -> count
+  auto best = [](const std::vector<BowlDetection>& ds, const cv::Rect& box) {
+    const BowlDetection* b = nullptr;
+    double iou = 0;
+    for (const auto& d : ds)
+      if (double v = boxIoU(d.box, box); v > iou) iou = v, b = &d;
+    return std::pair{iou, b};
+  };
+  for (const auto& f : frames) {
+    const cv::Mat depth = readDepth(data, f);
+    const auto raw = detector.detectRaw(depth, f.intrinsics);
+    const auto kept = suppressNonMaxima(raw, p.nms_max_overlap, p.box_merge_iou);
+    std::vector<BowlDetection> low;
+    bool low_done = false;
+    for (const auto& b : f.bowls) {
+      if (!b.upright || b.difficult) continue;
+      std::string cause;
+      const auto [fi, fd] = best(kept, b.box);
+      const auto [ri, rd] = best(raw, b.box);
+      if (fi >= 0.5) cause = "found";
+      else if (ri >= 0.5) cause = "nms";
+      else if (ri >= 0.25) cause = "calibration";
+      else cause = "classifier";
+      ++causes[b.view][cause];
+      if (cause == "found") continue;
+      std::printf("%s %-6s truth [%d %d %d %d] %-11s", f.file.c_str(), b.view.c_str(), b.box.x, b.box.y, b.box.width, b.box.height,
+                  cause.c_str());
+      if (fd) std::printf(" final best IoU %.2f [%d %d %d %d %.1f %s]", fi, fd->box.x, fd->box.y, fd->box.width, fd->box.height, fd->score, fd->view.c_str());
+      if (rd) std::printf(" raw best IoU %.2f [%d %d %d %d %.1f %s]", ri, rd->box.x, rd->box.y, rd->box.width, rd->box.height, rd->score, rd->view.c_str());
+      if (cause == "classifier") {
+        if (!low_done) low = loose.detectRaw(depth, f.intrinsics), low_done = true;
+        std::map<std::string, double> top;  // view -> best score among windows with IoU >= 0.5
+        for (const auto& d : low)
+          if (boxIoU(d.box, b.box) >= 0.5) top[d.view] = top.contains(d.view) ? std::max(top[d.view], d.score) : d.score;
+        std::printf(" best score at IoU>=0.5:");
+        if (top.empty()) std::printf(" none");
+        for (const auto& [v, s] : top) std::printf(" %s %.1f", v.c_str(), s);
+      }
+      std::printf("\n");
+    }
+  }
+  for (const auto& [v, c] : causes) {
+    std::printf("view %-6s", v.c_str());
+    for (const auto& [k, n] : c) std::printf("  %s %d", k.c_str(), n);
+    std::printf("\n");
+  }
   return 0;
 }
 
@@ -381,17 +453,34 @@ int main(int argc, char** argv) {
   tr->add_option("--pool", to.pool, "negative pool size");
   tr->add_option("--refill-every", to.refill_every);
   tr->add_option("--window-width", to.window_width);
+  tr->add_option("--jitter", to.jitter, "positives shifted by up to this many pixels (plus shape), each also mirrored");
   tr->add_option("--views", views);
   tr->add_option("--threads", to.threads);
 
   fs::path models, data, tum;
-  double threshold = BowlDetectorParams{}.score_threshold;
+  BowlDetectorParams dp;
+  double& threshold = dp.score_threshold;
+  // Scan options of eval and diagnose (defaults: BowlDetectorParams).
+  auto scanOptions = [&dp](CLI::App* a) {
+    a->add_option("--threshold", dp.score_threshold, "final score threshold");
+    a->add_option("--scale-step", dp.scale_step, "pyramid scale step");
+    a->add_option("--stride", dp.stride, "window stride (level pixels)");
+    a->add_option("--nms-overlap", dp.nms_max_overlap, "NMS inscribed-circle overlap");
+    a->add_option("--merge-iou", dp.box_merge_iou, "box = mean of accepted windows with this IoU (0 = off)");
+    a->add_flag("!--no-depth-gate", dp.depth_gate, "classify every window whatever the depth");
+  };
   bool verbose = false;
   auto* ev = app.add_subcommand("eval", "AP50 and miss rate at 0.1 FPPI on a dataset");
   ev->add_option("--models", models)->required();
   ev->add_option("--data", data)->required();
-  ev->add_option("--threshold", threshold, "final score threshold");
+  scanOptions(ev);
   ev->add_flag("--verbose", verbose);
+  fs::path raw_out;
+  ev->add_option("--raw-out", raw_out, "write every accepted window before NMS and the truth (JSON lines)");
+  auto* dg = app.add_subcommand("diagnose", "why each missed bowl is missed (classifier, box calibration or NMS)");
+  dg->add_option("--models", models)->required();
+  dg->add_option("--data", data)->required();
+  scanOptions(dg);
   auto* re = app.add_subcommand("real", "print detections on a TUM recording");
   re->add_option("--models", models)->required();
   re->add_option("--tum", tum)->required();
@@ -419,7 +508,8 @@ int main(int argc, char** argv) {
       for (std::string v; std::getline(ss, v, ',');) to.views.push_back(v);
       return runTrain(to);
     }
-    if (ev->parsed()) return runEval(models, data, threshold, verbose);
+    if (ev->parsed()) return runEval(models, data, dp, verbose, raw_out);
+    if (dg->parsed()) return runDiagnose(models, data, dp);
     if (re->parsed()) return runReal(models, tum, threshold);
     if (wb->parsed()) {
       wp.views.clear();
