@@ -44,19 +44,22 @@ inline std::uint32_t rectU32(const std::uint32_t* a, const std::uint32_t* b, con
 }
 
 // Unit normals facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1): the sign of
-// n . X for every point X with depth), NaN where the unnormalised normal is (near) zero; branch-free
-// SIMD, interleaved into the CV_32FC3 output row.
-void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx, float ifx, float ry, int cols,
-                  float* out) {
+// n . X for every point X with depth), NaN where the unnormalised normal is (near) zero;
+// branch-free SIMD, interleaved into the CV_32FC3 output row.
+void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx,
+                  float ifx, float ry, int cols, float* out) {
   int u = 0;
 #if defined(__SSE2__)
   const __m128 sign = _mm_set1_ps(-0.0f), zero = _mm_setzero_ps();
   const __m128 nan = _mm_set1_ps(kNaN), eps = _mm_set1_ps(1e-20f), one = _mm_set1_ps(1.0f);
   const __m128 vcx = _mm_set1_ps(cx), vifx = _mm_set1_ps(ifx), vry = _mm_set1_ps(ry);
   for (; u + 4 <= cols; u += 4) {
-    const __m128 nx = _mm_loadu_ps(nx_row + u), ny = _mm_loadu_ps(ny_row + u), nz = _mm_loadu_ps(nz_row + u);
-    const __m128 uf = _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
-    const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
+    const __m128 nx = _mm_loadu_ps(nx_row + u), ny = _mm_loadu_ps(ny_row + u),
+                 nz = _mm_loadu_ps(nz_row + u);
+    const __m128 uf =
+        _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
+    const __m128 len2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
     const __m128 ok = _mm_cmpgt_ps(len2, eps);
     const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, vcx), vifx);
     const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, vry)), nz);
@@ -65,11 +68,15 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
     k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
     const __m128 X = _mm_mul_ps(nx, k), Y = _mm_mul_ps(ny, k), Z = _mm_mul_ps(nz, k);
     // Interleave 4 x (x, y, z) into 12 floats.
-    const __m128 t0 = _mm_unpacklo_ps(X, Y), t1 = _mm_unpackhi_ps(X, Y);  // x0 y0 x1 y1 | x2 y2 x3 y3
-    const __m128 o0 = _mm_shuffle_ps(t0, _mm_shuffle_ps(Z, X, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
-    const __m128 o1 = _mm_shuffle_ps(_mm_shuffle_ps(Y, Z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
-    const __m128 o2 = _mm_shuffle_ps(_mm_shuffle_ps(Z, X, _MM_SHUFFLE(3, 3, 2, 2)), _mm_shuffle_ps(Y, Z, _MM_SHUFFLE(3, 3, 3, 3)),
-                                     _MM_SHUFFLE(2, 0, 2, 0));
+    const __m128 t0 = _mm_unpacklo_ps(X, Y),
+                 t1 = _mm_unpackhi_ps(X, Y);  // x0 y0 x1 y1 | x2 y2 x3 y3
+    const __m128 o0 =
+        _mm_shuffle_ps(t0, _mm_shuffle_ps(Z, X, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
+    const __m128 o1 =
+        _mm_shuffle_ps(_mm_shuffle_ps(Y, Z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
+    const __m128 o2 =
+        _mm_shuffle_ps(_mm_shuffle_ps(Z, X, _MM_SHUFFLE(3, 3, 2, 2)),
+                       _mm_shuffle_ps(Y, Z, _MM_SHUFFLE(3, 3, 3, 3)), _MM_SHUFFLE(2, 0, 2, 0));
     _mm_storeu_ps(out + 3 * u, o0);
     _mm_storeu_ps(out + 3 * u + 4, o1);
     _mm_storeu_ps(out + 3 * u + 8, o2);
@@ -103,8 +110,9 @@ void NormalEstimator::markSteps() {
   steps_.create(rows, cols, CV_8UC1);
   steps_.setTo(0);
   const float factor = static_cast<float>(params_.max_depth_change_factor);
-  const float noise_k = static_cast<float>(params_.depth_change_noise_steps * params_.noise.disparity_step_px /
-                                           params_.noise.focal_baseline_px_m);
+  const float noise_k =
+      static_cast<float>(params_.depth_change_noise_steps * params_.noise.disparity_step_px /
+                         params_.noise.focal_baseline_px_m);
   const int max_gap = std::max(0, params_.max_gap_px);
   auto isStep = [&](float a, float b, int gap) {
     const float z = std::min(a, b);
@@ -131,7 +139,8 @@ void NormalEstimator::markSteps() {
       const int gap = v - lv - 1;
       // isStep(z, za, gap), spelt out with selects.
       const float zmin = za < z ? za : z;
-      const float by_factor = factor * zmin * static_cast<float>(gap + 1), by_noise = noise_k * zmin * zmin;
+      const float by_factor = factor * zmin * static_cast<float>(gap + 1),
+                  by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
       const int step = std::fabs(z - za) > threshold;
       vstep[u] = static_cast<std::uint8_t>(ok & (gap <= max_gap) & step);
@@ -156,7 +165,8 @@ void NormalEstimator::markSteps() {
       const float zmin = zl < z ? zl : z;
       const float by_factor = factor * zmin, by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
-      s[u - 1] = static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
+      s[u - 1] =
+          static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
       vstep[u] = static_cast<std::uint8_t>(validZ(z) & !validZ(zl));
     }
     s[cols - 1] = 0;
@@ -169,7 +179,9 @@ void NormalEstimator::markSteps() {
         if (!vstep[u]) continue;
         int prev_u = u - 2;  // u - 1 has no depth
         while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
-        if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1)) s[prev_u] = 1;
+        if (prev_u >= 0 && u - prev_u - 1 <= max_gap &&
+            isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
+          s[prev_u] = 1;
       }
     }
   }
@@ -193,14 +205,15 @@ void NormalEstimator::stepDistance(int cap) {
   };
   // Folds in the row before (forward) or after (backward) in the pass: neighbours u - 1, u, u + 1.
   auto fold = [cols](std::int16_t* d, const std::int16_t* o) {
-    d[0] = std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
+    d[0] =
+        std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
     for (int u = 1; u + 1 < cols; ++u) {
       const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
       const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
       d[u] = m < d[u] ? m : d[u];
     }
-    d[cols - 1] =
-        std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1), static_cast<std::int16_t>(o[cols - 2] + 1)});
+    d[cols - 1] = std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1),
+                            static_cast<std::int16_t>(o[cols - 2] + 1)});
   };
   for (int v = 0; v < rows; ++v) {
     const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
@@ -216,74 +229,48 @@ void NormalEstimator::stepDistance(int cap) {
   }
 }
 
-// Builds the integral images a mode needs and evaluates every pixel. Mode is a template parameter
-// so that the per-pixel corner arithmetic unrolls.
-template <int M>
-void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
-  constexpr int K = M == kCov ? 9 : (M == kGrad ? 3 : 1);
+// The covariance mode: an integral image of the nine first and second moments (double) and one of
+// the valid count, evaluated at every pixel.
+void NormalEstimator::runCovariance(cv::Mat& normals) {
+  constexpr int K = 9;
   const int rows = points_.rows, cols = points_.cols;
   const std::size_t mstride = static_cast<std::size_t>(cols + 1);
   const std::size_t stride = mstride * K;
   mask_.resize(static_cast<std::size_t>(rows + 1) * mstride);
   std::fill(mask_.begin(), mask_.begin() + mstride, 0u);
-  if constexpr (M == kCov) {
-    integral_.resize(static_cast<std::size_t>(rows + 1) * stride);
-    std::fill(integral_.begin(), integral_.begin() + stride, 0.0);
-  } else {
-    iintegral_.resize(static_cast<std::size_t>(rows + 1) * stride);
-    std::fill(iintegral_.begin(), iintegral_.begin() + stride, 0);
-  }
+  integral_.resize(static_cast<std::size_t>(rows + 1) * stride);
+  std::fill(integral_.begin(), integral_.begin() + stride, 0.0);
   for (int v = 0; v < rows; ++v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    const auto* st = steps_.ptr<std::uint8_t>(v);
     std::uint32_t* mrow = mask_.data() + (v + 1) * mstride;
     const std::uint32_t* mabove = mrow - mstride;
     std::uint32_t macc = 0;
     mrow[0] = 0;
     for (int u = 0; u < cols; ++u) {
-      macc += static_cast<std::uint32_t>(validZ(p[u][2])) + (static_cast<std::uint32_t>(st[u]) << 16);
+      macc += static_cast<std::uint32_t>(validZ(p[u][2]));
       mrow[u + 1] = mabove[u + 1] + macc;
     }
-    if constexpr (M == kCov) {
-      double* row = integral_.data() + (v + 1) * stride;
-      const double* above = row - stride;
-      double acc[K] = {};
-      for (int k = 0; k < K; ++k) row[k] = 0.0;
-      for (int u = 0; u < cols; ++u) {
-        const float zf = p[u][2];
-        if (validZ(zf)) {
-          const double x = p[u][0], y = p[u][1], z = zf;
-          acc[0] += x; acc[1] += y; acc[2] += z;
-          acc[3] += x * x; acc[4] += x * y; acc[5] += x * z;
-          acc[6] += y * y; acc[7] += y * z; acc[8] += z * z;
-        }
-        double* out = row + (u + 1) * K;
-        const double* a = above + (u + 1) * K;
-        for (int k = 0; k < K; ++k) out[k] = a[k] + acc[k];
+    double* row = integral_.data() + (v + 1) * stride;
+    const double* above = row - stride;
+    double acc[K] = {};
+    for (int k = 0; k < K; ++k) row[k] = 0.0;
+    for (int u = 0; u < cols; ++u) {
+      const float zf = p[u][2];
+      if (validZ(zf)) {
+        const double x = p[u][0], y = p[u][1], z = zf;
+        acc[0] += x;
+        acc[1] += y;
+        acc[2] += z;
+        acc[3] += x * x;
+        acc[4] += x * y;
+        acc[5] += x * z;
+        acc[6] += y * y;
+        acc[7] += y * z;
+        acc[8] += z * z;
       }
-    } else {
-      // Fixed point (0.1 mm), int32 with wrap-around (done in uint32 to keep it defined).
-      std::int32_t* row = iintegral_.data() + (v + 1) * stride;
-      const std::int32_t* above = row - stride;
-      std::uint32_t acc[K] = {};
-      for (int k = 0; k < K; ++k) row[k] = 0;
-      for (int u = 0; u < cols; ++u) {
-        const float z = p[u][2];
-        if (validZ(z)) {
-          if constexpr (M == kGrad) {
-            acc[0] += static_cast<std::uint32_t>(static_cast<std::int32_t>(p[u][0] * 1e4f));
-            acc[1] += static_cast<std::uint32_t>(static_cast<std::int32_t>(p[u][1] * 1e4f));
-            acc[2] += static_cast<std::uint32_t>(static_cast<std::int32_t>(z * 1e4f));
-          } else {
-            acc[0] += static_cast<std::uint32_t>(static_cast<std::int32_t>(z * 1e4f));
-          }
-        }
-        std::int32_t* out = row + (u + 1) * K;
-        const std::int32_t* a = above + (u + 1) * K;
-        for (int k = 0; k < K; ++k) {
-          out[k] = static_cast<std::int32_t>(static_cast<std::uint32_t>(a[k]) + acc[k]);
-        }
-      }
+      double* out = row + (u + 1) * K;
+      const double* a = above + (u + 1) * K;
+      for (int k = 0; k < K; ++k) out[k] = a[k] + acc[k];
     }
   }
 
@@ -292,10 +279,7 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
   const int min_r = std::max(1, params_.min_radius_px);
   const int max_r = std::max(min_r, params_.max_radius_px);
   const float min_frac = static_cast<float>(params_.min_valid_fraction);
-  const float fx = static_cast<float>(intr.fx), fy = static_cast<float>(intr.fy);
-  const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-  // The gradient modes read windows centred one pixel off the centre: their union has radius r+1.
-  constexpr int reach = M == kCov ? 0 : 1;
+  constexpr int reach = 0;  // the window is centred on the pixel (the gradient modes' are not)
   const std::uint32_t* Mi = mask_.data();
 
   stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 1 + reach is "far"
@@ -316,86 +300,47 @@ void NormalEstimator::run(const CameraIntrinsics& intr, cv::Mat& normals) {
       const float area = static_cast<float>(w * w);
       auto count = [&](int uc, int vc) {
         const std::uint32_t* a = Mi + (vc - r) * mstride + (uc - r);
-        return static_cast<int>(rectU32(a, a + w, a + w * mstride, a + w * (mstride + 1)) & 0xFFFFu);
+        return static_cast<int>(rectU32(a, a + w, a + w * mstride, a + w * (mstride + 1)));
       };
 
       float nx, ny, nz;
-      if constexpr (M == kCov) {
-        const double n = count(u, v);
-        if (n < std::max(6.0f, min_frac * area)) continue;
-        const double* a = integral_.data() + (v - r) * stride + (u - r) * K;
-        const double* b = a + w * K;
-        const double* c = a + w * stride;
-        const double* d = c + w * K;
-        double s[K];
-        for (int k = 0; k < K; ++k) s[k] = d[k] - b[k] - c[k] + a[k];
-        const double inv = 1.0 / n;
-        const double mx = s[0] * inv, my = s[1] * inv, mz = s[2] * inv;
-        const double cxx = s[3] * inv - mx * mx, cxy = s[4] * inv - mx * my, cxz = s[5] * inv - mx * mz;
-        const double cyy = s[6] * inv - my * my, cyz = s[7] * inv - my * mz, czz = s[8] * inv - mz * mz;
-        // Smallest eigenvector of C = dominant eigenvector of adj(C) (eigenvalues l2*l3, l1*l3,
-        // l1*l2): power iteration converges with ratio l1/l2, i.e. in one or two steps on a
-        // planar patch. Start from the viewing ray (visible surfaces face the camera).
-        const double a00 = cyy * czz - cyz * cyz, a01 = cxz * cyz - cxy * czz, a02 = cxy * cyz - cxz * cyy;
-        const double a11 = cxx * czz - cxz * cxz, a12 = cxy * cxz - cxx * cyz, a22 = cxx * cyy - cxy * cxy;
-        // The iterates are normalised once at the end (a direction is all that is needed, and the
-        // range of double covers three products by adj(C)), not at every step.
-        double ex = -mx, ey = -my, ez = -mz;
-        for (int it = 0; it < 3; ++it) {
-          const double tx = a00 * ex + a01 * ey + a02 * ez;
-          const double ty = a01 * ex + a11 * ey + a12 * ez;
-          const double tz = a02 * ex + a12 * ey + a22 * ez;
-          if (!(tx * tx + ty * ty + tz * tz > 0.0)) break;
-          ex = tx;
-          ey = ty;
-          ez = tz;
-        }
-        const double inv_len = 1.0 / std::sqrt(ex * ex + ey * ey + ez * ez);
-        nx = static_cast<float>(ex * inv_len);
-        ny = static_cast<float>(ey * inv_len);
-        nz = static_cast<float>(ez * inv_len);
-      } else {
-        // Means of the four windows centred one pixel left/right/up/down; their differences are
-        // the averaged tangents (for a plane the mean of 3D points lies on the plane).
-        const int nl = count(u - 1, v), nr = count(u + 1, v), nu = count(u, v - 1), nd = count(u, v + 1);
-        const int min_n = std::max(4, static_cast<int>(min_frac * area));
-        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const std::int32_t* base = iintegral_.data();
-        auto sum = [&](int uc, int vc, float* out) {
-          const std::int32_t* a = base + (vc - r) * stride + (uc - r) * K;
-          const std::int32_t* b = a + w * K;
-          const std::int32_t* c = a + w * stride;
-          const std::int32_t* d = c + w * K;
-          for (int k = 0; k < K; ++k) {
-            out[k] = static_cast<float>(static_cast<std::int32_t>(
-                static_cast<std::uint32_t>(d[k]) - static_cast<std::uint32_t>(b[k]) -
-                static_cast<std::uint32_t>(c[k]) + static_cast<std::uint32_t>(a[k])));
-          }
-        };
-        float sl[K], sr[K], su[K], sd[K];
-        sum(u - 1, v, sl);
-        sum(u + 1, v, sr);
-        sum(u, v - 1, su);
-        sum(u, v + 1, sd);
-        const float il = 1.0f / static_cast<float>(nl), ir = 1.0f / static_cast<float>(nr);
-        const float iu = 1.0f / static_cast<float>(nu), id = 1.0f / static_cast<float>(nd);
-        if constexpr (M == kGrad) {
-          const float hx = sr[0] * ir - sl[0] * il, hy = sr[1] * ir - sl[1] * il, hz = sr[2] * ir - sl[2] * il;
-          const float vx = sd[0] * id - su[0] * iu, vy = sd[1] * id - su[1] * iu, vz = sd[2] * id - su[2] * iu;
-          nx = hy * vz - hz * vy;
-          ny = hz * vx - hx * vz;
-          nz = hx * vy - hy * vx;
-        } else {
-          // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
-          // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
-          const float zl = sl[0] * il, zr = sr[0] * ir, zu_ = su[0] * iu, zd = sd[0] * id;
-          const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
-          const float zm = 0.25f * (zl + zr + zu_ + zd);
-          nx = fx * du;
-          ny = fy * dv;
-          nz = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
-        }
+      const double n = count(u, v);
+      if (n < std::max(6.0f, min_frac * area)) continue;
+      const double* a = integral_.data() + (v - r) * stride + (u - r) * K;
+      const double* b = a + w * K;
+      const double* c = a + w * stride;
+      const double* d = c + w * K;
+      double m[K];  // window sums of the moments
+      for (int k = 0; k < K; ++k) m[k] = d[k] - b[k] - c[k] + a[k];
+      const double inv = 1.0 / n;
+      const double mx = m[0] * inv, my = m[1] * inv, mz = m[2] * inv;
+      const double cxx = m[3] * inv - mx * mx, cxy = m[4] * inv - mx * my,
+                   cxz = m[5] * inv - mx * mz;
+      const double cyy = m[6] * inv - my * my, cyz = m[7] * inv - my * mz,
+                   czz = m[8] * inv - mz * mz;
+      // Smallest eigenvector of C = dominant eigenvector of adj(C) (eigenvalues l2*l3, l1*l3,
+      // l1*l2): power iteration converges with ratio l1/l2, i.e. in one or two steps on a
+      // planar patch. Start from the viewing ray (visible surfaces face the camera).
+      const double a00 = cyy * czz - cyz * cyz, a01 = cxz * cyz - cxy * czz,
+                   a02 = cxy * cyz - cxz * cyy;
+      const double a11 = cxx * czz - cxz * cxz, a12 = cxy * cxz - cxx * cyz,
+                   a22 = cxx * cyy - cxy * cxy;
+      // The iterates are normalised once at the end (a direction is all that is needed, and the
+      // range of double covers three products by adj(C)), not at every step.
+      double ex = -mx, ey = -my, ez = -mz;
+      for (int it = 0; it < 3; ++it) {
+        const double tx = a00 * ex + a01 * ey + a02 * ez;
+        const double ty = a01 * ex + a11 * ey + a12 * ez;
+        const double tz = a02 * ex + a12 * ey + a22 * ez;
+        if (!(tx * tx + ty * ty + tz * tz > 0.0)) break;
+        ex = tx;
+        ey = ty;
+        ez = tz;
       }
+      const double inv_len = 1.0 / std::sqrt(ex * ex + ey * ey + ez * ez);
+      nx = static_cast<float>(ex * inv_len);
+      ny = static_cast<float>(ey * inv_len);
+      nz = static_cast<float>(ez * inv_len);
       const float len2 = nx * nx + ny * ny + nz * nz;
       if (!(len2 > 1e-20f)) continue;
       float s = 1.0f / std::sqrt(len2);
@@ -453,15 +398,16 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       for (int u = 0; u < cols; ++u) {
         const float z = p[u][2];
         const bool ok = validZ(z);
-        acc += static_cast<std::uint64_t>(ok) +
-               (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
+        acc += static_cast<std::uint64_t>(ok) + (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
         row64[u + 1] = above64[u + 1] + acc;
       }
     }
   };
 
-  const float base_r = static_cast<float>(params_.smoothing_radius_px) * (params_.depth_dependent_smoothing ? 1.0f : 0.0f);
-  const float const_r = params_.depth_dependent_smoothing ? 0.0f : static_cast<float>(params_.smoothing_radius_px);
+  const float base_r = static_cast<float>(params_.smoothing_radius_px) *
+                       (params_.depth_dependent_smoothing ? 1.0f : 0.0f);
+  const float const_r =
+      params_.depth_dependent_smoothing ? 0.0f : static_cast<float>(params_.smoothing_radius_px);
   const int min_r = std::max(1, params_.min_radius_px);
   const int max_r = std::max(min_r, params_.max_radius_px);
   const float min_frac = static_cast<float>(params_.min_valid_fraction);
@@ -481,7 +427,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   float* rnz = rny + cols;
   const float ifx = 1.0f / fx, ify = 1.0f / fy;
   // 1 / count by table lookup: the same value as the division, without a division per window.
-  const std::size_t max_count = static_cast<std::size_t>(2 * max_r + 1) * static_cast<std::size_t>(2 * max_r + 1);
+  const std::size_t max_count =
+      static_cast<std::size_t>(2 * max_r + 1) * static_cast<std::size_t>(2 * max_r + 1);
   if (inv_count_.size() != max_count + 1) {
     inv_count_.resize(max_count + 1);
     inv_count_[0] = 0.0f;
@@ -495,11 +442,12 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   // Fewest valid pixels a window of each radius needs.
   min_count_.resize(static_cast<std::size_t>(max_r) + 1);
   for (int r = 0; r <= max_r; ++r) {
-    min_count_[r] = std::max(4, static_cast<int>(min_frac * static_cast<float>((2 * r + 1) * (2 * r + 1))));
+    min_count_[r] =
+        std::max(4, static_cast<int>(min_frac * static_cast<float>((2 * r + 1) * (2 * r + 1))));
   }
   const int* min_count = min_count_.data();
   stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
-  int built = 0;  // image rows integrated so far
+  int built = 0;                             // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
     for (const int need = std::min(rows, v + max_r + 2); built < need; ++built) buildRow(built);
@@ -540,7 +488,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const int min_n = min_count[r];
       const float* inv = inv_count_.data();
       if constexpr (M == kGrad) {
-        auto win = [&](const std::uint32_t* a) { return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a); };
+        auto win = [&](const std::uint32_t* a) {
+          return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a);
+        };
         const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
         const int nl = static_cast<int>(sl[3]), nr = static_cast<int>(sr[3]);
         const int nu = static_cast<int>(su[3]), nd = static_cast<int>(sd[3]);
@@ -553,8 +503,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // mean of 3D points lies on the plane).
         const v4f h = mr - ml, t = md - mu;
         // h x t, three lanes at once.
-        const v4f n = __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
-                      __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
+        const v4f n =
+            __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
+            __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
         rnx[u] = n[0];
         rny[u] = n[1];
         rnz[u] = n[2];
@@ -566,8 +517,10 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
           return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
         };
         const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)), nr = static_cast<int>(static_cast<std::uint32_t>(sr));
-        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)), nd = static_cast<int>(static_cast<std::uint32_t>(sd));
+        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)),
+                  nr = static_cast<int>(static_cast<std::uint32_t>(sr));
+        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)),
+                  nd = static_cast<int>(static_cast<std::uint32_t>(sd));
         if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
         const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
         const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
@@ -583,17 +536,20 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       }
     }
     // (c)
-    normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols, normals.ptr<float>(v));
+    normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols,
+                 normals.ptr<float>(v));
   }
 }
 
-void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr, cv::Mat& normals) {
+void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr,
+                              cv::Mat& normals) {
   CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
   const int rows = input.rows, cols = input.cols;
   zplane_.resize(static_cast<std::size_t>(rows) * cols);
   if (input.type() == CV_16UC1) {
     points_.create(rows, cols, CV_32FC3);
-    const float inv_fx = static_cast<float>(1.0 / intr.fx), inv_fy = static_cast<float>(1.0 / intr.fy);
+    const float inv_fx = static_cast<float>(1.0 / intr.fx),
+                inv_fy = static_cast<float>(1.0 / intr.fy);
     const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
     // Per-column ray x, so that the row loop is a plain vectorisable multiply.
     ray_x_.resize(static_cast<std::size_t>(cols));
@@ -606,7 +562,8 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       for (int u = 0; u < cols; ++u) {
         const float metres = static_cast<float>(d[u]) * 0.001f;
-        const float z = metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
+        const float z =
+            metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
         zr[u] = z;
         p[3 * u] = rx[u] * z;
         p[3 * u + 1] = ry * z;
@@ -626,10 +583,14 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
   switch (params_.method) {
     case NormalMethod::kCovariance:
       normals.setTo(cv::Scalar::all(kNaN));
-      run<kCov>(intr, normals);
+      runCovariance(normals);
       break;
-    case NormalMethod::kAverage3dGradient: runGradient<kGrad>(intr, normals); break;
-    case NormalMethod::kAverageDepthChange: runGradient<kDepth>(intr, normals); break;
+    case NormalMethod::kAverage3dGradient:
+      runGradient<kGrad>(intr, normals);
+      break;
+    case NormalMethod::kAverageDepthChange:
+      runGradient<kDepth>(intr, normals);
+      break;
   }
 }
 

@@ -10,8 +10,9 @@
 //    pinhole model (fastest, least precise: holes bias it).
 // The window half-size grows with range (Kinect noise grows with z^2) and is clipped so that the
 // window never contains a depth step: a step is a depth change between neighbouring valid pixels
-// above max(max_depth_change_factor * z, depth_change_noise_steps * KinectNoiseModel::depthStep(z));
-// pixels within `min_radius_px` of a step, or without depth, get NaN normals.
+// above max(max_depth_change_factor * z, depth_change_noise_steps *
+// KinectNoiseModel::depthStep(z)); pixels within `min_radius_px` of a step, or without depth, get
+// NaN normals.
 
 #include <cstdint>
 #include <vector>
@@ -72,30 +73,28 @@ class NormalEstimator {
  private:
   void markSteps();
   void stepDistance(int cap);
-  template <int Mode>
-  void run(const CameraIntrinsics& intrinsics, cv::Mat& normals);  // covariance
+  void runCovariance(cv::Mat& normals);
   template <int Mode>
   void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   NormalParams params_;
-  cv::Mat points_;                      // CV_32FC3
-  cv::Mat steps_;                       // CV_8UC1, 1 on one pixel of every depth step
+  cv::Mat points_;                       // CV_32FC3
+  cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
   std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
-  std::vector<std::uint32_t> mask_;     // integral of (valid + (step << 16)), wrap-around
-  std::vector<double> integral_;        // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
-  std::vector<std::int32_t> iintegral_;  // gradients: integral of (x, y, z) or (z), 0.1 mm units
-  std::vector<std::uint32_t> packed_;   // gradients: packed integral of (sums, valid count)
-  std::vector<float> zplane_;           // z of points_ (contiguous), NaN invalid
-  std::vector<float> ray_x_;            // (u - cx) / fx per column
-  std::vector<int> rad_;                // one row of window radii
-  std::vector<int> min_count_;          // fewest valid pixels per window radius
-  std::vector<float> col_bound_;        // largest window radius the image width allows per column
-  std::vector<float> row_n_;            // one row of unnormalised normals (x, y, z planes)
-  std::vector<float> inv_count_;        // 1 / n for every window pixel count n
-  std::vector<float> last_z_;           // per-column scratch for the vertical step scan
+  std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
+  std::vector<double> integral_;       // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
+  std::vector<std::uint32_t> packed_;  // gradients: packed integral of (sums, valid count)
+  std::vector<float> zplane_;          // z of points_ (contiguous), NaN invalid
+  std::vector<float> ray_x_;           // (u - cx) / fx per column
+  std::vector<int> rad_;               // one row of window radii
+  std::vector<int> min_count_;         // fewest valid pixels per window radius
+  std::vector<float> col_bound_;       // largest window radius the image width allows per column
+  std::vector<float> row_n_;           // one row of unnormalised normals (x, y, z planes)
+  std::vector<float> inv_count_;       // 1 / n for every window pixel count n
+  std::vector<float> last_z_;          // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  std::vector<std::uint8_t> vstep_;     // one row of flags: vertical steps, then pixels after a hole
-  std::vector<int> vrow_;               // the row each vertical step marks
+  std::vector<std::uint8_t> vstep_;  // one row of flags: vertical steps, then pixels after a hole
+  std::vector<int> vrow_;            // the row each vertical step marks
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
