@@ -208,6 +208,25 @@ std::string summary(const std::vector<Sample>& samples, double* median_containme
   return os.str();
 }
 
+struct Medians {
+  double containment = 0.0;
+  double volume_ratio = 0.0;
+};
+
+// Prints one mode's figures under `label`, records them as test properties named after
+// `key_prefix` and the mode, and returns the medians.
+Medians report(const std::string& label, const std::string& key_prefix, BoxMode mode,
+               const std::vector<Sample>& samples) {
+  Medians m;
+  const std::string text = summary(samples, &m.containment, &m.volume_ratio);
+  std::cout << "[ " << label << " ] mode " << static_cast<int>(mode) << " (" << toString(mode)
+            << "): " << text << "\n";
+  const std::string key = key_prefix + std::to_string(static_cast<int>(mode));
+  ::testing::Test::RecordProperty(key + "_median_containment", std::to_string(m.containment));
+  ::testing::Test::RecordProperty(key + "_median_volume_ratio", std::to_string(m.volume_ratio));
+  return m;
+}
+
 TEST(BoxEstimationSynthetic, ContainmentAndVolumeAgainstGroundTruth) {
   std::vector<double> oracle;
   const auto results = measure(RoiKind::kSilhouette, &oracle);
@@ -220,13 +239,7 @@ TEST(BoxEstimationSynthetic, ContainmentAndVolumeAgainstGroundTruth) {
     const auto it = results.find(mode);
     ASSERT_NE(it, results.end()) << toString(mode);
     ASSERT_GE(it->second.size(), 20u) << "too few objects measured";
-    double containment = 0.0, volume = 0.0;
-    const std::string text = summary(it->second, &containment, &volume);
-    std::cout << "[ box vs truth ] mode " << static_cast<int>(mode) << " (" << toString(mode)
-              << "): " << text << "\n";
-    const std::string key = std::string("mode") + std::to_string(static_cast<int>(mode));
-    RecordProperty(key + "_median_containment", std::to_string(containment));
-    RecordProperty(key + "_median_volume_ratio", std::to_string(volume));
+    const auto [containment, volume] = report("box vs truth", "mode", mode, it->second);
     if (mode == BoxMode::kAxisAlignedContained) {
       // The ceiling itself is below the 0.95: keep checking that, so that a change of
       // the scenes that lifts it shows up here and the target can be asserted again.
@@ -257,14 +270,8 @@ TEST(BoxEstimationSynthetic, Mode2MeetsTargetsWithProjectedTrueBoxAsRoi) {
             << "containment median " << oracle_median << "\n";
   for (const auto& [mode, samples] : results) {
     ASSERT_GE(samples.size(), 20u) << "too few objects wholly in view";
-    double containment = 0.0, volume = 0.0;
-    const std::string text = summary(samples, &containment, &volume);
-    std::cout << "[ box vs truth, projected-box ROI ] mode " << static_cast<int>(mode) << " ("
-              << toString(mode) << "): " << text << "\n";
-    const std::string key =
-        std::string("projected_roi_mode") + std::to_string(static_cast<int>(mode));
-    RecordProperty(key + "_median_containment", std::to_string(containment));
-    RecordProperty(key + "_median_volume_ratio", std::to_string(volume));
+    const auto [containment, volume] =
+        report("box vs truth, projected-box ROI", "projected_roi_mode", mode, samples);
     if (mode == BoxMode::kAxisAlignedContained) {
       EXPECT_GE(oracle_median, 0.99) << "the ROI no longer contains the box's projection";
       EXPECT_GE(containment, 0.95);
