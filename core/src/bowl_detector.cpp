@@ -54,8 +54,13 @@ double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b) {
 
 namespace {
 
-// The mean box (corner by corner) of the windows with IoU >= min_iou to `box`.
-cv::Rect meanOfNeighbours(const cv::Rect& box, const std::vector<BowlDetection>& windows, double min_iou) {
+// The windows with IoU >= min_iou to a box: how many, and their mean box (corner by corner).
+struct Neighbourhood {
+  cv::Rect mean_box;
+  int count = 0;
+};
+
+Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>& windows, double min_iou) {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   int n = 0;
   for (const auto& w : windows) {
@@ -63,14 +68,16 @@ cv::Rect meanOfNeighbours(const cv::Rect& box, const std::vector<BowlDetection>&
     x0 += w.box.x, y0 += w.box.y, x1 += w.box.x + w.box.width, y1 += w.box.y + w.box.height;
     ++n;
   }
-  if (n == 0) return box;
+  if (n == 0) return {box, 0};
   const int left = static_cast<int>(std::lround(x0 / n)), top = static_cast<int>(std::lround(y0 / n));
-  return {left, top, static_cast<int>(std::lround(x1 / n)) - left, static_cast<int>(std::lround(y1 / n)) - top};
+  return {{left, top, static_cast<int>(std::lround(x1 / n)) - left, static_cast<int>(std::lround(y1 / n)) - top},
+          n};
 }
 
 }  // namespace
 
-std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap, double merge_iou) {
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap, double merge_iou,
+                                             double support_weight) {
   std::stable_sort(dets.begin(), dets.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
   std::vector<BowlDetection> kept;
   for (const auto& d : dets) {
@@ -82,8 +89,13 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
       }
     if (distinct) kept.push_back(d);
   }
-  if (merge_iou > 0)
-    for (auto& k : kept) k.box = meanOfNeighbours(k.box, dets, merge_iou);
+  if (merge_iou <= 0) return kept;
+  for (auto& k : kept) {
+    const Neighbourhood around = neighboursOf(k.box, dets, merge_iou);
+    k.box = around.mean_box;
+    if (support_weight > 0 && around.count > 1) k.score += support_weight * std::log(around.count);
+  }
+  std::stable_sort(kept.begin(), kept.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
   return kept;
 }
 
@@ -278,7 +290,8 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
 }
 
 std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap, params_.box_merge_iou);
+  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap, params_.box_merge_iou,
+                           params_.support_score_weight);
 }
 
 }  // namespace shapesense

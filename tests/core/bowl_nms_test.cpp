@@ -75,5 +75,25 @@ TEST(BowlNms, MergedBoxIsTheMeanOfTheKeptWindowsNeighbours) {
   EXPECT_EQ(suppressNonMaxima(windows, 0.10, 0.0)[0].box, windows[0].box);
 }
 
+TEST(BowlNms, SupportBonusReRanksWithoutChangingWhatIsKept) {
+  // A lone window (a look-alike) outscores each of three overlapping windows on one object;
+  // with the bonus, the supported object ranks first: 3.0 + 2 ln 3 = 5.197 > 4.0.
+  const std::vector<BowlDetection> windows = {{{300, 10, 40, 20}, 4.0, "side"},
+                                              {{10, 10, 40, 20}, 3.0, "side"},
+                                              {{6, 8, 60, 30}, 2.0, "side"},
+                                              {{8, 6, 50, 34}, 1.5, "middle"}};
+  const auto plain = suppressNonMaxima(windows, 0.10, 0.3, 0.0);
+  const auto supported = suppressNonMaxima(windows, 0.10, 0.3, 2.0);
+  ASSERT_EQ(plain.size(), 2u);
+  ASSERT_EQ(supported.size(), 2u);
+  EXPECT_EQ(plain[0].box, cv::Rect(300, 10, 40, 20));
+  EXPECT_DOUBLE_EQ(plain[0].score, 4.0);
+  EXPECT_EQ(supported[0].box, cv::Rect(8, 8, 50, 28));  // the merged box, as without the bonus
+  EXPECT_NEAR(supported[0].score, 3.0 + 2.0 * std::log(3.0), 1e-12);
+  EXPECT_EQ(supported[0].view, "side");
+  EXPECT_EQ(supported[1].box, cv::Rect(300, 10, 40, 20));
+  EXPECT_DOUBLE_EQ(supported[1].score, 4.0);  // ln 1 = 0: a lone window gains nothing
+}
+
 }  // namespace
 }  // namespace shapesense

@@ -363,7 +363,7 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
   for (const auto& f : frames) {
     const cv::Mat depth = readDepth(data, f);
     const auto raw = detector.detectRaw(depth, f.intrinsics);
-    const auto kept = suppressNonMaxima(raw, p.nms_max_overlap, p.box_merge_iou);
+    const auto kept = suppressNonMaxima(raw, p.nms_max_overlap, p.box_merge_iou, p.support_score_weight);
     std::vector<BowlDetection> low;
     bool low_done = false;
     for (const auto& b : f.bowls) {
@@ -467,6 +467,8 @@ int main(int argc, char** argv) {
     a->add_option("--stride", dp.stride, "window stride (level pixels)");
     a->add_option("--nms-overlap", dp.nms_max_overlap, "NMS inscribed-circle overlap");
     a->add_option("--merge-iou", dp.box_merge_iou, "box = mean of accepted windows with this IoU (0 = off)");
+    a->add_option("--support-weight", dp.support_score_weight,
+                  "score += weight * ln(windows merged into the box) (0 = off)");
     a->add_flag("!--no-depth-gate", dp.depth_gate, "classify every window whatever the depth");
   };
   bool verbose = false;
