@@ -20,7 +20,6 @@
 #include <map>
 #include <numeric>
 #include <random>
-#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -33,6 +32,7 @@
 #include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/depth_preprocess.h"
+#include "shapesense/driver/tum_recording.h"
 #include "wbdetector_export.h"
 
 namespace fs = std::filesystem;
@@ -405,21 +405,24 @@ int runReal(const fs::path& models, const fs::path& tum, double threshold) {
   BowlDetectorParams p;
   p.score_threshold = threshold;
   const auto detector = BowlDetector::load(models, p);
-  std::ifstream idx(tum / "depth.txt");
-  std::string line;
+  // The driver's reader: camera.json's intrinsics and depth scale when the recording has one.
+  const TumIndex index = readTumIndex(tum);
+  for (const auto& problem : index.problems) spdlog::warn("{}", problem);
   int n = 0;
-  while (std::getline(idx, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ss(line);
-    std::string ts, file;
-    ss >> ts >> file;
-    cv::Mat raw = cv::imread((tum / file).string(), cv::IMREAD_UNCHANGED), mm;
-    raw.convertTo(mm, CV_16U, 1000.0 / 5000.0);  // TUM: 5000 units per metre
-    CameraIntrinsics intr;
-    const auto dets = detector.detect(mm, intr);
-    std::printf("frame %d (%s):", ++n, file.c_str());
+  for (const auto& entry : index.depth) {
+    const fs::path file = tum / entry.relative_path;
+    const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (raw.empty() || raw.type() != CV_16UC1) {
+      spdlog::error("{}: not a 16-bit depth PNG", file.string());
+      return 1;
+    }
+    cv::Mat mm;
+    raw.convertTo(mm, CV_16UC1, 1000.0 / index.camera.depth_scale);
+    const auto dets = detector.detect(mm, index.camera.intrinsics);
+    std::printf("frame %d (%s):", ++n, entry.relative_path.c_str());
     for (const auto& d : dets)
-      std::printf(" [%d %d %d %d score %.2f %s]", d.box.x, d.box.y, d.box.x + d.box.width - 1, d.box.y + d.box.height - 1, d.score, d.view.c_str());
+      std::printf(" [%d %d %d %d score %.2f %s]", d.box.x, d.box.y, d.box.x + d.box.width - 1,
+                  d.box.y + d.box.height - 1, d.score, d.view.c_str());
     std::printf("\n");
   }
   return 0;
