@@ -21,11 +21,11 @@
 #include <numeric>
 #include <random>
 
+#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <spdlog/spdlog.h>
 
 #include "dataset.h"
 #include "shapesense/core/bowl_detector.h"
@@ -78,13 +78,16 @@ std::uint64_t viewId(const std::string& v) { return v == "top" ? 1 : v == "middl
 
 void progress(const std::string& view, const WaldBoostStageStats& s, int total, double secs) {
   const int width = 30, filled = s.stage * width / std::max(1, total);
-  std::fprintf(stderr, "\r[%-6s] %3d/%d |%s%s| pos kept %.3f  neg rejected %.2f  pool %5zu%s  %.0f s   ", view.c_str(),
-               s.stage, total, std::string(filled, '#').c_str(), std::string(width - filled, ' ').c_str(),
-               s.positives_kept, s.negatives_rejected, s.negative_pool, s.refilled ? " (refilled)" : "           ", secs);
+  std::fprintf(stderr,
+               "\r[%-6s] %3d/%d |%s%s| pos kept %.3f  neg rejected %.2f  pool %5zu%s  %.0f s   ",
+               view.c_str(), s.stage, total, std::string(filled, '#').c_str(),
+               std::string(width - filled, ' ').c_str(), s.positives_kept, s.negatives_rejected,
+               s.negative_pool, s.refilled ? " (refilled)" : "           ", secs);
 }
 
 // Crops the window centred on `centre` (level pixels) from a level, optionally flipped.
-bool cropWindow(const cv::Mat& level8, cv::Point2d centre, int W, int H, int dx, int dy, bool flip, cv::Mat& out) {
+bool cropWindow(const cv::Mat& level8, cv::Point2d centre, int W, int H, int dx, int dy, bool flip,
+                cv::Mat& out) {
   const int x = static_cast<int>(std::lround(centre.x - W / 2.0)) + dx;
   const int y = static_cast<int>(std::lround(centre.y - H / 2.0)) + dy;
   if (x < 0 || y < 0 || x + W > level8.cols || y + H > level8.rows) return false;
@@ -115,9 +118,11 @@ int runTrain(const TrainOptions& o) {
   // skipped (see the source below).
   std::vector<std::size_t> negatives(frames.size());
   std::iota(negatives.begin(), negatives.end(), std::size_t{0});
-  const auto bowl_free = std::count_if(frames.begin(), frames.end(), [](const DatasetFrame& f) { return f.negative; });
-  spdlog::info("dataset {}: {} frames ({} bowl-free), all used for bootstrapping; preprocessed in {:.1f} s",
-               o.data.string(), frames.size(), bowl_free, elapsed(t0));
+  const auto bowl_free =
+      std::count_if(frames.begin(), frames.end(), [](const DatasetFrame& f) { return f.negative; });
+  spdlog::info(
+      "dataset {}: {} frames ({} bowl-free), all used for bootstrapping; preprocessed in {:.1f} s",
+      o.data.string(), frames.size(), bowl_free, elapsed(t0));
   fs::create_directories(o.out / ".checkpoints");
 
   for (const auto& view : o.views) {
@@ -126,7 +131,8 @@ int runTrain(const TrainOptions& o) {
     std::vector<double> aspects;
     for (const auto& f : frames)
       for (const auto& b : f.bowls)
-        if (b.upright && !b.difficult && b.view == view) aspects.push_back(static_cast<double>(b.box.height) / b.box.width);
+        if (b.upright && !b.difficult && b.view == view)
+          aspects.push_back(static_cast<double>(b.box.height) / b.box.width);
     if (aspects.empty()) {
       spdlog::warn("no training bowls for view {}", view);
       continue;
@@ -151,9 +157,11 @@ int runTrain(const TrainOptions& o) {
         const double s = std::sqrt(b->box.area() / (ow * oh));
         std::size_t best = 0;
         for (std::size_t k = 1; k < levels.size(); ++k)
-          if (std::abs(std::log(levels[k].scale / s)) < std::abs(std::log(levels[best].scale / s))) best = k;
+          if (std::abs(std::log(levels[k].scale / s)) < std::abs(std::log(levels[best].scale / s)))
+            best = k;
         const auto& L = levels[best];
-        const cv::Point2d c((b->box.x + b->box.width / 2.0) / L.scale, (b->box.y + b->box.height / 2.0) / L.scale);
+        const cv::Point2d c((b->box.x + b->box.width / 2.0) / L.scale,
+                            (b->box.y + b->box.height / 2.0) / L.scale);
         ++bowls;
         for (int dy = -o.jitter; dy <= o.jitter; ++dy)
           for (int dx = -o.jitter; dx <= o.jitter; ++dx) {
@@ -165,7 +173,8 @@ int runTrain(const TrainOptions& o) {
           }
       }
     }
-    spdlog::info("[{}] window {}x{} (aspect {:.2f}), {} bowls -> {} positives", view, W, H, aspect, bowls, positives.size());
+    spdlog::info("[{}] window {}x{} (aspect {:.2f}), {} bowls -> {} positives", view, W, H, aspect,
+                 bowls, positives.size());
 
     BowlViewModel model;
     model.view = view;
@@ -198,7 +207,8 @@ int runTrain(const TrainOptions& o) {
     WaldBoostClassifier start = model.classifier;
     if (fs::exists(ckpt)) {
       const auto c = loadBowlModel(ckpt);
-      if (json::parse(c.training_json) == training && c.classifier.win_w == W && c.classifier.win_h == H) {
+      if (json::parse(c.training_json) == training && c.classifier.win_w == W &&
+          c.classifier.win_h == H) {
         start = c.classifier;
         spdlog::info("[{}] resuming at stage {}", view, start.stages.size());
       }
@@ -218,9 +228,11 @@ int runTrain(const TrainOptions& o) {
       std::shuffle(order.begin(), order.end(), rng);
       const std::size_t cap = std::max<std::size_t>(4, count / 60);
       std::vector<cv::Mat> out;
-      for (std::size_t b = 0; b < order.size() && out.size() < count; b += static_cast<std::size_t>(o.threads)) {
+      for (std::size_t b = 0; b < order.size() && out.size() < count;
+           b += static_cast<std::size_t>(o.threads)) {
         std::vector<std::future<std::vector<cv::Mat>>> jobs;
-        for (std::size_t j = b; j < std::min(order.size(), b + static_cast<std::size_t>(o.threads)); ++j) {
+        for (std::size_t j = b; j < std::min(order.size(), b + static_cast<std::size_t>(o.threads));
+             ++j) {
           jobs.push_back(std::async(std::launch::async, [&, j] {
             const auto& P = prepared[order[j]];
             const auto levels = buildBowlPyramid(P.img8, det.scale_step, W, H);
@@ -231,10 +243,12 @@ int runTrain(const TrainOptions& o) {
               // Stride 1 (the detector uses 2): four times the candidate windows.
               for (const auto& h : scanBowlLevel(m, levels[k], P.filled, P.fx, 1, INT32_MIN)) {
                 const double sc = levels[k].scale;
-                const cv::Rect obj(static_cast<int>((h.x + o.margin * W) * sc), static_cast<int>((h.y + o.margin * H) * sc),
+                const cv::Rect obj(static_cast<int>((h.x + o.margin * W) * sc),
+                                   static_cast<int>((h.y + o.margin * H) * sc),
                                    static_cast<int>(ow * sc), static_cast<int>(oh * sc));
                 bool near_bowl = false;
-                for (const auto& b : frames[order[j]].bowls) near_bowl |= b.upright && boxIoU(obj, b.box) > 0.2;
+                for (const auto& b : frames[order[j]].bowls)
+                  near_bowl |= b.upright && boxIoU(obj, b.box) > 0.2;
                 if (!near_bowl) hits.push_back({k, h});
               }
             }
@@ -275,8 +289,8 @@ int runTrain(const TrainOptions& o) {
     model.training_json = training.dump();
     saveBowlModel(model, o.out / ("bowl_" + view + ".json"));
     fs::remove(ckpt);
-    spdlog::info("[{}] {} stages in {:.1f} s -> {}", view, model.classifier.stages.size(), elapsed(tv),
-                 (o.out / ("bowl_" + view + ".json")).string());
+    spdlog::info("[{}] {} stages in {:.1f} s -> {}", view, model.classifier.stages.size(),
+                 elapsed(tv), (o.out / ("bowl_" + view + ".json")).string());
   }
   fs::remove_all(o.out / ".checkpoints");
   spdlog::info("training done in {:.1f} s", elapsed(t0));
@@ -308,7 +322,9 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
     if (raw_file.is_open()) {  // accepted windows before NMS and the truth, for offline NMS studies
       json line = {{"file", f.file}, {"truth", json::array()}, {"raw", json::array()}};
       for (const auto& b : f.bowls)
-        if (b.upright) line["truth"].push_back({b.box.x, b.box.y, b.box.width, b.box.height, b.difficult, b.view});
+        if (b.upright)
+          line["truth"].push_back(
+              {b.box.x, b.box.y, b.box.width, b.box.height, b.difficult, b.view});
       for (const auto& d : detector.detectRaw(depth, f.intrinsics))
         line["raw"].push_back({d.box.x, d.box.y, d.box.width, d.box.height, d.score, d.view});
       raw_file << line.dump() << "\n";
@@ -326,16 +342,21 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
     }
     if (verbose) {
       std::printf("%s:", f.file.c_str());
-      for (const auto& d : e.detections) std::printf(" [%d %d %d %d %.2f %s]", d.box.x, d.box.y, d.box.width, d.box.height, d.score, d.view.c_str());
+      for (const auto& d : e.detections)
+        std::printf(" [%d %d %d %d %.2f %s]", d.box.x, d.box.y, d.box.width, d.box.height, d.score,
+                    d.view.c_str());
       std::printf("\n");
     }
     eval.push_back(std::move(e));
   }
   const auto r = evaluateBowlDetections(eval, 0.5, 0.1);
-  std::printf("frames %d  bowls %d  AP50 %.4f  miss rate @0.1 FPPI %.4f  max recall %.4f  TP %d FP %d  mean %.2f ms/frame\n",
-              r.frames, r.positives, r.ap, r.miss_rate_at_fppi, r.max_recall, r.true_positives, r.false_positives,
-              1000.0 * secs / std::max<std::size_t>(1, frames.size()));
-  for (const auto& [v, c] : per_view) std::printf("  view %-6s recall@IoU0.5 %d/%d\n", v.c_str(), c.first, c.second);
+  std::printf(
+      "frames %d  bowls %d  AP50 %.4f  miss rate @0.1 FPPI %.4f  max recall %.4f  TP %d FP %d  "
+      "mean %.2f ms/frame\n",
+      r.frames, r.positives, r.ap, r.miss_rate_at_fppi, r.max_recall, r.true_positives,
+      r.false_positives, 1000.0 * secs / std::max<std::size_t>(1, frames.size()));
+  for (const auto& [v, c] : per_view)
+    std::printf("  view %-6s recall@IoU0.5 %d/%d\n", v.c_str(), c.first, c.second);
   return 0;
 }
 
@@ -363,7 +384,8 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
   for (const auto& f : frames) {
     const cv::Mat depth = readDepth(data, f);
     const auto raw = detector.detectRaw(depth, f.intrinsics);
-    const auto kept = suppressNonMaxima(raw, p.nms_max_overlap, p.box_merge_iou, p.support_score_weight);
+    const auto kept =
+        suppressNonMaxima(raw, p.nms_max_overlap, p.box_merge_iou, p.support_score_weight);
     std::vector<BowlDetection> low;
     bool low_done = false;
     for (const auto& b : f.bowls) {
@@ -371,21 +393,30 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
       std::string cause;
       const auto [fi, fd] = best(kept, b.box);
       const auto [ri, rd] = best(raw, b.box);
-      if (fi >= 0.5) cause = "found";
-      else if (ri >= 0.5) cause = "nms";
-      else if (ri >= 0.25) cause = "calibration";
-      else cause = "classifier";
+      if (fi >= 0.5)
+        cause = "found";
+      else if (ri >= 0.5)
+        cause = "nms";
+      else if (ri >= 0.25)
+        cause = "calibration";
+      else
+        cause = "classifier";
       ++causes[b.view][cause];
       if (cause == "found") continue;
-      std::printf("%s %-6s truth [%d %d %d %d] %-11s", f.file.c_str(), b.view.c_str(), b.box.x, b.box.y, b.box.width, b.box.height,
-                  cause.c_str());
-      if (fd) std::printf(" final best IoU %.2f [%d %d %d %d %.1f %s]", fi, fd->box.x, fd->box.y, fd->box.width, fd->box.height, fd->score, fd->view.c_str());
-      if (rd) std::printf(" raw best IoU %.2f [%d %d %d %d %.1f %s]", ri, rd->box.x, rd->box.y, rd->box.width, rd->box.height, rd->score, rd->view.c_str());
+      std::printf("%s %-6s truth [%d %d %d %d] %-11s", f.file.c_str(), b.view.c_str(), b.box.x,
+                  b.box.y, b.box.width, b.box.height, cause.c_str());
+      if (fd)
+        std::printf(" final best IoU %.2f [%d %d %d %d %.1f %s]", fi, fd->box.x, fd->box.y,
+                    fd->box.width, fd->box.height, fd->score, fd->view.c_str());
+      if (rd)
+        std::printf(" raw best IoU %.2f [%d %d %d %d %.1f %s]", ri, rd->box.x, rd->box.y,
+                    rd->box.width, rd->box.height, rd->score, rd->view.c_str());
       if (cause == "classifier") {
         if (!low_done) low = loose.detectRaw(depth, f.intrinsics), low_done = true;
         std::map<std::string, double> top;  // view -> best score among windows with IoU >= 0.5
         for (const auto& d : low)
-          if (boxIoU(d.box, b.box) >= 0.5) top[d.view] = top.contains(d.view) ? std::max(top[d.view], d.score) : d.score;
+          if (boxIoU(d.box, b.box) >= 0.5)
+            top[d.view] = top.contains(d.view) ? std::max(top[d.view], d.score) : d.score;
         std::printf(" best score at IoU>=0.5:");
         if (top.empty()) std::printf(" none");
         for (const auto& [v, s] : top) std::printf(" %s %.1f", v.c_str(), s);
@@ -442,7 +473,8 @@ int main(int argc, char** argv) {
   gen->add_option("--positive-scenes", gp.positive_scenes, "scenes with upright bowls");
   gen->add_option("--negative-scenes", gp.negative_scenes, "scenes without upright bowls");
   gen->add_option("--frames-per-scene", gp.frames_per_scene);
-  gen->add_option("--blank-room", gp.blank_room_fraction, "fraction of frames whose room reads no depth");
+  gen->add_option("--blank-room", gp.blank_room_fraction,
+                  "fraction of frames whose room reads no depth");
   gen->add_option("--threads", gp.threads);
 
   TrainOptions to;
@@ -456,7 +488,8 @@ int main(int argc, char** argv) {
   tr->add_option("--pool", to.pool, "negative pool size");
   tr->add_option("--refill-every", to.refill_every);
   tr->add_option("--window-width", to.window_width);
-  tr->add_option("--jitter", to.jitter, "positives shifted by up to this many pixels (plus shape), each also mirrored");
+  tr->add_option("--jitter", to.jitter,
+                 "positives shifted by up to this many pixels (plus shape), each also mirrored");
   tr->add_option("--views", views);
   tr->add_option("--threads", to.threads);
 
@@ -469,7 +502,8 @@ int main(int argc, char** argv) {
     a->add_option("--scale-step", dp.scale_step, "pyramid scale step");
     a->add_option("--stride", dp.stride, "window stride (level pixels)");
     a->add_option("--nms-overlap", dp.nms_max_overlap, "NMS inscribed-circle overlap");
-    a->add_option("--merge-iou", dp.box_merge_iou, "box = mean of accepted windows with this IoU (0 = off)");
+    a->add_option("--merge-iou", dp.box_merge_iou,
+                  "box = mean of accepted windows with this IoU (0 = off)");
     a->add_option("--support-weight", dp.support_score_weight,
                   "score += weight * ln(windows merged into the box) (0 = off)");
     a->add_flag("!--no-depth-gate", dp.depth_gate, "classify every window whatever the depth");
@@ -481,8 +515,10 @@ int main(int argc, char** argv) {
   scanOptions(ev);
   ev->add_flag("--verbose", verbose);
   fs::path raw_out;
-  ev->add_option("--raw-out", raw_out, "write every accepted window before NMS and the truth (JSON lines)");
-  auto* dg = app.add_subcommand("diagnose", "why each missed bowl is missed (classifier, box calibration or NMS)");
+  ev->add_option("--raw-out", raw_out,
+                 "write every accepted window before NMS and the truth (JSON lines)");
+  auto* dg = app.add_subcommand(
+      "diagnose", "why each missed bowl is missed (classifier, box calibration or NMS)");
   dg->add_option("--models", models)->required();
   dg->add_option("--data", data)->required();
   scanOptions(dg);
@@ -494,12 +530,14 @@ int main(int argc, char** argv) {
   WbDetectorExportParams wp;
   fs::path wb_data, wb_out;
   std::string wb_views = "top,middle,side";
-  auto* wb = app.add_subcommand("export-wbdetector", "positive crops and bowl-free images for OpenCV's WBDetector");
+  auto* wb = app.add_subcommand("export-wbdetector",
+                                "positive crops and bowl-free images for OpenCV's WBDetector");
   wb->add_option("--data", wb_data, "dataset folder")->required();
   wb->add_option("--out", wb_out, "output folder (one subfolder per view)")->required();
   wb->add_option("--views", wb_views);
   wb->add_option("--max-bowls", wp.max_bowls_per_view, "bowls per view used as positives");
-  wb->add_option("--target-positives", wp.target_positives, "positives per view (shifted / mirrored variants)");
+  wb->add_option("--target-positives", wp.target_positives,
+                 "positives per view (shifted / mirrored variants)");
 
   CLI11_PARSE(app, argc, argv);
   try {
