@@ -148,23 +148,6 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
     else
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
-  auto evaluateAt = [&](int x, int y, std::int32_t& score) {
-    const std::ptrdiff_t at_code = static_cast<std::ptrdiff_t>(y) * code_stride + x;
-    const std::int32_t* at_integral = level.integral.ptr<std::int32_t>(y) + x;
-    std::int32_t h = 0;
-    for (std::size_t t = 0; t < n_stages; ++t) {
-      const StageCodeReader& r = readers[t];
-      const std::uint8_t code = r.code_base ? r.code_base[at_code] : lbpCodeIntegral(at_integral, r.offsets);
-      h += clf.stages[t].lut[code];
-      if (h < thresholds[t]) {
-        score = h;
-        return false;
-      }
-    }
-    score = h;
-    return true;
-  };
-
   // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
   // that * z / fx metres. Depths are whole millimetres, so the bounds are compared as integers,
   // and each window column's input column is looked up once per level.
@@ -178,20 +161,60 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   if (gate)
     for (int x = 0; x + W <= lw; x += stride)
       input_column.push_back(std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+
+  // The windows of one row go through the cascade together, stage by stage: each stage adds
+  // its vote to every window still in the row and keeps those at or above its threshold in
+  // place (the list is compacted, order kept). A per-window early exit would branch on every
+  // stage, and the early stages reject about half of the windows at random, so most of those
+  // branches were mispredicted; the compaction has no data-dependent branch. Every window
+  // gets the same votes in the same order, so scores and hits are the same as window by window.
+  const std::size_t row_windows = static_cast<std::size_t>((lw - W) / stride + 1);
+  std::vector<int> alive_x(row_windows);               // x of the windows still in the cascade
+  std::vector<std::int32_t> alive_score(row_windows);  // their running scores
   for (int y = 0; y + H <= lh; y += stride) {
-    const std::uint16_t* zrow = nullptr;
+    std::size_t alive = 0;
     if (gate) {
       const int oy = std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale));
-      zrow = filled_mm.ptr<std::uint16_t>(oy);
-    }
-    for (int x = 0, i = 0; x + W <= lw; x += stride, ++i) {
-      if (gate) {
-        const int z = zrow[input_column[static_cast<std::size_t>(i)]];
-        if (z < z_lo || z > z_hi) continue;
+      const std::uint16_t* zrow = filled_mm.ptr<std::uint16_t>(oy);
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        const int z = zrow[input_column[i]];
+        alive_x[alive] = static_cast<int>(i) * stride;
+        alive += static_cast<std::size_t>((z >= z_lo) & (z <= z_hi));
       }
-      std::int32_t score = 0;
-      if (evaluateAt(x, y, score) && score >= min_final_score) hits.push_back({x, y, score});
+    } else {
+      for (std::size_t i = 0; i < row_windows; ++i) alive_x[i] = static_cast<int>(i) * stride;
+      alive = row_windows;
     }
+    std::fill_n(alive_score.begin(), alive, 0);
+    const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
+    const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
+    for (std::size_t t = 0; t < n_stages && alive > 0; ++t) {
+      const StageCodeReader& r = readers[t];
+      const std::int16_t* lut = clf.stages[t].lut.data();
+      const std::int32_t threshold = thresholds[t];
+      std::size_t kept = 0;
+      if (r.code_base) {
+        const std::uint8_t* codes = r.code_base + code_row;
+        for (std::size_t k = 0; k < alive; ++k) {
+          const int x = alive_x[k];
+          const std::int32_t h = alive_score[k] + lut[codes[x]];
+          alive_x[kept] = x;
+          alive_score[kept] = h;
+          kept += static_cast<std::size_t>(h >= threshold);
+        }
+      } else {
+        for (std::size_t k = 0; k < alive; ++k) {
+          const int x = alive_x[k];
+          const std::int32_t h = alive_score[k] + lut[lbpCodeIntegral(integral_row + x, r.offsets)];
+          alive_x[kept] = x;
+          alive_score[kept] = h;
+          kept += static_cast<std::size_t>(h >= threshold);
+        }
+      }
+      alive = kept;
+    }
+    for (std::size_t k = 0; k < alive; ++k)
+      if (alive_score[k] >= min_final_score) hits.push_back({alive_x[k], y, alive_score[k]});
   }
   return hits;
 }
