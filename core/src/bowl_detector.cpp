@@ -117,19 +117,23 @@ struct StageCodeReader {
   LbpOffsets offsets{};
 };
 
-}  // namespace
+/// A model that cannot reach the final score anywhere would only cost time (a model without
+/// stages accepts every gated window: bootstrapping).
+bool canReach(const WaldBoostClassifier& clf, std::int32_t min_final_score) {
+  return clf.stages.empty() || clf.maxScore() >= min_final_score;
+}
 
-std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
-                                         const cv::Mat& filled_mm, double fx, int stride,
-                                         std::int32_t min_final_score) {
+/// scanBowlLevel for a model that canReach the score, with its rejectionThresholds(min_final_score)
+/// given: the detector computes those once per frame rather than once per level.
+std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
+                                     const cv::Mat& filled_mm, double fx, int stride,
+                                     std::int32_t min_final_score,
+                                     const std::vector<std::int32_t>& thresholds) {
   std::vector<BowlWindowHit> hits;
   const auto& clf = model.classifier;
   const int W = clf.win_w, H = clf.win_h;
   const int lw = level.image8.cols, lh = level.image8.rows;
-  if (lw < W || lh < H) return hits;  // no stages: every gated window (bootstrapping)
-  // A model that cannot reach the final score anywhere would only cost time.
-  if (!clf.stages.empty() && clf.maxScore() < min_final_score) return hits;
-  const auto thresholds = clf.rejectionThresholds(min_final_score);
+  if (lw < W || lh < H) return hits;
   const std::size_t n_stages = clf.stages.size();
 
   const int integral_stride = static_cast<int>(level.integral.step1());
@@ -240,6 +244,16 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   return hits;
 }
 
+}  // namespace
+
+std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
+                                         const cv::Mat& filled_mm, double fx, int stride,
+                                         std::int32_t min_final_score) {
+  if (!canReach(model.classifier, min_final_score)) return {};
+  return scanLevel(model, level, filled_mm, fx, stride, min_final_score,
+                   model.classifier.rejectionThresholds(min_final_score));
+}
+
 BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorParams params) {
   std::vector<BowlViewModel> models;
   if (std::filesystem::is_directory(path)) {
@@ -291,9 +305,16 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   const auto min_score = static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
   std::array<bool, 4> code_cell_sizes{};
   bool any_code_image = false;
-  for (const auto* m : active) {
+  // Per active view, computed once per frame rather than per level: whether it can fire at all,
+  // and its rejection thresholds.
+  std::vector<char> reachable(active.size(), 0);
+  std::vector<std::vector<std::int32_t>> thresholds(active.size());
+  for (std::size_t v = 0; v < active.size(); ++v) {
+    const BowlViewModel* m = active[v];
     const auto& stages = m->classifier.stages;
-    if (m->classifier.maxScore() < min_score) continue;  // scanBowlLevel skips this view
+    if (!canReach(m->classifier, min_score)) continue;  // can never fire: not scanned
+    reachable[v] = 1;
+    thresholds[v] = m->classifier.rejectionThresholds(min_score);
     const std::size_t n = std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
     for (std::size_t t = 0; t < n; ++t) {
       const LbpFeature& f = stages[t].feature;
@@ -309,10 +330,13 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
   auto run = [&](std::size_t task) {
     const auto& level = levels[task / active.size()];
-    const auto& m = *active[task % active.size()];
+    const std::size_t view = task % active.size();
+    const auto& m = *active[view];
     const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
     if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty()) return;
-    const auto hits = scanBowlLevel(m, level, gate, intr.fx, params_.stride, min_score);
+    if (!reachable[view]) return;
+    const auto hits =
+        scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
     const double mx = m.object_margin * m.classifier.win_w, my = m.object_margin * m.classifier.win_h;
     const double ow = m.classifier.win_w - 2 * mx, oh = m.classifier.win_h - 2 * my;
     for (const auto& h : hits) {
