@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include <emmintrin.h>
+
 #include <opencv2/imgproc.hpp>
 
 namespace shapesense {
@@ -57,12 +59,42 @@ void cellSums(const cv::Mat& integral, int ch, cv::Mat& sums) {
   }
 }
 
+/// Codes of 8 consecutive grid positions (SSE2, 16-bit lanes): bit k of lane i is set when
+/// neighbour k of position i has a sum >= its centre's.
+template <int CW>
+__m128i codesOfEight(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2) {
+  auto load = [](const std::int16_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  const __m128i centre = load(r1 + CW);
+  auto bit = [&centre](const __m128i neighbour, int k) {
+    // not (neighbour < centre) = neighbour >= centre
+    return _mm_andnot_si128(_mm_cmplt_epi16(neighbour, centre),
+                            _mm_set1_epi16(static_cast<short>(1 << k)));
+  };
+  const __m128i top =
+      _mm_or_si128(_mm_or_si128(bit(load(r0), 0), bit(load(r0 + CW), 1)),
+                   _mm_or_si128(bit(load(r0 + 2 * CW), 2), bit(load(r1 + 2 * CW), 3)));
+  const __m128i bottom =
+      _mm_or_si128(_mm_or_si128(bit(load(r2 + 2 * CW), 4), bit(load(r2 + CW), 5)),
+                   _mm_or_si128(bit(load(r2), 6), bit(load(r1), 7)));
+  return _mm_or_si128(top, bottom);
+}
+
 /// Codes of one row of grid positions from the cell sums of the grid's three cell rows (`r0`,
 /// `r1`, `r2`: sums of cells starting at each x), for `out_cols` positions.
 template <int CW>
 void codeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2,
              std::uint8_t* out, int out_cols) {
-  for (int x = 0; x < out_cols; ++x) {
+  int x = 0;
+  // 16 positions per step by hand: the compiler's vectorisation packed every comparison to
+  // bytes and shifted it into place with k additions, about a third more instructions.
+  for (; x + 16 <= out_cols; x += 16) {
+    const __m128i low = codesOfEight<CW>(r0 + x, r1 + x, r2 + x);
+    const __m128i high = codesOfEight<CW>(r0 + x + 8, r1 + x + 8, r2 + x + 8);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + x), _mm_packus_epi16(low, high));
+  }
+  for (; x < out_cols; ++x) {
     const std::int16_t c = r1[x + CW];
     // Bit k for neighbour k, clockwise from the top-left (see the header).
     const unsigned code =
