@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include <emmintrin.h>
 
@@ -57,6 +58,40 @@ int findZeroBackward(const std::uint16_t* row, int to) {
   return -1;
 }
 
+/// True where column c of the three rows holds a valid pixel, for 8 columns from c (SSE2).
+int validColumnsMask(const std::uint16_t* above, const std::uint16_t* here,
+                     const std::uint16_t* below, int c) {
+  auto load = [c](const std::uint16_t* row) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c));
+  };
+  const __m128i any = _mm_or_si128(_mm_or_si128(load(above), load(here)), load(below));
+  return ~_mm_movemask_epi8(_mm_cmpeq_epi16(any, _mm_setzero_si128())) & 0xFFFF;
+}
+
+/// The first column in [from, to) where one of the three rows is valid, or `to`.
+int firstValidColumn(const std::uint16_t* above, const std::uint16_t* here,
+                     const std::uint16_t* below, int from, int to) {
+  int c = from;
+  for (; to - c >= 8; c += 8)
+    if (const int mask = validColumnsMask(above, here, below, c); mask != 0)
+      return c + std::countr_zero(static_cast<unsigned>(mask)) / 2;
+  for (; c < to; ++c)
+    if ((above[c] | here[c] | below[c]) != 0) return c;
+  return to;
+}
+
+/// The last column in [0, to) where one of the three rows is valid, or -1.
+int lastValidColumn(const std::uint16_t* above, const std::uint16_t* here,
+                    const std::uint16_t* below, int to) {
+  int c = to;
+  for (; c >= 8; c -= 8)
+    if (const int mask = validColumnsMask(above, here, below, c - 8); mask != 0)
+      return c - 1 - std::countl_zero(static_cast<unsigned>(mask) << 16) / 2;
+  while (--c >= 0)
+    if ((above[c] | here[c] | below[c]) != 0) return c;
+  return -1;
+}
+
 /// Fills the invalid pixel (r, c) with the lower median of its valid 8-neighbours; returns
 /// false (and leaves it) when it has none.
 bool fillFromNeighbours(cv::Mat& depth_mm, int r, int c) {
@@ -64,20 +99,45 @@ bool fillFromNeighbours(cv::Mat& depth_mm, int r, int c) {
   // missing ones become 65535, above every valid one (at most 65534 after the shift): the
   // k-th smallest of the n valid values is then the k-th element of the sorted eight.
   std::array<std::uint16_t, 8> nb;
-  nb.fill(0xFFFF);
-  int n = 0, k = 0;
-  for (int dr = -1; dr <= 1; ++dr) {
-    const int rr = r + dr;
-    if (rr < 0 || rr >= depth_mm.rows) continue;
-    const auto* q = depth_mm.ptr<std::uint16_t>(rr);
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int cc = c + dc;
-      if ((dr == 0 && dc == 0) || cc < 0 || cc >= depth_mm.cols) continue;
-      nb[static_cast<std::size_t>(k++)] = static_cast<std::uint16_t>(q[cc] - 1);
-      n += q[cc] != 0;
+  int n = 0;
+  if (r > 0 && r + 1 < depth_mm.rows && c > 0 && c + 1 < depth_mm.cols) {
+    // Inside the image (nearly every hole pixel): the 8 neighbours without bounds checks.
+    const std::uint16_t* above = depth_mm.ptr<std::uint16_t>(r - 1) + c - 1;
+    const std::uint16_t* here = depth_mm.ptr<std::uint16_t>(r) + c - 1;
+    const std::uint16_t* below = depth_mm.ptr<std::uint16_t>(r + 1) + c - 1;
+    const std::array<std::uint16_t, 8> v = {above[0], above[1], above[2], here[0],
+                                            here[2],  below[0], below[1], below[2]};
+    for (std::size_t k = 0; k < 8; ++k) {
+      nb[k] = static_cast<std::uint16_t>(v[k] - 1);
+      n += v[k] != 0;
+    }
+  } else {
+    nb.fill(0xFFFF);
+    std::size_t k = 0;
+    for (int dr = -1; dr <= 1; ++dr) {
+      const int rr = r + dr;
+      if (rr < 0 || rr >= depth_mm.rows) continue;
+      const auto* q = depth_mm.ptr<std::uint16_t>(rr);
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int cc = c + dc;
+        if ((dr == 0 && dc == 0) || cc < 0 || cc >= depth_mm.cols) continue;
+        nb[k++] = static_cast<std::uint16_t>(q[cc] - 1);
+        n += q[cc] != 0;
+      }
     }
   }
   if (n == 0) return false;
+  // Inside a large hole the fill copies one surface's value along: when every valid neighbour
+  // holds the same value, that value is the median and the sort is not needed.
+  std::uint16_t lowest = nb[0], highest = 0;
+  for (std::size_t k = 0; k < 8; ++k) {
+    lowest = std::min(lowest, nb[k]);
+    highest = std::max(highest, static_cast<std::uint16_t>(nb[k] + 1));  // invalid ones: 0
+  }
+  if (static_cast<std::uint16_t>(lowest + 1) == highest) {
+    depth_mm.ptr<std::uint16_t>(r)[c] = highest;
+    return true;
+  }
   sortEight(nb);
   // Lower median for even counts: keeps the fill on the nearer surface at an edge less
   // often than the mean would smear across it; any fixed choice is fine for detection.
@@ -98,17 +158,32 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
   // Visiting only the zeros of a row in raster order is the same as visiting every pixel:
   // filling a pixel changes no pixel ahead of it in its row, so the zeros ahead stay where the
   // search finds them.
+  // A pixel that stays invalid has no valid neighbour, so the next pixel in scan order stays
+  // invalid too unless the column after it holds a valid pixel: in a large hole (a room that
+  // reads no depth) whole runs are skipped by a search for the next valid column.
+  const std::vector<std::uint16_t> no_row(static_cast<std::size_t>(cols), 0);  // beyond the border
   for (int pass = 0; pass < passes && remaining > 0; ++pass) {
     const bool forward = pass % 2 == 0;
     for (int i = 0; i < rows; ++i) {
       const int r = forward ? i : rows - 1 - i;
       const std::uint16_t* row = depth_mm.ptr<std::uint16_t>(r);
+      const std::uint16_t* above = r > 0 ? depth_mm.ptr<std::uint16_t>(r - 1) : no_row.data();
+      const std::uint16_t* below =
+          r + 1 < rows ? depth_mm.ptr<std::uint16_t>(r + 1) : no_row.data();
       if (forward) {
-        for (int c = findZero(row, 0, cols); c < cols; c = findZero(row, c + 1, cols))
-          remaining -= fillFromNeighbours(depth_mm, r, c);
+        for (int c = findZero(row, 0, cols); c < cols; c = findZero(row, c + 1, cols)) {
+          if (fillFromNeighbours(depth_mm, r, c))
+            --remaining;
+          else  // columns c and c + 1 are empty; pixels before the next valid column - 1 stay
+            c = std::max(c, firstValidColumn(above, row, below, std::min(c + 2, cols), cols) - 2);
+        }
       } else {
-        for (int c = findZeroBackward(row, cols); c >= 0; c = findZeroBackward(row, c))
-          remaining -= fillFromNeighbours(depth_mm, r, c);
+        for (int c = findZeroBackward(row, cols); c >= 0; c = findZeroBackward(row, c)) {
+          if (fillFromNeighbours(depth_mm, r, c))
+            --remaining;
+          else
+            c = std::min(c, lastValidColumn(above, row, below, std::max(c - 1, 0)) + 2);
+        }
       }
     }
   }
