@@ -14,8 +14,9 @@
 
 namespace shapesense {
 
-std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w, int min_h,
-                                               double max_scale, double min_integral_scale) {
+std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w,
+                                               int min_h, double max_scale,
+                                               double min_integral_scale) {
   CV_Assert(image8.type() == CV_8UC1 && scale_step > 1.0);
   std::vector<BowlPyramidLevel> levels;
   cv::Mat cur = image8;
@@ -28,7 +29,8 @@ std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double sca
     if (scale >= min_integral_scale * (1.0 - 1e-9)) cv::integral(cur, l.integral, CV_32S);
     levels.push_back(std::move(l));
     scale *= scale_step;
-    const cv::Size next(static_cast<int>(std::lround(image8.cols / scale)), static_cast<int>(std::lround(image8.rows / scale)));
+    const cv::Size next(static_cast<int>(std::lround(image8.cols / scale)),
+                        static_cast<int>(std::lround(image8.rows / scale)));
     if (next.width < 1 || next.height < 1) break;
     cv::Mat nxt;
     cv::resize(cur, nxt, next, 0, 0, cv::INTER_LINEAR);
@@ -40,15 +42,19 @@ std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double sca
 double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b) {
   const double r1 = std::min(a.width, a.height) / 2.0, r2 = std::min(b.width, b.height) / 2.0;
   if (r1 <= 0 || r2 <= 0) return 0.0;
-  const double d = std::hypot((a.x + a.width / 2.0) - (b.x + b.width / 2.0), (a.y + a.height / 2.0) - (b.y + b.height / 2.0));
+  const double d = std::hypot((a.x + a.width / 2.0) - (b.x + b.width / 2.0),
+                              (a.y + a.height / 2.0) - (b.y + b.height / 2.0));
   const double small = std::min(r1, r2), large = std::max(r1, r2);
   const double small_area = std::numbers::pi * small * small;
   if (d >= r1 + r2) return 0.0;
   if (d <= large - small) return 1.0;
   // Lens area of two intersecting circles.
-  const double a1 = r1 * r1 * std::acos(std::clamp((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0, 1.0));
-  const double a2 = r2 * r2 * std::acos(std::clamp((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0, 1.0));
-  const double k = 0.5 * std::sqrt(std::max(0.0, (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2)));
+  const double a1 =
+      r1 * r1 * std::acos(std::clamp((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0, 1.0));
+  const double a2 =
+      r2 * r2 * std::acos(std::clamp((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0, 1.0));
+  const double k = 0.5 * std::sqrt(std::max(
+                             0.0, (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2)));
   return std::clamp((a1 + a2 - k) / small_area, 0.0, 1.0);
 }
 
@@ -60,7 +66,8 @@ struct Neighbourhood {
   int count = 0;
 };
 
-Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>& windows, double min_iou) {
+Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>& windows,
+                           double min_iou) {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   int n = 0;
   for (const auto& w : windows) {
@@ -69,16 +76,19 @@ Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>
     ++n;
   }
   if (n == 0) return {box, 0};
-  const int left = static_cast<int>(std::lround(x0 / n)), top = static_cast<int>(std::lround(y0 / n));
-  return {{left, top, static_cast<int>(std::lround(x1 / n)) - left, static_cast<int>(std::lround(y1 / n)) - top},
+  const int left = static_cast<int>(std::lround(x0 / n)),
+            top = static_cast<int>(std::lround(y0 / n));
+  return {{left, top, static_cast<int>(std::lround(x1 / n)) - left,
+           static_cast<int>(std::lround(y1 / n)) - top},
           n};
 }
 
 }  // namespace
 
-std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap, double merge_iou,
-                                             double support_weight) {
-  std::stable_sort(dets.begin(), dets.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap,
+                                             double merge_iou, double support_weight) {
+  std::stable_sort(dets.begin(), dets.end(),
+                   [](const auto& a, const auto& b) { return a.score > b.score; });
   std::vector<BowlDetection> kept;
   for (const auto& d : dets) {
     bool distinct = true;
@@ -95,7 +105,8 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
     k.box = around.mean_box;
     if (support_weight > 0 && around.count > 1) k.score += support_weight * std::log(around.count);
   }
-  std::stable_sort(kept.begin(), kept.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+  std::stable_sort(kept.begin(), kept.end(),
+                   [](const auto& a, const auto& b) { return a.score > b.score; });
   return kept;
 }
 
@@ -140,7 +151,8 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   int code_stride = -1;
   for (const auto& c : level.codes) {
     if (c.empty()) continue;
-    CV_Assert(c.size() == level.image8.size() && (code_stride < 0 || static_cast<int>(c.step1()) == code_stride));
+    CV_Assert(c.size() == level.image8.size() &&
+              (code_stride < 0 || static_cast<int>(c.step1()) == code_stride));
     code_stride = static_cast<int>(c.step1());
   }
   std::vector<StageCodeReader> readers(n_stages);
@@ -164,7 +176,8 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   std::vector<int> input_column;
   if (gate)
     for (int x = 0; x + W <= lw; x += stride)
-      input_column.push_back(std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+      input_column.push_back(
+          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
 
   // The windows of one row go through the cascade together, stage by stage: each stage adds
   // its vote to every window still in the row and keeps those at or above its threshold in
@@ -260,7 +273,8 @@ BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorP
     std::vector<std::filesystem::path> files;
     for (const auto& e : std::filesystem::directory_iterator(path)) {
       const auto name = e.path().filename().string();
-      if (e.is_regular_file() && name.starts_with("bowl_") && e.path().extension() == ".json") files.push_back(e.path());
+      if (e.is_regular_file() && name.starts_with("bowl_") && e.path().extension() == ".json")
+        files.push_back(e.path());
     }
     std::sort(files.begin(), files.end());
     for (const auto& f : files) models.push_back(loadBowlModel(f));
@@ -282,15 +296,19 @@ BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams
   }
 }
 
-std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
+std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
+                                                   const CameraIntrinsics& intr) const {
+  if (depth_mm.type() != CV_16UC1)
+    throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
   cv::Mat filled;
   const cv::Mat img8 = preprocessDepth(depth_mm, models_.front().preprocess, &filled);
   std::vector<const BowlViewModel*> active;
   int min_w = INT32_MAX, min_h = INT32_MAX;
   double min_obj_frac = 1.0;
   for (const auto& m : models_) {
-    if (!params_.views.empty() && std::find(params_.views.begin(), params_.views.end(), m.view) == params_.views.end()) continue;
+    if (!params_.views.empty() &&
+        std::find(params_.views.begin(), params_.views.end(), m.view) == params_.views.end())
+      continue;
     active.push_back(&m);
     min_w = std::min(min_w, m.classifier.win_w);
     min_h = std::min(min_h, m.classifier.win_h);
@@ -300,9 +318,11 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   const double max_scale = params_.max_object_px / (min_w * min_obj_frac);
   double min_scale = 1e9;  // the finest level any view searches
   for (const auto* m : active)
-    min_scale = std::min(min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
+    min_scale = std::min(
+        min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
   auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
-  const auto min_score = static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
+  const auto min_score =
+      static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
   std::array<bool, 4> code_cell_sizes{};
   bool any_code_image = false;
   // Per active view, computed once per frame rather than per level: whether it can fire at all,
@@ -315,7 +335,8 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
     if (!canReach(m->classifier, min_score)) continue;  // can never fire: not scanned
     reachable[v] = 1;
     thresholds[v] = m->classifier.rejectionThresholds(min_score);
-    const std::size_t n = std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
+    const std::size_t n =
+        std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
     for (std::size_t t = 0; t < n; ++t) {
       const LbpFeature& f = stages[t].feature;
       if (f.cw <= 2 && f.ch <= 2) any_code_image = code_cell_sizes[cellSizeIndex(f)] = true;
@@ -333,15 +354,19 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
     const std::size_t view = task % active.size();
     const auto& m = *active[view];
     const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
-    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty()) return;
+    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty())
+      return;
     if (!reachable[view]) return;
     const auto hits =
         scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
-    const double mx = m.object_margin * m.classifier.win_w, my = m.object_margin * m.classifier.win_h;
+    const double mx = m.object_margin * m.classifier.win_w,
+                 my = m.object_margin * m.classifier.win_h;
     const double ow = m.classifier.win_w - 2 * mx, oh = m.classifier.win_h - 2 * my;
     for (const auto& h : hits) {
-      cv::Rect box(static_cast<int>(std::lround((h.x + mx) * level.scale)), static_cast<int>(std::lround((h.y + my) * level.scale)),
-                   static_cast<int>(std::lround(ow * level.scale)), static_cast<int>(std::lround(oh * level.scale)));
+      cv::Rect box(static_cast<int>(std::lround((h.x + mx) * level.scale)),
+                   static_cast<int>(std::lround((h.y + my) * level.scale)),
+                   static_cast<int>(std::lround(ow * level.scale)),
+                   static_cast<int>(std::lround(oh * level.scale)));
       per_task[task].push_back({box, h.score * kWaldBoostScoreUnit, m.view});
     }
   };
@@ -353,13 +378,15 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
     for (std::size_t i = 0; i < per_task.size(); ++i) run(i);
   }
   std::vector<BowlDetection> out;
-  for (auto& v : per_task) out.insert(out.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
+  for (auto& v : per_task)
+    out.insert(out.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
   return out;
 }
 
-std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap, params_.box_merge_iou,
-                           params_.support_score_weight);
+std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm,
+                                                const CameraIntrinsics& intr) const {
+  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap,
+                           params_.box_merge_iou, params_.support_score_weight);
 }
 
 }  // namespace shapesense
