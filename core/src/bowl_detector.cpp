@@ -14,8 +14,9 @@
 
 namespace shapesense {
 
-std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w, int min_h,
-                                               double max_scale, double min_integral_scale) {
+std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w,
+                                               int min_h, double max_scale,
+                                               double min_integral_scale) {
   CV_Assert(image8.type() == CV_8UC1 && scale_step > 1.0);
   std::vector<BowlPyramidLevel> levels;
   cv::Mat cur = image8;
@@ -28,7 +29,8 @@ std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double sca
     if (scale >= min_integral_scale * (1.0 - 1e-9)) cv::integral(cur, l.integral, CV_32S);
     levels.push_back(std::move(l));
     scale *= scale_step;
-    const cv::Size next(static_cast<int>(std::lround(image8.cols / scale)), static_cast<int>(std::lround(image8.rows / scale)));
+    const cv::Size next(static_cast<int>(std::lround(image8.cols / scale)),
+                        static_cast<int>(std::lround(image8.rows / scale)));
     if (next.width < 1 || next.height < 1) break;
     cv::Mat nxt;
     cv::resize(cur, nxt, next, 0, 0, cv::INTER_LINEAR);
@@ -40,15 +42,19 @@ std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double sca
 double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b) {
   const double r1 = std::min(a.width, a.height) / 2.0, r2 = std::min(b.width, b.height) / 2.0;
   if (r1 <= 0 || r2 <= 0) return 0.0;
-  const double d = std::hypot((a.x + a.width / 2.0) - (b.x + b.width / 2.0), (a.y + a.height / 2.0) - (b.y + b.height / 2.0));
+  const double d = std::hypot((a.x + a.width / 2.0) - (b.x + b.width / 2.0),
+                              (a.y + a.height / 2.0) - (b.y + b.height / 2.0));
   const double small = std::min(r1, r2), large = std::max(r1, r2);
   const double small_area = std::numbers::pi * small * small;
   if (d >= r1 + r2) return 0.0;
   if (d <= large - small) return 1.0;
   // Lens area of two intersecting circles.
-  const double a1 = r1 * r1 * std::acos(std::clamp((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0, 1.0));
-  const double a2 = r2 * r2 * std::acos(std::clamp((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0, 1.0));
-  const double k = 0.5 * std::sqrt(std::max(0.0, (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2)));
+  const double a1 =
+      r1 * r1 * std::acos(std::clamp((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1.0, 1.0));
+  const double a2 =
+      r2 * r2 * std::acos(std::clamp((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1.0, 1.0));
+  const double k = 0.5 * std::sqrt(std::max(
+                             0.0, (-d + r1 + r2) * (d + r1 - r2) * (d - r1 + r2) * (d + r1 + r2)));
   return std::clamp((a1 + a2 - k) / small_area, 0.0, 1.0);
 }
 
@@ -60,7 +66,8 @@ struct Neighbourhood {
   int count = 0;
 };
 
-Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>& windows, double min_iou) {
+Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>& windows,
+                           double min_iou) {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   int n = 0;
   for (const auto& w : windows) {
@@ -69,16 +76,19 @@ Neighbourhood neighboursOf(const cv::Rect& box, const std::vector<BowlDetection>
     ++n;
   }
   if (n == 0) return {box, 0};
-  const int left = static_cast<int>(std::lround(x0 / n)), top = static_cast<int>(std::lround(y0 / n));
-  return {{left, top, static_cast<int>(std::lround(x1 / n)) - left, static_cast<int>(std::lround(y1 / n)) - top},
+  const int left = static_cast<int>(std::lround(x0 / n)),
+            top = static_cast<int>(std::lround(y0 / n));
+  return {{left, top, static_cast<int>(std::lround(x1 / n)) - left,
+           static_cast<int>(std::lround(y1 / n)) - top},
           n};
 }
 
 }  // namespace
 
-std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap, double merge_iou,
-                                             double support_weight) {
-  std::stable_sort(dets.begin(), dets.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, double max_overlap,
+                                             double merge_iou, double support_weight) {
+  std::stable_sort(dets.begin(), dets.end(),
+                   [](const auto& a, const auto& b) { return a.score > b.score; });
   std::vector<BowlDetection> kept;
   for (const auto& d : dets) {
     bool distinct = true;
@@ -95,14 +105,15 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
     k.box = around.mean_box;
     if (support_weight > 0 && around.count > 1) k.score += support_weight * std::log(around.count);
   }
-  std::stable_sort(kept.begin(), kept.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+  std::stable_sort(kept.begin(), kept.end(),
+                   [](const auto& a, const auto& b) { return a.score > b.score; });
   return kept;
 }
 
 void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes) {
   CV_Assert(!level.integral.empty());
   for (int k = 0; k < 4; ++k)
-    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.integral, 1 + k % 2, 1 + k / 2);
+    if (cell_sizes[k]) level.codes[k] = lbpCodeImageFromPixels(level.image8, 1 + k % 2, 1 + k / 2);
 }
 
 namespace {
@@ -117,26 +128,31 @@ struct StageCodeReader {
   LbpOffsets offsets{};
 };
 
-}  // namespace
+/// A model that cannot reach the final score anywhere would only cost time (a model without
+/// stages accepts every gated window: bootstrapping).
+bool canReach(const WaldBoostClassifier& clf, std::int32_t min_final_score) {
+  return clf.stages.empty() || clf.maxScore() >= min_final_score;
+}
 
-std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
-                                         const cv::Mat& filled_mm, double fx, int stride,
-                                         std::int32_t min_final_score) {
+/// scanBowlLevel for a model that canReach the score, with its rejectionThresholds(min_final_score)
+/// given: the detector computes those once per frame rather than once per level.
+std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
+                                     const cv::Mat& filled_mm, double fx, int stride,
+                                     std::int32_t min_final_score,
+                                     const std::vector<std::int32_t>& thresholds) {
   std::vector<BowlWindowHit> hits;
   const auto& clf = model.classifier;
   const int W = clf.win_w, H = clf.win_h;
   const int lw = level.image8.cols, lh = level.image8.rows;
-  if (lw < W || lh < H) return hits;  // no stages: every gated window (bootstrapping)
-  // A model that cannot reach the final score anywhere would only cost time.
-  if (!clf.stages.empty() && clf.maxScore() < min_final_score) return hits;
-  const auto thresholds = clf.rejectionThresholds(min_final_score);
+  if (lw < W || lh < H) return hits;
   const std::size_t n_stages = clf.stages.size();
 
   const int integral_stride = static_cast<int>(level.integral.step1());
   int code_stride = -1;
   for (const auto& c : level.codes) {
     if (c.empty()) continue;
-    CV_Assert(c.size() == level.image8.size() && (code_stride < 0 || static_cast<int>(c.step1()) == code_stride));
+    CV_Assert(c.size() == level.image8.size() &&
+              (code_stride < 0 || static_cast<int>(c.step1()) == code_stride));
     code_stride = static_cast<int>(c.step1());
   }
   std::vector<StageCodeReader> readers(n_stages);
@@ -148,23 +164,6 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
     else
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
-  auto evaluateAt = [&](int x, int y, std::int32_t& score) {
-    const std::ptrdiff_t at_code = static_cast<std::ptrdiff_t>(y) * code_stride + x;
-    const std::int32_t* at_integral = level.integral.ptr<std::int32_t>(y) + x;
-    std::int32_t h = 0;
-    for (std::size_t t = 0; t < n_stages; ++t) {
-      const StageCodeReader& r = readers[t];
-      const std::uint8_t code = r.code_base ? r.code_base[at_code] : lbpCodeIntegral(at_integral, r.offsets);
-      h += clf.stages[t].lut[code];
-      if (h < thresholds[t]) {
-        score = h;
-        return false;
-      }
-    }
-    score = h;
-    return true;
-  };
-
   // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
   // that * z / fx metres. Depths are whole millimetres, so the bounds are compared as integers,
   // and each window column's input column is looked up once per level.
@@ -177,23 +176,95 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
   std::vector<int> input_column;
   if (gate)
     for (int x = 0; x + W <= lw; x += stride)
-      input_column.push_back(std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+      input_column.push_back(
+          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+
+  // The windows of one row go through the cascade together, stage by stage: each stage adds
+  // its vote to every window still in the row and keeps those at or above its threshold in
+  // place (the list is compacted, order kept). A per-window early exit would branch on every
+  // stage, and the early stages reject about half of the windows at random, so most of those
+  // branches were mispredicted; the compaction has no data-dependent branch. Every window
+  // gets the same votes in the same order, so scores and hits are the same as window by window.
+  const std::size_t row_windows = static_cast<std::size_t>((lw - W) / stride + 1);
+  std::vector<int> alive_x(row_windows);               // x of the windows still in the cascade
+  std::vector<std::int32_t> alive_score(row_windows);  // their running scores
+  // The depth gate and the first two stages (when both read code images) are fused into one
+  // pass over all windows of the row: the stages cost less than the compaction pass each
+  // would need, even for the windows the gate drops.
+  const std::size_t fused_stages =
+      n_stages >= 2 && readers[0].code_base && readers[1].code_base ? 2 : 0;
   for (int y = 0; y + H <= lh; y += stride) {
     const std::uint16_t* zrow = nullptr;
-    if (gate) {
-      const int oy = std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale));
-      zrow = filled_mm.ptr<std::uint16_t>(oy);
-    }
-    for (int x = 0, i = 0; x + W <= lw; x += stride, ++i) {
-      if (gate) {
-        const int z = zrow[input_column[static_cast<std::size_t>(i)]];
-        if (z < z_lo || z > z_hi) continue;
+    if (gate)
+      zrow = filled_mm.ptr<std::uint16_t>(
+          std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale)));
+    auto inGate = [&](std::size_t i) -> int {
+      if (!zrow) return 1;
+      const int z = zrow[input_column[i]];
+      return (z >= z_lo) & (z <= z_hi);
+    };
+    const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
+    std::size_t alive = 0;
+    if (fused_stages == 2) {
+      const std::uint8_t* codes0 = readers[0].code_base + code_row;
+      const std::uint8_t* codes1 = readers[1].code_base + code_row;
+      const std::int16_t* lut0 = clf.stages[0].lut.data();
+      const std::int16_t* lut1 = clf.stages[1].lut.data();
+      const std::int32_t threshold0 = thresholds[0], threshold1 = thresholds[1];
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        const int x = static_cast<int>(i) * stride;
+        const std::int32_t h0 = lut0[codes0[x]], h1 = h0 + lut1[codes1[x]];
+        alive_x[alive] = x;
+        alive_score[alive] = h1;
+        alive += static_cast<std::size_t>(inGate(i) & (h0 >= threshold0) & (h1 >= threshold1));
       }
-      std::int32_t score = 0;
-      if (evaluateAt(x, y, score) && score >= min_final_score) hits.push_back({x, y, score});
+    } else {
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        alive_x[alive] = static_cast<int>(i) * stride;
+        alive_score[alive] = 0;
+        alive += static_cast<std::size_t>(inGate(i));
+      }
     }
+    const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
+    for (std::size_t t = fused_stages; t < n_stages && alive > 0; ++t) {
+      const StageCodeReader& r = readers[t];
+      const std::int16_t* lut = clf.stages[t].lut.data();
+      const std::int32_t threshold = thresholds[t];
+      std::size_t kept = 0;
+      if (r.code_base) {
+        const std::uint8_t* codes = r.code_base + code_row;
+        for (std::size_t k = 0; k < alive; ++k) {
+          const int x = alive_x[k];
+          const std::int32_t h = alive_score[k] + lut[codes[x]];
+          alive_x[kept] = x;
+          alive_score[kept] = h;
+          kept += static_cast<std::size_t>(h >= threshold);
+        }
+      } else {
+        for (std::size_t k = 0; k < alive; ++k) {
+          const int x = alive_x[k];
+          const std::int32_t h = alive_score[k] + lut[lbpCodeIntegral(integral_row + x, r.offsets)];
+          alive_x[kept] = x;
+          alive_score[kept] = h;
+          kept += static_cast<std::size_t>(h >= threshold);
+        }
+      }
+      alive = kept;
+    }
+    for (std::size_t k = 0; k < alive; ++k)
+      if (alive_score[k] >= min_final_score) hits.push_back({alive_x[k], y, alive_score[k]});
   }
   return hits;
+}
+
+}  // namespace
+
+std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
+                                         const cv::Mat& filled_mm, double fx, int stride,
+                                         std::int32_t min_final_score) {
+  if (!canReach(model.classifier, min_final_score)) return {};
+  return scanLevel(model, level, filled_mm, fx, stride, min_final_score,
+                   model.classifier.rejectionThresholds(min_final_score));
 }
 
 BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorParams params) {
@@ -202,7 +273,8 @@ BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorP
     std::vector<std::filesystem::path> files;
     for (const auto& e : std::filesystem::directory_iterator(path)) {
       const auto name = e.path().filename().string();
-      if (e.is_regular_file() && name.starts_with("bowl_") && e.path().extension() == ".json") files.push_back(e.path());
+      if (e.is_regular_file() && name.starts_with("bowl_") && e.path().extension() == ".json")
+        files.push_back(e.path());
     }
     std::sort(files.begin(), files.end());
     for (const auto& f : files) models.push_back(loadBowlModel(f));
@@ -224,15 +296,19 @@ BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams
   }
 }
 
-std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
+std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
+                                                   const CameraIntrinsics& intr) const {
+  if (depth_mm.type() != CV_16UC1)
+    throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
   cv::Mat filled;
   const cv::Mat img8 = preprocessDepth(depth_mm, models_.front().preprocess, &filled);
   std::vector<const BowlViewModel*> active;
   int min_w = INT32_MAX, min_h = INT32_MAX;
   double min_obj_frac = 1.0;
   for (const auto& m : models_) {
-    if (!params_.views.empty() && std::find(params_.views.begin(), params_.views.end(), m.view) == params_.views.end()) continue;
+    if (!params_.views.empty() &&
+        std::find(params_.views.begin(), params_.views.end(), m.view) == params_.views.end())
+      continue;
     active.push_back(&m);
     min_w = std::min(min_w, m.classifier.win_w);
     min_h = std::min(min_h, m.classifier.win_h);
@@ -242,15 +318,25 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   const double max_scale = params_.max_object_px / (min_w * min_obj_frac);
   double min_scale = 1e9;  // the finest level any view searches
   for (const auto* m : active)
-    min_scale = std::min(min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
+    min_scale = std::min(
+        min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
   auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
-  const auto min_score = static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
+  const auto min_score =
+      static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
   std::array<bool, 4> code_cell_sizes{};
   bool any_code_image = false;
-  for (const auto* m : active) {
+  // Per active view, computed once per frame rather than per level: whether it can fire at all,
+  // and its rejection thresholds.
+  std::vector<char> reachable(active.size(), 0);
+  std::vector<std::vector<std::int32_t>> thresholds(active.size());
+  for (std::size_t v = 0; v < active.size(); ++v) {
+    const BowlViewModel* m = active[v];
     const auto& stages = m->classifier.stages;
-    if (m->classifier.maxScore() < min_score) continue;  // scanBowlLevel skips this view
-    const std::size_t n = std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
+    if (!canReach(m->classifier, min_score)) continue;  // can never fire: not scanned
+    reachable[v] = 1;
+    thresholds[v] = m->classifier.rejectionThresholds(min_score);
+    const std::size_t n =
+        std::min(stages.size(), static_cast<std::size_t>(std::max(0, params_.code_image_stages)));
     for (std::size_t t = 0; t < n; ++t) {
       const LbpFeature& f = stages[t].feature;
       if (f.cw <= 2 && f.ch <= 2) any_code_image = code_cell_sizes[cellSizeIndex(f)] = true;
@@ -265,15 +351,22 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
   std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
   auto run = [&](std::size_t task) {
     const auto& level = levels[task / active.size()];
-    const auto& m = *active[task % active.size()];
+    const std::size_t view = task % active.size();
+    const auto& m = *active[view];
     const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
-    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty()) return;
-    const auto hits = scanBowlLevel(m, level, gate, intr.fx, params_.stride, min_score);
-    const double mx = m.object_margin * m.classifier.win_w, my = m.object_margin * m.classifier.win_h;
+    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty())
+      return;
+    if (!reachable[view]) return;
+    const auto hits =
+        scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
+    const double mx = m.object_margin * m.classifier.win_w,
+                 my = m.object_margin * m.classifier.win_h;
     const double ow = m.classifier.win_w - 2 * mx, oh = m.classifier.win_h - 2 * my;
     for (const auto& h : hits) {
-      cv::Rect box(static_cast<int>(std::lround((h.x + mx) * level.scale)), static_cast<int>(std::lround((h.y + my) * level.scale)),
-                   static_cast<int>(std::lround(ow * level.scale)), static_cast<int>(std::lround(oh * level.scale)));
+      cv::Rect box(static_cast<int>(std::lround((h.x + mx) * level.scale)),
+                   static_cast<int>(std::lround((h.y + my) * level.scale)),
+                   static_cast<int>(std::lround(ow * level.scale)),
+                   static_cast<int>(std::lround(oh * level.scale)));
       per_task[task].push_back({box, h.score * kWaldBoostScoreUnit, m.view});
     }
   };
@@ -285,13 +378,15 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm, cons
     for (std::size_t i = 0; i < per_task.size(); ++i) run(i);
   }
   std::vector<BowlDetection> out;
-  for (auto& v : per_task) out.insert(out.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
+  for (auto& v : per_task)
+    out.insert(out.end(), std::make_move_iterator(v.begin()), std::make_move_iterator(v.end()));
   return out;
 }
 
-std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& intr) const {
-  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap, params_.box_merge_iou,
-                           params_.support_score_weight);
+std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm,
+                                                const CameraIntrinsics& intr) const {
+  return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap,
+                           params_.box_merge_iou, params_.support_score_weight);
 }
 
 }  // namespace shapesense

@@ -1,6 +1,9 @@
 #include "shapesense/core/lbp.h"
 
+#include <algorithm>
 #include <stdexcept>
+
+#include <emmintrin.h>
 
 #include <opencv2/imgproc.hpp>
 
@@ -56,26 +59,97 @@ void cellSums(const cv::Mat& integral, int ch, cv::Mat& sums) {
   }
 }
 
+/// Codes of 8 consecutive grid positions (SSE2, 16-bit lanes): bit k of lane i is set when
+/// neighbour k of position i has a sum >= its centre's.
+template <int CW>
+__m128i codesOfEight(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2) {
+  auto load = [](const std::int16_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  const __m128i centre = load(r1 + CW);
+  auto bit = [&centre](const __m128i neighbour, int k) {
+    // not (neighbour < centre) = neighbour >= centre
+    return _mm_andnot_si128(_mm_cmplt_epi16(neighbour, centre),
+                            _mm_set1_epi16(static_cast<short>(1 << k)));
+  };
+  const __m128i top =
+      _mm_or_si128(_mm_or_si128(bit(load(r0), 0), bit(load(r0 + CW), 1)),
+                   _mm_or_si128(bit(load(r0 + 2 * CW), 2), bit(load(r1 + 2 * CW), 3)));
+  const __m128i bottom =
+      _mm_or_si128(_mm_or_si128(bit(load(r2 + 2 * CW), 4), bit(load(r2 + CW), 5)),
+                   _mm_or_si128(bit(load(r2), 6), bit(load(r1), 7)));
+  return _mm_or_si128(top, bottom);
+}
+
+/// Codes of one row of grid positions from the cell sums of the grid's three cell rows (`r0`,
+/// `r1`, `r2`: sums of cells starting at each x), for `out_cols` positions.
+template <int CW>
+void codeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2,
+             std::uint8_t* out, int out_cols) {
+  int x = 0;
+  // 16 positions per step by hand: the compiler's vectorisation packed every comparison to
+  // bytes and shifted it into place with k additions, about a third more instructions.
+  for (; x + 16 <= out_cols; x += 16) {
+    const __m128i low = codesOfEight<CW>(r0 + x, r1 + x, r2 + x);
+    const __m128i high = codesOfEight<CW>(r0 + x + 8, r1 + x + 8, r2 + x + 8);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + x), _mm_packus_epi16(low, high));
+  }
+  for (; x < out_cols; ++x) {
+    const std::int16_t c = r1[x + CW];
+    // Bit k for neighbour k, clockwise from the top-left (see the header).
+    const unsigned code =
+        static_cast<unsigned>(r0[x] >= c) | static_cast<unsigned>(r0[x + CW] >= c) << 1 |
+        static_cast<unsigned>(r0[x + 2 * CW] >= c) << 2 |
+        static_cast<unsigned>(r1[x + 2 * CW] >= c) << 3 |
+        static_cast<unsigned>(r2[x + 2 * CW] >= c) << 4 |
+        static_cast<unsigned>(r2[x + CW] >= c) << 5 | static_cast<unsigned>(r2[x] >= c) << 6 |
+        static_cast<unsigned>(r1[x] >= c) << 7;
+    out[x] = static_cast<std::uint8_t>(code);
+  }
+}
+
 template <int CW>
 void codesFromCellSums(const cv::Mat& sums, int ch, cv::Mat& codes) {
   const int out_rows = sums.rows - 2 * ch, out_cols = sums.cols - 2 * CW;
-  for (int y = 0; y < out_rows; ++y) {
-    const auto* r0 = sums.ptr<std::int16_t>(y);
-    const auto* r1 = sums.ptr<std::int16_t>(y + ch);
-    const auto* r2 = sums.ptr<std::int16_t>(y + 2 * ch);
-    auto* out = codes.ptr<std::uint8_t>(y);
-    for (int x = 0; x < out_cols; ++x) {
-      const std::int16_t c = r1[x + CW];
-      // Bit k for neighbour k, clockwise from the top-left (see the header).
-      const unsigned code = static_cast<unsigned>(r0[x] >= c) | static_cast<unsigned>(r0[x + CW] >= c) << 1 |
-                            static_cast<unsigned>(r0[x + 2 * CW] >= c) << 2 |
-                            static_cast<unsigned>(r1[x + 2 * CW] >= c) << 3 |
-                            static_cast<unsigned>(r2[x + 2 * CW] >= c) << 4 |
-                            static_cast<unsigned>(r2[x + CW] >= c) << 5 | static_cast<unsigned>(r2[x] >= c) << 6 |
-                            static_cast<unsigned>(r1[x] >= c) << 7;
-      out[x] = static_cast<std::uint8_t>(code);
-    }
+  for (int y = 0; y < out_rows; ++y)
+    codeRow<CW>(sums.ptr<std::int16_t>(y), sums.ptr<std::int16_t>(y + ch),
+                sums.ptr<std::int16_t>(y + 2 * ch), codes.ptr<std::uint8_t>(y), out_cols);
+}
+
+/// Sums of the CW x CH cells starting at each x of pixel row `y` (cols - CW + 1 of them).
+template <int CW, int CH>
+void cellSumRowFromPixels(const cv::Mat& image8, int y, std::int16_t* out) {
+  const int n = image8.cols - (CW - 1);
+  const std::uint8_t* p0 = image8.ptr<std::uint8_t>(y);
+  const std::uint8_t* p1 = image8.ptr<std::uint8_t>(y + CH - 1);
+  for (int x = 0; x < n; ++x) {
+    int sum = p0[x];
+    if constexpr (CW == 2) sum += p0[x + 1];
+    if constexpr (CH == 2) sum += p1[x];
+    if constexpr (CW == 2 && CH == 2) sum += p1[x + 1];
+    out[x] = static_cast<std::int16_t>(sum);
   }
+}
+
+/// lbpCodeImageFromPixels for one cell size. The cell sums of the 2 * CH + 1 pixel rows a code
+/// row reads are kept in a ring of rows, so each is computed once and stays in cache.
+template <int CW, int CH>
+void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
+  const int out_rows = image8.rows - 3 * CH + 1, out_cols = image8.cols - 3 * CW + 1;
+  constexpr int kRing = 2 * CH + 1;
+  const int sum_cols = image8.cols - (CW - 1);
+  std::vector<std::int16_t> ring(static_cast<std::size_t>(kRing * sum_cols));
+  auto ringRow = [&](int y) {
+    return ring.data() + static_cast<std::ptrdiff_t>(y % kRing) * sum_cols;
+  };
+  for (int y = 0; y < 2 * CH; ++y) cellSumRowFromPixels<CW, CH>(image8, y, ringRow(y));
+  for (int y = 0; y < out_rows; ++y) {
+    cellSumRowFromPixels<CW, CH>(image8, y + 2 * CH, ringRow(y + 2 * CH));
+    std::uint8_t* out = codes.ptr<std::uint8_t>(y);
+    codeRow<CW>(ringRow(y), ringRow(y + CH), ringRow(y + 2 * CH), out, out_cols);
+    std::fill(out + out_cols, out + codes.cols, std::uint8_t{0});
+  }
+  for (int y = std::max(out_rows, 0); y < codes.rows; ++y) codes.row(y).setTo(0);
 }
 
 }  // namespace
@@ -92,6 +166,29 @@ cv::Mat lbpCodeImage(const cv::Mat& integral, int cw, int ch) {
   } else {
     cellSums<2>(integral, ch, sums);
     codesFromCellSums<2>(sums, ch, codes);
+  }
+  return codes;
+}
+
+cv::Mat lbpCodeImageFromPixels(const cv::Mat& image8, int cw, int ch) {
+  CV_Assert(image8.type() == CV_8UC1);
+  if (cw < 1 || cw > 2 || ch < 1 || ch > 2)
+    throw std::invalid_argument("lbpCodeImageFromPixels: cells must be 1 or 2 pixels");
+  if (image8.rows < 3 * ch || image8.cols < 3 * cw) return cv::Mat::zeros(image8.size(), CV_8UC1);
+  cv::Mat codes(image8.size(), CV_8UC1);
+  switch (cw + 2 * ch) {
+    case 3:
+      codesFromPixels<1, 1>(image8, codes);
+      break;
+    case 4:
+      codesFromPixels<2, 1>(image8, codes);
+      break;
+    case 5:
+      codesFromPixels<1, 2>(image8, codes);
+      break;
+    default:
+      codesFromPixels<2, 2>(image8, codes);
+      break;
   }
   return codes;
 }

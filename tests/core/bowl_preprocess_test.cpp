@@ -1,6 +1,10 @@
 // Depth preprocessing of the bowl detector: recursive median fill and the 8-bit mapping.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <random>
+
 #include "shapesense/core/depth_preprocess.h"
 
 namespace shapesense {
@@ -67,6 +71,69 @@ TEST(BowlPreprocess, PreprocessFillsThenMaps) {
   EXPECT_EQ(filled.at<std::uint16_t>(2, 2), 1750);
   EXPECT_EQ(m.at<std::uint8_t>(2, 2), 129);
   EXPECT_EQ(d.at<std::uint16_t>(2, 2), 0);  // input untouched
+}
+
+// The fill as first written (every pixel visited, std::nth_element on the valid neighbours):
+// the optimised fill must give exactly its result.
+int referenceFill(cv::Mat& d, int passes) {
+  int remaining = cv::countNonZero(d == 0);
+  for (int pass = 0; pass < passes && remaining > 0; ++pass) {
+    const bool forward = pass % 2 == 0;
+    for (int i = 0; i < d.rows; ++i)
+      for (int j = 0; j < d.cols; ++j) {
+        const int r = forward ? i : d.rows - 1 - i, c = forward ? j : d.cols - 1 - j;
+        if (d.at<std::uint16_t>(r, c) != 0) continue;
+        std::array<std::uint16_t, 8> nb{};
+        int n = 0;
+        for (int rr = r - 1; rr <= r + 1; ++rr)
+          for (int cc = c - 1; cc <= c + 1; ++cc)
+            if ((rr != r || cc != c) && rr >= 0 && rr < d.rows && cc >= 0 && cc < d.cols && d.at<std::uint16_t>(rr, cc) != 0)
+              nb[static_cast<std::size_t>(n++)] = d.at<std::uint16_t>(rr, cc);
+        if (n == 0) continue;
+        std::nth_element(nb.begin(), nb.begin() + (n - 1) / 2, nb.begin() + n);
+        d.at<std::uint16_t>(r, c) = nb[static_cast<std::size_t>((n - 1) / 2)];
+        --remaining;
+      }
+  }
+  return remaining;
+}
+
+TEST(BowlPreprocess, FillEqualsTheReferenceOnRandomHoles) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    // Odd sizes (row tails shorter than a SIMD block), a view into a larger image (rows not
+    // contiguous), values up to 65535, holes from single pixels to most of the image.
+    const int rows = 1 + static_cast<int>(rng() % 40), cols = 1 + static_cast<int>(rng() % 45);
+    cv::Mat big(rows + 2, cols + 5, CV_16UC1);
+    cv::Mat d = big(cv::Rect(3, 1, cols, rows));
+    const double hole_fraction = (trial % 5) * 0.22;
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int r = 0; r < big.rows; ++r)
+      for (int c = 0; c < big.cols; ++c) {
+        const bool extreme = rng() % 10 == 0;
+        big.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(extreme ? 65535 - rng() % 2 : 400 + rng() % 40);
+      }
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c)
+        if (u(rng) < hole_fraction) d.at<std::uint16_t>(r, c) = 0;
+    if (trial % 2 == 1) {  // a large empty region too, like a room that reads no depth
+      const int x0 = static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                y0 = static_cast<int>(rng() % static_cast<unsigned>(rows));
+      d(cv::Rect(x0, y0, cols - x0, rows - y0)).setTo(0);
+    }
+    for (const int passes : {1, 2, 3}) {
+      cv::Mat want = d.clone(), got_big = big.clone();
+      cv::Mat got = got_big(cv::Rect(3, 1, cols, rows));
+      const int want_left = referenceFill(want, passes);
+      EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
+      EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
+      // Outside the view untouched.
+      got(cv::Rect(0, 0, cols, rows)).setTo(0);
+      cv::Mat orig_outside = big.clone();
+      orig_outside(cv::Rect(3, 1, cols, rows)).setTo(0);
+      EXPECT_EQ(cv::countNonZero(got_big != orig_outside), 0) << trial << " " << passes;
+    }
+  }
 }
 
 }  // namespace

@@ -63,6 +63,31 @@ TEST(Lbp, CodeImagesEqualDirectCodesAtEveryPositionAndZeroWhereTheGridDoesNotFit
   EXPECT_THROW(lbpCodeImage(ii, 3, 1), std::invalid_argument);
 }
 
+TEST(Lbp, CodeImagesFromPixelsEqualCodeImagesFromTheIntegral) {
+  cv::RNG rng(11);
+  // Odd and tiny sizes (no grid fits, exactly one fits), and a view into a larger image whose
+  // rows are not contiguous.
+  const cv::Size sizes[] = {{37, 45}, {45, 37}, {2, 2},  {3, 3},   {6, 6},
+                            {5, 7},   {64, 1},  {1, 64}, {533, 17}};
+  for (const cv::Size size : sizes) {
+    cv::Mat big(size.height + 3, size.width + 5, CV_8UC1);
+    rng.fill(big, cv::RNG::UNIFORM, 0, 256);
+    const cv::Mat img = big(cv::Rect(2, 1, size.width, size.height));
+    if (size.width > 20 && size.height > 20)
+      img(cv::Rect(10, 10, 8, 6)).setTo(255);  // ties at the top
+    const cv::Mat ii = lbpIntegral(img);
+    for (int ch = 1; ch <= 2; ++ch)
+      for (int cw = 1; cw <= 2; ++cw) {
+        const cv::Mat want = lbpCodeImage(ii, cw, ch), got = lbpCodeImageFromPixels(img, cw, ch);
+        ASSERT_EQ(got.type(), CV_8UC1);
+        ASSERT_EQ(got.size(), img.size());
+        EXPECT_EQ(cv::countNonZero(got != want), 0)
+            << "cell " << cw << "x" << ch << " image " << size;
+      }
+  }
+  EXPECT_THROW(lbpCodeImageFromPixels(cv::Mat(8, 8, CV_8UC1), 1, 3), std::invalid_argument);
+}
+
 TEST(Lbp, EnumerationCoversAllFittingGrids) {
   // 24x24, cells 1-2: 22*22 (1x1) + 19*22 (2x1) + 22*19 (1x2) + 19*19 (2x2).
   EXPECT_EQ(enumerateLbpFeatures(24, 24, 2).size(), 22u * 22 + 19 * 22 * 2 + 19 * 19);

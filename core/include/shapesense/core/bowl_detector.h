@@ -96,8 +96,9 @@ struct BowlPyramidLevel {
   std::array<cv::Mat, 4> codes;
 };
 
-/// Fills level.codes from level.integral (which must be there) for the cell sizes marked in
-/// `cell_sizes` (same index as level.codes).
+/// Fills level.codes (lbpCodeImageFromPixels of level.image8) for the cell sizes marked in
+/// `cell_sizes` (same index as level.codes). Only for levels that are scanned, i.e. that have
+/// their integral image.
 void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes);
 
 /// The pyramid the detector scans: level k is level k-1 resized by 1/scale_step (bilinear),

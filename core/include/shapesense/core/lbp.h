@@ -75,6 +75,11 @@ inline std::uint8_t lbpCodeIntegral(const std::int32_t* origin, const LbpOffsets
 /// instead of 16 scattered reads per feature and window. `cw` and `ch` must be 1 or 2.
 cv::Mat lbpCodeImage(const cv::Mat& integral, int cw, int ch);
 
+/// The same code image from the CV_8UC1 pixels themselves (equal to lbpCodeImage of their
+/// integral). Faster: a cell sum is 1-4 byte reads instead of 4 integral reads, and the sums
+/// live in a few cache-resident rows instead of a whole image. `cw` and `ch` must be 1 or 2.
+cv::Mat lbpCodeImageFromPixels(const cv::Mat& image8, int cw, int ch);
+
 /// Convenience: the code of feature `f` for the window at (wx, wy) of integral image `ii`.
 std::uint8_t lbpCodeAt(const cv::Mat& ii, const LbpFeature& f, int wx, int wy);
 
