@@ -24,6 +24,7 @@
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #ifdef SHAPESENSE_BENCH_OPENCV_XOBJDETECT
@@ -38,6 +39,7 @@
 #include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/depth_preprocess.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/driver/tum_recording.h"
 
 namespace {
 
@@ -97,6 +99,56 @@ void BM_BowlPreprocess(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_BowlPreprocess)->Unit(benchmark::kMillisecond);
+
+// Real Kinect-class frames: every depth frame of every recording in shared/data/real (none of
+// them trained on), at each recording's own intrinsics and depth scale, cycled. Synthetic test
+// frames include rooms that read no depth at all, where the hole fill dominates; real frames
+// show what the daemon pays on a sensor.
+struct RealFrame {
+  cv::Mat depth_mm;
+  shapesense::CameraIntrinsics intrinsics;
+};
+
+const std::vector<RealFrame>& realFrames() {
+  static const std::vector<RealFrame> all = [] {
+    std::vector<RealFrame> out;
+    const auto root = std::filesystem::path(SHAPESENSE_SHARED_DIR) / "data/real";
+    if (!std::filesystem::is_directory(root)) return out;
+    std::vector<std::filesystem::path> dirs;
+    for (const auto& e : std::filesystem::directory_iterator(root))
+      if (std::filesystem::exists(e.path() / "depth.txt")) dirs.push_back(e.path());
+    std::sort(dirs.begin(), dirs.end());
+    for (const auto& dir : dirs) {
+      const auto index = shapesense::readTumIndex(dir);
+      for (const auto& entry : index.depth) {
+        const cv::Mat raw = cv::imread((dir / entry.relative_path).string(), cv::IMREAD_UNCHANGED);
+        if (raw.type() != CV_16UC1) continue;
+        cv::Mat mm;
+        raw.convertTo(mm, CV_16UC1, 1000.0 / index.camera.depth_scale);
+        out.push_back({mm, index.camera.intrinsics});
+      }
+    }
+    return out;
+  }();
+  return all;
+}
+
+void BM_BowlDetectReal(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const auto& frames = realFrames();
+  if (frames.empty()) {
+    state.SkipWithError("no real recordings: expected ../shared/data/real beside the repository");
+    return;
+  }
+  const auto detector = shapesense::BowlDetector::load(shippedModels());
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const auto& f = frames[i++ % frames.size()];
+    benchmark::DoNotOptimize(detector.detect(f.depth_mm, f.intrinsics));
+  }
+  state.counters["frames"] = static_cast<double>(frames.size());
+}
+BENCHMARK(BM_BowlDetectReal)->Unit(benchmark::kMillisecond);
 
 // ---- Held-out test set: ours beside WBDetector ----
 
