@@ -359,30 +359,66 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   const int rows = points_.rows, cols = points_.cols;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
+  constexpr int K = M == kGrad ? 4 : 2;  // floats per cached window: means, then the count
   const std::size_t rstride = estride * L;
-  packed_.resize(static_cast<std::size_t>(rows + 1) * rstride + 4);
-  std::fill(packed_.begin(), packed_.begin() + rstride, 0u);
+  // The windows of row v read integral rows v - max_r - 1 to v + max_r + 2 only, so the integral
+  // image lives in a ring of that many rows (~0.45 MB at the default max_r instead of ~5 MB): it
+  // stays in L2 instead of going to memory and back. Integral row y is in slot y % ring_rows.
+  const int min_r = std::max(1, params_.min_radius_px);
+  const int max_r = std::max(min_r, params_.max_radius_px);
+  const int ring_rows = std::min(rows + 1, 2 * max_r + 4);
+  packed_.resize(static_cast<std::size_t>(ring_rows) * rstride + 4);
+  integral_rows_.resize(static_cast<std::size_t>(rows) + 1);
+  for (int y = 0; y <= rows; ++y)
+    integral_rows_[y] = packed_.data() + static_cast<std::size_t>(y % ring_rows) * rstride;
+  std::uint32_t* const* irow = integral_rows_.data();
+  std::fill(irow[0], irow[0] + rstride, 0u);
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
   auto buildRow = [&](int v) {
     const auto* p = points_.ptr<cv::Vec3f>(v);
-    std::uint32_t* row = packed_.data() + (v + 1) * rstride;
-    const std::uint32_t* above = row - rstride;
+    std::uint32_t* row = irow[v + 1];
+    const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
-      v4u acc = {0, 0, 0, 0};
-      store4(row, acc);
       const float* pf = points_.ptr<float>(v);
+      int u = 0;
+#if defined(__SSE2__)
+      // Branch-free (holes are frequent and irregular): the validity mask of z zeroes the
+      // invalid point's lanes and gives the count lane; same values as the scalar loop below.
+      const __m128 scale = _mm_set1_ps(1e4f), zero = _mm_setzero_ps();
+      const __m128i xyz_lanes = _mm_set_epi32(0, -1, -1, -1), count_one = _mm_set_epi32(1, 0, 0, 0);
+      __m128i acc = _mm_setzero_si128();
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(row), acc);
+      // A 16-byte load per pixel reads the next pixel's x too: stop one pixel short of the end.
+      for (; u + 1 < cols; ++u) {
+        const __m128 xyz = _mm_loadu_ps(pf + 3 * u);
+        const __m128i ok =
+            _mm_castps_si128(_mm_cmpgt_ps(_mm_shuffle_ps(xyz, xyz, _MM_SHUFFLE(2, 2, 2, 2)), zero));
+        const __m128i fixed_xyz = _mm_cvttps_epi32(_mm_mul_ps(xyz, scale));
+        const __m128i e = _mm_or_si128(_mm_and_si128(fixed_xyz, _mm_and_si128(ok, xyz_lanes)),
+                                       _mm_and_si128(ok, count_one));
+        acc = _mm_add_epi32(acc, e);
+        const auto* up = reinterpret_cast<const __m128i*>(above + (u + 1) * 4);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(row + (u + 1) * 4),
+                         _mm_add_epi32(_mm_loadu_si128(up), acc));
+      }
+      v4u acc_v;
+      std::memcpy(&acc_v, &acc, sizeof acc_v);
+#else
+      v4u acc_v = {0, 0, 0, 0};
+      store4(row, acc_v);
+#endif
       // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
       // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
-      auto element = [&](int u, v4f xyz) {
+      auto element = [&](int col, v4f xyz) {
         const bool ok = validZ(xyz[2]);
         const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
         v4u e = reinterpret_cast<v4u>(__builtin_convertvector(kept, v4i));
         e[3] = static_cast<std::uint32_t>(ok);
-        acc += e;
-        store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
+        acc_v += e;
+        store4(row + (col + 1) * 4, load4(above + (col + 1) * 4) + acc_v);
       };
-      for (int u = 0; u + 1 < cols; ++u) {
+      for (; u + 1 < cols; ++u) {
         v4f xyz;
         std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
         element(u, xyz);
@@ -408,13 +444,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
                        (params_.depth_dependent_smoothing ? 1.0f : 0.0f);
   const float const_r =
       params_.depth_dependent_smoothing ? 0.0f : static_cast<float>(params_.smoothing_radius_px);
-  const int min_r = std::max(1, params_.min_radius_px);
-  const int max_r = std::max(min_r, params_.max_radius_px);
   const float min_frac = static_cast<float>(params_.min_valid_fraction);
   const float fx = static_cast<float>(intr.fx), fy = static_cast<float>(intr.fy);
   const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-  const std::uint32_t* I = packed_.data();
-  const std::ptrdiff_t rs = static_cast<std::ptrdiff_t>(rstride);
 
   // Per row: (a) the window radius of every pixel (branch-free), (b) per pixel the step check
   // and the four windows centred one pixel left/right/up/down (one packed fetch per corner),
@@ -447,6 +479,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   }
   const int* min_count = min_count_.data();
   stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
+  win_mean_.resize(3 * static_cast<std::size_t>(cols) * K);
+  win_radius_.assign(3 * static_cast<std::size_t>(cols), 0);  // 0: nothing cached
   int built = 0;                             // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
@@ -472,35 +506,66 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       r = r < by_step ? r : by_step;
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     }
-    // (b)
-    const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
+    // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
+    // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
+    // (x, y + 1). Its mean (lane K - 1: the count) is cached per centre and radius for the three
+    // rows of centres in use, so that where neighbours share a radius each pixel computes one new
+    // window instead of four. Same arithmetic on the same exact sums: same bits as uncached.
+    float* row_above = win_mean_.data() + static_cast<std::size_t>((v + 2) % 3) * cols * K;
+    float* row_here = win_mean_.data() + static_cast<std::size_t>(v % 3) * cols * K;
+    float* row_below = win_mean_.data() + static_cast<std::size_t>((v + 1) % 3) * cols * K;
+    int* rad_above = win_radius_.data() + static_cast<std::size_t>((v + 2) % 3) * cols;
+    int* rad_here = win_radius_.data() + static_cast<std::size_t>(v % 3) * cols;
+    int* rad_below = win_radius_.data() + static_cast<std::size_t>((v + 1) % 3) * cols;
+    std::fill(rad_below, rad_below + cols, 0);  // it held the centres of row v - 2
+    const float* inv = inv_count_.data();
+    // The cached mean of the window of radius r centred on column x of a row of centres whose
+    // row is y (computed and cached on a miss).
+    auto window = [&](float* means, int* radii, int x, int y, int r) -> const float* {
+      float* e = means + static_cast<std::size_t>(x) * K;
+      if (radii[x] == r) return e;
+      radii[x] = r;
+      const std::ptrdiff_t dh = (2 * r + 1) * L;
+      const std::uint32_t* a = irow[y - r] + (x - r) * L;      // top left
+      const std::uint32_t* c = irow[y + r + 1] + (x - r) * L;  // bottom left
+      if constexpr (M == kGrad) {
+        const v4u s = load4(c + dh) - load4(a + dh) - load4(c) + load4(a);
+        const int n = static_cast<int>(s[3]);
+        v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
+        m[3] = static_cast<float>(n);
+        std::memcpy(e, &m, sizeof m);
+      } else {
+        auto corner = [](const std::uint32_t* c) {
+          std::uint64_t x64;
+          std::memcpy(&x64, c, sizeof x64);
+          return x64;
+        };
+        const std::uint64_t s = corner(c + dh) - corner(a + dh) - corner(c) + corner(a);
+        const auto n = static_cast<std::uint32_t>(s);
+        e[0] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
+        e[1] = static_cast<float>(n);
+      }
+      return e;
+    };
     std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
     for (int u = 0; u < cols; ++u) {
       const int r = rr[u];
       if (r == 0) continue;
-      const std::uint32_t* c0 = crow + u * L;
-      const int w = 2 * r + 1;
-      const std::ptrdiff_t dw = w * rs, dh = w * L;
-      const std::uint32_t* al = c0 - r * rs - (r + 1) * L;  // top-left of the window at (u - 1, v)
-      const std::uint32_t* ar = al + 2 * L;
-      const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
-      const std::uint32_t* ad = au + 2 * rs;
-      const int min_n = min_count[r];
-      const float* inv = inv_count_.data();
+      const float* el = window(row_here, rad_here, u - 1, v, r);
+      const float* er = window(row_here, rad_here, u + 1, v, r);
+      const float* eu = window(row_above, rad_above, u, v - 1, r);
+      const float* ed = window(row_below, rad_below, u, v + 1, r);
+      const float min_n = static_cast<float>(min_count[r]);
+      if (std::min(std::min(el[K - 1], er[K - 1]), std::min(eu[K - 1], ed[K - 1])) < min_n)
+        continue;
       if constexpr (M == kGrad) {
-        auto win = [&](const std::uint32_t* a) {
-          return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a);
-        };
-        const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl[3]), nr = static_cast<int>(sr[3]);
-        const int nu = static_cast<int>(su[3]), nd = static_cast<int>(sd[3]);
-        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * inv[nl];
-        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * inv[nr];
-        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * inv[nu];
-        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * inv[nd];
+        v4f ml, mr, mu, md;
+        std::memcpy(&ml, el, sizeof ml);
+        std::memcpy(&mr, er, sizeof mr);
+        std::memcpy(&mu, eu, sizeof mu);
+        std::memcpy(&md, ed, sizeof md);
         // Differences of the means of the four windows: the averaged tangents (for a plane the
-        // mean of 3D points lies on the plane).
+        // mean of 3D points lies on the plane). Lane 3 (counts) is unused.
         const v4f h = mr - ml, t = md - mu;
         // h x t, three lanes at once.
         const v4f n =
@@ -510,22 +575,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         rny[u] = n[1];
         rnz[u] = n[2];
       } else {
-        const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
-        const std::ptrdiff_t rs64 = rs / 2;
-        auto win = [&](const std::uint32_t* a32) {
-          const std::uint64_t* a = I64 + (a32 - I) / 2;
-          return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
-        };
-        const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)),
-                  nr = static_cast<int>(static_cast<std::uint32_t>(sr));
-        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)),
-                  nd = static_cast<int>(static_cast<std::uint32_t>(sd));
-        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
-        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
-        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * inv[nu];
-        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * inv[nd];
+        const float zl = el[0], zr = er[0], zu_ = eu[0], zd = ed[0];
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
