@@ -376,7 +376,6 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
   auto buildRow = [&](int v) {
-    const auto* p = points_.ptr<cv::Vec3f>(v);
     std::uint32_t* row = irow[v + 1];
     const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
@@ -429,10 +428,36 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
+      const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
       std::uint64_t acc = 0;
       row64[0] = 0;
-      for (int u = 0; u < cols; ++u) {
-        const float z = p[u][2];
+      int u = 0;
+#if defined(__SSE2__)
+      // Four pixels at a time and branch-free (holes are frequent and irregular): (count, fixed
+      // z) pairs interleaved into uint64 lanes, prefix-summed within each pair of lanes; same
+      // values as the scalar loop below.
+      const __m128 scale = _mm_set1_ps(1e4f), zero = _mm_setzero_ps();
+      const __m128i one = _mm_set1_epi32(1);
+      __m128i acc2 = _mm_setzero_si128();  // the running sum in both lanes
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u);
+        const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
+        const __m128i fixed_z = _mm_and_si128(_mm_cvttps_epi32(_mm_mul_ps(z, scale)), ok);
+        const __m128i count = _mm_and_si128(ok, one);
+        __m128i e01 = _mm_unpacklo_epi32(count, fixed_z), e23 = _mm_unpackhi_epi32(count, fixed_z);
+        e01 = _mm_add_epi64(_mm_add_epi64(e01, _mm_slli_si128(e01, 8)), acc2);
+        acc2 = _mm_unpackhi_epi64(e01, e01);
+        e23 = _mm_add_epi64(_mm_add_epi64(e23, _mm_slli_si128(e23, 8)), acc2);
+        acc2 = _mm_unpackhi_epi64(e23, e23);
+        const auto* up = reinterpret_cast<const __m128i*>(above64 + u + 1);
+        auto* out = reinterpret_cast<__m128i*>(row64 + u + 1);
+        _mm_storeu_si128(out, _mm_add_epi64(_mm_loadu_si128(up), e01));
+        _mm_storeu_si128(out + 1, _mm_add_epi64(_mm_loadu_si128(up + 1), e23));
+      }
+      std::memcpy(&acc, &acc2, sizeof acc);
+#endif
+      for (; u < cols; ++u) {
+        const float z = zrow[u];
         const bool ok = validZ(z);
         acc += static_cast<std::uint64_t>(ok) + (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
         row64[u + 1] = above64[u + 1] + acc;
