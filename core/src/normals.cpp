@@ -443,6 +443,36 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const __m128i xyz_lanes = _mm_set_epi32(0, -1, -1, -1), count_one = _mm_set_epi32(1, 0, 0, 0);
       __m128i acc = _mm_setzero_si128();
       _mm_storeu_si128(reinterpret_cast<__m128i*>(row), acc);
+      if (points_from_depth_) {
+        // The points are z times the pixel rays: rebuilt from the z plane and the rays (the same
+        // products as in compute(), so the same values), four pixels at a time, reading 4 bytes
+        // per pixel from memory instead of 12.
+        const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
+        const float* rx = ray_x_.data();
+        const __m128 ry = _mm_set1_ps(ray_y_[v]);
+        const __m128i one = _mm_set1_epi32(1);
+        for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
+          const __m128 z = _mm_loadu_ps(zrow + u);
+          const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
+          auto toFixed = [&](__m128 c) {
+            return _mm_and_si128(_mm_cvttps_epi32(_mm_mul_ps(c, scale)), ok);
+          };
+          const __m128i fx = toFixed(_mm_mul_ps(_mm_loadu_ps(rx + u), z));
+          const __m128i fy = toFixed(_mm_mul_ps(ry, z)), fz = toFixed(z);
+          const __m128i count = _mm_and_si128(ok, one);
+          // Transpose the (x, y, z, count) planes to one element per pixel.
+          const __m128i xy01 = _mm_unpacklo_epi32(fx, fy), zc01 = _mm_unpacklo_epi32(fz, count);
+          const __m128i xy23 = _mm_unpackhi_epi32(fx, fy), zc23 = _mm_unpackhi_epi32(fz, count);
+          const __m128i e[4] = {_mm_unpacklo_epi64(xy01, zc01), _mm_unpackhi_epi64(xy01, zc01),
+                                _mm_unpacklo_epi64(xy23, zc23), _mm_unpackhi_epi64(xy23, zc23)};
+          for (int k = 0; k < 4; ++k) {
+            acc = _mm_add_epi32(acc, e[k]);
+            const auto* up = reinterpret_cast<const __m128i*>(above + (u + k + 1) * 4);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(row + (u + k + 1) * 4),
+                             _mm_add_epi32(_mm_loadu_si128(up), acc));
+          }
+        }
+      }
       // A 16-byte load per pixel reads the next pixel's x too: stop one pixel short of the end.
       for (; u + 1 < cols; ++u) {
         const __m128 xyz = _mm_loadu_ps(pf + 3 * u);
@@ -684,11 +714,14 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     // Per-column ray x, so that the row loop is a plain vectorisable multiply.
     ray_x_.resize(static_cast<std::size_t>(cols));
     for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
+    ray_y_.resize(static_cast<std::size_t>(rows));
+    for (int v = 0; v < rows; ++v) ray_y_[v] = (static_cast<float>(v) - cy) * inv_fy;
+    points_from_depth_ = true;
     const float* rx = ray_x_.data();
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
       float* p = points_.ptr<float>(v);
-      const float ry = (static_cast<float>(v) - cy) * inv_fy;
+      const float ry = ray_y_[v];
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       int u = 0;
 #if defined(__SSE2__)
@@ -718,6 +751,7 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     }
   } else {
     input.copyTo(points_);
+    points_from_depth_ = false;
     for (int v = 0; v < rows; ++v) {
       const auto* p = points_.ptr<cv::Vec3f>(v);
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;

@@ -88,6 +88,8 @@ class NormalEstimator {
   std::vector<std::uint32_t*> integral_rows_;  // gradients: each integral row's place in packed_
   std::vector<float> zplane_;          // z of points_ (contiguous), NaN invalid
   std::vector<float> ray_x_;           // (u - cx) / fx per column
+  std::vector<float> ray_y_;           // (v - cy) / fy per row
+  bool points_from_depth_ = false;     // points_ = z * (ray_x_, ray_y_, 1) (depth input)
   std::vector<int> rad_;               // one row of window radii
   std::vector<int> min_count_;         // fewest valid pixels per window radius
   std::vector<float> col_bound_;       // largest window radius the image width allows per column
