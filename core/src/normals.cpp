@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -43,6 +44,23 @@ inline std::uint32_t rectU32(const std::uint32_t* a, const std::uint32_t* b, con
   return *d - *b - *c + *a;
 }
 
+#if defined(__SSE2__)
+// Four (x, y, z) triples from planes X, Y, Z to 12 consecutive floats (a CV_32FC3 row).
+inline void storeInterleaved(__m128 X, __m128 Y, __m128 Z, float* out) {
+  const __m128 t0 = _mm_unpacklo_ps(X, Y), t1 = _mm_unpackhi_ps(X, Y);  // x0 y0 x1 y1 | x2 y2 x3 y3
+  const __m128 o0 =
+      _mm_shuffle_ps(t0, _mm_shuffle_ps(Z, X, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
+  const __m128 o1 =
+      _mm_shuffle_ps(_mm_shuffle_ps(Y, Z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
+  const __m128 o2 =
+      _mm_shuffle_ps(_mm_shuffle_ps(Z, X, _MM_SHUFFLE(3, 3, 2, 2)),
+                     _mm_shuffle_ps(Y, Z, _MM_SHUFFLE(3, 3, 3, 3)), _MM_SHUFFLE(2, 0, 2, 0));
+  _mm_storeu_ps(out, o0);
+  _mm_storeu_ps(out + 4, o1);
+  _mm_storeu_ps(out + 8, o2);
+}
+#endif
+
 // Unit normals facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1): the sign of
 // n . X for every point X with depth), NaN where the unnormalised normal is (near) zero;
 // branch-free SIMD, interleaved into the CV_32FC3 output row.
@@ -67,19 +85,7 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
     k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
     k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
     const __m128 X = _mm_mul_ps(nx, k), Y = _mm_mul_ps(ny, k), Z = _mm_mul_ps(nz, k);
-    // Interleave 4 x (x, y, z) into 12 floats.
-    const __m128 t0 = _mm_unpacklo_ps(X, Y),
-                 t1 = _mm_unpackhi_ps(X, Y);  // x0 y0 x1 y1 | x2 y2 x3 y3
-    const __m128 o0 =
-        _mm_shuffle_ps(t0, _mm_shuffle_ps(Z, X, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
-    const __m128 o1 =
-        _mm_shuffle_ps(_mm_shuffle_ps(Y, Z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
-    const __m128 o2 =
-        _mm_shuffle_ps(_mm_shuffle_ps(Z, X, _MM_SHUFFLE(3, 3, 2, 2)),
-                       _mm_shuffle_ps(Y, Z, _MM_SHUFFLE(3, 3, 3, 3)), _MM_SHUFFLE(2, 0, 2, 0));
-    _mm_storeu_ps(out + 3 * u, o0);
-    _mm_storeu_ps(out + 3 * u + 4, o1);
-    _mm_storeu_ps(out + 3 * u + 8, o2);
+    storeInterleaved(X, Y, Z, out + 3 * u);
   }
 #endif
   for (; u < cols; ++u) {
@@ -196,9 +202,58 @@ void NormalEstimator::stepDistance(int cap) {
   const int rows = steps_.rows, cols = steps_.cols;
   step_dist_.resize(static_cast<std::size_t>(rows) * cols);
   const auto far = static_cast<std::int16_t>(cap);
+  // d[u] = min(d[u], d[u - dir] + 1) along the row, i.e. d[u] = min over k >= 0 of
+  // (d[u - k dir] + k). The serial recurrence costs a dependent min per pixel; with SSE2 eight
+  // pixels at a time take three shift-add-min steps (k < 8 within the block) and the block before
+  // enters as its edge value + 1..8. Same minima, so same values.
   auto scan = [cols](std::int16_t* d, int dir) {
-    const int first = dir > 0 ? 1 : cols - 2, end = dir > 0 ? cols : -1;
-    for (int u = first; u != end; u += dir) {
+    int u = dir > 0 ? 0 : cols - 1;  // first pixel not yet scanned
+#if defined(__SSE2__)
+    const __m128i ramp = _mm_setr_epi16(1, 2, 3, 4, 5, 6, 7, 8);
+    const __m128i ramp_back = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
+    const __m128i big = _mm_set1_epi16(0x7fff);  // "no value": saturates when incremented
+    // Lanes shifted in by a block shift get `big` (the OR fills the zeroed lanes; shifted-in
+    // lanes of `big >> or << n` are zero elsewhere).
+    auto up = [&](__m128i x, auto n) {  // lane i takes lane i - n
+      return _mm_or_si128(_mm_slli_si128(x, 2 * decltype(n)::value),
+                          _mm_srli_si128(big, 16 - 2 * decltype(n)::value));
+    };
+    auto down = [&](__m128i x, auto n) {  // lane i takes lane i + n
+      return _mm_or_si128(_mm_srli_si128(x, 2 * decltype(n)::value),
+                          _mm_slli_si128(big, 16 - 2 * decltype(n)::value));
+    };
+    using one = std::integral_constant<int, 1>;
+    using two = std::integral_constant<int, 2>;
+    using four = std::integral_constant<int, 4>;
+    if (dir > 0) {
+      __m128i carry = big;  // d[u - 1] in every lane
+      for (; u + 8 <= cols; u += 8) {
+        auto* p = reinterpret_cast<__m128i*>(d + u);
+        __m128i x = _mm_loadu_si128(p);
+        x = _mm_min_epi16(x, _mm_adds_epi16(up(x, one{}), _mm_set1_epi16(1)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(up(x, two{}), _mm_set1_epi16(2)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(up(x, four{}), _mm_set1_epi16(4)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp));
+        _mm_storeu_si128(p, x);
+        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 7)));
+      }
+    } else {
+      __m128i carry = big;  // d[u + 1] in every lane
+      for (; u - 7 >= 0; u -= 8) {
+        auto* p = reinterpret_cast<__m128i*>(d + u - 7);
+        __m128i x = _mm_loadu_si128(p);
+        x = _mm_min_epi16(x, _mm_adds_epi16(down(x, one{}), _mm_set1_epi16(1)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(down(x, two{}), _mm_set1_epi16(2)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(down(x, four{}), _mm_set1_epi16(4)));
+        x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp_back));
+        _mm_storeu_si128(p, x);
+        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 0)));
+      }
+    }
+#endif
+    const int end = dir > 0 ? cols : -1;
+    if (u == (dir > 0 ? 0 : cols - 1)) u += dir;  // the first pixel has nothing before it
+    for (; u != end; u += dir) {
       const auto next = static_cast<std::int16_t>(d[u - dir] + 1);
       d[u] = next < d[u] ? next : d[u];
     }
@@ -359,30 +414,95 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   const int rows = points_.rows, cols = points_.cols;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
+  constexpr int K = M == kGrad ? 4 : 2;  // floats per cached window: means, then the count
   const std::size_t rstride = estride * L;
-  packed_.resize(static_cast<std::size_t>(rows + 1) * rstride + 4);
-  std::fill(packed_.begin(), packed_.begin() + rstride, 0u);
+  // The windows of row v read integral rows v - max_r - 1 to v + max_r + 2 only, so the integral
+  // image lives in a ring of that many rows (~0.45 MB at the default max_r instead of ~5 MB): it
+  // stays in L2 instead of going to memory and back. Integral row y is in slot y % ring_rows.
+  const int min_r = std::max(1, params_.min_radius_px);
+  const int max_r = std::max(min_r, params_.max_radius_px);
+  const int ring_rows = std::min(rows + 1, 2 * max_r + 4);
+  packed_.resize(static_cast<std::size_t>(ring_rows) * rstride + 4);
+  integral_rows_.resize(static_cast<std::size_t>(rows) + 1);
+  for (int y = 0; y <= rows; ++y)
+    integral_rows_[y] = packed_.data() + static_cast<std::size_t>(y % ring_rows) * rstride;
+  std::uint32_t* const* irow = integral_rows_.data();
+  std::fill(irow[0], irow[0] + rstride, 0u);
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
   auto buildRow = [&](int v) {
-    const auto* p = points_.ptr<cv::Vec3f>(v);
-    std::uint32_t* row = packed_.data() + (v + 1) * rstride;
-    const std::uint32_t* above = row - rstride;
+    std::uint32_t* row = irow[v + 1];
+    const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
-      v4u acc = {0, 0, 0, 0};
-      store4(row, acc);
       const float* pf = points_.ptr<float>(v);
+      int u = 0;
+#if defined(__SSE2__)
+      // Branch-free (holes are frequent and irregular): the validity mask of z zeroes the
+      // invalid point's lanes and gives the count lane; same values as the scalar loop below.
+      const __m128 scale = _mm_set1_ps(1e4f), zero = _mm_setzero_ps();
+      const __m128i xyz_lanes = _mm_set_epi32(0, -1, -1, -1), count_one = _mm_set_epi32(1, 0, 0, 0);
+      __m128i acc = _mm_setzero_si128();
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(row), acc);
+      if (points_from_depth_) {
+        // The points are z times the pixel rays: rebuilt from the z plane and the rays (the same
+        // products as in compute(), so the same values), four pixels at a time, reading 4 bytes
+        // per pixel from memory instead of 12.
+        const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
+        const float* rx = ray_x_.data();
+        const __m128 ry = _mm_set1_ps(ray_y_[v]);
+        const __m128i one = _mm_set1_epi32(1);
+        for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
+          const __m128 z = _mm_loadu_ps(zrow + u);
+          const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
+          auto toFixed = [&](__m128 c) {
+            return _mm_and_si128(_mm_cvttps_epi32(_mm_mul_ps(c, scale)), ok);
+          };
+          const __m128i fx = toFixed(_mm_mul_ps(_mm_loadu_ps(rx + u), z));
+          const __m128i fy = toFixed(_mm_mul_ps(ry, z)), fz = toFixed(z);
+          const __m128i count = _mm_and_si128(ok, one);
+          // Transpose the (x, y, z, count) planes to one element per pixel.
+          const __m128i xy01 = _mm_unpacklo_epi32(fx, fy), zc01 = _mm_unpacklo_epi32(fz, count);
+          const __m128i xy23 = _mm_unpackhi_epi32(fx, fy), zc23 = _mm_unpackhi_epi32(fz, count);
+          const __m128i e[4] = {_mm_unpacklo_epi64(xy01, zc01), _mm_unpackhi_epi64(xy01, zc01),
+                                _mm_unpacklo_epi64(xy23, zc23), _mm_unpackhi_epi64(xy23, zc23)};
+          for (int k = 0; k < 4; ++k) {
+            acc = _mm_add_epi32(acc, e[k]);
+            const auto* up = reinterpret_cast<const __m128i*>(above + (u + k + 1) * 4);
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(row + (u + k + 1) * 4),
+                             _mm_add_epi32(_mm_loadu_si128(up), acc));
+          }
+        }
+      }
+      // A 16-byte load per pixel reads the next pixel's x too: stop one pixel short of the end.
+      for (; u + 1 < cols; ++u) {
+        const __m128 xyz = _mm_loadu_ps(pf + 3 * u);
+        const __m128i ok =
+            _mm_castps_si128(_mm_cmpgt_ps(_mm_shuffle_ps(xyz, xyz, _MM_SHUFFLE(2, 2, 2, 2)), zero));
+        const __m128i fixed_xyz = _mm_cvttps_epi32(_mm_mul_ps(xyz, scale));
+        const __m128i e = _mm_or_si128(_mm_and_si128(fixed_xyz, _mm_and_si128(ok, xyz_lanes)),
+                                       _mm_and_si128(ok, count_one));
+        acc = _mm_add_epi32(acc, e);
+        const auto* up = reinterpret_cast<const __m128i*>(above + (u + 1) * 4);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(row + (u + 1) * 4),
+                         _mm_add_epi32(_mm_loadu_si128(up), acc));
+      }
+      v4u acc_v;
+      std::memcpy(&acc_v, &acc, sizeof acc_v);
+#else
+      v4u acc_v = {0, 0, 0, 0};
+      store4(row, acc_v);
+#endif
       // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
       // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
-      auto element = [&](int u, v4f xyz) {
+      auto element = [&](int col, v4f xyz) {
         const bool ok = validZ(xyz[2]);
         const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
         v4u e = reinterpret_cast<v4u>(__builtin_convertvector(kept, v4i));
         e[3] = static_cast<std::uint32_t>(ok);
-        acc += e;
-        store4(row + (u + 1) * 4, load4(above + (u + 1) * 4) + acc);
+        acc_v += e;
+        store4(row + (col + 1) * 4, load4(above + (col + 1) * 4) + acc_v);
       };
-      for (int u = 0; u + 1 < cols; ++u) {
+      for (; u + 1 < cols; ++u) {
         v4f xyz;
         std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
         element(u, xyz);
@@ -393,10 +513,36 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
+      const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
       std::uint64_t acc = 0;
       row64[0] = 0;
-      for (int u = 0; u < cols; ++u) {
-        const float z = p[u][2];
+      int u = 0;
+#if defined(__SSE2__)
+      // Four pixels at a time and branch-free (holes are frequent and irregular): (count, fixed
+      // z) pairs interleaved into uint64 lanes, prefix-summed within each pair of lanes; same
+      // values as the scalar loop below.
+      const __m128 scale = _mm_set1_ps(1e4f), zero = _mm_setzero_ps();
+      const __m128i one = _mm_set1_epi32(1);
+      __m128i acc2 = _mm_setzero_si128();  // the running sum in both lanes
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u);
+        const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
+        const __m128i fixed_z = _mm_and_si128(_mm_cvttps_epi32(_mm_mul_ps(z, scale)), ok);
+        const __m128i count = _mm_and_si128(ok, one);
+        __m128i e01 = _mm_unpacklo_epi32(count, fixed_z), e23 = _mm_unpackhi_epi32(count, fixed_z);
+        e01 = _mm_add_epi64(_mm_add_epi64(e01, _mm_slli_si128(e01, 8)), acc2);
+        acc2 = _mm_unpackhi_epi64(e01, e01);
+        e23 = _mm_add_epi64(_mm_add_epi64(e23, _mm_slli_si128(e23, 8)), acc2);
+        acc2 = _mm_unpackhi_epi64(e23, e23);
+        const auto* up = reinterpret_cast<const __m128i*>(above64 + u + 1);
+        auto* out = reinterpret_cast<__m128i*>(row64 + u + 1);
+        _mm_storeu_si128(out, _mm_add_epi64(_mm_loadu_si128(up), e01));
+        _mm_storeu_si128(out + 1, _mm_add_epi64(_mm_loadu_si128(up + 1), e23));
+      }
+      std::memcpy(&acc, &acc2, sizeof acc);
+#endif
+      for (; u < cols; ++u) {
+        const float z = zrow[u];
         const bool ok = validZ(z);
         acc += static_cast<std::uint64_t>(ok) + (static_cast<std::uint64_t>(fixed(z, ok)) << 32);
         row64[u + 1] = above64[u + 1] + acc;
@@ -408,13 +554,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
                        (params_.depth_dependent_smoothing ? 1.0f : 0.0f);
   const float const_r =
       params_.depth_dependent_smoothing ? 0.0f : static_cast<float>(params_.smoothing_radius_px);
-  const int min_r = std::max(1, params_.min_radius_px);
-  const int max_r = std::max(min_r, params_.max_radius_px);
   const float min_frac = static_cast<float>(params_.min_valid_fraction);
   const float fx = static_cast<float>(intr.fx), fy = static_cast<float>(intr.fy);
   const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-  const std::uint32_t* I = packed_.data();
-  const std::ptrdiff_t rs = static_cast<std::ptrdiff_t>(rstride);
 
   // Per row: (a) the window radius of every pixel (branch-free), (b) per pixel the step check
   // and the four windows centred one pixel left/right/up/down (one packed fetch per corner),
@@ -447,6 +589,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   }
   const int* min_count = min_count_.data();
   stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
+  win_mean_.resize(3 * static_cast<std::size_t>(cols) * K);
+  win_radius_.assign(3 * static_cast<std::size_t>(cols), 0);  // 0: nothing cached
   int built = 0;                             // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
@@ -472,35 +616,66 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       r = r < by_step ? r : by_step;
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     }
-    // (b)
-    const std::uint32_t* crow = I + static_cast<std::ptrdiff_t>(v) * rs;  // element (v, 0)
+    // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
+    // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
+    // (x, y + 1). Its mean (lane K - 1: the count) is cached per centre and radius for the three
+    // rows of centres in use, so that where neighbours share a radius each pixel computes one new
+    // window instead of four. Same arithmetic on the same exact sums: same bits as uncached.
+    float* row_above = win_mean_.data() + static_cast<std::size_t>((v + 2) % 3) * cols * K;
+    float* row_here = win_mean_.data() + static_cast<std::size_t>(v % 3) * cols * K;
+    float* row_below = win_mean_.data() + static_cast<std::size_t>((v + 1) % 3) * cols * K;
+    int* rad_above = win_radius_.data() + static_cast<std::size_t>((v + 2) % 3) * cols;
+    int* rad_here = win_radius_.data() + static_cast<std::size_t>(v % 3) * cols;
+    int* rad_below = win_radius_.data() + static_cast<std::size_t>((v + 1) % 3) * cols;
+    std::fill(rad_below, rad_below + cols, 0);  // it held the centres of row v - 2
+    const float* inv = inv_count_.data();
+    // The cached mean of the window of radius r centred on column x of a row of centres whose
+    // row is y (computed and cached on a miss).
+    auto window = [&](float* means, int* radii, int x, int y, int r) -> const float* {
+      float* e = means + static_cast<std::size_t>(x) * K;
+      if (radii[x] == r) return e;
+      radii[x] = r;
+      const std::ptrdiff_t dh = (2 * r + 1) * L;
+      const std::uint32_t* a = irow[y - r] + (x - r) * L;      // top left
+      const std::uint32_t* c = irow[y + r + 1] + (x - r) * L;  // bottom left
+      if constexpr (M == kGrad) {
+        const v4u s = load4(c + dh) - load4(a + dh) - load4(c) + load4(a);
+        const int n = static_cast<int>(s[3]);
+        v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
+        m[3] = static_cast<float>(n);
+        std::memcpy(e, &m, sizeof m);
+      } else {
+        auto corner = [](const std::uint32_t* c) {
+          std::uint64_t x64;
+          std::memcpy(&x64, c, sizeof x64);
+          return x64;
+        };
+        const std::uint64_t s = corner(c + dh) - corner(a + dh) - corner(c) + corner(a);
+        const auto n = static_cast<std::uint32_t>(s);
+        e[0] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
+        e[1] = static_cast<float>(n);
+      }
+      return e;
+    };
     std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
     for (int u = 0; u < cols; ++u) {
       const int r = rr[u];
       if (r == 0) continue;
-      const std::uint32_t* c0 = crow + u * L;
-      const int w = 2 * r + 1;
-      const std::ptrdiff_t dw = w * rs, dh = w * L;
-      const std::uint32_t* al = c0 - r * rs - (r + 1) * L;  // top-left of the window at (u - 1, v)
-      const std::uint32_t* ar = al + 2 * L;
-      const std::uint32_t* au = c0 - (r + 1) * rs - r * L;
-      const std::uint32_t* ad = au + 2 * rs;
-      const int min_n = min_count[r];
-      const float* inv = inv_count_.data();
+      const float* el = window(row_here, rad_here, u - 1, v, r);
+      const float* er = window(row_here, rad_here, u + 1, v, r);
+      const float* eu = window(row_above, rad_above, u, v - 1, r);
+      const float* ed = window(row_below, rad_below, u, v + 1, r);
+      const float min_n = static_cast<float>(min_count[r]);
+      if (std::min(std::min(el[K - 1], er[K - 1]), std::min(eu[K - 1], ed[K - 1])) < min_n)
+        continue;
       if constexpr (M == kGrad) {
-        auto win = [&](const std::uint32_t* a) {
-          return load4(a + dw + dh) - load4(a + dh) - load4(a + dw) + load4(a);
-        };
-        const v4u sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(sl[3]), nr = static_cast<int>(sr[3]);
-        const int nu = static_cast<int>(su[3]), nd = static_cast<int>(sd[3]);
-        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const v4f ml = __builtin_convertvector(reinterpret_cast<const v4i&>(sl), v4f) * inv[nl];
-        const v4f mr = __builtin_convertvector(reinterpret_cast<const v4i&>(sr), v4f) * inv[nr];
-        const v4f mu = __builtin_convertvector(reinterpret_cast<const v4i&>(su), v4f) * inv[nu];
-        const v4f md = __builtin_convertvector(reinterpret_cast<const v4i&>(sd), v4f) * inv[nd];
+        v4f ml, mr, mu, md;
+        std::memcpy(&ml, el, sizeof ml);
+        std::memcpy(&mr, er, sizeof mr);
+        std::memcpy(&mu, eu, sizeof mu);
+        std::memcpy(&md, ed, sizeof md);
         // Differences of the means of the four windows: the averaged tangents (for a plane the
-        // mean of 3D points lies on the plane).
+        // mean of 3D points lies on the plane). Lane 3 (counts) is unused.
         const v4f h = mr - ml, t = md - mu;
         // h x t, three lanes at once.
         const v4f n =
@@ -510,22 +685,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         rny[u] = n[1];
         rnz[u] = n[2];
       } else {
-        const auto* I64 = reinterpret_cast<const std::uint64_t*>(I);
-        const std::ptrdiff_t rs64 = rs / 2;
-        auto win = [&](const std::uint32_t* a32) {
-          const std::uint64_t* a = I64 + (a32 - I) / 2;
-          return a[w * rs64 + w] - a[w] - a[w * rs64] + a[0];
-        };
-        const std::uint64_t sl = win(al), sr = win(ar), su = win(au), sd = win(ad);
-        const int nl = static_cast<int>(static_cast<std::uint32_t>(sl)),
-                  nr = static_cast<int>(static_cast<std::uint32_t>(sr));
-        const int nu = static_cast<int>(static_cast<std::uint32_t>(su)),
-                  nd = static_cast<int>(static_cast<std::uint32_t>(sd));
-        if (std::min(std::min(nl, nr), std::min(nu, nd)) < min_n) continue;
-        const float zl = static_cast<float>(static_cast<std::int32_t>(sl >> 32)) * inv[nl];
-        const float zr = static_cast<float>(static_cast<std::int32_t>(sr >> 32)) * inv[nr];
-        const float zu_ = static_cast<float>(static_cast<std::int32_t>(su >> 32)) * inv[nu];
-        const float zd = static_cast<float>(static_cast<std::int32_t>(sd >> 32)) * inv[nd];
+        const float zl = el[0], zr = er[0], zu_ = eu[0], zd = ed[0];
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
@@ -554,13 +714,32 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     // Per-column ray x, so that the row loop is a plain vectorisable multiply.
     ray_x_.resize(static_cast<std::size_t>(cols));
     for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
+    ray_y_.resize(static_cast<std::size_t>(rows));
+    for (int v = 0; v < rows; ++v) ray_y_[v] = (static_cast<float>(v) - cy) * inv_fy;
+    points_from_depth_ = true;
     const float* rx = ray_x_.data();
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
       float* p = points_.ptr<float>(v);
-      const float ry = (static_cast<float>(v) - cy) * inv_fy;
+      const float ry = ray_y_[v];
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
-      for (int u = 0; u < cols; ++u) {
+      int u = 0;
+#if defined(__SSE2__)
+      // Same arithmetic as the loop below, four pixels at a time: the compiler vectorises that
+      // loop's arithmetic but not its interleaved stores.
+      const __m128 vry = _mm_set1_ps(ry), to_metres = _mm_set1_ps(0.001f);
+      const __m128 zero = _mm_setzero_ps(), nan = _mm_set1_ps(kNaN);
+      for (; u + 4 <= cols; u += 4) {
+        const __m128i mm32 = _mm_unpacklo_epi16(
+            _mm_loadl_epi64(reinterpret_cast<const __m128i*>(d + u)), _mm_setzero_si128());
+        const __m128 metres = _mm_mul_ps(_mm_cvtepi32_ps(mm32), to_metres);
+        const __m128 ok = _mm_cmpgt_ps(metres, zero);
+        const __m128 z = _mm_or_ps(_mm_and_ps(ok, metres), _mm_andnot_ps(ok, nan));
+        _mm_storeu_ps(zr + u, z);
+        storeInterleaved(_mm_mul_ps(_mm_loadu_ps(rx + u), z), _mm_mul_ps(vry, z), z, p + 3 * u);
+      }
+#endif
+      for (; u < cols; ++u) {
         const float metres = static_cast<float>(d[u]) * 0.001f;
         const float z =
             metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
@@ -572,6 +751,7 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     }
   } else {
     input.copyTo(points_);
+    points_from_depth_ = false;
     for (int v = 0; v < rows; ++v) {
       const auto* p = points_.ptr<cv::Vec3f>(v);
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
