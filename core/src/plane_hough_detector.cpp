@@ -246,7 +246,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       ++votes;
     }
     if (votes < P.min_plane_samples) break;
-    s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass);
+    s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass, min_peak);
     const auto maxima = s.smooth.findMaxima(min_peak, P.maxima_window_a, P.maxima_window_d);
 
     // 4. Refine the maxima, strongest first; accepted planes claim their samples.
