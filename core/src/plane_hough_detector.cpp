@@ -289,29 +289,36 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
-        // Gate schedule: wide, 2x tolerance, then the tolerance.
-        const float gate_mult = it == 0 ? -1.0f : (it == 1 ? 2.0f : 1.0f);
+        // Gate schedule: wide (the candidate scan's gate), 2x tolerance, then the tolerance.
         // The normal gate stays tight throughout: the smoothed peak's normal is already good to
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
-        const float cos_gate = cos_inlier;
-        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
-        const float df = static_cast<float>(d);
         RefineSums mom(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]);
-        next.resize(cand.size());
-        int kept = 0;
-        for (int f : cand) {
-          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          const float g = gate_mult < 0 ? s.fgate[f] : gate_mult * s.ftol[f];
-          const bool in = (dist <= g) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_gate);
-          next[kept] = f;
-          kept += in;
-          mom.add(s.fx[f], s.fy[f], s.fz[f], in);
-        }
-        next.resize(kept);
-        if (static_cast<int>(next.size()) < P.min_plane_samples) {
-          ok = false;
-          break;
+        if (it == 0) {
+          // The first pass's gates are the candidate scan's, with the same plane: every
+          // candidate passes, and the wide set stays for the first shrink.
+          for (int f : cand) mom.add(s.fx[f], s.fy[f], s.fz[f], true);
+        } else {
+          const float gate_mult = it == 1 ? 2.0f : 1.0f;
+          const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
+                      nz = static_cast<float>(n.z());
+          const float df = static_cast<float>(d);
+          next.resize(cand.size());
+          int kept = 0;
+          for (int f : cand) {
+            const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
+            const bool in = (dist <= gate_mult * s.ftol[f]) &
+                            (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
+            next[kept] = f;
+            kept += in;
+            mom.add(s.fx[f], s.fy[f], s.fz[f], in);
+          }
+          next.resize(kept);
+          if (kept < P.min_plane_samples) {
+            ok = false;
+            break;
+          }
+          cand.swap(next);
         }
         const PlaneFit fit = mom.fit();
         if (!fit.valid) {
@@ -320,7 +327,6 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         }
         n = fit.normal;
         d = fit.d;
-        if (it >= 1) cand.swap(next);  // keep the wide set for the first shrink
       }
       if (!ok) continue;
       // Final inliers at the tolerance with the refined plane.

@@ -209,12 +209,13 @@ RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, 
 
 // Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
 // their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
-// sums (yr is constant along it) and the loop keeps them in registers.
+// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
+// the same pass (one test of the label per pixel).
 void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow, int u0, int u1,
                    std::uint16_t label, const double* xr, double yr, RegionAccumulator& reg) {
   double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
-  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-    if (lrow[u] != label) continue;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
+  auto addMoments = [&](int u) {
     const double z = drow[u] * 0.001, xz = xr[u] * z;
     n += 1.0;
     sz += z;
@@ -222,6 +223,18 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
     sxz += xz;
     sxzz += xz * z;
     sxxzz += xz * xz;
+  };
+  if (crow) {
+    for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+      if (lrow[u] != label) continue;
+      addMoments(u);
+      b += crow[u][0];
+      g += crow[u][1];
+      r += crow[u][2];
+    }
+  } else {
+    for (int u = u0 + (u0 & 1); u < u1; u += 2)
+      if (lrow[u] == label) addMoments(u);
   }
   if (n == 0) return;
   auto& m = reg.sums;
@@ -235,14 +248,6 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   m[7] += yr * yr * szz;
   m[8] += yr * szz;
   m[9] += szz;
-  if (!crow) return;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-    if (lrow[u] != label) continue;
-    b += crow[u][0];
-    g += crow[u][1];
-    r += crow[u][2];
-  }
   reg.colour[0] += b;
   reg.colour[1] += g;
   reg.colour[2] += r;
