@@ -13,6 +13,24 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
+// samplesContinuous with its two constants computed once: the loops over the samples test
+// several neighbours per sample, and the tolerance constant costs a division.
+class SampleContinuity {
+ public:
+  SampleContinuity(const PlaneSampleGrid& grid, const PlaneLabelingParams& params)
+      : range_factor_(0.01f * static_cast<float>(grid.step)),
+        tol_k_(static_cast<float>(params.tolerance.noise_steps *
+                                  params.tolerance.noise.depthStep(1.0))) {}
+  bool operator()(float z1, float z2) const {
+    const float z = std::min(z1, z2);
+    return std::fabs(z1 - z2) <= std::max(range_factor_ * z, tol_k_ * z * z);
+  }
+
+ private:
+  float range_factor_;  // 1% of the range per sample step
+  float tol_k_;         // tolerance at 1 m (it grows with z^2)
+};
+
 int findRoot(std::vector<int>& parent, int i) {
   while (parent[i] != i) {
     parent[i] = parent[parent[i]];
@@ -419,9 +437,7 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
 }
 
 bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const PlaneLabelingParams& params) {
-  const float z = std::min(z1, z2);
-  const float tol_k = static_cast<float>(params.tolerance.noise_steps * params.tolerance.noise.depthStep(1.0));
-  return std::fabs(z1 - z2) <= std::max(0.01f * static_cast<float>(grid.step) * z, tol_k * z * z);
+  return SampleContinuity(grid, params)(z1, z2);
 }
 
 namespace {
@@ -441,6 +457,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
   const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
   const float tol_floor = static_cast<float>(tol.floor_m);
+  const SampleContinuity continuous(grid, params);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
@@ -460,7 +477,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const
     for (int j : nbr) {
       if (j < 0 || lab[j] != -1) continue;
       const cv::Vec3f& p = point(j);
-      if (!(p[2] > 0) || !samplesContinuous(z, p[2], grid, params)) continue;
+      if (!(p[2] > 0) || !continuous(z, p[2])) continue;
       if (std::fabs(dist(L, p)) > std::max(tol_floor, tol_coef[L] * p[2] * p[2])) continue;
       if (with_normals) {
         const cv::Vec3f& n = grid.normals.ptr<cv::Vec3f>(0)[j];
@@ -489,7 +506,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const PlaneTolerance& tol = params.tolerance;
   const float tol_floor = static_cast<float>(tol.floor_m);
-  auto continuous = [&](float z1, float z2) { return samplesContinuous(z1, z2, grid, params); };
+  const SampleContinuity continuous(grid, params);
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
   int* lab = sample_labels.ptr<int>(0);
 
@@ -518,13 +535,14 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
     std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
     std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0), sc(static_cast<std::size_t>(R) * C, 0.0);
-    for (int i = 0; i < R * C; ++i) {
-      if (lab[i] < 0) continue;
-      const int root = findRoot(parent, i);
-      ++cnt[root];
-      sr[root] += i / C;
-      sc[root] += i % C;
-    }
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        if (lab[i] < 0) continue;
+        const int root = findRoot(parent, i);
+        ++cnt[root];
+        sr[root] += r;
+        sc[root] += c;
+      }
     std::vector<std::vector<int>> pieces(planes.size());
     for (int i = 0; i < R * C; ++i)
       if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
