@@ -37,6 +37,9 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   auto dist = [&](const Eigen::Vector3d& n, double d, int i) {
     return std::fabs(n.x() * pts[i][0] + n.y() * pts[i][1] + n.z() * pts[i][2] + d);
   };
+  // The tolerance of each member, aligned with `rest` (every hypothesis tests the same members).
+  std::vector<double> rest_tol(rest.size()), outlier_tol;
+  for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples; ++extracted) {
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
@@ -58,7 +61,8 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
       std::size_t count = 0;
-      for (std::size_t k = 0; k < rest.size(); k += stride) count += dist(n, d, rest[k]) <= tol.at(pts[rest[k]][2]);
+      for (std::size_t k = 0; k < rest.size(); k += stride)
+        count += dist(n, d, rest[k]) <= rest_tol[k];
       if (count > best_count) {
         best_count = count;
         best_n = n;
@@ -69,8 +73,10 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     // Least-squares refit on the inliers, twice.
     for (int it = 0; it < 2; ++it) {
       PlaneMoments mom;
-      for (int i : rest)
-        if (dist(best_n, best_d, i) <= tol.at(pts[i][2])) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      for (std::size_t k = 0; k < rest.size(); ++k) {
+        const int i = rest[k];
+        if (dist(best_n, best_d, i) <= rest_tol[k]) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      }
       const PlaneFit fit = mom.fit();
       if (!fit.valid) return;
       best_n = fit.normal;
@@ -78,10 +84,13 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     }
     inliers.clear();
     outliers.clear();
+    outlier_tol.clear();
     int with_normal = 0, agreeing = 0;
-    for (int i : rest) {
-      if (dist(best_n, best_d, i) > tol.at(pts[i][2])) {
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+      const int i = rest[k];
+      if (dist(best_n, best_d, i) > rest_tol[k]) {
         outliers.push_back(i);
+        outlier_tol.push_back(rest_tol[k]);
         continue;
       }
       inliers.push_back(i);
@@ -96,6 +105,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     for (int i : inliers) lab[i] = id;
     planes.push_back({best_n, best_d});
     rest.swap(outliers);
+    rest_tol.swap(outlier_tol);
   }
 }
 
@@ -441,6 +451,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     std::vector<int> comp(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
+    std::vector<double> member_tol;
     for (int seed = 0; seed < N; ++seed) {
       if (lab[seed] >= 0 || comp[seed] >= 0 || !(pts[seed][2] > 0)) continue;
       members.clear();
@@ -463,16 +474,19 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       PlaneMoments mom;
       for (int i : members) mom.add(pts[i][0], pts[i][1], pts[i][2]);
       PlaneFit fit = mom.fit();
+      member_tol.resize(members.size());  // tested by every trimming pass
+      for (std::size_t k = 0; k < members.size(); ++k) member_tol[k] = tol.at(pts[members[k]][2]);
       std::size_t inl = 0;
       for (int it = 0; it < 3 && fit.valid; ++it) {
         // Trim: first pass keeps points within 3x the tolerance, then within the tolerance.
         const double mult = it == 0 ? 3.0 : 1.0;
         PlaneMoments m2;
         inl = 0;
-        for (int i : members) {
+        for (std::size_t k = 0; k < members.size(); ++k) {
+          const int i = members[k];
           const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
                                         fit.normal.z() * pts[i][2] + fit.d);
-          if (dist > mult * tol.at(pts[i][2])) continue;
+          if (dist > mult * member_tol[k]) continue;
           m2.add(pts[i][0], pts[i][1], pts[i][2]);
           ++inl;
         }
@@ -484,10 +498,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         continue;
       }
       const int id = static_cast<int>(planes.size());
-      for (int i : members) {
+      for (std::size_t k = 0; k < members.size(); ++k) {
+        const int i = members[k];
         const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
                                       fit.normal.z() * pts[i][2] + fit.d);
-        if (dist <= tol.at(pts[i][2])) lab[i] = id;
+        if (dist <= member_tol[k]) lab[i] = id;
       }
       planes.push_back({fit.normal, fit.d});
     }
