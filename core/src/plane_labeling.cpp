@@ -535,10 +535,13 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
     std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
     std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0), sc(static_cast<std::size_t>(R) * C, 0.0);
+    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
+    // pointing at its root (the roots stay the same: no find is needed below).
+    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
         if (lab[i] < 0) continue;
-        const int root = findRoot(parent, i);
+        const int root = parent[i];
         ++cnt[root];
         sr[root] += r;
         sc[root] += c;
