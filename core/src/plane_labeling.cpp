@@ -107,6 +107,11 @@ std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, i
   return cand;
 }
 
+// Element-wise, without the library call std::array's == makes of it (one per sample).
+inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
+  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
+}
+
 // A horizontal run of pixels of one image row whose samples share one candidate list.
 struct PixelRun {
   int u0 = 0, u1 = 0;  // [u0, u1)
@@ -120,7 +125,8 @@ void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample
   runs.clear();
   for (std::size_t c = 0; c < sample_u0.size(); ++c) {
     if (sample_u0[c] >= sample_u1[c]) continue;
-    if (!runs.empty() && runs.back().list == row_cand[c] && runs.back().u1 == sample_u0[c]) {
+    if (!runs.empty() && sameCandidates(runs.back().list, row_cand[c]) &&
+        runs.back().u1 == sample_u0[c]) {
       runs.back().u1 = sample_u1[c];
       continue;
     }
