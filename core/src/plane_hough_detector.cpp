@@ -109,38 +109,6 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   }
 }
 
-// Moment sums of one refinement pass, relative to a point of the candidate set. add() takes
-// every candidate and a flag, without a branch: whether a candidate passes the shrinking gates
-// is unpredictable. (PlaneMoments::add also costs a branch and Eigen temporaries.)
-class RefineSums {
- public:
-  explicit RefineSums(float x, float y, float z) : ref_{x, y, z} {}
-  void add(float x, float y, float z, bool in) {
-    const double a = in ? x - ref_[0] : 0.0, b = in ? y - ref_[1] : 0.0, c = in ? z - ref_[2] : 0.0;
-    n_ += in;
-    s_[0] += a;
-    s_[1] += b;
-    s_[2] += c;
-    ss_[0] += a * a;
-    ss_[1] += a * b;
-    ss_[2] += a * c;
-    ss_[3] += b * b;
-    ss_[4] += b * c;
-    ss_[5] += c * c;
-  }
-  PlaneFit fit() const {
-    Eigen::Matrix3d ss;
-    ss << ss_[0], ss_[1], ss_[2], ss_[1], ss_[3], ss_[4], ss_[2], ss_[4], ss_[5];
-    return PlaneMoments::fromSums(Eigen::Vector3d(ref_[0], ref_[1], ref_[2]), n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), ss)
-        .fit();
-  }
-
- private:
-  std::array<double, 3> ref_{}, s_{};
-  std::array<double, 6> ss_{};
-  double n_ = 0.0;
-};
-
 }  // namespace
 
 NormalParams HoughPlaneParams::defaultSampleNormalParams(int step) {
@@ -303,11 +271,12 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // The normal gate stays tight throughout: the smoothed peak's normal is already good to
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
-        RefineSums mom(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]);
+        // Relative to a point of the candidate set (precision at metres of range).
+        PlaneMoments mom(Eigen::Vector3d(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]));
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int f : cand) mom.add(s.fx[f], s.fy[f], s.fz[f], true);
+          for (int f : cand) mom.addIf(s.fx[f], s.fy[f], s.fz[f], true);
         } else {
           const float gate_mult = it == 1 ? 2.0f : 1.0f;
           const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
@@ -321,7 +290,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                             (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
             next[kept] = f;
             kept += in;
-            mom.add(s.fx[f], s.fy[f], s.fz[f], in);
+            mom.addIf(s.fx[f], s.fy[f], s.fz[f], in);
           }
           next.resize(kept);
           if (kept < P.min_plane_samples) {

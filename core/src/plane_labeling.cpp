@@ -49,11 +49,9 @@ struct RegionAccumulator {
   int plane = -1;            // index into the hypotheses
   int samples = 0;
   cv::Rect sample_box;       // on the sample grid
-  // Full-resolution accumulation. The labelling loop sums raw moments (camera frame, in double:
-  // the covariance of a region metres away keeps ~8 significant digits) and turns them into
-  // `moments` after it.
-  PlaneMoments moments;
-  std::array<double, 10> sums{};  // n, x, y, z, xx, xy, xz, yy, yz, zz
+  // Full-resolution accumulation: raw moments (camera frame, in double: the covariance of a
+  // region metres away keeps ~8 significant digits), added run by run.
+  PlaneMoments moments{Eigen::Vector3d::Zero()};
   std::size_t count = 0;
   int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
   std::array<std::uint64_t, 3> colour{};
@@ -261,27 +259,12 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
       if (lrow[u] == label) addMoments(u);
   }
   if (n == 0) return;
-  auto& m = reg.sums;
-  m[0] += n;
-  m[1] += sxz;
-  m[2] += yr * sz;
-  m[3] += sz;
-  m[4] += sxxzz;
-  m[5] += yr * sxzz;
-  m[6] += sxzz;
-  m[7] += yr * yr * szz;
-  m[8] += yr * szz;
-  m[9] += szz;
+  Eigen::Matrix3d sum_sq;  // upper triangle
+  sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
+  reg.moments.addSums(n, Eigen::Vector3d(sxz, yr * sz, sz), sum_sq);
   reg.colour[0] += b;
   reg.colour[1] += g;
   reg.colour[2] += r;
-}
-
-PlaneMoments momentsOf(const RegionAccumulator& reg) {
-  const auto& m = reg.sums;
-  Eigen::Matrix3d ss;
-  ss << m[4], m[5], m[6], m[5], m[7], m[8], m[6], m[8], m[9];
-  return PlaneMoments::fromSums(Eigen::Vector3d::Zero(), m[0], Eigen::Vector3d(m[1], m[2], m[3]), ss);
 }
 
 // The candidate runs of every sample row, kept for the renumbering at the end.
@@ -352,7 +335,6 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
   }
-  for (auto& reg : regions) reg.moments = momentsOf(reg);
   return lr;
 }
 
