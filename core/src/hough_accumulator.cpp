@@ -146,14 +146,17 @@ double HoughAccumulator::kernelPeak(double sigma_angle_deg, double sigma_d_m) co
 }
 
 void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg, double sigma_d_m,
-                                  float min_block_mass) const {
+                                  float min_block_mass, float min_peak) const {
   out.prepareLike(*this);
   out.clear();
   // 1. The evaluated block set: heavy blocks and their 26 neighbours.
+  std::vector<float>& block_mass = out.block_mass_;  // of this space's blocks, for the peak bound
+  block_mass.resize(block_keys_.size());
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     const float* cells = &cells_[b * kBlockCells];
     float mass = 0;
     for (int c = 0; c < kBlockCells; ++c) mass += cells[c];
+    block_mass[b] = mass;
     if (mass < min_block_mass) continue;
     const int key = block_keys_[b];
     const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
@@ -181,8 +184,14 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     const int r = static_cast<int>(w.size() / 2);
     for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
   }
-  out.scratch_.assign(out.cells_.size(), 0.0f);
   const std::array<int, 3> nb = {nba_, nba_, nbd_};
+  // Which passes each evaluated block needs (see kNeedX.. below); all of them without a peak bound.
+  std::vector<std::uint8_t>& need = out.smooth_need_;
+  need.assign(out.block_keys_.size(), kNeedZ);
+  if (min_peak > 0.0f)
+    out.pruneForPeaks(*this, block_mass, taps[0][kBlock] * taps[1][kBlock] * taps[2][kBlock],
+                      min_peak);
+  out.scratch_.assign(out.cells_.size(), 0.0f);
   const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
   static constexpr std::array<float, kBlockCells> kZeros{};
 
@@ -229,9 +238,16 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     const auto& w = taps[axis];
     const int other = axis == 1 ? 2 : 1;
     std::array<const float*, 3> blocks{};
+    const std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
     for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
-      neighbours(out.block_keys_[b], axis, src_index, src, blocks);
       float* o = &dst[b * kBlockCells];
+      if (need[b] < needed) {
+        // Never read: zeros (after the z pass, this is what findMaxima sees; it cannot hold a
+        // peak and is no neighbour of one).
+        std::fill_n(o, kBlockCells, 0.0f);
+        continue;
+      }
+      neighbours(out.block_keys_[b], axis, src_index, src, blocks);
       for (int p = 0; p < kBlock; ++p) {
         // rows[g]: the 4 x-cells at position g - kBlock along `axis`, g in [0, 3 kBlock).
         std::array<const float*, 3 * kBlock> rows;
@@ -251,6 +267,88 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   passX(index_, cells_, out.cells_);
   passYZ(1, out.index_, out.cells_, out.scratch_);
   passYZ(2, out.index_, out.scratch_, out.cells_);
+}
+
+void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
+                                     const std::vector<float>& src_block_mass, float central_weight,
+                                     float min_peak) {
+  // A smoothed cell is a weighted sum, with weights <= central_weight, of the raw cells of its
+  // block's 3x3x3 block neighbourhood (the kernel radius is at most a block edge): a block whose
+  // neighbourhood mass times central_weight stays below min_peak holds no cell findMaxima
+  // reports. 1e-3 of margin covers the float rounding of the sums.
+  const std::size_t count = block_keys_.size();
+  auto blockCoords = [&](int key) {
+    return std::array<int, 3>{key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
+  };
+  auto inside = [&](int x, int y, int z) {
+    return x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_;
+  };
+  std::vector<std::uint8_t>& need = smooth_need_;
+  need.assign(count, 0);
+  // 1. Peak blocks, and every evaluated block within one block of them (findMaxima compares a
+  //    cell with its window of <= 2 cells and takes the centroid of its 3x3x3 cells): kNeedZ,
+  //    which must come out exactly as without pruning.
+  const float min_mass = min_peak / (central_weight * 1.001f);
+  // Key offsets of the 27 neighbours, for blocks off the border of the space (almost all).
+  std::array<int, 27> offsets{};
+  for (int t = 0, dk = -1; dk <= 1; ++dk)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di) offsets[t++] = (dk * nba_ + dj) * nba_ + di;
+  for (std::size_t b = 0; b < count; ++b) {
+    const int key = block_keys_[b];
+    const auto [bi, bj, bk] = blockCoords(key);
+    const bool interior =
+        bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_;
+    auto neighbourKey = [&](int t) {
+      if (interior) return key + offsets[t];
+      const int x = bi + t % 3 - 1, y = bj + (t / 3) % 3 - 1, z = bk + t / 9 - 1;
+      return inside(x, y, z) ? blockIndex(x, y, z) : -1;
+    };
+    float mass = 0.0f;
+    for (int t = 0; t < 27 && mass < min_mass; ++t) {
+      const int nkey = neighbourKey(t);
+      const int idx = nkey < 0 ? -1 : src.index_[nkey];
+      if (idx >= 0) mass += src_block_mass[idx];
+    }
+    if (mass < min_mass) continue;
+    for (int t = 0; t < 27; ++t) {
+      const int nkey = neighbourKey(t);
+      const int idx = nkey < 0 ? -1 : index_[nkey];
+      if (idx >= 0) need[idx] = kNeedZ;
+    }
+  }
+  // 2. The z pass of a kNeedZ block reads the y pass of its z neighbours (kNeedY), whose y pass
+  //    reads the x pass of their y neighbours (kNeedX). The passes read zeros outside the
+  //    evaluated set, so these must keep exactly the blocks they had.
+  auto raise = [&](int axis, std::uint8_t from, std::uint8_t to) {
+    for (std::size_t b = 0; b < count; ++b) {
+      if (need[b] < from) continue;
+      const auto c = blockCoords(block_keys_[b]);
+      for (int s = -1; s <= 1; s += 2) {
+        auto n = c;
+        n[axis] += s;
+        if (!inside(n[0], n[1], n[2])) continue;
+        const int idx = index_[blockIndex(n[0], n[1], n[2])];
+        if (idx >= 0 && need[idx] < to) need[idx] = to;
+      }
+    }
+  };
+  raise(2, kNeedZ, kNeedY);
+  raise(1, kNeedY, kNeedX);
+  // 3. Drop the rest (the pool is still all zeros, so it is rebuilt in the same order).
+  std::vector<std::int32_t> kept_keys;
+  std::vector<std::uint8_t> kept_need;
+  kept_keys.reserve(count);
+  kept_need.reserve(count);
+  for (std::size_t b = 0; b < count; ++b) {
+    if (!need[b]) continue;
+    kept_keys.push_back(block_keys_[b]);
+    kept_need.push_back(need[b]);
+  }
+  if (kept_keys.size() == count) return;
+  clear();
+  for (const auto key : kept_keys) blockOrCreate(key);
+  need.swap(kept_need);
 }
 
 std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a, int window_d) const {

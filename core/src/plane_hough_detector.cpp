@@ -37,6 +37,9 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   auto dist = [&](const Eigen::Vector3d& n, double d, int i) {
     return std::fabs(n.x() * pts[i][0] + n.y() * pts[i][1] + n.z() * pts[i][2] + d);
   };
+  // The tolerance of each member, aligned with `rest` (every hypothesis tests the same members).
+  std::vector<double> rest_tol(rest.size()), outlier_tol;
+  for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples; ++extracted) {
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
@@ -58,7 +61,8 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
       std::size_t count = 0;
-      for (std::size_t k = 0; k < rest.size(); k += stride) count += dist(n, d, rest[k]) <= tol.at(pts[rest[k]][2]);
+      for (std::size_t k = 0; k < rest.size(); k += stride)
+        count += dist(n, d, rest[k]) <= rest_tol[k];
       if (count > best_count) {
         best_count = count;
         best_n = n;
@@ -69,8 +73,10 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     // Least-squares refit on the inliers, twice.
     for (int it = 0; it < 2; ++it) {
       PlaneMoments mom;
-      for (int i : rest)
-        if (dist(best_n, best_d, i) <= tol.at(pts[i][2])) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      for (std::size_t k = 0; k < rest.size(); ++k) {
+        const int i = rest[k];
+        if (dist(best_n, best_d, i) <= rest_tol[k]) mom.add(pts[i][0], pts[i][1], pts[i][2]);
+      }
       const PlaneFit fit = mom.fit();
       if (!fit.valid) return;
       best_n = fit.normal;
@@ -78,10 +84,13 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     }
     inliers.clear();
     outliers.clear();
+    outlier_tol.clear();
     int with_normal = 0, agreeing = 0;
-    for (int i : rest) {
-      if (dist(best_n, best_d, i) > tol.at(pts[i][2])) {
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+      const int i = rest[k];
+      if (dist(best_n, best_d, i) > rest_tol[k]) {
         outliers.push_back(i);
+        outlier_tol.push_back(rest_tol[k]);
         continue;
       }
       inliers.push_back(i);
@@ -96,40 +105,9 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
     for (int i : inliers) lab[i] = id;
     planes.push_back({best_n, best_d});
     rest.swap(outliers);
+    rest_tol.swap(outlier_tol);
   }
 }
-
-// Moment sums of one refinement pass, relative to a point of the candidate set. add() takes
-// every candidate and a flag, without a branch: whether a candidate passes the shrinking gates
-// is unpredictable. (PlaneMoments::add also costs a branch and Eigen temporaries.)
-class RefineSums {
- public:
-  explicit RefineSums(float x, float y, float z) : ref_{x, y, z} {}
-  void add(float x, float y, float z, bool in) {
-    const double a = in ? x - ref_[0] : 0.0, b = in ? y - ref_[1] : 0.0, c = in ? z - ref_[2] : 0.0;
-    n_ += in;
-    s_[0] += a;
-    s_[1] += b;
-    s_[2] += c;
-    ss_[0] += a * a;
-    ss_[1] += a * b;
-    ss_[2] += a * c;
-    ss_[3] += b * b;
-    ss_[4] += b * c;
-    ss_[5] += c * c;
-  }
-  PlaneFit fit() const {
-    Eigen::Matrix3d ss;
-    ss << ss_[0], ss_[1], ss_[2], ss_[1], ss_[3], ss_[4], ss_[2], ss_[4], ss_[5];
-    return PlaneMoments::fromSums(Eigen::Vector3d(ref_[0], ref_[1], ref_[2]), n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), ss)
-        .fit();
-  }
-
- private:
-  std::array<double, 3> ref_{}, s_{};
-  std::array<double, 6> ss_{};
-  double n_ = 0.0;
-};
 
 }  // namespace
 
@@ -246,7 +224,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       ++votes;
     }
     if (votes < P.min_plane_samples) break;
-    s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass);
+    s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass, min_peak);
     const auto maxima = s.smooth.findMaxima(min_peak, P.maxima_window_a, P.maxima_window_d);
 
     // 4. Refine the maxima, strongest first; accepted planes claim their samples.
@@ -289,29 +267,37 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
-        // Gate schedule: wide, 2x tolerance, then the tolerance.
-        const float gate_mult = it == 0 ? -1.0f : (it == 1 ? 2.0f : 1.0f);
+        // Gate schedule: wide (the candidate scan's gate), 2x tolerance, then the tolerance.
         // The normal gate stays tight throughout: the smoothed peak's normal is already good to
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
-        const float cos_gate = cos_inlier;
-        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
-        const float df = static_cast<float>(d);
-        RefineSums mom(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]);
-        next.resize(cand.size());
-        int kept = 0;
-        for (int f : cand) {
-          const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-          const float g = gate_mult < 0 ? s.fgate[f] : gate_mult * s.ftol[f];
-          const bool in = (dist <= g) & (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_gate);
-          next[kept] = f;
-          kept += in;
-          mom.add(s.fx[f], s.fy[f], s.fz[f], in);
-        }
-        next.resize(kept);
-        if (static_cast<int>(next.size()) < P.min_plane_samples) {
-          ok = false;
-          break;
+        // Relative to a point of the candidate set (precision at metres of range).
+        PlaneMoments mom(Eigen::Vector3d(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]));
+        if (it == 0) {
+          // The first pass's gates are the candidate scan's, with the same plane: every
+          // candidate passes, and the wide set stays for the first shrink.
+          for (int f : cand) mom.addIf(s.fx[f], s.fy[f], s.fz[f], true);
+        } else {
+          const float gate_mult = it == 1 ? 2.0f : 1.0f;
+          const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
+                      nz = static_cast<float>(n.z());
+          const float df = static_cast<float>(d);
+          next.resize(cand.size());
+          int kept = 0;
+          for (int f : cand) {
+            const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
+            const bool in = (dist <= gate_mult * s.ftol[f]) &
+                            (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
+            next[kept] = f;
+            kept += in;
+            mom.addIf(s.fx[f], s.fy[f], s.fz[f], in);
+          }
+          next.resize(kept);
+          if (kept < P.min_plane_samples) {
+            ok = false;
+            break;
+          }
+          cand.swap(next);
         }
         const PlaneFit fit = mom.fit();
         if (!fit.valid) {
@@ -320,7 +306,6 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         }
         n = fit.normal;
         d = fit.d;
-        if (it >= 1) cand.swap(next);  // keep the wide set for the first shrink
       }
       if (!ok) continue;
       // Final inliers at the tolerance with the refined plane.
@@ -435,6 +420,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     std::vector<int> comp(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
+    std::vector<double> member_tol;
     for (int seed = 0; seed < N; ++seed) {
       if (lab[seed] >= 0 || comp[seed] >= 0 || !(pts[seed][2] > 0)) continue;
       members.clear();
@@ -457,16 +443,19 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       PlaneMoments mom;
       for (int i : members) mom.add(pts[i][0], pts[i][1], pts[i][2]);
       PlaneFit fit = mom.fit();
+      member_tol.resize(members.size());  // tested by every trimming pass
+      for (std::size_t k = 0; k < members.size(); ++k) member_tol[k] = tol.at(pts[members[k]][2]);
       std::size_t inl = 0;
       for (int it = 0; it < 3 && fit.valid; ++it) {
         // Trim: first pass keeps points within 3x the tolerance, then within the tolerance.
         const double mult = it == 0 ? 3.0 : 1.0;
         PlaneMoments m2;
         inl = 0;
-        for (int i : members) {
+        for (std::size_t k = 0; k < members.size(); ++k) {
+          const int i = members[k];
           const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
                                         fit.normal.z() * pts[i][2] + fit.d);
-          if (dist > mult * tol.at(pts[i][2])) continue;
+          if (dist > mult * member_tol[k]) continue;
           m2.add(pts[i][0], pts[i][1], pts[i][2]);
           ++inl;
         }
@@ -478,10 +467,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         continue;
       }
       const int id = static_cast<int>(planes.size());
-      for (int i : members) {
+      for (std::size_t k = 0; k < members.size(); ++k) {
+        const int i = members[k];
         const double dist = std::fabs(fit.normal.x() * pts[i][0] + fit.normal.y() * pts[i][1] +
                                       fit.normal.z() * pts[i][2] + fit.d);
-        if (dist <= tol.at(pts[i][2])) lab[i] = id;
+        if (dist <= member_tol[k]) lab[i] = id;
       }
       planes.push_back({fit.normal, fit.d});
     }

@@ -13,6 +13,24 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
+// samplesContinuous with its two constants computed once: the loops over the samples test
+// several neighbours per sample, and the tolerance constant costs a division.
+class SampleContinuity {
+ public:
+  SampleContinuity(const PlaneSampleGrid& grid, const PlaneLabelingParams& params)
+      : range_factor_(0.01f * static_cast<float>(grid.step)),
+        tol_k_(static_cast<float>(params.tolerance.noise_steps *
+                                  params.tolerance.noise.depthStep(1.0))) {}
+  bool operator()(float z1, float z2) const {
+    const float z = std::min(z1, z2);
+    return std::fabs(z1 - z2) <= std::max(range_factor_ * z, tol_k_ * z * z);
+  }
+
+ private:
+  float range_factor_;  // 1% of the range per sample step
+  float tol_k_;         // tolerance at 1 m (it grows with z^2)
+};
+
 int findRoot(std::vector<int>& parent, int i) {
   while (parent[i] != i) {
     parent[i] = parent[parent[i]];
@@ -28,14 +46,12 @@ void unite(std::vector<int>& parent, int a, int b) {
 }
 
 struct RegionAccumulator {
-  int plane = -1;            // index into the hypotheses
+  int plane = -1;  // index into the hypotheses
   int samples = 0;
-  cv::Rect sample_box;       // on the sample grid
-  // Full-resolution accumulation. The labelling loop sums raw moments (camera frame, in double:
-  // the covariance of a region metres away keeps ~8 significant digits) and turns them into
-  // `moments` after it.
-  PlaneMoments moments;
-  std::array<double, 10> sums{};  // n, x, y, z, xx, xy, xz, yy, yz, zz
+  cv::Rect sample_box;  // on the sample grid
+  // Full-resolution accumulation: raw moments (camera frame, in double: the covariance of a
+  // region metres away keeps ~8 significant digits), added run by run.
+  PlaneMoments moments{Eigen::Vector3d::Zero()};
   std::size_t count = 0;
   int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
   std::array<std::uint64_t, 3> colour{};
@@ -62,31 +78,41 @@ std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, i
     const int* reg = &region_of[static_cast<std::size_t>(r) * C];
     int* sum = &row_summary[static_cast<std::size_t>(r) * C];
     for (int c = 0; c < C; ++c)
-      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]), c + 1 < C ? reg[c + 1] : -1);
+      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]),
+                                  c + 1 < C ? reg[c + 1] : -1);
   }
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       const int i = r * C + c;
       auto& list = cand[i];
       list.fill(-1);
-      const int one = mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
-                                         r + 1 < R ? row_summary[i + C] : -1);
+      const int one =
+          mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
+                             r + 1 < R ? row_summary[i + C] : -1);
       if (one != -2) {
         list[0] = one;
         continue;
       }
       const int own = region_of[i];
       list[0] = own;
-      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0), c1 = std::min(c + 1, C - 1);
+      const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0),
+                c1 = std::min(c + 1, C - 1);
       int n = own >= 0 ? 1 : 0;
       for (int rr = r0; rr <= r1; ++rr)
         for (int cc = c0; cc <= c1; ++cc) {
           const int reg = region_of[rr * C + cc];
-          if (reg < 0 || n == 4 || std::find(list.begin(), list.begin() + n, reg) != list.begin() + n) continue;
+          if (reg < 0 || n == 4 ||
+              std::find(list.begin(), list.begin() + n, reg) != list.begin() + n)
+            continue;
           list[n++] = reg;
         }
     }
   return cand;
+}
+
+// Element-wise, without the library call std::array's == makes of it (one per sample).
+inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
+  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
 }
 
 // A horizontal run of pixels of one image row whose samples share one candidate list.
@@ -97,12 +123,13 @@ struct PixelRun {
 
 // The runs of pixel rows that map to sample row r (consecutive samples with equal lists merge,
 // so a row crossing one plane is a single run). sample_u0/u1: pixel range of each sample column.
-void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
-                   std::vector<PixelRun>& runs) {
+void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0,
+                   const std::vector<int>& sample_u1, std::vector<PixelRun>& runs) {
   runs.clear();
   for (std::size_t c = 0; c < sample_u0.size(); ++c) {
     if (sample_u0[c] >= sample_u1[c]) continue;
-    if (!runs.empty() && runs.back().list == row_cand[c] && runs.back().u1 == sample_u0[c]) {
+    if (!runs.empty() && sameCandidates(runs.back().list, row_cand[c]) &&
+        runs.back().u1 == sample_u0[c]) {
       runs.back().u1 = sample_u1[c];
       continue;
     }
@@ -114,13 +141,15 @@ void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample
 // Pinhole form of the plane distance: a pixel (u, v) with depth z is z (A u + B v + C) + D from
 // the plane (floats; coef holds A, B, C, D per region).
 std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& regions,
-                                          const std::vector<PlaneHypothesis>& planes, const CameraIntrinsics& K) {
+                                          const std::vector<PlaneHypothesis>& planes,
+                                          const CameraIntrinsics& K) {
   std::vector<float> coef(4 * regions.size());
   for (std::size_t k = 0; k < regions.size(); ++k) {
     const auto& h = planes[regions[k].plane];
     coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
     coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
-    coef[4 * k + 2] = static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
+    coef[4 * k + 2] =
+        static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
     coef[4 * k + 3] = static_cast<float>(h.d);
   }
   return coef;
@@ -129,15 +158,17 @@ std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& 
 // Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
 // the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
 // number of pixels labelled.
-int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
-                            float tol_coef, float tol_floor, std::uint16_t label) {
+int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
+                            const float* q, float qv, float tol_coef, float tol_floor,
+                            std::uint16_t label) {
   const float qa = q[0], qc = q[2], qd = q[3];
   int n = 0;
   for (int u = u0; u < u1; ++u) {
     const float z = static_cast<float>(drow[u]) * 0.001f;
     const float dd = std::fabs(z * (qa * static_cast<float>(u) + qv + qc) + qd);
     // Bitwise, not &&: a branch would keep the loop from vectorising.
-    const int inside = static_cast<int>(drow[u] != 0) & static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
+    const int inside = static_cast<int>(drow[u] != 0) &
+                       static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
     lrow[u] = static_cast<std::uint16_t>(label * inside);
     n += inside;
   }
@@ -161,8 +192,8 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
 // The same for several candidates: the closest within its tolerance (ties to the later one).
 // Branch-free over a fixed 4 slots (an unused one can never win) so that it vectorises too.
 void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
-                            float tol_floor) {
+                            const std::vector<float>& coef, float fv,
+                            const std::vector<float>& region_tol, float tol_floor) {
   float qa[4], qv[4], qc[4], qd[4], tk[4];
   std::uint16_t label[4];
   for (int k = 0; k < 4; ++k) {
@@ -209,12 +240,14 @@ RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, 
 
 // Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
 // their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
-// sums (yr is constant along it) and the loop keeps them in registers.
-void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow, int u0, int u1,
-                   std::uint16_t label, const double* xr, double yr, RegionAccumulator& reg) {
+// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
+// the same pass (one test of the label per pixel).
+void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
+                   int u0, int u1, std::uint16_t label, const double* xr, double yr,
+                   RegionAccumulator& reg) {
   double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
-  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-    if (lrow[u] != label) continue;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
+  auto addMoments = [&](int u) {
     const double z = drow[u] * 0.001, xz = xr[u] * z;
     n += 1.0;
     sz += z;
@@ -222,43 +255,32 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
     sxz += xz;
     sxzz += xz * z;
     sxxzz += xz * xz;
+  };
+  if (crow) {
+    for (int u = u0 + (u0 & 1); u < u1; u += 2) {
+      if (lrow[u] != label) continue;
+      addMoments(u);
+      b += crow[u][0];
+      g += crow[u][1];
+      r += crow[u][2];
+    }
+  } else {
+    for (int u = u0 + (u0 & 1); u < u1; u += 2)
+      if (lrow[u] == label) addMoments(u);
   }
   if (n == 0) return;
-  auto& m = reg.sums;
-  m[0] += n;
-  m[1] += sxz;
-  m[2] += yr * sz;
-  m[3] += sz;
-  m[4] += sxxzz;
-  m[5] += yr * sxzz;
-  m[6] += sxzz;
-  m[7] += yr * yr * szz;
-  m[8] += yr * szz;
-  m[9] += szz;
-  if (!crow) return;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-    if (lrow[u] != label) continue;
-    b += crow[u][0];
-    g += crow[u][1];
-    r += crow[u][2];
-  }
+  Eigen::Matrix3d sum_sq;  // upper triangle
+  sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
+  reg.moments.addSums(n, Eigen::Vector3d(sxz, yr * sz, sz), sum_sq);
   reg.colour[0] += b;
   reg.colour[1] += g;
   reg.colour[2] += r;
 }
 
-PlaneMoments momentsOf(const RegionAccumulator& reg) {
-  const auto& m = reg.sums;
-  Eigen::Matrix3d ss;
-  ss << m[4], m[5], m[6], m[5], m[7], m[8], m[6], m[8], m[9];
-  return PlaneMoments::fromSums(Eigen::Vector3d::Zero(), m[0], Eigen::Vector3d(m[1], m[2], m[3]), ss);
-}
-
 // The candidate runs of every sample row, kept for the renumbering at the end.
 struct LabelRuns {
   std::vector<PixelRun> runs;
-  std::vector<int> row_begin;  // runs of sample row r: [row_begin[r], row_begin[r + 1])
+  std::vector<int> row_begin;   // runs of sample row r: [row_begin[r], row_begin[r + 1])
   std::vector<int> row_sample;  // sample row of each image row
 };
 
@@ -270,8 +292,9 @@ struct LabelRuns {
 // the common case is a tight single-plane loop.
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const std::vector<CandidateList>& cand,
-                      const std::vector<PlaneHypothesis>& planes, const std::vector<float>& region_tol,
-                      float tol_floor, std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
+                      const std::vector<PlaneHypothesis>& planes,
+                      const std::vector<float>& region_tol, float tol_floor,
+                      std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
@@ -309,7 +332,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       int count = -1;
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]], tol_floor,
+        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
+                                        region_tol[run.list[0]], tol_floor,
                                         static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
         labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
@@ -323,7 +347,6 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
   }
-  for (auto& reg : regions) reg.moments = momentsOf(reg);
   return lr;
 }
 
@@ -348,7 +371,8 @@ void renumberLabels(cv::Mat& labels, const LabelRuns& lr, const std::vector<std:
 
 }  // namespace
 
-std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
+                                              const cv::Mat& sample_labels,
                                               const std::vector<PlaneHypothesis>& planes,
                                               const PlaneLabelingParams& params) {
   const PlaneTolerance& tol = params.tolerance;
@@ -365,20 +389,23 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const
     if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
     const auto& h = planes[L];
     const cv::Vec3f& p = pts[i];
-    const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) / (step1 * p[2] * p[2]);
+    const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) /
+                     (step1 * p[2] * p[2]);
     sum[L] += r * r;
     ++count[L];
   }
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
   for (std::size_t L = 0; L < planes_count; ++L) {
     if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
-    const double steps = std::clamp(params.adaptive_tolerance_factor * std::sqrt(sum[L] / count[L]), lo, tol.noise_steps);
+    const double steps = std::clamp(params.adaptive_tolerance_factor * std::sqrt(sum[L] / count[L]),
+                                    lo, tol.noise_steps);
     coef[L] = static_cast<float>(steps * step1);
   }
   return coef;
 }
 
-void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full, int sample_step) {
+void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full,
+                            int sample_step) {
   CV_Assert(depth_full_mm.type() == CV_16UC1);
   step = std::max(1, sample_step);
   offset = step / 2;
@@ -413,29 +440,33 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
   }
 }
 
-bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const PlaneLabelingParams& params) {
-  const float z = std::min(z1, z2);
-  const float tol_k = static_cast<float>(params.tolerance.noise_steps * params.tolerance.noise.depthStep(1.0));
-  return std::fabs(z1 - z2) <= std::max(0.01f * static_cast<float>(grid.step) * z, tol_k * z * z);
+bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid,
+                       const PlaneLabelingParams& params) {
+  return SampleContinuity(grid, params)(z1, z2);
 }
 
 namespace {
 
 // growSampleLabels with the planes' tolerance coefficients already computed.
-void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const std::vector<PlaneHypothesis>& planes,
-                      const PlaneLabelingParams& params, const std::vector<float>& tol_coef) {
+void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params,
+                      const std::vector<float>& tol_coef) {
   const int R = grid.points.rows, C = grid.points.cols;
   const PlaneTolerance& tol = params.tolerance;
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
   int* lab = sample_labels.ptr<int>(0);
   auto dist = [&](int plane, const cv::Vec3f& p) {
     const auto& h = planes[plane];
-    return static_cast<float>(h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d);
+    return static_cast<float>(h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] +
+                              h.d);
   };
-  const bool with_normals = grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
+  const bool with_normals =
+      grid.normals.size() == grid.points.size() && grid.reliable.size() == grid.points.size();
   const double cos_gate = std::cos(params.grow_max_normal_deg * 3.14159265358979323846 / 180.0);
-  const double cos_unreliable = std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
+  const double cos_unreliable =
+      std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
   const float tol_floor = static_cast<float>(tol.floor_m);
+  const SampleContinuity continuous(grid, params);
   std::vector<int> queue;
   queue.reserve(static_cast<std::size_t>(R) * C);
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
@@ -445,17 +476,19 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const
     for (int c = 0; c < C; ++c) {
       const int i = r * C + c;
       if (lab[i] < 0) continue;
-      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) || (r + 1 < R && open(i + C)))
+      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) ||
+          (r + 1 < R && open(i + C)))
         queue.push_back(i);
     }
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const int i = queue[q], r = i / C, c = i % C, L = lab[i];
     const float z = point(i)[2];
-    const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1, r + 1 < R ? i + C : -1};
+    const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1,
+                        r + 1 < R ? i + C : -1};
     for (int j : nbr) {
       if (j < 0 || lab[j] != -1) continue;
       const cv::Vec3f& p = point(j);
-      if (!(p[2] > 0) || !samplesContinuous(z, p[2], grid, params)) continue;
+      if (!(p[2] > 0) || !continuous(z, p[2])) continue;
       if (std::fabs(dist(L, p)) > std::max(tol_floor, tol_coef[L] * p[2] * p[2])) continue;
       if (with_normals) {
         const cv::Vec3f& n = grid.normals.ptr<cv::Vec3f>(0)[j];
@@ -472,23 +505,27 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels, const
 }  // namespace
 
 void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
-  growSampleLabels(grid, sample_labels, planes, params, planeToleranceCoefficients(grid, sample_labels, planes, params));
+                      const std::vector<PlaneHypothesis>& planes,
+                      const PlaneLabelingParams& params) {
+  growSampleLabels(grid, sample_labels, planes, params,
+                   planeToleranceCoefficients(grid, sample_labels, planes, params));
 }
 
 PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                            const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                           const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params) {
+                           const std::vector<PlaneHypothesis>& planes,
+                           const PlaneLabelingParams& params) {
   CV_Assert(depth_mm.type() == CV_16UC1 && sample_labels.type() == CV_32SC1 &&
             sample_labels.size() == grid.points.size());
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const PlaneTolerance& tol = params.tolerance;
   const float tol_floor = static_cast<float>(tol.floor_m);
-  auto continuous = [&](float z1, float z2) { return samplesContinuous(z1, z2, grid, params); };
+  const SampleContinuity continuous(grid, params);
   auto point = [&](int i) -> const cv::Vec3f& { return grid.points.ptr<cv::Vec3f>(0)[i]; };
   int* lab = sample_labels.ptr<int>(0);
 
-  const std::vector<float> tol_coef = planeToleranceCoefficients(grid, sample_labels, planes, params);
+  const std::vector<float> tol_coef =
+      planeToleranceCoefficients(grid, sample_labels, planes, params);
   growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
@@ -499,8 +536,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
-        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) unite(parent, i, i - 1);
-        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) unite(parent, i, i - C);
+        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2]))
+          unite(parent, i, i - 1);
+        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2]))
+          unite(parent, i, i - C);
       }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
@@ -512,14 +551,19 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
     std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
-    std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0), sc(static_cast<std::size_t>(R) * C, 0.0);
-    for (int i = 0; i < R * C; ++i) {
-      if (lab[i] < 0) continue;
-      const int root = findRoot(parent, i);
-      ++cnt[root];
-      sr[root] += i / C;
-      sc[root] += i % C;
-    }
+    std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0),
+        sc(static_cast<std::size_t>(R) * C, 0.0);
+    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
+    // pointing at its root (the roots stay the same: no find is needed below).
+    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        if (lab[i] < 0) continue;
+        const int root = parent[i];
+        ++cnt[root];
+        sr[root] += r;
+        sc[root] += c;
+      }
     std::vector<std::vector<int>> pieces(planes.size());
     for (int i = 0; i < R * C; ++i)
       if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
@@ -531,8 +575,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         for (std::size_t b = a + 1; b < list.size(); ++b) {
           const int ra = list[a], rb = list[b];
           if (findRoot(parent, ra) == findRoot(parent, rb)) continue;
-          const double r0 = sr[ra] / cnt[ra], c0 = sc[ra] / cnt[ra], r1 = sr[rb] / cnt[rb], c1 = sc[rb] / cnt[rb];
-          const int steps = static_cast<int>(std::ceil(std::max(std::fabs(r1 - r0), std::fabs(c1 - c0))));
+          const double r0 = sr[ra] / cnt[ra], c0 = sc[ra] / cnt[ra], r1 = sr[rb] / cnt[rb],
+                       c1 = sc[rb] / cnt[rb];
+          const int steps =
+              static_cast<int>(std::ceil(std::max(std::fabs(r1 - r0), std::fabs(c1 - c0))));
           int behind = 0;
           for (int t = 0; t <= steps; ++t) {
             const double f = steps ? static_cast<double>(t) / steps : 0.0;
@@ -541,7 +587,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
             const int i = r * C + c;
             const cv::Vec3f& p = point(i);
             if (!(p[2] > 0) || lab[i] == static_cast<int>(L)) continue;
-            const double den = h.normal.x() * p[0] / p[2] + h.normal.y() * p[1] / p[2] + h.normal.z();
+            const double den =
+                h.normal.x() * p[0] / p[2] + h.normal.y() * p[1] / p[2] + h.normal.z();
             const double z_plane = den < -1e-9 ? -h.d / den : 1e9;  // plane depth along this ray
             if (p[2] > z_plane + tol.at(z_plane)) ++behind;
           }
@@ -593,8 +640,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
   const LabelRuns label_runs = labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid,
-                                           candidateRegions(region_of, R, C), planes, region_tol, tol_floor, regions,
-                                           out.labels);
+                                           candidateRegions(region_of, R, C), planes, region_tol,
+                                           tol_floor, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
@@ -629,7 +676,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
-    const double cos_merge = std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
+    const double cos_merge =
+        std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
     for (const auto& [a0, b0] : adjacent) {
       const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
       if (a == b) continue;
@@ -639,7 +687,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       joint.merge(regions[b].moments);
       const PlaneFit f = joint.fit();
       const double z = std::max(fa.centroid.z(), fb.centroid.z());
-      if (!f.valid || f.rms_m > std::max(params.merge_coplanar_rms_factor * std::max(fa.rms_m, fb.rms_m), tol.at(z) / 3.0))
+      if (!f.valid ||
+          f.rms_m > std::max(params.merge_coplanar_rms_factor * std::max(fa.rms_m, fb.rms_m),
+                             tol.at(z) / 3.0))
         continue;
       auto& ra = regions[std::min(a, b)];
       auto& rb = regions[std::max(a, b)];
@@ -687,7 +737,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     p.box = cv::Rect(reg.u0, reg.v0, reg.u1 - reg.u0 + 1, reg.v1 - reg.v0 + 1);
     if (with_colour) {
       const double n = std::max(1.0, reg.moments.count());
-      p.mean_bgr = cv::Vec3b(cv::saturate_cast<uchar>(reg.colour[0] / n), cv::saturate_cast<uchar>(reg.colour[1] / n),
+      p.mean_bgr = cv::Vec3b(cv::saturate_cast<uchar>(reg.colour[0] / n),
+                             cv::saturate_cast<uchar>(reg.colour[1] / n),
                              cv::saturate_cast<uchar>(reg.colour[2] / n));
     }
     if (params.compute_polygons) {
@@ -695,9 +746,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       cv::Mat mask = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);  // 1-cell margin
       for (int r = sb.y; r < sb.y + sb.height; ++r)
         for (int c = sb.x; c < sb.x + sb.width; ++c)
-          if (region_of[r * C + c] == static_cast<int>(k)) mask.at<std::uint8_t>(r - sb.y + 1, c - sb.x + 1) = 255;
-      regionPolygon(mask, cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K, params.polygon_epsilon_cells,
-                    p.polygon, p.triangles);
+          if (region_of[r * C + c] == static_cast<int>(k))
+            mask.at<std::uint8_t>(r - sb.y + 1, c - sb.x + 1) = 255;
+      regionPolygon(mask, cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K,
+                    params.polygon_epsilon_cells, p.polygon, p.triangles);
     }
     out.planes.push_back(std::move(p));
   }

@@ -3,6 +3,8 @@
 #include "shapesense/core/hough_accumulator.h"
 
 #include <cmath>
+#include <cstdint>
+#include <tuple>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -99,6 +101,45 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   EXPECT_NEAR(maxima[0].d, 1.2, 0.01);
   EXPECT_LT(std::acos(std::min(1.0, maxima[1].normal.dot(n2))) / kDeg, 1.0);
   EXPECT_NEAR(maxima[1].d, 0.8, 0.01);
+}
+
+TEST(HoughAccumulator, SmoothingPrunedForAPeakThresholdFindsTheSameMaxima) {
+  // Scattered votes (a curved surface) around three planes of 60, 25 and 12 votes: with the
+  // peak threshold of ~20 votes the pruned smoothing evaluates fewer blocks, yet every maximum
+  // and the values around it are bit-identical.
+  HoughAccumulator acc, full, pruned;
+  const Eigen::Vector3d n1 = unit(0, -1, -0.5), n2 = unit(0.3, 0.1, -1), n3 = unit(-0.4, 0.2, -1);
+  for (int r = 0; r < 60; ++r) acc.vote(n1, 1.2 + ((r % 5) - 2) * 0.004);
+  for (int r = 0; r < 25; ++r) acc.vote(n2, 2.0 + ((r % 3) - 1) * 0.004);
+  for (int r = 0; r < 12; ++r) acc.vote(n3, 0.9);
+  std::uint32_t rng = 12345;
+  auto uniform = [&rng] {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<double>(rng >> 8) / (1u << 24);
+  };
+  for (int r = 0; r < 600; ++r)
+    acc.vote(unit(uniform() - 0.5, uniform() - 0.5, -1), 0.5 + 2.5 * uniform());
+  const double sa = 2.0, sd = 0.03;
+  const float min_peak = static_cast<float>(20 * acc.kernelPeak(sa, sd));
+  acc.smoothInto(full, sa, sd, 1.0f);
+  acc.smoothInto(pruned, sa, sd, 1.0f, min_peak);
+  EXPECT_LT(pruned.allocatedBlocks(), full.allocatedBlocks());
+  const auto expected = full.findMaxima(min_peak), got = pruned.findMaxima(min_peak);
+  ASSERT_EQ(got.size(), expected.size());
+  ASSERT_GE(got.size(), 2u);
+  for (std::size_t m = 0; m < got.size(); ++m) {
+    EXPECT_EQ(std::tie(got[m].i, got[m].j, got[m].k),
+              std::tie(expected[m].i, expected[m].j, expected[m].k));
+    EXPECT_EQ(got[m].value, expected[m].value);
+    EXPECT_EQ(got[m].normal, expected[m].normal);
+    EXPECT_EQ(got[m].d, expected[m].d);
+    for (int dk = -2; dk <= 2; ++dk)
+      for (int dj = -2; dj <= 2; ++dj)
+        for (int di = -2; di <= 2; ++di) {
+          const int i = got[m].i + di, j = got[m].j + dj, k = got[m].k + dk;
+          EXPECT_EQ(pruned.at(i, j, k), full.at(i, j, k));
+        }
+  }
 }
 
 TEST(HoughAccumulator, DecayThinsAndFreesBlocks) {

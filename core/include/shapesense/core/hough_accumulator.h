@@ -85,9 +85,11 @@ class HoughAccumulator {
   /// block edge, so a block's neighbourhood is its 26 neighbour blocks). Only blocks holding
   /// mass >= `min_block_mass` and their neighbours are evaluated: isolated light blocks
   /// (scattered votes of curved surfaces) cannot form a peak worth reporting and would dominate
-  /// the cost.
+  /// the cost. With `min_peak` > 0 only what findMaxima(min_peak) reads is evaluated: the
+  /// blocks that could hold a cell >= min_peak and their neighbours come out exactly as without
+  /// it, every other block is zero (or absent).
   void smoothInto(HoughAccumulator& out, double sigma_angle_deg, double sigma_d_m,
-                  float min_block_mass) const;
+                  float min_block_mass, float min_peak = 0.0f) const;
 
   /// Local maxima with value >= min_value over a sliding window of half-size (wa, wa, wd)
   /// cells, strongest first. Plateaus report one cell.
@@ -110,6 +112,12 @@ class HoughAccumulator {
   const float* block(int key) const { const int b = index_[key]; return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells]; }
   float* blockOrCreate(int key);
   void prepareLike(const HoughAccumulator& other);
+  // Passes of smoothInto a block of the output needs: none, x, x and y, all three.
+  static constexpr std::uint8_t kNeedX = 1, kNeedY = 2, kNeedZ = 3;
+  // smoothInto's block pruning for findMaxima(min_peak) (this = the output, blocks created and
+  // still zero); fills smooth_need_.
+  void pruneForPeaks(const HoughAccumulator& src, const std::vector<float>& src_block_mass,
+                     float central_weight, float min_peak);
 
   HoughSpaceParams params_;
   double a_cell_ = 0;  // Lambert units per cell
@@ -119,6 +127,8 @@ class HoughAccumulator {
   std::vector<float> cells_;              // pool: block b at [b * kBlockCells, ...)
   std::vector<std::int32_t> block_keys_;  // top-level key of each pooled block
   std::vector<float> scratch_;            // smoothInto's intermediate pass, kept between frames
+  std::vector<float> block_mass_;         // smoothInto (output side): the source's block masses
+  std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
 };
 
 }  // namespace shapesense

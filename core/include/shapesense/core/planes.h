@@ -181,7 +181,8 @@ class HoughPlaneDetector {
   PlaneDetection detect(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                         const cv::Mat& bgr = {});
 
-  /// The smoothed Hough space of the last round of the last frame (for inspection / tests).
+  /// The smoothed Hough space of the last round of the last frame (for inspection / tests),
+  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere).
   const HoughAccumulator& lastSmoothedSpace() const;
 
  private:
