@@ -94,7 +94,8 @@ void BM_BowlPreprocess(benchmark::State& state) {
   const auto& f = frame();
   for (auto _ : state) {
     cv::Mat filled;
-    auto m = shapesense::preprocessDepth(f.frame.depth, shapesense::DepthPreprocessParams{}, &filled);
+    auto m =
+        shapesense::preprocessDepth(f.frame.depth, shapesense::DepthPreprocessParams{}, &filled);
     benchmark::DoNotOptimize(m);
   }
 }
@@ -153,7 +154,8 @@ BENCHMARK(BM_BowlDetectReal)->Unit(benchmark::kMillisecond);
 // ---- Held-out test set: ours beside WBDetector ----
 
 namespace fs = std::filesystem;
-using BowlDetectFn = std::function<std::vector<shapesense::BowlDetection>(const cv::Mat&, const shapesense::CameraIntrinsics&)>;
+using BowlDetectFn = std::function<std::vector<shapesense::BowlDetection>(
+    const cv::Mat&, const shapesense::CameraIntrinsics&)>;
 
 fs::path testSetDir() { return fs::path(SHAPESENSE_BINARY_DIR) / "bowl-data" / "test"; }
 
@@ -217,12 +219,14 @@ void runTestSet(benchmark::State& state, const char* name, const BowlDetectFn& d
       ++pv.second;
       ++total;
       double best = 0;
-      for (const auto& d : eval[k].detections) best = std::max(best, shapesense::boxIoU(d.box, frames[k].truth[t].box));
+      for (const auto& d : eval[k].detections)
+        best = std::max(best, shapesense::boxIoU(d.box, frames[k].truth[t].box));
       pv.first += best >= 0.5;
       loose += best >= 0.3;
     }
   std::string recalls;
-  for (const auto& [v, c] : per_view) recalls += " " + v + " " + std::to_string(c.first) + "/" + std::to_string(c.second);
+  for (const auto& [v, c] : per_view)
+    recalls += " " + v + " " + std::to_string(c.first) + "/" + std::to_string(c.second);
   recalls += "; all views @IoU0.3 " + std::to_string(loose) + "/" + std::to_string(total);
   std::size_t i = 0;
   for (auto _ : state) {
@@ -230,9 +234,11 @@ void runTestSet(benchmark::State& state, const char* name, const BowlDetectFn& d
     benchmark::DoNotOptimize(detect(f.depth, f.intrinsics));
   }
   const double median_ms = ms[ms.size() / 2];
-  std::printf("[%-14s] %d test frames, %d bowls: AP50 %.3f, miss rate @0.1 FPPI %.3f, max recall %.3f, TP %d FP %d, median %.2f ms/frame (CPU); recall@IoU0.5 by view:%s\n",
-              name, r.frames, r.positives, r.ap, r.miss_rate_at_fppi, r.max_recall, r.true_positives, r.false_positives,
-              median_ms, recalls.c_str());
+  std::printf(
+      "[%-14s] %d test frames, %d bowls: AP50 %.3f, miss rate @0.1 FPPI %.3f, max recall %.3f, TP "
+      "%d FP %d, median %.2f ms/frame (CPU); recall@IoU0.5 by view:%s\n",
+      name, r.frames, r.positives, r.ap, r.miss_rate_at_fppi, r.max_recall, r.true_positives,
+      r.false_positives, median_ms, recalls.c_str());
   state.counters["AP50"] = r.ap;
   state.counters["miss_rate"] = r.miss_rate_at_fppi;
   state.counters["median_cpu_ms"] = median_ms;
@@ -241,7 +247,9 @@ void runTestSet(benchmark::State& state, const char* name, const BowlDetectFn& d
 void BM_BowlTestSet_Ours(benchmark::State& state) {
   cv::setNumThreads(1);
   const auto detector = shapesense::BowlDetector::load(shippedModels());
-  runTestSet(state, "ours", [&](const cv::Mat& d, const shapesense::CameraIntrinsics& K) { return detector.detect(d, K); });
+  runTestSet(state, "ours", [&](const cv::Mat& d, const shapesense::CameraIntrinsics& K) {
+    return detector.detect(d, K);
+  });
 }
 BENCHMARK(BM_BowlTestSet_Ours)->Unit(benchmark::kMillisecond)->Iterations(20);
 
@@ -271,7 +279,8 @@ int truncateNonFiniteWeakClassifiers(const fs::path& model) {
   cv::FileStorage in(model.string(), cv::FileStorage::READ);
   const cv::FileNode root = in.getFirstTopLevelNode();
   const int count = static_cast<int>(root["waldboost_params"]["weak_count"]);
-  const char* fields[] = {"thresholds", "alphas", "polarities", "cascade_thresholds", "feature_indices"};
+  const char* fields[] = {"thresholds", "alphas", "polarities", "cascade_thresholds",
+                          "feature_indices"};
   std::vector<std::vector<double>> values(5);
   for (int f = 0; f < 5; ++f)
     for (const auto& v : root[fields[f]]) values[f].push_back(static_cast<double>(v));
@@ -284,7 +293,11 @@ int truncateNonFiniteWeakClassifiers(const fs::path& model) {
   if (keep == count) return -1;
   in.release();
   cv::FileStorage out(model.string(), cv::FileStorage::WRITE);
-  out << "waldboost" << "{" << "waldboost_params" << "{" << "weak_count" << keep << "}";
+  out << "waldboost"
+      << "{"
+      << "waldboost_params"
+      << "{"
+      << "weak_count" << keep << "}";
   for (int f = 0; f < 5; ++f) {
     out << fields[f] << "[";
     for (int i = 0; i < keep; ++i) {
@@ -326,8 +339,10 @@ class WbDetectorPeer {
                     (threadCpuMs() - c0) / 1e3, model.string().c_str());
       }
       if (const int kept = truncateNonFiniteWeakClassifiers(model); kept >= 0)
-        std::printf("[wbdetector] view %s: non-finite weight after %d weak classifiers (zero-error stump); "
-                    "model cut to those %d\n", view, kept, kept);
+        std::printf(
+            "[wbdetector] view %s: non-finite weight after %d weak classifiers (zero-error stump); "
+            "model cut to those %d\n",
+            view, kept, kept);
       cv::FileStorage in(model.string(), cv::FileStorage::READ);
       if (!in.isOpened()) throw std::runtime_error("cannot read " + model.string());
       v.detector->read(in.getFirstTopLevelNode());
@@ -346,9 +361,10 @@ class WbDetectorPeer {
         std::vector<double> conf;
         v.detector->detect(im, boxes, conf);
         for (std::size_t k = 0; k < boxes.size(); ++k) {
-          const cv::Rect w(cvRound(boxes[k].x * scale), cvRound(boxes[k].y * scale), cvRound(boxes[k].width * scale),
-                           cvRound(boxes[k].height * scale));
-          if (w.width > min_side) all.push_back({shapesense::train::windowToObjectBox(w, v.meta), conf[k], v.name});
+          const cv::Rect w(cvRound(boxes[k].x * scale), cvRound(boxes[k].y * scale),
+                           cvRound(boxes[k].width * scale), cvRound(boxes[k].height * scale));
+          if (w.width > min_side)
+            all.push_back({shapesense::train::windowToObjectBox(w, v.meta), conf[k], v.name});
         }
       };
       add(img, 1.0, 0);
@@ -358,7 +374,8 @@ class WbDetectorPeer {
         add(half, 2.0, params_.band_split_px);
       }
     }
-    std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.score > b.score; });
+    std::sort(all.begin(), all.end(),
+              [](const auto& a, const auto& b) { return a.score > b.score; });
     std::vector<shapesense::BowlDetection> kept;
     for (auto& d : all) {
       bool suppressed = false;
@@ -386,7 +403,8 @@ void BM_BowlTestSet_WbDetector(benchmark::State& state) {
     return;
   }
   static const WbDetectorPeer peer = WbDetectorPeer::loadOrTrain(dir);  // trained once per process
-  runTestSet(state, "wbdetector", [&](const cv::Mat& d, const shapesense::CameraIntrinsics&) { return peer.detect(d); });
+  runTestSet(state, "wbdetector",
+             [&](const cv::Mat& d, const shapesense::CameraIntrinsics&) { return peer.detect(d); });
 }
 BENCHMARK(BM_BowlTestSet_WbDetector)->Unit(benchmark::kMillisecond)->Iterations(5);
 
@@ -402,7 +420,8 @@ void BM_BowlTestSet_WbDetectorNoTop(benchmark::State& state) {
   WbDetectorPeerParams p;
   p.views = {"middle", "side"};
   static const WbDetectorPeer peer = WbDetectorPeer::loadOrTrain(dir, p);
-  runTestSet(state, "wbdet_mid+side", [&](const cv::Mat& d, const shapesense::CameraIntrinsics&) { return peer.detect(d); });
+  runTestSet(state, "wbdet_mid+side",
+             [&](const cv::Mat& d, const shapesense::CameraIntrinsics&) { return peer.detect(d); });
 }
 BENCHMARK(BM_BowlTestSet_WbDetectorNoTop)->Unit(benchmark::kMillisecond)->Iterations(5);
 #endif

@@ -29,7 +29,8 @@ class LimitedSource : public FrameSource {
   std::uint64_t delivered_ = 0;
 };
 
-void runPipeline(benchmark::State& state, const std::function<std::unique_ptr<FrameSource>()>& make) {
+void runPipeline(benchmark::State& state,
+                 const std::function<std::unique_ptr<FrameSource>()>& make) {
   const std::uint64_t frames = static_cast<std::uint64_t>(state.range(0));
   for (auto _ : state) {
     FrameCache cache;
@@ -40,14 +41,15 @@ void runPipeline(benchmark::State& state, const std::function<std::unique_ptr<Fr
     pipeline.stop();
     benchmark::DoNotOptimize(cache.range());
   }
-  state.counters["frames/s"] =
-      benchmark::Counter(static_cast<double>(frames * state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["frames/s"] = benchmark::Counter(static_cast<double>(frames * state.iterations()),
+                                                  benchmark::Counter::kIsRate);
 }
 
 void BM_PipelineReplay(benchmark::State& state) {
   const std::string dir = std::string(SHAPESENSE_SHARED_DIR) + "/data/real/mosd_tabletop";
   runPipeline(state, [&] {
-    return std::make_unique<ReplaySource>(dir, ReplayOptions{.pacing = Pacing::kAsFastAsPossible, .loop = true});
+    return std::make_unique<ReplaySource>(
+        dir, ReplayOptions{.pacing = Pacing::kAsFastAsPossible, .loop = true});
   });
 }
 BENCHMARK(BM_PipelineReplay)->Arg(120)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -92,11 +92,11 @@ struct OpenCvRgbdPlaneParams {
 class OpenCvRgbdPlaneDetector {
  public:
   OpenCvRgbdPlaneDetector(const CameraIntrinsics& K, OpenCvRgbdPlaneParams p = {})
-      : K_(cv::Matx33f(static_cast<float>(K.fx), 0, static_cast<float>(K.cx), 0, static_cast<float>(K.fy),
-                       static_cast<float>(K.cy), 0, 0, 1)),
+      : K_(cv::Matx33f(static_cast<float>(K.fx), 0, static_cast<float>(K.cx), 0,
+                       static_cast<float>(K.fy), static_cast<float>(K.cy), 0, 0, 1)),
         normals_(K.height, K.width, CV_32F, cv::Mat(K_), p.normals_window, p.normals_method),
-        planes_(cv::rgbd::RgbdPlane::RGBD_PLANE_METHOD_DEFAULT, p.block_size, p.min_size, p.threshold_m,
-                p.sensor_error_a) {}
+        planes_(cv::rgbd::RgbdPlane::RGBD_PLANE_METHOD_DEFAULT, p.block_size, p.min_size,
+                p.threshold_m, p.sensor_error_a) {}
 
   PlaneDetection detect(const cv::Mat& depth_mm) {
     cv::rgbd::depthTo3d(depth_mm, cv::Mat(K_), points_);  // mm -> m, no depth -> NaN
@@ -133,8 +133,10 @@ class OpenCvRgbdPlaneDetector {
 
 #ifdef SHAPESENSE_BENCH_PCL
 /// Organized PCL cloud (width x height, NaN where there is no depth) from the depth image.
-inline pcl::PointCloud<pcl::PointXYZ>::Ptr toPclCloud(const cv::Mat& depth_mm, const CameraIntrinsics& K) {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("toPclCloud: depth must be CV_16UC1 millimetres");
+inline pcl::PointCloud<pcl::PointXYZ>::Ptr toPclCloud(const cv::Mat& depth_mm,
+                                                      const CameraIntrinsics& K) {
+  if (depth_mm.type() != CV_16UC1)
+    throw std::invalid_argument("toPclCloud: depth must be CV_16UC1 millimetres");
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>(depth_mm.cols, depth_mm.rows);
   cloud->is_dense = false;
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -195,24 +197,29 @@ inline PlaneDetection detectPlanesPclSac(const cv::Mat& depth_mm, const CameraIn
   det.labels = cv::Mat::zeros(depth_mm.size(), CV_16UC1);
   cv::Mat mask(depth_mm.size(), CV_8UC1), comp, stats, centroids;
   std::vector<char> taken(cloud->size(), 0);
-  for (int k = 0; k < p.max_planes && static_cast<int>(remaining->size()) >= p.min_plane_points; ++k) {
+  for (int k = 0; k < p.max_planes && static_cast<int>(remaining->size()) >= p.min_plane_points;
+       ++k) {
     seg.setIndices(remaining);
     pcl::PointIndices inliers;
     pcl::ModelCoefficients coeff;
     seg.segment(inliers, coeff);
-    if (static_cast<int>(inliers.indices.size()) < p.min_plane_points || coeff.values.size() != 4) break;
+    if (static_cast<int>(inliers.indices.size()) < p.min_plane_points || coeff.values.size() != 4)
+      break;
     DetectedPlane plane;
-    if (!toOurPlane(coeff.values[0], coeff.values[1], coeff.values[2], coeff.values[3], plane)) break;
+    if (!toOurPlane(coeff.values[0], coeff.values[1], coeff.values[2], coeff.values[3], plane))
+      break;
 
     mask.setTo(0);
     for (const auto i : inliers.indices) {
       taken[i] = 1;
-      mask.at<std::uint8_t>(static_cast<int>(i) / depth_mm.cols, static_cast<int>(i) % depth_mm.cols) = 255;
+      mask.at<std::uint8_t>(static_cast<int>(i) / depth_mm.cols,
+                            static_cast<int>(i) % depth_mm.cols) = 255;
     }
     const int n = cv::connectedComponentsWithStats(mask, comp, stats, centroids, 8, CV_32S);
     std::vector<std::uint16_t> id_of(n, 0);
     for (int c = 1; c < n; ++c) {
-      if (stats.at<int>(c, cv::CC_STAT_AREA) < p.min_region_pixels || det.planes.size() >= 65534) continue;
+      if (stats.at<int>(c, cv::CC_STAT_AREA) < p.min_region_pixels || det.planes.size() >= 65534)
+        continue;
       plane.id = static_cast<std::uint16_t>(det.planes.size() + 1);
       plane.group = k;
       id_of[c] = plane.id;
@@ -235,8 +242,9 @@ inline PlaneDetection detectPlanesPclSac(const cv::Mat& depth_mm, const CameraIn
 struct PclOmpsParams {
   /// Normals as in PCL's organized segmentation demo: covariance matrix, 1 cm max depth change
   /// factor, 20 px smoothing. Defaults.
-  pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal>::NormalEstimationMethod normal_method =
-      pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal>::COVARIANCE_MATRIX;
+  pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal>::NormalEstimationMethod
+      normal_method =
+          pcl::IntegralImageNormalEstimation<pcl::PointXYZ, pcl::Normal>::COVARIANCE_MATRIX;
   float max_depth_change_factor = 0.01f;
   float normal_smoothing_size = 20.0f;
   /// Segmentation as in the demo (2 deg, 2 cm) except min_inliers: default 1000 (the demo's
@@ -271,14 +279,17 @@ class PclOmpsDetector {
                          const pcl::PointCloud<pcl::Normal>::ConstPtr& normals) {
     mps_.setInputCloud(cloud);
     mps_.setInputNormals(normals);
-    std::vector<pcl::PlanarRegion<pcl::PointXYZ>, Eigen::aligned_allocator<pcl::PlanarRegion<pcl::PointXYZ>>> regions;
+    std::vector<pcl::PlanarRegion<pcl::PointXYZ>,
+                Eigen::aligned_allocator<pcl::PlanarRegion<pcl::PointXYZ>>>
+        regions;
     std::vector<pcl::ModelCoefficients> coeffs;
     std::vector<pcl::PointIndices> inliers, label_indices, boundary_indices;
     auto labels = std::make_shared<pcl::PointCloud<pcl::Label>>();
     mps_.segmentAndRefine(regions, coeffs, inliers, labels, label_indices, boundary_indices);
 
     PlaneDetection det;
-    det.labels = cv::Mat::zeros(static_cast<int>(cloud->height), static_cast<int>(cloud->width), CV_16UC1);
+    det.labels =
+        cv::Mat::zeros(static_cast<int>(cloud->height), static_cast<int>(cloud->width), CV_16UC1);
     auto* l = det.labels.ptr<std::uint16_t>(0);
     for (std::size_t k = 0; k < coeffs.size() && k < inliers.size() && k < 65535; ++k) {
       DetectedPlane p;

@@ -7,9 +7,11 @@
 //
 // Public peers run on the same frames in the same run and are scored by the same code
 // (plane_peers.h converts their output; their parameters are documented there):
-//  - pcl_sac:    pcl::SACSegmentation sequential RANSAC on the organized cloud (SHAPESENSE_BENCH_PCL)
+//  - pcl_sac:    pcl::SACSegmentation sequential RANSAC on the organized cloud
+//  (SHAPESENSE_BENCH_PCL)
 //  - pcl_omps:   pcl::IntegralImageNormalEstimation + OrganizedMultiPlaneSegmentation (idem)
-//  - cv_rgbdplane: cv::rgbd::RgbdNormals (FALS) + cv::rgbd::RgbdPlane (SHAPESENSE_BENCH_OPENCV_RGBD)
+//  - cv_rgbdplane: cv::rgbd::RgbdNormals (FALS) + cv::rgbd::RgbdPlane
+//  (SHAPESENSE_BENCH_OPENCV_RGBD)
 // Every method starts from the millimetre depth image; its cloud / normals are part of its time.
 // OpenCV runs single-threaded (cv::setNumThreads(1)) so that thread CPU time is all its work.
 #include <benchmark/benchmark.h>
@@ -49,7 +51,8 @@ double threadCpuMs() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
-void run(benchmark::State& state, const char* name, const std::function<PlaneDetection(const Frame&)>& detect) {
+void run(benchmark::State& state, const char* name,
+         const std::function<PlaneDetection(const Frame&)>& detect) {
   cv::setNumThreads(1);
   const auto& fs = frames();
   // Accuracy and per-frame CPU time, once per run (outside the timed loop).
@@ -68,9 +71,11 @@ void run(benchmark::State& state, const char* name, const std::function<PlaneDet
     benchmark::DoNotOptimize(out.planes.data());
   }
   const double median_ms = ms[ms.size() / 2];
-  std::printf("[%-12s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, median %.2f ms/frame (CPU)\n",
-              name, total.correctFraction(), total.correct, total.truth_regions, planetest::median(total.angle_deg),
-              1e3 * planetest::median(total.dist_m), median_ms);
+  std::printf(
+      "[%-12s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, "
+      "median %.2f ms/frame (CPU)\n",
+      name, total.correctFraction(), total.correct, total.truth_regions,
+      planetest::median(total.angle_deg), 1e3 * planetest::median(total.dist_m), median_ms);
   state.counters["correct"] = total.correctFraction();
   state.counters["angle_deg"] = planetest::median(total.angle_deg);
   state.counters["dist_mm"] = 1e3 * planetest::median(total.dist_m);
@@ -84,13 +89,15 @@ void BM_NormalsHoughPlanes(benchmark::State& state) {
 BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
 
 void BM_RansacPlanes(benchmark::State& state) {
-  run(state, "ransac", [&](const Frame& f) { return detectPlanesRansac(f.depth, f.intrinsics, f.rgb); });
+  run(state, "ransac",
+      [&](const Frame& f) { return detectPlanesRansac(f.depth, f.intrinsics, f.rgb); });
 }
 BENCHMARK(BM_RansacPlanes)->Unit(benchmark::kMillisecond);
 
 #ifdef SHAPESENSE_BENCH_PCL
 void BM_PclSacPlanes(benchmark::State& state) {
-  run(state, "pcl_sac", [&](const Frame& f) { return peers::detectPlanesPclSac(f.depth, f.intrinsics); });
+  run(state, "pcl_sac",
+      [&](const Frame& f) { return peers::detectPlanesPclSac(f.depth, f.intrinsics); });
 }
 BENCHMARK(BM_PclSacPlanes)->Unit(benchmark::kMillisecond);
 

@@ -60,12 +60,14 @@ const Frames& frames() {
     out.synthetic.push_back(r.frame.depth.clone());
     out.synthetic_truth = r.truth.surface_labels.clone();
     out.intrinsics = r.frame.intrinsics;
-    const std::filesystem::path dir = std::filesystem::path(SHAPESENSE_SHARED_DIR) / "data/real/mosd_tabletop";
+    const std::filesystem::path dir =
+        std::filesystem::path(SHAPESENSE_SHARED_DIR) / "data/real/mosd_tabletop";
     std::ifstream list(dir / "depth.txt");
     std::string line;
     while (std::getline(list, line)) {
       if (line.empty() || line[0] == '#') continue;
-      const cv::Mat raw = cv::imread((dir / line.substr(line.find(' ') + 1)).string(), cv::IMREAD_UNCHANGED);
+      const cv::Mat raw =
+          cv::imread((dir / line.substr(line.find(' ') + 1)).string(), cv::IMREAD_UNCHANGED);
       if (raw.empty()) continue;
       cv::Mat mm;
       raw.convertTo(mm, CV_16UC1, 0.2);  // 5000 units per metre -> mm
@@ -76,7 +78,9 @@ const Frames& frames() {
   return f;
 }
 
-const std::vector<cv::Mat>& source(int which) { return which == 0 ? frames().synthetic : frames().mosd; }
+const std::vector<cv::Mat>& source(int which) {
+  return which == 0 ? frames().synthetic : frames().mosd;
+}
 
 void BM_Reference_BoxFilter(benchmark::State& state) {
   const cv::Mat& d = frames().synthetic[0];
@@ -107,7 +111,8 @@ void BM_Normals(benchmark::State& state) {
 }
 BENCHMARK(BM_Normals)
     ->ArgNames({"method", "mosd"})
-    ->ArgsProduct({{static_cast<int>(NormalMethod::kCovariance), static_cast<int>(NormalMethod::kAverage3dGradient),
+    ->ArgsProduct({{static_cast<int>(NormalMethod::kCovariance),
+                    static_cast<int>(NormalMethod::kAverage3dGradient),
                     static_cast<int>(NormalMethod::kAverageDepthChange)},
                    {0, 1}})
     ->Unit(benchmark::kMillisecond);
@@ -123,7 +128,9 @@ void BM_Segment(benchmark::State& state) {
   const SegmentationParams params;
   if (state.range(1) == 0)
     state.counters["pixel_acc"] =
-        scoreSegmentation(segmentDepth(src[0], frames().intrinsics, m, params), frames().synthetic_truth).pixel_accuracy;
+        scoreSegmentation(segmentDepth(src[0], frames().intrinsics, m, params),
+                          frames().synthetic_truth)
+            .pixel_accuracy;
   std::size_t i = 0;
   for (auto _ : state) {
     cv::Mat r = segmentDepth(src[i++ % src.size()], frames().intrinsics, m, params);
@@ -132,8 +139,10 @@ void BM_Segment(benchmark::State& state) {
 }
 BENCHMARK(BM_Segment)
     ->ArgNames({"method", "mosd"})
-    ->ArgsProduct({{static_cast<int>(SegmentationMethod::kDepthStep), static_cast<int>(SegmentationMethod::kNormalEdges),
-                    static_cast<int>(SegmentationMethod::kFused), static_cast<int>(SegmentationMethod::kPlanePrediction),
+    ->ArgsProduct({{static_cast<int>(SegmentationMethod::kDepthStep),
+                    static_cast<int>(SegmentationMethod::kNormalEdges),
+                    static_cast<int>(SegmentationMethod::kFused),
+                    static_cast<int>(SegmentationMethod::kPlanePrediction),
                     static_cast<int>(SegmentationMethod::kTiledRansac)},
                    {0, 1}})
     ->Unit(benchmark::kMillisecond);
@@ -143,7 +152,8 @@ void BM_OpenCvRgbdNormalsFals(benchmark::State& state) {
   const auto& src = source(static_cast<int>(state.range(0)));
   const CameraIntrinsics& K = frames().intrinsics;
   const cv::Matx33f Km(K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1);
-  cv::rgbd::RgbdNormals est(480, 640, CV_32F, cv::Mat(Km), 5, cv::rgbd::RgbdNormals::RGBD_NORMALS_METHOD_FALS);
+  cv::rgbd::RgbdNormals est(480, 640, CV_32F, cv::Mat(Km), 5,
+                            cv::rgbd::RgbdNormals::RGBD_NORMALS_METHOD_FALS);
   cv::Mat points, normals;
   std::size_t i = 0;
   for (auto _ : state) {
@@ -154,7 +164,11 @@ void BM_OpenCvRgbdNormalsFals(benchmark::State& state) {
     benchmark::DoNotOptimize(normals.data);
   }
 }
-BENCHMARK(BM_OpenCvRgbdNormalsFals)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OpenCvRgbdNormalsFals)
+    ->ArgNames({"mosd"})
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond);
 #endif
 
 #ifdef SHAPESENSE_BENCH_PCL
@@ -168,10 +182,12 @@ void BM_PclNormals(benchmark::State& state) {
     state.SkipWithError("no frames");
     return;
   }
-  static const char* names[] = {"covariance", "average_3d_gradient", "average_depth_change", "simple_3d_gradient"};
+  static const char* names[] = {"covariance", "average_3d_gradient", "average_depth_change",
+                                "simple_3d_gradient"};
   state.SetLabel(names[state.range(0)]);
   PclNormalEstimation ne;
-  ne.setNormalEstimationMethod(static_cast<PclNormalEstimation::NormalEstimationMethod>(state.range(0)));
+  ne.setNormalEstimationMethod(
+      static_cast<PclNormalEstimation::NormalEstimationMethod>(state.range(0)));
   ne.setMaxDepthChangeFactor(0.02f);
   ne.setNormalSmoothingSize(10.0f);
   pcl::PointCloud<pcl::Normal> normals;
@@ -187,9 +203,10 @@ void BM_PclNormals(benchmark::State& state) {
 }
 BENCHMARK(BM_PclNormals)
     ->ArgNames({"method", "mosd"})
-    ->ArgsProduct({{PclNormalEstimation::COVARIANCE_MATRIX, PclNormalEstimation::AVERAGE_3D_GRADIENT,
-                    PclNormalEstimation::AVERAGE_DEPTH_CHANGE, PclNormalEstimation::SIMPLE_3D_GRADIENT},
-                   {0, 1}})
+    ->ArgsProduct(
+        {{PclNormalEstimation::COVARIANCE_MATRIX, PclNormalEstimation::AVERAGE_3D_GRADIENT,
+          PclNormalEstimation::AVERAGE_DEPTH_CHANGE, PclNormalEstimation::SIMPLE_3D_GRADIENT},
+         {0, 1}})
     ->Unit(benchmark::kMillisecond);
 
 // OrganizedMultiPlaneSegmentation (with refinement) on normals computed beforehand: the time
@@ -209,7 +226,8 @@ void BM_PclOmpsSegment(benchmark::State& state) {
   }
   if (state.range(0) == 0)
     state.counters["pixel_acc"] =
-        scoreSegmentation(omps.segment(clouds[0], normals[0]).labels, frames().synthetic_truth).pixel_accuracy;
+        scoreSegmentation(omps.segment(clouds[0], normals[0]).labels, frames().synthetic_truth)
+            .pixel_accuracy;
   std::size_t i = 0;
   for (auto _ : state) {
     const std::size_t k = i++ % src.size();

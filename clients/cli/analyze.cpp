@@ -28,7 +28,8 @@ nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results
     }
     json[key] = relative;
   };
-  if (results.segmentation) write_labels("segment_labels", ".segments.png", results.segmentation->labels);
+  if (results.segmentation)
+    write_labels("segment_labels", ".segments.png", results.segmentation->labels);
   json["timestamp"] = secondsForJson(frame.timestamp_ns);
   json["planes"] = nlohmann::json::array();
   if (results.planes) {
@@ -55,8 +56,8 @@ nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results
   return json;
 }
 
-AnalyzeSummary analyzeRecording(const std::filesystem::path& recording, const std::filesystem::path& out,
-                                const DetectorChain& chain,
+AnalyzeSummary analyzeRecording(const std::filesystem::path& recording,
+                                const std::filesystem::path& out, const DetectorChain& chain,
                                 const std::function<void(std::size_t, std::size_t)>& progress) {
   ReplaySource source(recording, ReplayOptions{.pacing = Pacing::kAsFastAsPossible});
   std::filesystem::create_directories(out);

@@ -5,8 +5,8 @@
 //    "planes": [{"id": k, "normal": [nx, ny, nz], "d": d, "pixels": n}, ...],
 //    "plane_labels": "<uint16 PNG relative to DIR, 0 = no plane, else the plane's id>",
 //    "segment_labels": "<same for segments>",
-//    "bowls": [{"box": [x, y, w, h], "score": s, "view": "top|middle|side"}],  // highest score first
-//    "timings_ms": {"<stage>": ms}}
+//    "bowls": [{"box": [x, y, w, h], "score": s, "view": "top|middle|side"}],  // highest score
+//    first "timings_ms": {"<stage>": ms}}
 // Planes satisfy n.X + d = 0 in the camera frame, unit n towards the camera, d > 0 metres.
 // Fields of detectors that are not part of the chain are empty lists or absent. Frames the
 // recording cannot deliver (bad files) are reported on stderr and left out.
@@ -22,14 +22,14 @@
 namespace shapesense::cli {
 
 struct AnalyzeSummary {
-  std::size_t frames = 0;        ///< lines written
-  std::size_t bad_frames = 0;    ///< frames the recording could not deliver
+  std::size_t frames = 0;      ///< lines written
+  std::size_t bad_frames = 0;  ///< frames the recording could not deliver
 };
 
 /// Runs `chain` over every frame of the TUM recording in `recording` and writes
 /// `out`/results.jsonl (and label images beside it). `progress(done, total)` is called per frame.
-AnalyzeSummary analyzeRecording(const std::filesystem::path& recording, const std::filesystem::path& out,
-                                const DetectorChain& chain,
+AnalyzeSummary analyzeRecording(const std::filesystem::path& recording,
+                                const std::filesystem::path& out, const DetectorChain& chain,
                                 const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 /// The results.jsonl object of one frame. Label images are written under `out`/labels/ and

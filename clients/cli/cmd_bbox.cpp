@@ -20,7 +20,8 @@ std::pair<v1::Pixel, v1::Pixel> parseRoi(const std::string& text) {
   char comma = 0;
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (!(in >> values[i]) || (i < 3 && !(in >> comma && comma == ','))) {
-      throw CLI::ValidationError("--roi", "'" + text + "' is not x1,y1,x2,y2 (four whole pixel numbers)");
+      throw CLI::ValidationError("--roi",
+                                 "'" + text + "' is not x1,y1,x2,y2 (four whole pixel numbers)");
     }
   }
   if (in >> comma) throw CLI::ValidationError("--roi", "'" + text + "' has more than four numbers");
@@ -35,7 +36,8 @@ std::pair<v1::Pixel, v1::Pixel> parseRoi(const std::string& text) {
 }  // namespace
 
 void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
-  auto* cmd = app.add_subcommand("bbox", "The 3D box behind a 2D region of interest of the frame at T");
+  auto* cmd =
+      app.add_subcommand("bbox", "The 3D box behind a 2D region of interest of the frame at T");
   struct Args {
     std::string at;
     std::string roi;
@@ -45,7 +47,8 @@ void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--at", args->at, "T in seconds (default: the newest frame)");
-  cmd->add_option("--roi", args->roi, "Two opposite corners x1,y1,x2,y2 in pixels (inclusive)")->required();
+  cmd->add_option("--roi", args->roi, "Two opposite corners x1,y1,x2,y2 in pixels (inclusive)")
+      ->required();
   cmd->add_option("--mode", args->mode,
                   "1: ROI = front face, box turned to the view (default); 2: ROI contains an "
                   "axis-aligned box; 3: ROI = front face of an axis-aligned box")
@@ -61,18 +64,21 @@ void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
     request.set_mode(static_cast<v1::BoxMode>(args->mode));
     Connection connection(global);
     v1::EstimateBoxResponse response;
-    Connection::check(connection.stub().EstimateBox(connection.context().get(), request, &response));
+    Connection::check(
+        connection.stub().EstimateBox(connection.context().get(), request, &response));
     if (args->json) {
       std::cout << toJson(response) << "\n";
     } else {
       const auto& s = response.stats();
       std::cout << "frame " << formatNsAsSeconds(response.frame_timestamp_ns()) << " (seq "
-                << response.frame_sequence() << "), mode " << static_cast<int>(response.mode()) << "\n";
+                << response.frame_sequence() << "), mode " << static_cast<int>(response.mode())
+                << "\n";
       std::printf("%s %.3f..%.3f m (mean %.3f, std %.3f over %u of %u valid pixels)\n",
                   s.range_from_origin() ? "distance" : "depth", s.near_m(), s.far_m(), s.mean_m(),
                   s.std_m(), s.used_pixels(), s.valid_pixels());
-      const char* names[] = {"front top-left", "front top-right", "front bottom-right", "front bottom-left",
-                             "back top-left",  "back top-right",  "back bottom-right",  "back bottom-left"};
+      const char* names[] = {"front top-left",    "front top-right", "front bottom-right",
+                             "front bottom-left", "back top-left",   "back top-right",
+                             "back bottom-right", "back bottom-left"};
       for (int i = 0; i < response.corners_size(); ++i) {
         const auto& c = response.corners(i);
         std::printf("  %-19s %8.3f %8.3f %8.3f\n", names[i], c.x(), c.y(), c.z());

@@ -15,18 +15,22 @@ void addBowlsCommand(CLI::App& app, const GlobalOptions& global) {
     std::string out;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame the detectors processed)");
+  cmd->add_option("--at", args->at,
+                  "T in seconds (default: the newest frame the detectors processed)");
   cmd->add_flag("--json", args->json, "Print JSON");
-  cmd->add_option("--out", args->out, "Write an overlay PNG: boxes, scores and views over the frame");
+  cmd->add_option("--out", args->out,
+                  "Write an overlay PNG: boxes, scores and views over the frame");
   cmd->callback([&global, args] {
     Connection connection(global);
     v1::GetBowlsRequest request;
-    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame() : parseTimeArgument(args->at));
+    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame()
+                                       : parseTimeArgument(args->at));
     v1::GetBowlsResponse response;
     Connection::check(connection.stub().GetBowls(connection.context().get(), request, &response));
     if (!args->out.empty()) {
       auto background = fetchFrameBackground(connection, response.info().timestamp_ns());
-      for (const auto& bowl : response.bowls()) drawBowl(background.bgr, background.intrinsics, bowl);
+      for (const auto& bowl : response.bowls())
+        drawBowl(background.bgr, background.intrinsics, bowl);
       writePng(args->out, background.bgr);
     }
     if (args->json) {
@@ -49,7 +53,8 @@ void addBowlsCommand(CLI::App& app, const GlobalOptions& global) {
         // Opposite corners 0 (front top-left) and 6 (back bottom-right) average to the centre.
         const auto& a = bowl.corners(0);
         const auto& c = bowl.corners(6);
-        std::printf(" %7.3f %7.3f %7.3f\n", (a.x() + c.x()) / 2, (a.y() + c.y()) / 2, (a.z() + c.z()) / 2);
+        std::printf(" %7.3f %7.3f %7.3f\n", (a.x() + c.x()) / 2, (a.y() + c.y()) / 2,
+                    (a.z() + c.z()) / 2);
       } else {
         std::printf(" (no depth in the box)\n");
       }

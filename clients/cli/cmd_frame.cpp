@@ -20,7 +20,8 @@ void addFrameCommand(CLI::App& app, const GlobalOptions& global) {
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--at", args->at, "T in seconds, e.g. 1700000000.033333 (default: the newest)");
-  cmd->add_option("--out", args->out, "Directory to write depth.txt, rgb.txt, camera.json, images")->required();
+  cmd->add_option("--out", args->out, "Directory to write depth.txt, rgb.txt, camera.json, images")
+      ->required();
   cmd->add_flag("--json", args->json, "Print the frame's info as JSON");
   cmd->callback([&global, args] {
     v1::GetFrameRequest request;
@@ -35,7 +36,8 @@ void addFrameCommand(CLI::App& app, const GlobalOptions& global) {
                                cv::IMREAD_UNCHANGED);
     if (!response.rgb_png().empty()) {
       const auto& rgb_png = response.rgb_png();
-      frame.rgb = cv::imdecode(std::vector<unsigned char>(rgb_png.begin(), rgb_png.end()), cv::IMREAD_COLOR);
+      frame.rgb = cv::imdecode(std::vector<unsigned char>(rgb_png.begin(), rgb_png.end()),
+                               cv::IMREAD_COLOR);
     }
     if (frame.depth.empty() || frame.depth.type() != CV_16UC1) {
       throw std::runtime_error("the daemon sent a depth image that does not decode as 16-bit PNG");
@@ -43,7 +45,8 @@ void addFrameCommand(CLI::App& app, const GlobalOptions& global) {
     frame.timestamp_ns = response.info().timestamp_ns();
     const auto& k = response.intrinsics();
     RecordingCamera camera;
-    camera.intrinsics = {k.fx(), k.fy(), k.cx(), k.cy(), static_cast<int>(k.width()), static_cast<int>(k.height())};
+    camera.intrinsics = {
+        k.fx(), k.fy(), k.cx(), k.cy(), static_cast<int>(k.width()), static_cast<int>(k.height())};
     TumRecordingWriter writer(args->out, camera);
     writer.write(frame);
     if (args->json) {

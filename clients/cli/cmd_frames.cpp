@@ -35,7 +35,8 @@ void addFramesCommand(CLI::App& app, const GlobalOptions& global) {
                 << f.width() << "x" << f.height() << (f.has_rgb() ? "  rgb" : "")
                 << (f.processed() ? "  processed" : "") << "\n";
     }
-    std::cout << response.frames_size() << " frame(s) of " << response.cache().frames() << " cached\n";
+    std::cout << response.frames_size() << " frame(s) of " << response.cache().frames()
+              << " cached\n";
   });
 }
 

@@ -19,8 +19,8 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-void printProgress(const std::string& dir, std::uint64_t frames, double seconds, std::uint64_t dropped,
-                   bool done) {
+void printProgress(const std::string& dir, std::uint64_t frames, double seconds,
+                   std::uint64_t dropped, bool done) {
   std::fprintf(stderr, "\rrecording %s: %llu frame(s), %.1f s", dir.c_str(),
                static_cast<unsigned long long>(frames), seconds);
   if (dropped > 0) std::fprintf(stderr, ", %llu dropped", static_cast<unsigned long long>(dropped));
@@ -30,9 +30,11 @@ void printProgress(const std::string& dir, std::uint64_t frames, double seconds,
 
 void requireEmptyOrMissing(const fs::path& dir) {
   if (!fs::exists(dir)) return;
-  if (!fs::is_directory(dir)) throw std::runtime_error("'" + dir.string() + "' exists and is not a directory");
+  if (!fs::is_directory(dir))
+    throw std::runtime_error("'" + dir.string() + "' exists and is not a directory");
   if (!fs::is_empty(dir)) {
-    throw std::runtime_error("'" + dir.string() + "' is not empty: choose a new directory (or empty this one)");
+    throw std::runtime_error("'" + dir.string() +
+                             "' is not empty: choose a new directory (or empty this one)");
   }
 }
 
@@ -70,7 +72,7 @@ void recordFromSource(const std::string& spec, Pacing pacing, const fs::path& di
     if (!out) {
       RecordingCamera camera;
       camera.intrinsics = frame.intrinsics;
-            out.emplace(dir, camera);
+      out.emplace(dir, camera);
     }
     out->write(frame);
     ++written;
@@ -81,7 +83,8 @@ void recordFromSource(const std::string& spec, Pacing pacing, const fs::path& di
   }
   if (timer) timer->request_stop();
   printProgress(dir.string(), written, elapsed(), 0, true);
-  if (written == 0) throw std::runtime_error(source->describe() + " delivered no frame; nothing was recorded");
+  if (written == 0)
+    throw std::runtime_error(source->describe() + " delivered no frame; nothing was recorded");
   std::cout << written << " frame(s) from " << source->describe() << " written to " << dir.string();
   if (errors > 0) std::cout << " (" << errors << " source error(s))";
   std::cout << "\n";
@@ -101,20 +104,23 @@ void recordOnDaemon(const GlobalOptions& global, const fs::path& dir, double sec
   v1::RecordProgress progress;
   std::optional<v1::RecordProgress> last;
   while (reader->Read(&progress)) {
-    printProgress(progress.dir(), progress.frames_written(), progress.seconds(), progress.frames_dropped(),
-                  progress.done());
+    printProgress(progress.dir(), progress.frames_written(), progress.seconds(),
+                  progress.frames_dropped(), progress.done());
     last = progress;
   }
   const grpc::Status status = reader->Finish();
   if (!status.ok() && last && !last->done()) std::fputc('\n', stderr);
   Connection::check(status);
-  if (!last || !last->done()) throw std::runtime_error("the daemon ended the recording without a final report");
+  if (!last || !last->done())
+    throw std::runtime_error("the daemon ended the recording without a final report");
   if (last->frames_written() == 0) {
-    throw std::runtime_error("the daemon's source delivered no frame in " + std::to_string(seconds) +
+    throw std::runtime_error("the daemon's source delivered no frame in " +
+                             std::to_string(seconds) +
                              " s; nothing was recorded (see `shapesense status`)");
   }
   std::cout << last->frames_written() << " frame(s) written by the daemon to " << last->dir();
-  if (last->frames_dropped() > 0) std::cout << " (" << last->frames_dropped() << " dropped: disk too slow)";
+  if (last->frames_dropped() > 0)
+    std::cout << " (" << last->frames_dropped() << " dropped: disk too slow)";
   std::cout << "\n";
 }
 
@@ -123,7 +129,8 @@ void recordOnDaemon(const GlobalOptions& global, const fs::path& dir, double sec
 void addRecordCommand(CLI::App& app, const GlobalOptions& global) {
   auto* cmd = app.add_subcommand(
       "record",
-      "Record frames in the TUM layout with camera.json (replay with shapesensed --source tum:DIR). "
+      "Record frames in the TUM layout with camera.json (replay with shapesensed --source "
+      "tum:DIR). "
       "With --source the CLI reads the source itself; without, the daemon records on its machine");
   struct Args {
     std::string out;
@@ -140,19 +147,23 @@ void addRecordCommand(CLI::App& app, const GlobalOptions& global) {
                   "Wall-clock duration; with --source, 0 = until the source ends")
       ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();
-  cmd->add_option("--source", args->source,
-                  "Record this source without a daemon: synthetic[:SEED], tum:DIR, freenect[:SERIAL|INDEX], "
-                  "openni2[:URI], fakenect:DIR");
-  cmd->add_option("--rate", args->rate, "With --source, for recorded sources: recorded (real time) or max")
+  cmd->add_option(
+      "--source", args->source,
+      "Record this source without a daemon: synthetic[:SEED], tum:DIR, freenect[:SERIAL|INDEX], "
+      "openni2[:URI], fakenect:DIR");
+  cmd->add_option("--rate", args->rate,
+                  "With --source, for recorded sources: recorded (real time) or max")
       ->check(CLI::IsMember({"recorded", "max"}))
       ->capture_default_str();
   cmd->callback([&global, args] {
     if (!args->source.empty()) {
-      recordFromSource(args->source, args->rate == "max" ? Pacing::kAsFastAsPossible : Pacing::kRecorded,
+      recordFromSource(args->source,
+                       args->rate == "max" ? Pacing::kAsFastAsPossible : Pacing::kRecorded,
                        args->out, args->seconds);
       return;
     }
-    if (args->seconds <= 0) throw CLI::ValidationError("--seconds", "must be more than 0 when the daemon records");
+    if (args->seconds <= 0)
+      throw CLI::ValidationError("--seconds", "must be more than 0 when the daemon records");
     recordOnDaemon(global, fs::absolute(args->out).lexically_normal(), args->seconds);
   });
 }

@@ -19,7 +19,8 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
     bool json = false;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame the detectors processed)");
+  cmd->add_option("--at", args->at,
+                  "T in seconds (default: the newest frame the detectors processed)");
   cmd->add_option("--method", args->method,
                   "depth_step, normal_edges, fused, plane_prediction or tiled_ransac "
                   "(default: the daemon's)");
@@ -30,21 +31,26 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->callback([&global, args] {
     Connection connection(global);
     v1::GetSegmentsRequest request;
-    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame() : parseTimeArgument(args->at));
+    request.set_at_ns(args->at.empty() ? connection.newestProcessedFrame()
+                                       : parseTimeArgument(args->at));
     request.set_method(args->method);
     request.set_skip_labels(args->out.empty());
     v1::GetSegmentsResponse response;
-    Connection::check(connection.stub().GetSegments(connection.context().get(), request, &response));
+    Connection::check(
+        connection.stub().GetSegments(connection.context().get(), request, &response));
     if (!args->out.empty()) {
       const auto& png = response.labels_png();
-      const cv::Mat labels = cv::imdecode(std::vector<unsigned char>(png.begin(), png.end()), cv::IMREAD_UNCHANGED);
+      const cv::Mat labels =
+          cv::imdecode(std::vector<unsigned char>(png.begin(), png.end()), cv::IMREAD_UNCHANGED);
       const std::filesystem::path out = args->out;
       writePng(out, labels);
       auto background = fetchFrameBackground(connection, response.frame_timestamp_ns());
       paintLabels(background.bgr, labels);
       const auto overlay = out.parent_path() / (out.stem().string() + ".overlay.png");
       writePng(overlay, background.bgr);
-      if (!args->json) std::cout << "regions written to " << out.string() << ", overlay to " << overlay.string() << "\n";
+      if (!args->json)
+        std::cout << "regions written to " << out.string() << ", overlay to " << overlay.string()
+                  << "\n";
     }
     if (args->json) {
       response.clear_labels_png();
@@ -55,12 +61,13 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
               << response.segments_size() << " segments by " << response.method()
               << (response.computed_on_request() ? " (computed on request" : " (from the pipeline")
               << ", " << response.compute_ms() << " ms)\n";
-    std::printf("%5s %8s %24s %24s %8s  %s\n", "id", "pixels", "centroid (m)", "normal", "rms mm", "box");
+    std::printf("%5s %8s %24s %24s %8s  %s\n", "id", "pixels", "centroid (m)", "normal", "rms mm",
+                "box");
     for (const auto& s : response.segments()) {
-      std::printf("%5u %8u %7.3f %7.3f %7.3f   %6.3f %6.3f %6.3f %8.2f  %d,%d %dx%d\n", s.id(), s.pixels(),
-                  s.centroid().x(), s.centroid().y(), s.centroid().z(), s.normal().x(), s.normal().y(),
-                  s.normal().z(), 1000 * s.plane_rms_m(), s.box().x(), s.box().y(), s.box().width(),
-                  s.box().height());
+      std::printf("%5u %8u %7.3f %7.3f %7.3f   %6.3f %6.3f %6.3f %8.2f  %d,%d %dx%d\n", s.id(),
+                  s.pixels(), s.centroid().x(), s.centroid().y(), s.centroid().z(), s.normal().x(),
+                  s.normal().y(), s.normal().z(), 1000 * s.plane_rms_m(), s.box().x(), s.box().y(),
+                  s.box().width(), s.box().height());
     }
   });
 }

@@ -19,18 +19,21 @@ void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
       return;
     }
     const auto& cache = status.cache();
-    std::cout << "shapesensed " << status.version() << ", up " << static_cast<long>(status.uptime_s()) << " s\n"
+    std::cout << "shapesensed " << status.version() << ", up "
+              << static_cast<long>(status.uptime_s()) << " s\n"
               << "source     " << status.source() << " ("
               << v1::GetStatusResponse::SourceState_Name(status.source_state()) << ")\n";
     if (status.source_live()) {
-      std::cout << "sensor     " << (status.source_connected() ? "connected" : "not connected (reconnecting)")
-                << ", " << status.source_reconnects() << " reconnect(s), " << status.source_dropped_frames()
-                << " frame(s) dropped by the driver\n";
+      std::cout << "sensor     "
+                << (status.source_connected() ? "connected" : "not connected (reconnecting)")
+                << ", " << status.source_reconnects() << " reconnect(s), "
+                << status.source_dropped_frames() << " frame(s) dropped by the driver\n";
     }
-    if (!status.source_message().empty()) std::cout << "last error " << status.source_message() << "\n";
-    std::cout << "frames     " << status.frames_received() << " received, " << status.frames_processed()
-              << " processed, " << status.frames_skipped() << " skipped, " << status.source_errors()
-              << " source errors\n"
+    if (!status.source_message().empty())
+      std::cout << "last error " << status.source_message() << "\n";
+    std::cout << "frames     " << status.frames_received() << " received, "
+              << status.frames_processed() << " processed, " << status.frames_skipped()
+              << " skipped, " << status.source_errors() << " source errors\n"
               << "cache      " << cache.frames() << "/" << cache.capacity() << " frames";
     if (cache.frames() > 0) {
       std::cout << ", " << formatNsAsSeconds(cache.oldest_ns()) << " .. "
@@ -41,7 +44,8 @@ void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
       std::printf("%-14s %8s %9s %9s %9s\n", "stage", "runs", "last ms", "median", "p95");
       for (const auto& s : status.stages()) {
         std::printf("%-14s %8llu %9.2f %9.2f %9.2f\n", s.stage().c_str(),
-                    static_cast<unsigned long long>(s.runs()), s.last_ms(), s.median_ms(), s.p95_ms());
+                    static_cast<unsigned long long>(s.runs()), s.last_ms(), s.median_ms(),
+                    s.p95_ms());
       }
     }
   });

@@ -28,12 +28,15 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
         const auto& d = summary.depth_stats();
         std::printf("%s  seq %-6llu valid %5.1f%%  depth %.2f..%.2f m (median %.2f)",
                     formatNsAsSeconds(summary.info().timestamp_ns()).c_str(),
-                    static_cast<unsigned long long>(summary.info().sequence()), 100 * d.valid_fraction(),
-                    d.min_m(), d.max_m(), d.median_m());
-        std::printf("  %u planes  %u segments  %u bowls", summary.planes(), summary.segments(), summary.bowls());
-        for (const auto& t : summary.timings()) std::printf("  %s %.2f ms", t.stage().c_str(), t.ms());
+                    static_cast<unsigned long long>(summary.info().sequence()),
+                    100 * d.valid_fraction(), d.min_m(), d.max_m(), d.median_m());
+        std::printf("  %u planes  %u segments  %u bowls", summary.planes(), summary.segments(),
+                    summary.bowls());
+        for (const auto& t : summary.timings())
+          std::printf("  %s %.2f ms", t.stage().c_str(), t.ms());
         if (summary.dropped_before() > 0) {
-          std::printf("  (%llu dropped)", static_cast<unsigned long long>(summary.dropped_before()));
+          std::printf("  (%llu dropped)",
+                      static_cast<unsigned long long>(summary.dropped_before()));
         }
         std::printf("\n");
         std::fflush(stdout);

@@ -7,10 +7,13 @@
 int main(int argc, char** argv) {
   using namespace shapesense::cli;
   GlobalOptions global;
-  CLI::App app{"shapesense: query a shapesensed daemon, record sources, make synthetic recordings, analyse recordings offline."};
+  CLI::App app{
+      "shapesense: query a shapesensed daemon, record sources, make synthetic recordings, analyse "
+      "recordings offline."};
   app.require_subcommand(1);
   app.add_option("--server", global.server, "Daemon address")->capture_default_str();
-  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")->capture_default_str();
+  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")
+      ->capture_default_str();
   addStatusCommand(app, global);
   addFramesCommand(app, global);
   addFrameCommand(app, global);
@@ -28,7 +31,8 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const RpcError& e) {
     std::cerr << "shapesense: " << e.what();
-    if (e.code() == grpc::UNAVAILABLE) std::cerr << " (is shapesensed running on " << global.server << "?)";
+    if (e.code() == grpc::UNAVAILABLE)
+      std::cerr << " (is shapesensed running on " << global.server << "?)";
     std::cerr << "\n";
     return 1;
   } catch (const std::exception& e) {

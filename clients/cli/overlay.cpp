@@ -46,12 +46,15 @@ void paintLabels(cv::Mat& bgr, const cv::Mat& labels, double alpha) {
       const std::uint16_t id = label[u];
       if (id == 0) continue;
       if (id >= palette.size()) {
-        for (std::size_t k = palette.size(); k <= id; ++k) palette.push_back(labelColour(static_cast<std::uint32_t>(k)));
+        for (std::size_t k = palette.size(); k <= id; ++k)
+          palette.push_back(labelColour(static_cast<std::uint32_t>(k)));
       }
       const bool border = (u + 1 < labels.cols && label[u + 1] != id) ||
                           (v + 1 < labels.rows && labels.ptr<std::uint16_t>(v + 1)[u] != id);
       for (int c = 0; c < 3; ++c) {
-        pixel[u][c] = border ? 0 : cv::saturate_cast<std::uint8_t>((1 - alpha) * pixel[u][c] + alpha * palette[id][c]);
+        pixel[u][c] = border ? 0
+                             : cv::saturate_cast<std::uint8_t>((1 - alpha) * pixel[u][c] +
+                                                               alpha * palette[id][c]);
       }
     }
   }
@@ -65,7 +68,8 @@ void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& 
                                                       : cv::Scalar(255, 255, 255);
   if (bowl.corners_size() == 8) {
     BoxCorners corners;
-    for (int i = 0; i < 8; ++i) corners[i] = {bowl.corners(i).x(), bowl.corners(i).y(), bowl.corners(i).z()};
+    for (int i = 0; i < 8; ++i)
+      corners[i] = {bowl.corners(i).x(), bowl.corners(i).y(), bowl.corners(i).z()};
     drawBox(bgr, intrinsics, corners, colour, 1);
   }
   const auto& b = bowl.box();
@@ -75,7 +79,8 @@ void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& 
   std::snprintf(label, sizeof label, "%.1f %s", bowl.score(), bowl.view().c_str());
   // Above the box, or inside its top edge when the box touches the image's top.
   const cv::Point origin(box.x, box.y >= 16 ? box.y - 5 : box.y + 14);
-  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 3,
+              cv::LINE_AA);
   cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv::LINE_AA);
 }
 
@@ -89,8 +94,8 @@ FrameBackground fetchFrameBackground(Connection& connection, TimestampNs timesta
   if (!response.rgb_png().empty()) background.bgr = decode(response.rgb_png(), cv::IMREAD_COLOR);
   if (background.bgr.empty()) background.bgr = colorizeDepth(background.depth_mm);
   const auto& k = response.intrinsics();
-  background.intrinsics = {k.fx(), k.fy(), k.cx(), k.cy(), static_cast<int>(k.width()),
-                           static_cast<int>(k.height())};
+  background.intrinsics = {
+      k.fx(), k.fy(), k.cx(), k.cy(), static_cast<int>(k.width()), static_cast<int>(k.height())};
   return background;
 }
 

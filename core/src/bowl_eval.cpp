@@ -10,7 +10,8 @@ double boxIoU(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? inter / uni : 0.0;
 }
 
-BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou, double fppi) {
+BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou,
+                                      double fppi) {
   BowlEvalResult r;
   r.frames = static_cast<int>(frames.size());
   struct Scored {
@@ -22,7 +23,8 @@ BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, 
     for (const auto& t : f.truth) r.positives += t.difficult ? 0 : 1;
     std::vector<const BowlDetection*> dets;
     for (const auto& d : f.detections) dets.push_back(&d);
-    std::stable_sort(dets.begin(), dets.end(), [](auto* a, auto* b) { return a->score > b->score; });
+    std::stable_sort(dets.begin(), dets.end(),
+                     [](auto* a, auto* b) { return a->score > b->score; });
     std::vector<bool> used(f.truth.size(), false);
     for (const auto* d : dets) {
       double best = 0;
@@ -47,7 +49,8 @@ BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, 
       }
     }
   }
-  std::stable_sort(all.begin(), all.end(), [](const Scored& a, const Scored& b) { return a.score > b.score; });
+  std::stable_sort(all.begin(), all.end(),
+                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
   std::vector<double> prec, rec;
   int tp = 0, fp = 0;
   double best_recall_within_budget = 0.0;
@@ -61,14 +64,16 @@ BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, 
     const double recall = r.positives ? static_cast<double>(tp) / r.positives : 0.0;
     prec.push_back(static_cast<double>(tp) / std::max(1, tp + fp));
     rec.push_back(recall);
-    if (r.frames > 0 && fp <= fppi * r.frames) best_recall_within_budget = std::max(best_recall_within_budget, recall);
+    if (r.frames > 0 && fp <= fppi * r.frames)
+      best_recall_within_budget = std::max(best_recall_within_budget, recall);
   }
   r.true_positives = tp;
   r.false_positives = fp;
   r.max_recall = r.positives ? static_cast<double>(tp) / r.positives : 0.0;
   r.miss_rate_at_fppi = 1.0 - best_recall_within_budget;
   // All-point interpolation: precision envelope, summed over recall steps.
-  for (int i = static_cast<int>(prec.size()) - 2; i >= 0; --i) prec[i] = std::max(prec[i], prec[i + 1]);
+  for (int i = static_cast<int>(prec.size()) - 2; i >= 0; --i)
+    prec[i] = std::max(prec[i], prec[i + 1]);
   double prev_recall = 0.0;
   for (std::size_t i = 0; i < prec.size(); ++i) {
     r.ap += (rec[i] - prev_recall) * prec[i];

@@ -18,8 +18,12 @@ void saveBowlModel(const BowlViewModel& m, const std::filesystem::path& file) {
   j["object_margin"] = m.object_margin;
   j["object_width_m"] = {m.min_object_width_m, m.max_object_width_m};
   const auto& p = m.preprocess;
-  j["preprocess"] = {{"near_m", p.near_m}, {"far_m", p.far_m}, {"low", p.low}, {"high", p.high},
-                     {"fill_passes", p.fill_passes}, {"unfilled_value", p.unfilled_value}};
+  j["preprocess"] = {{"near_m", p.near_m},
+                     {"far_m", p.far_m},
+                     {"low", p.low},
+                     {"high", p.high},
+                     {"fill_passes", p.fill_passes},
+                     {"unfilled_value", p.unfilled_value}};
   j["score_unit"] = kWaldBoostScoreUnit;
   j["lbp"] = {{"bit_order", "clockwise-from-top-left"}, {"compare", "neighbour >= centre"}};
   j["training"] = json::parse(m.training_json.empty() ? "{}" : m.training_json);
@@ -75,16 +79,19 @@ BowlViewModel loadBowlModel(const std::filesystem::path& file) {
     m.preprocess.high = p.at("high").get<int>();
     m.preprocess.fill_passes = p.at("fill_passes").get<int>();
     m.preprocess.unfilled_value = p.at("unfilled_value").get<int>();
-    if (j.at("score_unit").get<double>() != kWaldBoostScoreUnit) throw std::runtime_error("unsupported score_unit");
+    if (j.at("score_unit").get<double>() != kWaldBoostScoreUnit)
+      throw std::runtime_error("unsupported score_unit");
     m.training_json = j.contains("training") ? j["training"].dump() : "{}";
     for (const auto& js : j.at("stages")) {
       WaldBoostStage s;
-      s.feature = {js.at("x").get<int>(), js.at("y").get<int>(), js.at("cw").get<int>(), js.at("ch").get<int>()};
+      s.feature = {js.at("x").get<int>(), js.at("y").get<int>(), js.at("cw").get<int>(),
+                   js.at("ch").get<int>()};
       const auto& f = s.feature;
       if (f.x < 0 || f.y < 0 || f.cw < 1 || f.ch < 1 || f.x + 3 * f.cw > m.classifier.win_w ||
           f.y + 3 * f.ch > m.classifier.win_h)
         throw std::runtime_error("stage feature outside the window");
-      s.threshold = js.at("threshold").is_null() ? INT32_MIN : js.at("threshold").get<std::int32_t>();
+      s.threshold =
+          js.at("threshold").is_null() ? INT32_MIN : js.at("threshold").get<std::int32_t>();
       const auto& lut = js.at("lut");
       if (lut.size() != 256) throw std::runtime_error("lut must have 256 entries");
       for (int k = 0; k < 256; ++k) s.lut[k] = lut.at(k).get<std::int16_t>();

@@ -141,14 +141,16 @@ bool fillFromNeighbours(cv::Mat& depth_mm, int r, int c) {
   sortEight(nb);
   // Lower median for even counts: keeps the fill on the nearer surface at an edge less
   // often than the mean would smear across it; any fixed choice is fine for detection.
-  depth_mm.ptr<std::uint16_t>(r)[c] = static_cast<std::uint16_t>(nb[static_cast<std::size_t>((n - 1) / 2)] + 1);
+  depth_mm.ptr<std::uint16_t>(r)[c] =
+      static_cast<std::uint16_t>(nb[static_cast<std::size_t>((n - 1) / 2)] + 1);
   return true;
 }
 
 }  // namespace
 
 int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("fillInvalidRecursiveMedian: need CV_16UC1");
+  if (depth_mm.type() != CV_16UC1)
+    throw std::invalid_argument("fillInvalidRecursiveMedian: need CV_16UC1");
   const int rows = depth_mm.rows, cols = depth_mm.cols;
   int remaining = 0;
   for (int r = 0; r < rows; ++r) {
@@ -192,7 +194,8 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
 
 cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params) {
   if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
-  if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 || params.low >= params.high)
+  if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 ||
+      params.low >= params.high)
     throw std::invalid_argument("mapDepthTo8Bit: bad range");
   // One lookup table over all 16-bit values: the mapping is then a single gather per pixel.
   // Only the [near, far] part needs arithmetic; below and above are constant (clamping).
@@ -215,7 +218,8 @@ cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& par
   return out;
 }
 
-cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params, cv::Mat* filled_mm) {
+cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params,
+                        cv::Mat* filled_mm) {
   cv::Mat filled = depth_mm.clone();
   fillInvalidRecursiveMedian(filled, params.fill_passes);
   cv::Mat out = mapDepthTo8Bit(filled, params);

@@ -37,7 +37,8 @@ HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
   inv_a_cell_ = 1.0 / a_cell_;
   inv_d_cell_ = 1.0 / params_.d_cell_m;
   na_ = std::max(1, static_cast<int>(std::ceil(2.0 * params_.lambert_extent / a_cell_)));
-  nd_ = std::max(1, static_cast<int>(std::ceil(params_.max_d_m / std::max(1e-4, params_.d_cell_m))));
+  nd_ =
+      std::max(1, static_cast<int>(std::ceil(params_.max_d_m / std::max(1e-4, params_.d_cell_m))));
   nba_ = (na_ + kBlock - 1) / kBlock;
   nbd_ = (nd_ + kBlock - 1) / kBlock;
   index_.assign(static_cast<std::size_t>(nba_) * nba_ * nbd_, -1);
@@ -50,8 +51,9 @@ void HoughAccumulator::clear() {
 }
 
 void HoughAccumulator::prepareLike(const HoughAccumulator& other) {
-  if (params_.angle_cell_deg != other.params_.angle_cell_deg || params_.d_cell_m != other.params_.d_cell_m ||
-      params_.max_d_m != other.params_.max_d_m || params_.lambert_extent != other.params_.lambert_extent) {
+  if (params_.angle_cell_deg != other.params_.angle_cell_deg ||
+      params_.d_cell_m != other.params_.d_cell_m || params_.max_d_m != other.params_.max_d_m ||
+      params_.lambert_extent != other.params_.lambert_extent) {
     *this = HoughAccumulator(other.params_);
   }
 }
@@ -177,7 +179,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // vectorise; the extra terms add exact zeros.
   constexpr int kTaps = 2 * kBlock + 1;
   std::array<std::array<float, kTaps>, 3> taps{};
-  const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_, sigma_angle_deg * kDegToRad / a_cell_,
+  const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_,
+                                             sigma_angle_deg * kDegToRad / a_cell_,
                                              sigma_d_m / params_.d_cell_m};
   for (int axis = 0; axis < 3; ++axis) {
     const std::vector<float> w = gaussianTaps(sigma_cells[axis], kBlock);
@@ -196,8 +199,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   static constexpr std::array<float, kBlockCells> kZeros{};
 
   // The source blocks before, at and after output block `key` along `axis` (zeros = no votes).
-  auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
-                        std::array<const float*, 3>& blocks) {
+  auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index,
+                        const std::vector<float>& src, std::array<const float*, 3>& blocks) {
     const int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
     bool any = false;
     for (int s = -1; s <= 1; ++s) {
@@ -212,7 +215,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   };
   // Along x the 4 cells of a block line are contiguous: each output line is 4 running sums over
   // a 12-cell window of the three blocks (the compiler vectorises the 4 sums).
-  auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src, std::vector<float>& dst) {
+  auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
+                   std::vector<float>& dst) {
     const auto& w = taps[0];
     std::array<const float*, 3> blocks{};
     for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
@@ -233,8 +237,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   };
   // Along y and z a block line's cells are kBlock (or kBlock^2) apart, but the 4 lines that
   // differ only in x are contiguous: smooth those 4 at once.
-  auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
-                    std::vector<float>& dst) {
+  auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index,
+                    const std::vector<float>& src, std::vector<float>& dst) {
     const auto& w = taps[axis];
     const int other = axis == 1 ? 2 : 1;
     std::array<const float*, 3> blocks{};
@@ -351,7 +355,8 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   need.swap(kept_need);
 }
 
-std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a, int window_d) const {
+std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int window_a,
+                                                       int window_d) const {
   // The window's offsets, nearest first: a cell that is not a maximum almost always has a larger
   // direct neighbour, so the test usually ends after a few look-ups. `earlier`: the plateau
   // tie-break (the lexicographically first cell of a plateau wins).
@@ -363,9 +368,11 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
   for (int dk = -window_d; dk <= window_d; ++dk)
     for (int dj = -window_a; dj <= window_a; ++dj)
       for (int di = -window_a; di <= window_a; ++di)
-        if (di || dj || dk) window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
+        if (di || dj || dk)
+          window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
   std::stable_sort(window.begin(), window.end(), [](const Offset& a, const Offset& b) {
-    return std::abs(a.di) + std::abs(a.dj) + std::abs(a.dk) < std::abs(b.di) + std::abs(b.dj) + std::abs(b.dk);
+    return std::abs(a.di) + std::abs(a.dj) + std::abs(a.dk) <
+           std::abs(b.di) + std::abs(b.dj) + std::abs(b.dk);
   });
   std::vector<HoughMaximum> maxima;
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
@@ -408,7 +415,8 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
     }
   }
   std::sort(maxima.begin(), maxima.end(), [](const HoughMaximum& a, const HoughMaximum& b) {
-    return a.value > b.value || (a.value == b.value && std::tie(a.k, a.j, a.i) < std::tie(b.k, b.j, b.i));
+    return a.value > b.value ||
+           (a.value == b.value && std::tie(a.k, a.j, a.i) < std::tie(b.k, b.j, b.i));
   });
   return maxima;
 }

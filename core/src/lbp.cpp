@@ -26,7 +26,8 @@ std::uint8_t lbpCodeDirect(const cv::Mat& image8, int x, int y, int cw, int ch) 
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
       for (int yy = 0; yy < ch; ++yy)
-        for (int xx = 0; xx < cw; ++xx) s[i][j] += image8.at<std::uint8_t>(y + i * ch + yy, x + j * cw + xx);
+        for (int xx = 0; xx < cw; ++xx)
+          s[i][j] += image8.at<std::uint8_t>(y + i * ch + yy, x + j * cw + xx);
   const long c = s[1][1];
   const long nb[8] = {s[0][0], s[0][1], s[0][2], s[1][2], s[2][2], s[2][1], s[2][0], s[1][0]};
   std::uint8_t code = 0;
@@ -156,7 +157,8 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
 
 cv::Mat lbpCodeImage(const cv::Mat& integral, int cw, int ch) {
   CV_Assert(integral.type() == CV_32SC1 && integral.rows >= 1 && integral.cols >= 1);
-  if (cw < 1 || cw > 2 || ch < 1 || ch > 2) throw std::invalid_argument("lbpCodeImage: cells must be 1 or 2 pixels");
+  if (cw < 1 || cw > 2 || ch < 1 || ch > 2)
+    throw std::invalid_argument("lbpCodeImage: cells must be 1 or 2 pixels");
   cv::Mat codes = cv::Mat::zeros(integral.rows - 1, integral.cols - 1, CV_8UC1);
   if (codes.rows < 3 * ch || codes.cols < 3 * cw) return codes;
   cv::Mat sums;

@@ -591,7 +591,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   stepDistance(std::min(max_r + 3, 30000));  // any cap above max_r + 2 is "far"
   win_mean_.resize(3 * static_cast<std::size_t>(cols) * K);
   win_radius_.assign(3 * static_cast<std::size_t>(cols), 0);  // 0: nothing cached
-  int built = 0;                             // image rows integrated so far
+  int built = 0;                                              // image rows integrated so far
   for (int v = 0; v < rows; ++v) {
     // The windows reach r + 1 rows below v: integral rows up to v + max_r + 2.
     for (const int need = std::min(rows, v + max_r + 2); built < need; ++built) buildRow(built);

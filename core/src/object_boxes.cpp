@@ -12,9 +12,8 @@ namespace {
 // Which segments touch which, across depth-continuous pixel pairs only (an object's faces touch;
 // an object and the wall behind it only meet across a depth step). Pairs are collected flat and
 // deduplicated once: most pixel pairs lie inside one segment, and the boundary pairs repeat.
-std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::Mat& labels,
-                                                                      const cv::Mat& depth_mm,
-                                                                      const KinectNoiseModel& noise) {
+std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
+    const cv::Mat& labels, const cv::Mat& depth_mm, const KinectNoiseModel& noise) {
   std::vector<std::uint32_t> pairs;
   const auto consider = [&](std::uint16_t a, std::uint16_t b, std::uint16_t za, std::uint16_t zb) {
     if (a == b || a == 0 || b == 0 || za == 0 || zb == 0) return;
@@ -36,7 +35,8 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   std::map<std::uint16_t, std::set<std::uint16_t>> neighbours;
   for (const std::uint32_t pair : pairs) {
-    const auto a = static_cast<std::uint16_t>(pair >> 16), b = static_cast<std::uint16_t>(pair & 0xFFFF);
+    const auto a = static_cast<std::uint16_t>(pair >> 16),
+               b = static_cast<std::uint16_t>(pair & 0xFFFF);
     neighbours[a].insert(b);
     neighbours[b].insert(a);
   }
@@ -45,11 +45,12 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::
 
 }  // namespace
 
-std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                                             const cv::Mat& segment_labels,
-                                             const std::vector<SegmentStatistics>& segments,
-                                             const PlaneDetection& planes,
-                                             const ObjectBoxParams& params) {
+std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
+                                              const CameraIntrinsics& intrinsics,
+                                              const cv::Mat& segment_labels,
+                                              const std::vector<SegmentStatistics>& segments,
+                                              const PlaneDetection& planes,
+                                              const ObjectBoxParams& params) {
   CV_Assert(segment_labels.type() == CV_16UC1 && planes.labels.type() == CV_16UC1);
   CV_Assert(segment_labels.size() == depth_mm.size() && planes.labels.size() == depth_mm.size());
   const double image_pixels = static_cast<double>(depth_mm.total());
@@ -60,7 +61,8 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const Cam
 
   // Whether a segment can be part of an object above `support`: not too big, in front of the
   // plane, and not mostly the plane itself.
-  const auto partOfObjectAbove = [&](const SegmentStatistics& segment, const DetectedPlane& support) {
+  const auto partOfObjectAbove = [&](const SegmentStatistics& segment,
+                                     const DetectedPlane& support) {
     if (segment.pixels > params.max_image_fraction * image_pixels) return false;
     if (support.normal.dot(segment.centroid) + support.d < params.min_height_m) return false;
     int on_support = 0;
@@ -68,7 +70,8 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const Cam
     for (int v = r.y; v < r.y + r.height; ++v) {
       const auto* seg = segment_labels.ptr<std::uint16_t>(v);
       const auto* pl = planes.labels.ptr<std::uint16_t>(v);
-      for (int u = r.x; u < r.x + r.width; ++u) on_support += seg[u] == segment.id && pl[u] == support.id;
+      for (int u = r.x; u < r.x + r.width; ++u)
+        on_support += seg[u] == segment.id && pl[u] == support.id;
     }
     return on_support <= params.max_support_overlap * segment.pixels;
   };
@@ -109,15 +112,17 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const Cam
       const int last = std::min(depth_mm.rows - 1, lowest + params.support_search_px);
       for (int v = lowest + 1; v <= last; ++v) {
         const std::uint16_t plane = planes.labels.at<std::uint16_t>(v, u);
-        if (plane != 0 && !isOwnPlane(plane) && segment_labels.at<std::uint16_t>(v, u) != segment.id) {
+        if (plane != 0 && !isOwnPlane(plane) &&
+            segment_labels.at<std::uint16_t>(v, u) != segment.id) {
           ++support_votes[plane];
           break;
         }
       }
     }
     if (columns == 0 || support_votes.empty()) continue;
-    const auto best = std::max_element(support_votes.begin(), support_votes.end(),
-                                       [](const auto& a, const auto& b) { return a.second < b.second; });
+    const auto best =
+        std::max_element(support_votes.begin(), support_votes.end(),
+                         [](const auto& a, const auto& b) { return a.second < b.second; });
     if (best->second < params.min_support_fraction * columns) continue;
     const auto plane_it = plane_by_id.find(best->first);
     if (plane_it == plane_by_id.end() || !partOfObjectAbove(segment, *plane_it->second)) continue;
@@ -156,12 +161,13 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const Cam
     }
     const double fraction = pixels / image_pixels;
     if (fraction < params.min_image_fraction || fraction > params.max_image_fraction) continue;
-    auto estimate = estimateBox(depth_mm, intrinsics, roi.tl(), roi.br() - cv::Point(1, 1), params.mode,
-                                params.estimation);
+    auto estimate = estimateBox(depth_mm, intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
+                                params.mode, params.estimation);
     auto* box = std::get_if<BoxEstimate>(&estimate);
     if (!box) continue;
     const auto& c = box->corners;
-    const double size = std::max({(c[1] - c[0]).norm(), (c[3] - c[0]).norm(), (c[4] - c[0]).norm()});
+    const double size =
+        std::max({(c[1] - c[0]).norm(), (c[3] - c[0]).norm(), (c[4] - c[0]).norm()});
     if (size > params.max_size_m) continue;
     boxes.push_back({seed, support->id, roi, *box});
   }

@@ -22,7 +22,8 @@ Eigen::Vector3d pointOn(const DetectedPlane& p) {
 
 }  // namespace
 
-PlaneAccumulator::PlaneAccumulator(PlaneAccumulatorParams params) : params_(params), space_(params.space) {}
+PlaneAccumulator::PlaneAccumulator(PlaneAccumulatorParams params)
+    : params_(params), space_(params.space) {}
 
 void PlaneAccumulator::reset() {
   space_.clear();
@@ -51,7 +52,8 @@ int PlaneAccumulator::matchTrack(const Eigen::Vector3d& n, double d) const {
   return best;
 }
 
-void PlaneAccumulator::update(const PlaneDetection& frame, const std::optional<Eigen::Isometry3d>& world_from_camera) {
+void PlaneAccumulator::update(const PlaneDetection& frame,
+                              const std::optional<Eigen::Isometry3d>& world_from_camera) {
   // 1. Reference frame and reset rules (see header).
   if (world_from_camera) {
     if (!had_pose_ && frames_ > 0) reset();
@@ -70,7 +72,8 @@ void PlaneAccumulator::update(const PlaneDetection& frame, const std::optional<E
     ref_from_camera_ = Eigen::Isometry3d::Identity();
     const double min_w = params_.min_frames * 0.5;
     int established = 0;
-    for (const auto& t : tracks_) established += t.weight > 0 && t.last.inliers > 0 && t.weight >= min_w;
+    for (const auto& t : tracks_)
+      established += t.weight > 0 && t.last.inliers > 0 && t.weight >= min_w;
     if (established >= params_.reset_min_planes) {
       double total = 0, matched = 0;
       for (const auto& p : frame.planes) {
@@ -90,7 +93,8 @@ void PlaneAccumulator::update(const PlaneDetection& frame, const std::optional<E
     t.sum_point *= params_.decay;
     t.weight *= params_.decay;
   }
-  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(), [&](const Track& t) { return t.weight < 1e-3; }),
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
+                               [&](const Track& t) { return t.weight < 1e-3; }),
                 tracks_.end());
 
   // 3. Add the frame's planes in the reference frame.
@@ -123,7 +127,8 @@ void PlaneAccumulator::update(const PlaneDetection& frame, const std::optional<E
 
 std::vector<DetectedPlane> PlaneAccumulator::planes() const {
   std::vector<DetectedPlane> out;
-  const double min_peak = params_.min_frames * space_.kernelPeak(params_.sigma_angle_deg, params_.sigma_d_m);
+  const double min_peak =
+      params_.min_frames * space_.kernelPeak(params_.sigma_angle_deg, params_.sigma_d_m);
   const auto maxima = space_.findMaxima(static_cast<float>(min_peak), 2, 2);
   const Eigen::Isometry3d camera_from_ref = ref_from_camera_.inverse();
   std::vector<bool> used(tracks_.size(), false);
@@ -148,7 +153,8 @@ std::vector<DetectedPlane> PlaneAccumulator::planes() const {
     for (auto& v : p.polygon) v = camera_from_last * v;
     out.push_back(std::move(p));
   }
-  std::sort(out.begin(), out.end(), [](const DetectedPlane& a, const DetectedPlane& b) { return a.id < b.id; });
+  std::sort(out.begin(), out.end(),
+            [](const DetectedPlane& a, const DetectedPlane& b) { return a.id < b.id; });
   return out;
 }
 

@@ -14,7 +14,8 @@ void PlaneMoments::merge(const PlaneMoments& o) {
   // sum (p'+e)(p'+e)^T = ss' + s' e^T + e s'^T + n e e^T.
   const Eigen::Vector3d e = o.ref_ - ref_;
   Eigen::Matrix3d oss = o.ss_.selfadjointView<Eigen::Upper>();
-  Eigen::Matrix3d shifted = oss + o.s_ * e.transpose() + e * o.s_.transpose() + o.n_ * e * e.transpose();
+  Eigen::Matrix3d shifted =
+      oss + o.s_ * e.transpose() + e * o.s_.transpose() + o.n_ * e * e.transpose();
   n_ += o.n_;
   s_ += o.s_ + o.n_ * e;
   ss_ += shifted.triangularView<Eigen::Upper>().toDenseMatrix();

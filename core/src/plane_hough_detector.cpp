@@ -22,8 +22,9 @@ constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 // by depth continuity. Extracts planes while the best hypothesis has enough inliers; a plane is
 // kept only if the inliers that have a normal mostly agree with it (a band of a bowl lies
 // within the tolerance of some plane but its normals fan out). Deterministic (fixed LCG).
-void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, const HoughPlaneParams& P,
-                            std::vector<PlaneHypothesis>& planes, cv::Mat& sample_labels) {
+void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
+                            const HoughPlaneParams& P, std::vector<PlaneHypothesis>& planes,
+                            cv::Mat& sample_labels) {
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const auto* nrm = grid.normals.ptr<cv::Vec3f>(0);
   int* lab = sample_labels.ptr<int>(0);
@@ -41,7 +42,8 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid, 
   std::vector<double> rest_tol(rest.size()), outlier_tol;
   for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
-  for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples; ++extracted) {
+  for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples;
+       ++extracted) {
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
     double best_d = 0.0;
     std::size_t best_count = 0;
@@ -138,9 +140,10 @@ struct HoughPlaneDetector::Impl {
   std::vector<int> free_idx;
   std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
-  std::vector<int> cand, next;  // refinement inlier sets (indices into the free arrays)
+  std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
 
-  explicit Impl(const HoughPlaneParams& p) : normals_est(p.normals), raw(p.space), smooth(p.space) {}
+  explicit Impl(const HoughPlaneParams& p)
+      : normals_est(p.normals), raw(p.space), smooth(p.space) {}
 };
 
 HoughPlaneDetector::HoughPlaneDetector(HoughPlaneParams params)
@@ -151,7 +154,8 @@ HoughPlaneDetector& HoughPlaneDetector::operator=(HoughPlaneDetector&&) noexcept
 
 const HoughAccumulator& HoughPlaneDetector::lastSmoothedSpace() const { return impl_->smooth; }
 
-PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr) {
+PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                                          const cv::Mat& bgr) {
   CV_Assert(depth_mm.type() == CV_16UC1);
   Impl& s = *impl_;
   const HoughPlaneParams& P = params_;
@@ -229,21 +233,25 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
 
     // 4. Refine the maxima, strongest first; accepted planes claim their samples.
     int accepted = 0;
-    for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round); ++m) {
+    for (int m = 0; m < std::min<int>(static_cast<int>(maxima.size()), P.max_candidates_per_round);
+         ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
       {
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
         // advance the end.
-        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
+        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
+                    nz = static_cast<float>(n.z());
         const float df = static_cast<float>(d);
         const float *fx = s.fx.data(), *fy = s.fy.data(), *fz = s.fz.data();
-        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(), *fgate = s.fgate.data();
+        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(),
+                    *fgate = s.fgate.data();
         std::uint8_t* in = s.fin.data();
         for (int f = 0; f < F; ++f) {
           const float dist = std::fabs(nx * fx[f] + ny * fy[f] + nz * fz[f] + df);
-          in[f] = static_cast<std::uint8_t>((dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
+          in[f] = static_cast<std::uint8_t>(
+              (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
         }
         cand.resize(F);
         int kept = 0, f = 0;
@@ -309,12 +317,14 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       }
       if (!ok) continue;
       // Final inliers at the tolerance with the refined plane.
-      const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()), nz = static_cast<float>(n.z());
+      const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
+                  nz = static_cast<float>(n.z());
       const float df = static_cast<float>(d);
       next.clear();
       for (int f : cand) {
         const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-        if (dist > s.ftol[f] || nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier) continue;
+        if (dist > s.ftol[f] || nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier)
+          continue;
         next.push_back(f);
       }
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
@@ -360,7 +370,8 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       double& sc = score[i * P_count + j];
       if (sc != kUnknown) return sc;
       sc = std::numeric_limits<double>::infinity();
-      if (!fits[i].valid || !fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge) return sc;
+      if (!fits[i].valid || !fits[j].valid || fits[i].normal.dot(fits[j].normal) < cos_merge)
+        return sc;
       PlaneMoments u = mom[i];
       u.merge(mom[j]);
       const PlaneFit f = u.fit();
@@ -431,7 +442,8 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         stack.pop_back();
         members.push_back(i);
         const int r = i / C, c = i % C;
-        const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1, r + 1 < R ? i + C : -1};
+        const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1,
+                            r + 1 < R ? i + C : -1};
         for (int j : nbr) {
           if (j < 0 || comp[j] >= 0 || lab[j] >= 0 || !(pts[j][2] > 0)) continue;
           if (!samplesContinuous(pts[i][2], pts[j][2], s.grid, P.labeling)) continue;
@@ -462,8 +474,10 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         fit = m2.fit();
       }
       if (!fit.valid || static_cast<int>(inl) < P.min_plane_samples ||
-          static_cast<double>(inl) < P.leftover_min_inlier_fraction * static_cast<double>(members.size())) {
-        if (P.leftover_ransac_hypotheses > 0) splitLeftoverComponent(members, s.grid, P, planes, s.sample_labels);
+          static_cast<double>(inl) <
+              P.leftover_min_inlier_fraction * static_cast<double>(members.size())) {
+        if (P.leftover_ransac_hypotheses > 0)
+          splitLeftoverComponent(members, s.grid, P, planes, s.sample_labels);
         continue;
       }
       const int id = static_cast<int>(planes.size());

@@ -9,10 +9,12 @@ namespace shapesense {
 namespace {
 
 double cross(const cv::Point2f& a, const cv::Point2f& b, const cv::Point2f& c) {
-  return static_cast<double>(b.x - a.x) * (c.y - a.y) - static_cast<double>(b.y - a.y) * (c.x - a.x);
+  return static_cast<double>(b.x - a.x) * (c.y - a.y) -
+         static_cast<double>(b.y - a.y) * (c.x - a.x);
 }
 
-bool insideTriangle(const cv::Point2f& p, const cv::Point2f& a, const cv::Point2f& b, const cv::Point2f& c) {
+bool insideTriangle(const cv::Point2f& p, const cv::Point2f& a, const cv::Point2f& b,
+                    const cv::Point2f& c) {
   // Counter-clockwise triangle (positive area); boundary counts as inside so that a
   // reflex vertex touching the ear blocks it.
   return cross(a, b, p) >= 0 && cross(b, c, p) >= 0 && cross(c, a, p) >= 0;
@@ -68,9 +70,10 @@ void regionPolygon(const cv::Mat& mask, cv::Point origin, double scale, double o
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
   if (contours.empty()) return;
-  const auto& best = *std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
-    return std::fabs(cv::contourArea(a)) < std::fabs(cv::contourArea(b));
-  });
+  const auto& best =
+      *std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
+        return std::fabs(cv::contourArea(a)) < std::fabs(cv::contourArea(b));
+      });
   std::vector<cv::Point> approx;
   cv::approxPolyDP(best, approx, epsilon_cells, true);
   std::vector<cv::Point2f> simple(approx.begin(), approx.end());

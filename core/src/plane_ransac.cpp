@@ -10,8 +10,8 @@
 
 namespace shapesense {
 
-PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                                  const RansacPlaneParams& P) {
+PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                                  const cv::Mat& bgr, const RansacPlaneParams& P) {
   CV_Assert(depth_mm.type() == CV_16UC1);
   PlaneSampleGrid grid;
   grid.build(depth_mm, K, P.labeling.sample_step);
@@ -61,7 +61,8 @@ PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsic
     return -1;
   };
 
-  while (static_cast<int>(planes.size()) < P.max_planes && remaining >= static_cast<std::size_t>(P.min_plane_samples)) {
+  while (static_cast<int>(planes.size()) < P.max_planes &&
+         remaining >= static_cast<std::size_t>(P.min_plane_samples)) {
     int best = 0;
     Eigen::Vector3d bn;
     double bd = 0;
@@ -71,8 +72,8 @@ PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsic
       while (removed[k0]);
       const int i0 = idx[k0], i1 = nearSample(i0), i2 = nearSample(i0);
       if (i1 < 0 || i2 < 0 || i1 == i2) continue;
-      const Eigen::Vector3d a(pts[i0][0], pts[i0][1], pts[i0][2]), b(pts[i1][0], pts[i1][1], pts[i1][2]),
-          c(pts[i2][0], pts[i2][1], pts[i2][2]);
+      const Eigen::Vector3d a(pts[i0][0], pts[i0][1], pts[i0][2]),
+          b(pts[i1][0], pts[i1][1], pts[i1][2]), c(pts[i2][0], pts[i2][1], pts[i2][2]);
       Eigen::Vector3d n = (b - a).cross(c - a);
       if (n.norm() < 1e-9) continue;
       n.normalize();
@@ -81,8 +82,8 @@ PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsic
         n = -n;
         d = -d;
       }
-      const int cnt = countInliers(static_cast<float>(n.x()), static_cast<float>(n.y()), static_cast<float>(n.z()),
-                                   static_cast<float>(d));
+      const int cnt = countInliers(static_cast<float>(n.x()), static_cast<float>(n.y()),
+                                   static_cast<float>(n.z()), static_cast<float>(d));
       if (cnt > best) {
         best = cnt;
         bn = n;
@@ -94,7 +95,8 @@ PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsic
     for (int pass = 0; pass < 2; ++pass) {
       PlaneMoments m;
       for (std::size_t k = 0; k < idx.size(); ++k)
-        if (!removed[k] && std::fabs(bn.x() * x[k] + bn.y() * y[k] + bn.z() * z[k] + bd) <= tol[k]) m.add(x[k], y[k], z[k]);
+        if (!removed[k] && std::fabs(bn.x() * x[k] + bn.y() * y[k] + bn.z() * z[k] + bd) <= tol[k])
+          m.add(x[k], y[k], z[k]);
       const PlaneFit f = m.fit();
       if (!f.valid) break;
       bn = f.normal;
@@ -103,7 +105,8 @@ PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsic
     const int id = static_cast<int>(planes.size());
     int taken = 0;
     for (std::size_t k = 0; k < idx.size(); ++k) {
-      if (removed[k] || std::fabs(bn.x() * x[k] + bn.y() * y[k] + bn.z() * z[k] + bd) > tol[k]) continue;
+      if (removed[k] || std::fabs(bn.x() * x[k] + bn.y() * y[k] + bn.z() * z[k] + bd) > tol[k])
+        continue;
       removed[k] = 1;
       lab[idx[k]] = id;
       ++taken;

@@ -8,9 +8,11 @@
 
 namespace shapesense {
 
-std::vector<SegmentStatistics> computeSegmentStatistics(const cv::Mat& regions, const cv::Mat& depth_mm,
+std::vector<SegmentStatistics> computeSegmentStatistics(const cv::Mat& regions,
+                                                        const cv::Mat& depth_mm,
                                                         const CameraIntrinsics& intr) {
-  CV_Assert(regions.type() == CV_16UC1 && depth_mm.type() == CV_16UC1 && regions.size() == depth_mm.size());
+  CV_Assert(regions.type() == CV_16UC1 && depth_mm.type() == CV_16UC1 &&
+            regions.size() == depth_mm.size());
   struct Acc {
     int n = 0;
     // Sums relative to the region's first point keep the covariance free of cancellation.
@@ -35,11 +37,19 @@ std::vector<SegmentStatistics> computeSegmentStatistics(const cv::Mat& regions, 
       }
       const Eigen::Vector3d q = p - a.origin;
       ++a.n;
-      a.s[0] += q.x(); a.s[1] += q.y(); a.s[2] += q.z();
-      a.s[3] += q.x() * q.x(); a.s[4] += q.x() * q.y(); a.s[5] += q.x() * q.z();
-      a.s[6] += q.y() * q.y(); a.s[7] += q.y() * q.z(); a.s[8] += q.z() * q.z();
-      a.u0 = std::min(a.u0, u); a.u1 = std::max(a.u1, u);
-      a.v0 = std::min(a.v0, v); a.v1 = std::max(a.v1, v);
+      a.s[0] += q.x();
+      a.s[1] += q.y();
+      a.s[2] += q.z();
+      a.s[3] += q.x() * q.x();
+      a.s[4] += q.x() * q.y();
+      a.s[5] += q.x() * q.z();
+      a.s[6] += q.y() * q.y();
+      a.s[7] += q.y() * q.z();
+      a.s[8] += q.z() * q.z();
+      a.u0 = std::min(a.u0, u);
+      a.u1 = std::max(a.u1, u);
+      a.v0 = std::min(a.v0, v);
+      a.v1 = std::max(a.v1, v);
     }
   }
   std::sort(seen.begin(), seen.end());
@@ -57,8 +67,8 @@ std::vector<SegmentStatistics> computeSegmentStatistics(const cv::Mat& regions, 
     if (a.n >= 3) {
       Eigen::Matrix3d c;
       c << a.s[3] * inv - m.x() * m.x(), a.s[4] * inv - m.x() * m.y(), a.s[5] * inv - m.x() * m.z(),
-          0, a.s[6] * inv - m.y() * m.y(), a.s[7] * inv - m.y() * m.z(),
-          0, 0, a.s[8] * inv - m.z() * m.z();
+          0, a.s[6] * inv - m.y() * m.y(), a.s[7] * inv - m.y() * m.z(), 0, 0,
+          a.s[8] * inv - m.z() * m.z();
       c(1, 0) = c(0, 1);
       c(2, 0) = c(0, 2);
       c(2, 1) = c(1, 2);

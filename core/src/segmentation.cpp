@@ -14,11 +14,16 @@ namespace shapesense {
 
 std::string_view formatSegmentationMethod(SegmentationMethod method) {
   switch (method) {
-    case SegmentationMethod::kDepthStep: return "depth_step";
-    case SegmentationMethod::kNormalEdges: return "normal_edges";
-    case SegmentationMethod::kFused: return "fused";
-    case SegmentationMethod::kPlanePrediction: return "plane_prediction";
-    case SegmentationMethod::kTiledRansac: return "tiled_ransac";
+    case SegmentationMethod::kDepthStep:
+      return "depth_step";
+    case SegmentationMethod::kNormalEdges:
+      return "normal_edges";
+    case SegmentationMethod::kFused:
+      return "fused";
+    case SegmentationMethod::kPlanePrediction:
+      return "plane_prediction";
+    case SegmentationMethod::kTiledRansac:
+      return "tiled_ransac";
   }
   return "unknown";
 }
@@ -64,7 +69,8 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
   }
   const int rows = depth.rows / 2, cols = depth.cols / 2;
   w.depth.create(rows, cols, CV_16UC1);
-  const float k = static_cast<float>(3.0 * rp.noise.disparity_step_px / rp.noise.focal_baseline_px_m * 1e-3);
+  const float k =
+      static_cast<float>(3.0 * rp.noise.disparity_step_px / rp.noise.focal_baseline_px_m * 1e-3);
   for (int v = 0; v < rows; ++v) {
     const auto* a = depth.ptr<std::uint16_t>(2 * v);
     const auto* b = depth.ptr<std::uint16_t>(2 * v + 1);
@@ -72,12 +78,14 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
     for (int u = 0; u < cols; ++u) {
       const std::uint16_t q[4] = {a[2 * u], a[2 * u + 1], b[2 * u], b[2 * u + 1]};
       unsigned mn = 0xFFFF;
-      for (auto x : q) if (x != 0 && x < mn) mn = x;
+      for (auto x : q)
+        if (x != 0 && x < mn) mn = x;
       if (mn == 0xFFFF) {
         o[u] = 0;
         continue;
       }
-      const unsigned lim = mn + static_cast<unsigned>(k * static_cast<float>(mn) * static_cast<float>(mn)) + 1;
+      const unsigned lim =
+          mn + static_cast<unsigned>(k * static_cast<float>(mn) * static_cast<float>(mn)) + 1;
       unsigned sum = 0, n = 0;
       for (auto x : q) {
         if (x != 0 && x <= lim) {
@@ -109,7 +117,8 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
   // below are branch-free uint16 compares the compiler vectorises.
   std::vector<cv::Mat> thr(r);
   for (auto& t : thr) t.create(rows, cols, CV_16UC1);
-  const float step_k = static_cast<float>(p.noise_steps * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
+  const float step_k = static_cast<float>(p.noise_steps * noise.disparity_step_px /
+                                          noise.focal_baseline_px_m * 1e-3);
   const float slope = static_cast<float>(p.slope_factor * w.ds);
   const float min_t = static_cast<float>(p.min_threshold_mm);
   for (int v = 0; v < rows; ++v) {
@@ -184,7 +193,8 @@ cv::Mat normalEdges(const Working& w, const NormalEdgeParams& p, bool invalid_is
           const cv::Vec3f& b = nq[u + du];
           const float dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
           // NaN dot products compare false: with invalid_is_edge they count, else they do not.
-          acc[u] += static_cast<std::uint8_t>((dq[u + du] != 0) & (invalid_is_edge ? !(dot >= cos_t) : (dot < cos_t)));
+          acc[u] += static_cast<std::uint8_t>((dq[u + du] != 0) &
+                                              (invalid_is_edge ? !(dot >= cos_t) : (dot < cos_t)));
         }
       }
     }
@@ -216,8 +226,8 @@ cv::Mat inverseDepth(const cv::Mat& depth) {
 // Plane-prediction edge strength: planes are affine in inverse depth w = 1/z, so each neighbour's
 // w is predicted from the centre's smoothed w and gradient; E = number of anomalous neighbours.
 // With `short_edges`, also returns the dense-window count alone (for the fallback markers).
-cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, const KinectNoiseModel& noise,
-                             cv::Mat* short_edges = nullptr) {
+cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p,
+                             const KinectNoiseModel& noise, cv::Mat* short_edges = nullptr) {
   const cv::Mat& d = w.depth;
   const int rows = d.rows, cols = d.cols;
   cv::Mat inv = inverseDepth(d);
@@ -226,8 +236,10 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
   mask.convertTo(mask, CV_32F, 1.0 / 255.0);
   const int s = std::max(0, p.smoothing_radius);
   cv::Mat inv_sum, cnt;
-  cv::boxFilter(inv, inv_sum, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  cv::boxFilter(mask, cnt, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::boxFilter(inv, inv_sum, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false,
+                cv::BORDER_CONSTANT);
+  cv::boxFilter(mask, cnt, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false,
+                cv::BORDER_CONSTANT);
   // Smoothed inverse depth (0 where fewer than half the window is valid).
   cv::Mat sm(rows, cols, CV_32F);
   const float min_cnt = 0.5f * static_cast<float>((2 * s + 1) * (2 * s + 1));
@@ -249,13 +261,19 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
     for (int u = g; u < cols - g; ++u) {
       const float l = c[u - g], r = c[u + g];
       // One-sided difference where one side is missing keeps the prediction usable near holes.
-      if (l > 0 && r > 0) ox[u] = (r - l) * inv2g;
-      else if (l > 0 && c[u] > 0) ox[u] = (c[u] - l) / static_cast<float>(g);
-      else if (r > 0 && c[u] > 0) ox[u] = (r - c[u]) / static_cast<float>(g);
+      if (l > 0 && r > 0)
+        ox[u] = (r - l) * inv2g;
+      else if (l > 0 && c[u] > 0)
+        ox[u] = (c[u] - l) / static_cast<float>(g);
+      else if (r > 0 && c[u] > 0)
+        ox[u] = (r - c[u]) / static_cast<float>(g);
       const float t = up[u], b = dn[u];
-      if (t > 0 && b > 0 && v - g >= 0 && v + g < rows) oy[u] = (b - t) * inv2g;
-      else if (t > 0 && c[u] > 0 && v - g >= 0) oy[u] = (c[u] - t) / static_cast<float>(g);
-      else if (b > 0 && c[u] > 0 && v + g < rows) oy[u] = (b - c[u]) / static_cast<float>(g);
+      if (t > 0 && b > 0 && v - g >= 0 && v + g < rows)
+        oy[u] = (b - t) * inv2g;
+      else if (t > 0 && c[u] > 0 && v - g >= 0)
+        oy[u] = (c[u] - t) / static_cast<float>(g);
+      else if (b > 0 && c[u] > 0 && v + g < rows)
+        oy[u] = (b - c[u]) / static_cast<float>(g);
     }
   }
   const float thr = static_cast<float>(p.noise_steps * inverseDepthStep(noise));
@@ -304,7 +322,8 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
       }
     }
     auto* e = edges.ptr<std::uint8_t>(v);
-    for (int u = 0; u < cols; ++u) e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);
+    for (int u = 0; u < cols; ++u)
+      e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);
     if (short_edges) {
       auto* es = short_edges->ptr<std::uint8_t>(v);
       for (int u = 0; u < cols; ++u) es[u] = wc[u] == 0.0f ? kNoDepth : acc_short[u];
@@ -313,7 +332,8 @@ cv::Mat planePredictionEdges(const Working& w, const PlanePredictionParams& p, c
   return edges;
 }
 
-cv::Mat edgeStrength(const Working& w, SegmentationMethod method, const SegmentationParams& params) {
+cv::Mat edgeStrength(const Working& w, SegmentationMethod method,
+                     const SegmentationParams& params) {
   switch (method) {
     case SegmentationMethod::kDepthStep:
       return depthStepEdges(w, params.depth_step, params.depth_step.region.noise);
@@ -330,8 +350,9 @@ cv::Mat edgeStrength(const Working& w, SegmentationMethod method, const Segmenta
         const auto* b = en.ptr<std::uint8_t>(v);
         auto* o = e.ptr<std::uint8_t>(v);
         for (int u = 0; u < e.cols; ++u) {
-          o[u] = a[u] == kNoDepth ? kNoDepth
-                                  : static_cast<std::uint8_t>(std::min(254.0f, a[u] + wt * b[u] + 0.5f));
+          o[u] = a[u] == kNoDepth
+                     ? kNoDepth
+                     : static_cast<std::uint8_t>(std::min(254.0f, a[u] + wt * b[u] + 0.5f));
         }
       }
       return e;
@@ -346,11 +367,16 @@ cv::Mat edgeStrength(const Working& w, SegmentationMethod method, const Segmenta
 
 const RegionParams& regionParams(SegmentationMethod method, const SegmentationParams& p) {
   switch (method) {
-    case SegmentationMethod::kDepthStep: return p.depth_step.region;
-    case SegmentationMethod::kNormalEdges: return p.normal_edges.region;
-    case SegmentationMethod::kFused: return p.fused.region;
-    case SegmentationMethod::kPlanePrediction: return p.plane_prediction.region;
-    case SegmentationMethod::kTiledRansac: return p.tiled_ransac.region;
+    case SegmentationMethod::kDepthStep:
+      return p.depth_step.region;
+    case SegmentationMethod::kNormalEdges:
+      return p.normal_edges.region;
+    case SegmentationMethod::kFused:
+      return p.fused.region;
+    case SegmentationMethod::kPlanePrediction:
+      return p.plane_prediction.region;
+    case SegmentationMethod::kTiledRansac:
+      return p.tiled_ransac.region;
   }
   return p.depth_step.region;
 }
@@ -479,7 +505,8 @@ cv::Mat denseLabels(const cv::Mat& labels, int& count) {
 // full-resolution pixel whose depth does not match its block's depth (a block on a step took the
 // foreground) takes the label of the neighbouring block with the closest depth. Pixels without
 // depth get 0. CV_16UC1.
-cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, const KinectNoiseModel& noise) {
+cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth,
+                 const KinectNoiseModel& noise) {
   cv::Mat out(depth.size(), CV_16UC1);
   if (w.ds == 1) {  // makeWorking clamps ds to 1 or 2
     for (int v = 0; v < depth.rows; ++v) {
@@ -493,7 +520,8 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth, 
   // Per working row, the block label, depth and depth tolerance are expanded to full width once,
   // so the per-pixel pass is branch-free uint16 arithmetic that vectorises; the few pixels that
   // do not match their block (next to steps) are fixed afterwards.
-  const float k = static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
+  const float k =
+      static_cast<float>(3.0 * noise.disparity_step_px / noise.focal_baseline_px_m * 1e-3);
   const int cols = depth.cols;
   std::vector<std::uint16_t> lab2(cols), dep2(cols), tol2(cols);
   std::vector<std::uint8_t> bad(cols);
@@ -591,7 +619,8 @@ void compact(cv::Mat& labels, int max_label, int min_px) {
 
 // Greedy merge of coplanar regions (see RegionParams::merge_coplanar). Moments of
 // (u, v, w = 1/z) are additive, so the plane fit of any union is O(1) from its parts' sums.
-void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, const RegionParams& rp) {
+void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w,
+                   const RegionParams& rp) {
   if (!rp.merge_coplanar) return;
   double mx = 0;
   cv::minMaxLoc(labels, nullptr, &mx);
@@ -612,9 +641,16 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
     auto flush = [&] {
       if (cur <= 0 || c == 0) return;
       Moments& a = m[cur];
-      a[0] += c; a[1] += su; a[2] += fv * c; a[3] += sw;
-      a[4] += suu; a[5] += fv * su; a[6] += fv * fv * c;
-      a[7] += suw; a[8] += fv * sw; a[9] += sww;
+      a[0] += c;
+      a[1] += su;
+      a[2] += fv * c;
+      a[3] += sw;
+      a[4] += suu;
+      a[5] += fv * su;
+      a[6] += fv * fv * c;
+      a[7] += suw;
+      a[8] += fv * sw;
+      a[9] += sww;
       c = su = suu = sw = suw = sww = 0;
     };
     for (int u = 0; u < labels.cols; ++u) {
@@ -625,8 +661,12 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
         cur = l[u];
       }
       const double fu = u - uc, iw = 1000.0f / static_cast<float>(d[u]);
-      c += 1; su += fu; suu += fu * fu;
-      sw += iw; suw += fu * iw; sww += iw * iw;
+      c += 1;
+      su += fu;
+      suu += fu * fu;
+      sw += iw;
+      suw += fu * iw;
+      sww += iw * iw;
     }
     flush();
   }
@@ -673,7 +713,8 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w, cons
   }
   for (int v = 0; v < labels.rows; ++v) {
     int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u) if (l[u] > 0) l[u] = parent[l[u]];
+    for (int u = 0; u < labels.cols; ++u)
+      if (l[u] > 0) l[u] = parent[l[u]];
   }
 }
 
@@ -717,8 +758,14 @@ bool fitPlaneLs(const std::vector<cv::Point3f>& pts, const std::vector<int>& idx
   mv /= n;
   for (int i : idx) {
     const double u = pts[i].x - mu, v = pts[i].y - mv, w = pts[i].z;
-    su += u; sv += v; sw += w;
-    suu += u * u; suv += u * v; svv += v * v; suw += u * w; svw += v * w;
+    su += u;
+    sv += v;
+    sw += w;
+    suu += u * u;
+    suv += u * v;
+    svv += v * v;
+    suw += u * w;
+    svw += v * w;
   }
   const double det = suu * svv - suv * suv;
   if (std::fabs(det) < 1e-9) return false;
@@ -739,7 +786,8 @@ int findRoot(std::vector<int>& parent, int x) {
   return x;
 }
 
-cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr, const TiledRansacParams& p) {
+cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr,
+                    const TiledRansacParams& p) {
   const RegionParams& rp = p.region;
   const Working w = makeWorking(depth, intr, rp);
   const cv::Mat inv = inverseDepth(w.depth);
@@ -785,8 +833,10 @@ cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr, const Ti
         h.b = (u1 * w2 - u2 * w1) / det;
         h.c = a.z - h.a * a.x - h.b * a.y;
         int cnt = 0;
-        const float ha = static_cast<float>(h.a), hb = static_cast<float>(h.b), hc = static_cast<float>(h.c);
-        for (int i = 0; i < n; i += 2) cnt += std::fabs(pts[i].z - (ha * pts[i].x + hb * pts[i].y + hc)) <= thr;
+        const float ha = static_cast<float>(h.a), hb = static_cast<float>(h.b),
+                    hc = static_cast<float>(h.c);
+        for (int i = 0; i < n; i += 2)
+          cnt += std::fabs(pts[i].z - (ha * pts[i].x + hb * pts[i].y + hc)) <= thr;
         if (cnt > best) {
           best = cnt;
           best_plane = h;

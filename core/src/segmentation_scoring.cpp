@@ -13,8 +13,8 @@ int labelAt(const cv::Mat& m, int v, int u) {
 
 }  // namespace
 
-SegCompScore scoreSegmentation(const cv::Mat& found_labels, const cv::Mat& truth_labels,
-                               double T, double min_truth_fraction) {
+SegCompScore scoreSegmentation(const cv::Mat& found_labels, const cv::Mat& truth_labels, double T,
+                               double min_truth_fraction) {
   CV_Assert(found_labels.size() == truth_labels.size());
   CV_Assert(found_labels.type() == CV_16UC1 || found_labels.type() == CV_32SC1);
   CV_Assert(truth_labels.type() == CV_16UC1 || truth_labels.type() == CV_32SC1);

@@ -47,7 +47,8 @@ std::string formatNsAsSeconds(TimestampNs ns, int decimals) {
   if (decimals > 9) decimals = 9;
   const bool negative = ns < 0;
   // Work on the magnitude as unsigned so INT64_MIN stays defined.
-  std::uint64_t magnitude = negative ? 0 - static_cast<std::uint64_t>(ns) : static_cast<std::uint64_t>(ns);
+  std::uint64_t magnitude =
+      negative ? 0 - static_cast<std::uint64_t>(ns) : static_cast<std::uint64_t>(ns);
   std::uint64_t unit = 1;
   for (int i = decimals; i < 9; ++i) unit *= 10;
   magnitude = (magnitude + unit / 2) / unit;  // round to the requested digits
@@ -57,7 +58,8 @@ std::string formatNsAsSeconds(TimestampNs ns, int decimals) {
   const std::uint64_t frac = magnitude % scale;
   char buf[48];
   if (decimals == 0) {
-    std::snprintf(buf, sizeof buf, "%s%llu", negative ? "-" : "", static_cast<unsigned long long>(whole));
+    std::snprintf(buf, sizeof buf, "%s%llu", negative ? "-" : "",
+                  static_cast<unsigned long long>(whole));
   } else {
     std::snprintf(buf, sizeof buf, "%s%llu.%0*llu", negative ? "-" : "",
                   static_cast<unsigned long long>(whole), decimals,

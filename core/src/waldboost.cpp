@@ -27,13 +27,15 @@ std::int64_t WaldBoostClassifier::maxScore() const {
   return total;
 }
 
-std::vector<std::int32_t> WaldBoostClassifier::rejectionThresholds(std::int32_t min_final_score) const {
+std::vector<std::int32_t> WaldBoostClassifier::rejectionThresholds(
+    std::int32_t min_final_score) const {
   std::vector<std::int32_t> out(stages.size());
   std::int64_t still_addable = 0;  // the most stages t+1..T-1 can add
   for (std::size_t t = stages.size(); t-- > 0;) {
     const std::int64_t bound = static_cast<std::int64_t>(min_final_score) - still_addable;
     const std::int64_t own = stages[t].threshold;
-    out[t] = static_cast<std::int32_t>(std::clamp<std::int64_t>(std::max(own, bound), INT32_MIN, INT32_MAX));
+    out[t] = static_cast<std::int32_t>(
+        std::clamp<std::int64_t>(std::max(own, bound), INT32_MIN, INT32_MAX));
     still_addable += *std::max_element(stages[t].lut.begin(), stages[t].lut.end());
   }
   return out;
@@ -42,7 +44,8 @@ std::vector<std::int32_t> WaldBoostClassifier::rejectionThresholds(std::int32_t 
 WaldBoostTrainer::WaldBoostTrainer(std::vector<cv::Mat> positives, WaldBoostClassifier start,
                                    WaldBoostTrainParams params)
     : params_(params), clf_(std::move(start)) {
-  if (clf_.win_w < 3 || clf_.win_h < 3) throw std::invalid_argument("WaldBoostTrainer: window too small");
+  if (clf_.win_w < 3 || clf_.win_h < 3)
+    throw std::invalid_argument("WaldBoostTrainer: window too small");
   if (params_.refill_every < 1) throw std::invalid_argument("WaldBoostTrainer: refill_every < 1");
   features_ = enumerateLbpFeatures(clf_.win_w, clf_.win_h, params_.max_cell);
   initial_positives_ = positives.size();
@@ -65,7 +68,8 @@ WaldBoostTrainer::Sample WaldBoostTrainer::makeSample(const cv::Mat& window8) co
   Sample s;
   s.codes.resize(features_.size());
   const std::int32_t* origin = ii.ptr<std::int32_t>(0);
-  for (std::size_t f = 0; f < features_.size(); ++f) s.codes[f] = lbpCodeIntegral(origin, lbpOffsets(features_[f], stride));
+  for (std::size_t f = 0; f < features_.size(); ++f)
+    s.codes[f] = lbpCodeIntegral(origin, lbpOffsets(features_[f], stride));
   return s;
 }
 
@@ -103,7 +107,8 @@ bool WaldBoostTrainer::trainStage(const NegativeSource& source, WaldBoostStageSt
   auto weights = [](const std::vector<Sample>& v, double sign) {
     std::vector<double> w(v.size());
     double sum = 0;
-    for (std::size_t i = 0; i < v.size(); ++i) sum += (w[i] = std::exp(-sign * v[i].h * kWaldBoostScoreUnit));
+    for (std::size_t i = 0; i < v.size(); ++i)
+      sum += (w[i] = std::exp(-sign * v[i].h * kWaldBoostScoreUnit));
     for (double& x : w) x *= 0.5 / sum;
     return w;
   };
@@ -132,7 +137,8 @@ bool WaldBoostTrainer::trainStage(const NegativeSource& source, WaldBoostStageSt
   stage.feature = features_[best_f];
   const double eps = params_.lut_smoothing / static_cast<double>(pos_.size() + neg_.size());
   for (int k = 0; k < 256; ++k) {
-    const double v = std::clamp(0.5 * std::log((best_hp[k] + eps) / (best_hn[k] + eps)), -params_.lut_clip, params_.lut_clip);
+    const double v = std::clamp(0.5 * std::log((best_hp[k] + eps) / (best_hn[k] + eps)),
+                                -params_.lut_clip, params_.lut_clip);
     stage.lut[k] = static_cast<std::int16_t>(std::lround(v / kWaldBoostScoreUnit));
   }
   for (auto& s : pos_) s.h += stage.lut[s.codes[best_f]];
@@ -140,7 +146,8 @@ bool WaldBoostTrainer::trainStage(const NegativeSource& source, WaldBoostStageSt
 
   // Rejection threshold from the positive score distribution and the miss-rate budget.
   const std::size_t budget = static_cast<std::size_t>(
-      std::floor(params_.target_miss_rate * static_cast<double>(initial_positives_) * (t + 1) / params_.stages));
+      std::floor(params_.target_miss_rate * static_cast<double>(initial_positives_) * (t + 1) /
+                 params_.stages));
   const std::size_t already = initial_positives_ - pos_.size();
   const std::size_t allowed = budget > already ? budget - already : 0;
   std::vector<std::int32_t> ps(pos_.size());
@@ -157,8 +164,10 @@ bool WaldBoostTrainer::trainStage(const NegativeSource& source, WaldBoostStageSt
   if (stats) {
     stats->stage = t + 1;
     stats->z = best_z;
-    stats->positives_kept = static_cast<double>(pos_.size()) / std::max<std::size_t>(1, initial_positives_);
-    stats->negatives_rejected = 1.0 - static_cast<double>(neg_.size()) / std::max<std::size_t>(1, neg_before);
+    stats->positives_kept =
+        static_cast<double>(pos_.size()) / std::max<std::size_t>(1, initial_positives_);
+    stats->negatives_rejected =
+        1.0 - static_cast<double>(neg_.size()) / std::max<std::size_t>(1, neg_before);
     stats->negative_pool = neg_.size();
     stats->refilled = refilled;
   }

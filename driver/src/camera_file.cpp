@@ -20,7 +20,8 @@ RecordingCamera readRecordingCamera(const std::filesystem::path& dir) {
   if (!json.is_object()) throw CameraFileError(path.string() + ": must be a JSON object");
   auto number = [&](const char* key, double fallback) {
     if (!json.contains(key)) return fallback;
-    if (!json[key].is_number()) throw CameraFileError(path.string() + ": '" + key + "' is not a number");
+    if (!json[key].is_number())
+      throw CameraFileError(path.string() + ": '" + key + "' is not a number");
     return json[key].get<double>();
   };
   auto& k = camera.intrinsics;
@@ -40,9 +41,12 @@ RecordingCamera readRecordingCamera(const std::filesystem::path& dir) {
 
 void writeRecordingCamera(const std::filesystem::path& dir, const RecordingCamera& camera) {
   const auto& k = camera.intrinsics;
-  nlohmann::json json = {{"fx", k.fx},         {"fy", k.fy},
-                         {"cx", k.cx},         {"cy", k.cy},
-                         {"width", k.width},   {"height", k.height},
+  nlohmann::json json = {{"fx", k.fx},
+                         {"fy", k.fy},
+                         {"cx", k.cx},
+                         {"cy", k.cy},
+                         {"width", k.width},
+                         {"height", k.height},
                          {"depth_scale", camera.depth_scale}};
   std::ofstream out(dir / "camera.json");
   out << json.dump(2) << "\n";

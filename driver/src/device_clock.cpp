@@ -54,9 +54,9 @@ std::int64_t DeviceClock::unwrap(std::uint64_t raw_ticks) const {
     signed_diff = static_cast<std::int64_t>(diff);
   } else {
     const std::uint64_t half = std::uint64_t{1} << (params_.counter_bits - 1);
-    signed_diff = diff >= half ? static_cast<std::int64_t>(diff) -
-                                     static_cast<std::int64_t>(half << 1)
-                               : static_cast<std::int64_t>(diff);
+    signed_diff = diff >= half
+                      ? static_cast<std::int64_t>(diff) - static_cast<std::int64_t>(half << 1)
+                      : static_cast<std::int64_t>(diff);
   }
   return last_ticks_ + signed_diff;
 }

@@ -39,9 +39,8 @@ std::string_view payloadOf(const std::string& data, const fs::path& file, const 
   header >> got_magic >> width >> height >> got_max;
   if (!header || got_magic != magic || width != kFakenectWidth || height != kFakenectHeight ||
       got_max != maxval) {
-    throw std::runtime_error(file.string() + ": header '" + data.substr(0, newline) +
-                             "' is not '" + magic + " 640 480 " + std::to_string(maxval) +
-                             "' on one line");
+    throw std::runtime_error(file.string() + ": header '" + data.substr(0, newline) + "' is not '" +
+                             magic + " 640 480 " + std::to_string(maxval) + "' on one line");
   }
   const std::size_t available = data.size() - newline - 1;
   if (available < bytes) {
@@ -137,8 +136,10 @@ std::vector<std::string> validateFakenectDump(const fs::path& dir) {
       problems.push_back(e.what());
     }
   }
-  if (number == 0) problems.push_back(index_path.string() + ": empty");
-  else if (!any_depth && problems.empty()) problems.push_back(index_path.string() + ": no depth file");
+  if (number == 0)
+    problems.push_back(index_path.string() + ": empty");
+  else if (!any_depth && problems.empty())
+    problems.push_back(index_path.string() + ": no depth file");
   return problems;
 }
 
@@ -166,8 +167,7 @@ cv::Mat readFakenectDepth(const fs::path& file) {
 cv::Mat readFakenectRgb(const fs::path& file) {
   const std::string data = readWholeFile(file);
   const auto payload = payloadOf(data, file, "P6", 255, kRgbBytes);
-  const cv::Mat rgb(kFakenectHeight, kFakenectWidth, CV_8UC3,
-                    const_cast<char*>(payload.data()));
+  const cv::Mat rgb(kFakenectHeight, kFakenectWidth, CV_8UC3, const_cast<char*>(payload.data()));
   cv::Mat bgr;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
   return bgr;
@@ -177,7 +177,8 @@ FakenectDumpWriter::FakenectDumpWriter(const fs::path& dir, FakenectWriteOptions
     : dir_(dir), options_(options) {
   fs::create_directories(dir_);
   index_.open(dir_ / "INDEX.txt", std::ios::app);
-  if (!index_) throw std::runtime_error((dir_ / "INDEX.txt").string() + ": cannot open for writing");
+  if (!index_)
+    throw std::runtime_error((dir_ / "INDEX.txt").string() + ": cannot open for writing");
 }
 
 void FakenectDumpWriter::appendIndex(const std::string& name) {
@@ -191,7 +192,8 @@ void FakenectDumpWriter::write(const Frame& frame) {
       frame.depth.rows != kFakenectHeight) {
     throw std::invalid_argument("fakenect dumps hold 640x480 CV_16UC1 depth only");
   }
-  if (!frame.rgb.empty() && (frame.rgb.type() != CV_8UC3 || frame.rgb.size() != frame.depth.size())) {
+  if (!frame.rgb.empty() &&
+      (frame.rgb.type() != CV_8UC3 || frame.rgb.size() != frame.depth.size())) {
     throw std::invalid_argument("fakenect dumps hold 640x480 CV_8UC3 colour only");
   }
   if (!first_ns_) first_ns_ = frame.timestamp_ns;

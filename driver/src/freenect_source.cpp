@@ -71,7 +71,8 @@ class FreenectSession final : public DeviceSession {
     } else {
       rc = freenect_open_device(ctx_, &dev_, device.index);
       const std::string serial = serialAt(ctx_, device.index);
-      name_ = "Kinect #" + std::to_string(device.index) + (serial.empty() ? "" : " (serial " + serial + ")");
+      name_ = "Kinect #" + std::to_string(device.index) +
+              (serial.empty() ? "" : " (serial " + serial + ")");
     }
     if (rc < 0 || dev_ == nullptr) {
       dev_ = nullptr;
@@ -81,16 +82,16 @@ class FreenectSession final : public DeviceSession {
     freenect_set_user(dev_, this);
     freenect_set_depth_callback(dev_, &FreenectSession::depthCallback);
     // Only the modes Debian's fakenect serves: 11-bit depth and RGB, both 640x480.
-    if (freenect_set_depth_mode(dev_, freenect_find_depth_mode(FREENECT_RESOLUTION_MEDIUM,
-                                                               FREENECT_DEPTH_11BIT)) < 0) {
+    if (freenect_set_depth_mode(
+            dev_, freenect_find_depth_mode(FREENECT_RESOLUTION_MEDIUM, FREENECT_DEPTH_11BIT)) < 0) {
       throw std::runtime_error(name_ + ": cannot set 11-bit depth mode");
     }
     if (freenect_start_depth(dev_) < 0) throw std::runtime_error(name_ + ": cannot start depth");
     depth_running_ = true;
     if (options_.colour) {
       freenect_set_video_callback(dev_, &FreenectSession::videoCallback);
-      if (freenect_set_video_mode(dev_, freenect_find_video_mode(FREENECT_RESOLUTION_MEDIUM,
-                                                                 FREENECT_VIDEO_RGB)) < 0) {
+      if (freenect_set_video_mode(
+              dev_, freenect_find_video_mode(FREENECT_RESOLUTION_MEDIUM, FREENECT_VIDEO_RGB)) < 0) {
         throw std::runtime_error(name_ + ": cannot set RGB video mode");
       }
       if (freenect_start_video(dev_) < 0) throw std::runtime_error(name_ + ": cannot start RGB");
@@ -134,10 +135,12 @@ class FreenectSession final : public DeviceSession {
   }
 
   static void depthCallback(freenect_device* dev, void* data, std::uint32_t timestamp) {
-    static_cast<FreenectSession*>(freenect_get_user(dev))->onImage(DeviceImage::Kind::kDepth, data, timestamp);
+    static_cast<FreenectSession*>(freenect_get_user(dev))
+        ->onImage(DeviceImage::Kind::kDepth, data, timestamp);
   }
   static void videoCallback(freenect_device* dev, void* data, std::uint32_t timestamp) {
-    static_cast<FreenectSession*>(freenect_get_user(dev))->onImage(DeviceImage::Kind::kColour, data, timestamp);
+    static_cast<FreenectSession*>(freenect_get_user(dev))
+        ->onImage(DeviceImage::Kind::kColour, data, timestamp);
   }
 
   /// Runs inside freenect_process_events: stamp and copy only.
@@ -206,9 +209,8 @@ class FreenectConnector final : public DeviceConnector {
 FreenectDeviceSelector FreenectDeviceSelector::parse(const std::string& text) {
   FreenectDeviceSelector selector;
   if (text.empty()) return selector;
-  const bool digits = text.size() <= 3 && std::all_of(text.begin(), text.end(), [](char c) {
-                        return c >= '0' && c <= '9';
-                      });
+  const bool digits = text.size() <= 3 && std::all_of(text.begin(), text.end(),
+                                                      [](char c) { return c >= '0' && c <= '9'; });
   if (digits) {
     selector.index = std::stoi(text);
   } else {

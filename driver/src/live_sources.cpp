@@ -20,7 +20,8 @@ std::unique_ptr<FrameSource> openLiveSource(const std::string& kind, const std::
     return std::make_unique<OpenNI2Source>(options);
   }
   if (kind == "fakenect") {
-    if (argument.empty()) throw std::invalid_argument("--source fakenect:DIR needs a dump directory");
+    if (argument.empty())
+      throw std::invalid_argument("--source fakenect:DIR needs a dump directory");
     return std::make_unique<FakenectDumpSource>(argument);
   }
   return nullptr;

@@ -99,8 +99,8 @@ void LiveSource::run(std::stop_token stop) {
     std::unique_ptr<DeviceSession> session = connector_->open(why_not);
     if (!session) {
       if (!reported_absent) {
-        postError(description_ + ": sensor not available: " + why_not + "; waiting for it (retrying every " +
-                  seconds(options_.reopen_interval) + ")");
+        postError(description_ + ": sensor not available: " + why_not +
+                  "; waiting for it (retrying every " + seconds(options_.reopen_interval) + ")");
         reported_absent = true;
       }
       sleepFor(options_.reopen_interval, stop);

@@ -57,7 +57,8 @@ std::optional<openni::VideoMode> chooseMode(const openni::SensorInfo& info,
       if (!accepted) ++rank;
     }
     if (!accepted) continue;
-    const double cost = std::abs(mode.getResolutionX() - width) + std::abs(mode.getResolutionY() - height) +
+    const double cost = std::abs(mode.getResolutionX() - width) +
+                        std::abs(mode.getResolutionY() - height) +
                         10.0 * std::abs(mode.getFps() - fps) + 0.5 * rank;
     if (!best || cost < best_cost) {
       best = mode;
@@ -99,8 +100,8 @@ class OpenNI2Session final : public DeviceSession {
     openni::VideoStream* streams[2] = {&depth_, &colour_};
     const int count = colour_running_ ? 2 : 1;
     int ready = -1;
-    const auto rc = openni::OpenNI::waitForAnyStream(streams, count, &ready,
-                                                     static_cast<int>(budget.count()));
+    const auto rc =
+        openni::OpenNI::waitForAnyStream(streams, count, &ready, static_cast<int>(budget.count()));
     if (rc == openni::STATUS_TIME_OUT) return std::nullopt;
     if (rc != openni::STATUS_OK || ready < 0 || ready >= count) {
       return "waitForAnyStream failed: " + lastOpenNIError();
@@ -163,13 +164,15 @@ class OpenNI2Session final : public DeviceSession {
   }
 
   void startDepth() {
-    if (!device_.hasSensor(openni::SENSOR_DEPTH)) throw std::runtime_error(name_ + " has no depth sensor");
+    if (!device_.hasSensor(openni::SENSOR_DEPTH))
+      throw std::runtime_error(name_ + " has no depth sensor");
     if (depth_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
       throw std::runtime_error(name_ + ": cannot create depth stream: " + lastOpenNIError());
     }
-    const auto mode = chooseMode(depth_.getSensorInfo(),
-                                 {openni::PIXEL_FORMAT_DEPTH_1_MM, openni::PIXEL_FORMAT_DEPTH_100_UM},
-                                 options_.width, options_.height, options_.fps);
+    const auto mode =
+        chooseMode(depth_.getSensorInfo(),
+                   {openni::PIXEL_FORMAT_DEPTH_1_MM, openni::PIXEL_FORMAT_DEPTH_100_UM},
+                   options_.width, options_.height, options_.fps);
     if (!mode) throw std::runtime_error(name_ + ": no millimetre depth mode");
     depth_.setVideoMode(*mode);  // drivers with one fixed mode refuse even that: ignore
     depth_mode_ = depth_.getVideoMode();
@@ -182,15 +185,16 @@ class OpenNI2Session final : public DeviceSession {
 
   void startColour() {
     if (colour_.create(device_, openni::SENSOR_COLOR) != openni::STATUS_OK) return;
-    const auto mode = chooseMode(colour_.getSensorInfo(), {openni::PIXEL_FORMAT_RGB888},
-                                 depth_mode_.getResolutionX(), depth_mode_.getResolutionY(),
-                                 options_.fps);
+    const auto mode =
+        chooseMode(colour_.getSensorInfo(), {openni::PIXEL_FORMAT_RGB888},
+                   depth_mode_.getResolutionX(), depth_mode_.getResolutionY(), options_.fps);
     if (!mode) return;
     colour_.setVideoMode(*mode);
     if (colour_.start() == openni::STATUS_OK) colour_running_ = true;
   }
 
-  static CameraIntrinsics intrinsicsOf(const openni::VideoStream& stream, const openni::VideoMode& mode) {
+  static CameraIntrinsics intrinsicsOf(const openni::VideoStream& stream,
+                                       const openni::VideoMode& mode) {
     CameraIntrinsics k;
     k.width = mode.getResolutionX();
     k.height = mode.getResolutionY();
@@ -208,8 +212,10 @@ class OpenNI2Session final : public DeviceSession {
 
   static cv::Mat depthToMm(const openni::VideoFrameRef& frame) {
     const auto format = frame.getVideoMode().getPixelFormat();
-    if (format != openni::PIXEL_FORMAT_DEPTH_1_MM && format != openni::PIXEL_FORMAT_DEPTH_100_UM) return {};
-    const cv::Mat view(frame.getHeight(), frame.getWidth(), CV_16UC1, const_cast<void*>(frame.getData()),
+    if (format != openni::PIXEL_FORMAT_DEPTH_1_MM && format != openni::PIXEL_FORMAT_DEPTH_100_UM)
+      return {};
+    const cv::Mat view(frame.getHeight(), frame.getWidth(), CV_16UC1,
+                       const_cast<void*>(frame.getData()),
                        static_cast<std::size_t>(frame.getStrideInBytes()));
     if (format == openni::PIXEL_FORMAT_DEPTH_1_MM) return view.clone();
     cv::Mat mm;
@@ -219,7 +225,8 @@ class OpenNI2Session final : public DeviceSession {
 
   static cv::Mat colourToBgr(const openni::VideoFrameRef& frame) {
     if (frame.getVideoMode().getPixelFormat() != openni::PIXEL_FORMAT_RGB888) return {};
-    const cv::Mat view(frame.getHeight(), frame.getWidth(), CV_8UC3, const_cast<void*>(frame.getData()),
+    const cv::Mat view(frame.getHeight(), frame.getWidth(), CV_8UC3,
+                       const_cast<void*>(frame.getData()),
                        static_cast<std::size_t>(frame.getStrideInBytes()));
     cv::Mat bgr;
     cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);

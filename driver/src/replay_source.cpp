@@ -75,7 +75,8 @@ SourceEvent ReplaySource::loadFrame(const TumIndexEntry& entry, TimestampNs time
   } catch (const cv::Exception& e) {
     return SourceError{path.string() + ": cannot decode depth image (" + e.what() + ")"};
   }
-  if (raw.empty()) return SourceError{path.string() + ": cannot decode depth image (truncated or not a PNG)"};
+  if (raw.empty())
+    return SourceError{path.string() + ": cannot decode depth image (truncated or not a PNG)"};
   if (raw.type() != CV_16UC1) {
     return SourceError{path.string() + ": depth must be a 16-bit single-channel PNG"};
   }

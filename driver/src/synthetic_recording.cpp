@@ -33,22 +33,24 @@ nlohmann::json surfaceJson(const TruthSurface& s) {
                         {"kind", s.kind == SurfaceKind::kPlane ? "plane" : "curved"},
                         {"object_id", s.object_id},
                         {"pixel_count", s.pixel_count}};
-  if (s.kind == SurfaceKind::kPlane) out["plane"] = {s.plane.x(), s.plane.y(), s.plane.z(), s.plane.w()};
+  if (s.kind == SurfaceKind::kPlane)
+    out["plane"] = {s.plane.x(), s.plane.y(), s.plane.z(), s.plane.w()};
   return out;
 }
 
 nlohmann::json objectJson(const TruthObject& o) {
   nlohmann::json corners = nlohmann::json::array();
   for (const Eigen::Vector3d& c : o.corners) corners.push_back(vec(c));
-  nlohmann::json out = {{"id", o.id},
-                        {"kind", o.kind},
-                        {"name", o.name},
-                        {"center", vec(o.center)},
-                        {"size", vec(o.size)},
-                        {"rotation", rows(o.rotation)},
-                        {"corners", std::move(corners)},
-                        {"image_box", {o.image_box.x, o.image_box.y, o.image_box.width, o.image_box.height}},
-                        {"pixel_count", o.pixel_count}};
+  nlohmann::json out = {
+      {"id", o.id},
+      {"kind", o.kind},
+      {"name", o.name},
+      {"center", vec(o.center)},
+      {"size", vec(o.size)},
+      {"rotation", rows(o.rotation)},
+      {"corners", std::move(corners)},
+      {"image_box", {o.image_box.x, o.image_box.y, o.image_box.width, o.image_box.height}},
+      {"pixel_count", o.pixel_count}};
   if (o.kind == "bowl") {
     out["upright"] = o.upright;
     out["view_class"] = o.view_class;
@@ -68,8 +70,8 @@ void writePng(const std::filesystem::path& path, const cv::Mat& image) {
 
 }  // namespace
 
-nlohmann::json truthToJson(const TruthFrame& truth, const std::string& timestamp_text, TimestampNs timestamp_ns,
-                           std::uint64_t sequence) {
+nlohmann::json truthToJson(const TruthFrame& truth, const std::string& timestamp_text,
+                           TimestampNs timestamp_ns, std::uint64_t sequence) {
   nlohmann::json surfaces = nlohmann::json::array();
   for (const TruthSurface& s : truth.surfaces) surfaces.push_back(surfaceJson(s));
   nlohmann::json objects = nlohmann::json::array();
@@ -82,8 +84,8 @@ nlohmann::json truthToJson(const TruthFrame& truth, const std::string& timestamp
           {"objects", std::move(objects)}};
 }
 
-void writeSyntheticRecording(const std::filesystem::path& dir, const SceneParams& params, std::uint64_t frames,
-                             TimestampNs start_ns, double fps) {
+void writeSyntheticRecording(const std::filesystem::path& dir, const SceneParams& params,
+                             std::uint64_t frames, TimestampNs start_ns, double fps) {
   if (!(fps > 0.0)) throw std::invalid_argument("writeSyntheticRecording: fps must be positive");
   SceneParams scene_params = params;
   scene_params.frame_rate_hz = fps;

@@ -83,8 +83,10 @@ class PixelNoise {
       const double s = x * x + y * y;
       if (s > 0.0 && s < 1.0) return x * std::sqrt(-2.0 * std::log(s) / s);
     }
-    const double u1 = (static_cast<double>(bits(pixel, first_draw) >> 11) + 1.0) * 0x1.0p-53;  // Box-Muller
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * uniform(pixel, first_draw + 1));
+    const double u1 =
+        (static_cast<double>(bits(pixel, first_draw) >> 11) + 1.0) * 0x1.0p-53;  // Box-Muller
+    return std::sqrt(-2.0 * std::log(u1)) *
+           std::cos(2.0 * std::numbers::pi * uniform(pixel, first_draw + 1));
   }
 
  private:
@@ -174,7 +176,8 @@ class Shape {
  public:
   virtual ~Shape() = default;
   /// The first surface point o + t d with t > 0, if any.
-  virtual bool intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, LocalHit& hit) const = 0;
+  virtual bool intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                         LocalHit& hit) const = 0;
   virtual Eigen::AlignedBox3d bounds() const = 0;
 };
 
@@ -239,9 +242,15 @@ class BowlShape final : public Shape {
       return false;
     const Eigen::Vector3d p = o + hit.t * d;
     switch (hit.face) {
-      case kOuter: hit.normal = p / radius_; break;
-      case kRim: hit.normal = Eigen::Vector3d::UnitZ(); break;
-      default: hit.normal = -p / inner_radius_; break;
+      case kOuter:
+        hit.normal = p / radius_;
+        break;
+      case kRim:
+        hit.normal = Eigen::Vector3d::UnitZ();
+        break;
+      default:
+        hit.normal = -p / inner_radius_;
+        break;
     }
     return true;
   }
@@ -268,15 +277,24 @@ class CupShape final : public Shape {
                                       slabSpan(o.z(), d.z(), 0.0, height_, kBottom, kRim));
     if (outer.empty()) return false;
     // The cavity reaches above the rim so that it opens the top face.
-    const Span cavity = intersectSpans(cylinderSpan(o, d, inner_radius_, kInner),
-                                       slabSpan(o.z(), d.z(), bottom_, height_ + 1.0, kInnerBottom, -1));
+    const Span cavity =
+        intersectSpans(cylinderSpan(o, d, inner_radius_, kInner),
+                       slabSpan(o.z(), d.z(), bottom_, height_ + 1.0, kInnerBottom, -1));
     if (!firstEntryOfDifference(outer, cavity, hit.t, hit.face)) return false;
     const Eigen::Vector3d p = o + hit.t * d;
     switch (hit.face) {
-      case kOuter: hit.normal = Eigen::Vector3d(p.x(), p.y(), 0.0) / radius_; break;
-      case kBottom: hit.normal = -Eigen::Vector3d::UnitZ(); break;
-      case kInner: hit.normal = -Eigen::Vector3d(p.x(), p.y(), 0.0) / inner_radius_; break;
-      default: hit.normal = Eigen::Vector3d::UnitZ(); break;  // rim, inner bottom
+      case kOuter:
+        hit.normal = Eigen::Vector3d(p.x(), p.y(), 0.0) / radius_;
+        break;
+      case kBottom:
+        hit.normal = -Eigen::Vector3d::UnitZ();
+        break;
+      case kInner:
+        hit.normal = -Eigen::Vector3d(p.x(), p.y(), 0.0) / inner_radius_;
+        break;
+      default:
+        hit.normal = Eigen::Vector3d::UnitZ();
+        break;  // rim, inner bottom
     }
     return true;
   }
@@ -303,9 +321,15 @@ class CylinderShape final : public Shape {
     hit.t = s.t0, hit.face = s.face0;
     const Eigen::Vector3d p = o + hit.t * d;
     switch (hit.face) {
-      case kSide: hit.normal = Eigen::Vector3d(p.x(), p.y(), 0.0) / radius_; break;
-      case kBottom: hit.normal = -Eigen::Vector3d::UnitZ(); break;
-      default: hit.normal = Eigen::Vector3d::UnitZ(); break;
+      case kSide:
+        hit.normal = Eigen::Vector3d(p.x(), p.y(), 0.0) / radius_;
+        break;
+      case kBottom:
+        hit.normal = -Eigen::Vector3d::UnitZ();
+        break;
+      default:
+        hit.normal = Eigen::Vector3d::UnitZ();
+        break;
     }
     return true;
   }
@@ -343,7 +367,7 @@ struct SurfaceDef {
   SurfaceKind kind = SurfaceKind::kPlane;
   Eigen::Vector4d world_plane = Eigen::Vector4d::Zero();  ///< any orientation
   std::uint16_t object_id = 0;
-  Eigen::Vector3f colour_bgr = Eigen::Vector3f::Zero();    ///< 0..255
+  Eigen::Vector3f colour_bgr = Eigen::Vector3f::Zero();  ///< 0..255
 };
 
 struct ObjectDef {
@@ -377,7 +401,8 @@ struct Sway {
   Eigen::Isometry3d at(double seconds, double scale) const {
     std::array<double, 6> v{};
     for (std::size_t i = 0; i < 6; ++i)
-      v[i] = scale * amplitude[i] * std::sin(2.0 * std::numbers::pi * frequency_hz[i] * seconds + phase[i]);
+      v[i] = scale * amplitude[i] *
+             std::sin(2.0 * std::numbers::pi * frequency_hz[i] * seconds + phase[i]);
     Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
     offset.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
     offset.linear() = (Eigen::AngleAxisd(v[3], Eigen::Vector3d::UnitX()) *
@@ -392,17 +417,17 @@ struct Sway {
 
 class SceneModel {
  public:
-  std::vector<SurfaceDef> surfaces;  ///< surface id = index + 1
-  std::vector<ObjectDef> objects;    ///< object id = index + 1
-  std::vector<Primitive> primitives; ///< primitives[0] is the room
+  std::vector<SurfaceDef> surfaces;   ///< surface id = index + 1
+  std::vector<ObjectDef> objects;     ///< object id = index + 1
+  std::vector<Primitive> primitives;  ///< primitives[0] is the room
   Eigen::Isometry3d base_world_from_camera = Eigen::Isometry3d::Identity();
   Sway sway;
 };
 
 namespace {
 
-Eigen::Vector4d worldPlane(const Eigen::Isometry3d& world_from_local, const Eigen::Vector3d& n_local,
-                           const Eigen::Vector3d& point_local) {
+Eigen::Vector4d worldPlane(const Eigen::Isometry3d& world_from_local,
+                           const Eigen::Vector3d& n_local, const Eigen::Vector3d& point_local) {
   const Eigen::Vector3d n = world_from_local.linear() * n_local;
   const Eigen::Vector3d p = world_from_local * point_local;
   return {n.x(), n.y(), n.z(), -n.dot(p)};
@@ -424,7 +449,8 @@ Eigen::Isometry3d lookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& targ
   pose.linear().col(0) = right;
   pose.linear().col(1) = down;
   pose.linear().col(2) = forward;
-  pose.linear() = pose.linear() * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  pose.linear() =
+      pose.linear() * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   pose.translation() = eye;
   return pose;
 }
@@ -445,7 +471,9 @@ struct Footprint {
 class LayoutBuilder {
  public:
   explicit LayoutBuilder(const SceneParams& params)
-      : params_(params), rng_(mix64(params.seed ^ kLayoutStream)), model_(std::make_unique<SceneModel>()) {}
+      : params_(params),
+        rng_(mix64(params.seed ^ kLayoutStream)),
+        model_(std::make_unique<SceneModel>()) {}
 
   std::unique_ptr<const SceneModel> build() {
     placeCameraAndTable();
@@ -471,12 +499,14 @@ class LayoutBuilder {
   void placeCameraAndTable() {
     const double min_elevation = degToRad(params_.min_table_elevation_deg);
     for (int attempt = 0; attempt < 1000; ++attempt) {
-      const double camera_height = rng_.uniform(params_.camera_height_min_m, params_.camera_height_max_m);
+      const double camera_height =
+          rng_.uniform(params_.camera_height_min_m, params_.camera_height_max_m);
       table_height_ = rng_.uniform(0.62, 0.78);
       table_size_ = {rng_.uniform(0.8, 1.6), rng_.uniform(0.6, 1.0)};
       const double rise = camera_height - table_height_;
       if (rise <= 0.05) continue;
-      const double max_distance = std::min(params_.table_distance_max_m, rise / std::sin(min_elevation));
+      const double max_distance =
+          std::min(params_.table_distance_max_m, rise / std::sin(min_elevation));
       if (max_distance < params_.table_distance_min_m) continue;
       const double distance = rng_.uniform(params_.table_distance_min_m, max_distance);
       const double horizontal = std::sqrt(distance * distance - rise * rise);
@@ -492,7 +522,8 @@ class LayoutBuilder {
       camera_position_ = {0.0, 0.0, camera_height};
       const Eigen::Vector3d target(table_center_.x() + rng_.uniform(-0.1, 0.1),
                                    table_center_.y() + rng_.uniform(-0.1, 0.1), table_height_);
-      model_->base_world_from_camera = lookAt(camera_position_, target, degToRad(rng_.uniform(-1.0, 1.0)));
+      model_->base_world_from_camera =
+          lookAt(camera_position_, target, degToRad(rng_.uniform(-1.0, 1.0)));
       return;
     }
     throw std::invalid_argument(
@@ -509,8 +540,10 @@ class LayoutBuilder {
     Eigen::Isometry3d pose;
     for (int attempt = 0;; ++attempt) {
       const double spread = 1.0 + 0.1 * attempt;
-      const double left = std::min(table_center_.x() - table_reach.x(), -0.3) - rng_.uniform(0.05, 0.9);
-      const double right = std::max(table_center_.x() + table_reach.x(), 0.3) + rng_.uniform(0.05, 1.5);
+      const double left =
+          std::min(table_center_.x() - table_reach.x(), -0.3) - rng_.uniform(0.05, 0.9);
+      const double right =
+          std::max(table_center_.x() + table_reach.x(), 0.3) + rng_.uniform(0.05, 1.5);
       const double back = table_center_.y() + table_reach.y() + rng_.uniform(0.1, 0.9 * spread);
       const double front = -rng_.uniform(0.8, 1.5);
       const double ceiling = rng_.uniform(2.4, 2.8);
@@ -521,8 +554,10 @@ class LayoutBuilder {
       if (visibleWalls(RoomShape(half), pose) >= 2 || attempt >= 50) break;
     }
 
-    const Eigen::Vector3f floor_colour(rng_.uniform(90, 150), rng_.uniform(110, 160), rng_.uniform(120, 170));
-    const Eigen::Vector3f wall_colour(rng_.uniform(170, 230), rng_.uniform(180, 235), rng_.uniform(185, 240));
+    const Eigen::Vector3f floor_colour(rng_.uniform(90, 150), rng_.uniform(110, 160),
+                                       rng_.uniform(120, 170));
+    const Eigen::Vector3f wall_colour(rng_.uniform(170, 230), rng_.uniform(180, 235),
+                                      rng_.uniform(185, 240));
     // RoomShape faces: -x, +x, -y, +y, -z, +z.
     const std::array<const char*, 6> names = {"wall_left", "wall_right", "wall_front",
                                               "wall_back", "floor",      "ceiling"};
@@ -539,19 +574,22 @@ class LayoutBuilder {
   /// How many of the left, right and back walls a coarse grid of camera rays sees in range.
   int visibleWalls(const RoomShape& room, const Eigen::Isometry3d& world_from_room) const {
     const CameraIntrinsics& k = params_.intrinsics;
-    const Eigen::Isometry3d room_from_camera = world_from_room.inverse() * model_->base_world_from_camera;
+    const Eigen::Isometry3d room_from_camera =
+        world_from_room.inverse() * model_->base_world_from_camera;
     std::array<int, 6> rays_per_face{};
     constexpr int kGrid = 24;
     for (int gy = 0; gy < kGrid; ++gy)
       for (int gx = 0; gx < kGrid; ++gx) {
         const double u = (gx + 0.5) * k.width / kGrid, v = (gy + 0.5) * k.height / kGrid;
         LocalHit hit;
-        if (room.intersect(room_from_camera.translation(), room_from_camera.linear() * k.ray(u, v), hit) &&
+        if (room.intersect(room_from_camera.translation(), room_from_camera.linear() * k.ray(u, v),
+                           hit) &&
             hit.t < params_.kinect.max_range_m - 0.1)
           ++rays_per_face[static_cast<std::size_t>(hit.face)];
       }
     constexpr int kMinRays = 4;  // ~1% of the image each
-    return (rays_per_face[0] >= kMinRays) + (rays_per_face[1] >= kMinRays) + (rays_per_face[3] >= kMinRays);
+    return (rays_per_face[0] >= kMinRays) + (rays_per_face[1] >= kMinRays) +
+           (rays_per_face[3] >= kMinRays);
   }
 
   void addTable() {
@@ -564,50 +602,62 @@ class LayoutBuilder {
     table.kind = "table";
     table.name = "table";
     table.world_from_object = poseAt({table_center_.x(), table_center_.y(), 0.0}, table_yaw_);
-    table.local_box = Eigen::AlignedBox3d(Eigen::Vector3d(-table_size_.x() / 2, -table_size_.y() / 2, 0.0),
-                                          Eigen::Vector3d(table_size_.x() / 2, table_size_.y() / 2, table_height_));
+    table.local_box = Eigen::AlignedBox3d(
+        Eigen::Vector3d(-table_size_.x() / 2, -table_size_.y() / 2, 0.0),
+        Eigen::Vector3d(table_size_.x() / 2, table_size_.y() / 2, table_height_));
     const std::uint16_t id = addObject(table);
 
-    addBoxPrimitive(table.world_from_object *
-                        poseAt({0.0, 0.0, table_height_ - top_thickness / 2}, 0.0),
-                    {table_size_.x() / 2, table_size_.y() / 2, top_thickness / 2}, id,
-                    {"table_edge_left", "table_edge_right", "table_edge_front", "table_edge_back",
-                     "table_underside", "table_top"},
-                    wood);
+    addBoxPrimitive(
+        table.world_from_object * poseAt({0.0, 0.0, table_height_ - top_thickness / 2}, 0.0),
+        {table_size_.x() / 2, table_size_.y() / 2, top_thickness / 2}, id,
+        {"table_edge_left", "table_edge_right", "table_edge_front", "table_edge_back",
+         "table_underside", "table_top"},
+        wood);
     const double leg_height = table_height_ - top_thickness;
     const double lx = table_size_.x() / 2 - inset - leg / 2;
     const double ly = table_size_.y() / 2 - inset - leg / 2;
-    const std::array<Eigen::Vector2d, 4> corners = {Eigen::Vector2d(-lx, -ly), Eigen::Vector2d(lx, -ly),
-                                                    Eigen::Vector2d(lx, ly), Eigen::Vector2d(-lx, ly)};
+    const std::array<Eigen::Vector2d, 4> corners = {
+        Eigen::Vector2d(-lx, -ly), Eigen::Vector2d(lx, -ly), Eigen::Vector2d(lx, ly),
+        Eigen::Vector2d(-lx, ly)};
     for (int k = 0; k < 4; ++k) {
       const std::string prefix = "table_leg" + std::to_string(k + 1) + "_face_";
-      addBoxPrimitive(table.world_from_object * poseAt({corners[k].x(), corners[k].y(), leg_height / 2}, 0.0),
-                      {leg / 2, leg / 2, leg_height / 2}, id,
-                      {prefix + "left", prefix + "right", prefix + "front", prefix + "back",
-                       prefix + "bottom", prefix + "top"},
-                      wood * 0.85f);
+      addBoxPrimitive(
+          table.world_from_object * poseAt({corners[k].x(), corners[k].y(), leg_height / 2}, 0.0),
+          {leg / 2, leg / 2, leg_height / 2}, id,
+          {prefix + "left", prefix + "right", prefix + "front", prefix + "back", prefix + "bottom",
+           prefix + "top"},
+          wood * 0.85f);
     }
   }
 
   // --- objects ----------------------------------------------------------------------------------
   Eigen::Vector3f objectColour() {
     static constexpr std::array<std::array<float, 3>, 8> kPalette = {{
-        {60, 60, 200}, {60, 170, 60}, {200, 110, 40}, {40, 180, 220},
-        {170, 60, 160}, {230, 230, 230}, {90, 140, 200}, {50, 50, 60},
+        {60, 60, 200},
+        {60, 170, 60},
+        {200, 110, 40},
+        {40, 180, 220},
+        {170, 60, 160},
+        {230, 230, 230},
+        {90, 140, 200},
+        {50, 50, 60},
     }};
-    const auto& c = kPalette[static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(kPalette.size()) - 1))];
+    const auto& c = kPalette[static_cast<std::size_t>(
+        rng_.uniformInt(0, static_cast<int>(kPalette.size()) - 1))];
     return jitterColour(rng_, Eigen::Vector3f(c[0], c[1], c[2]), 0.15);
   }
 
   void addTableBox() {
-    const Eigen::Vector3d size(rng_.uniform(0.06, 0.32), rng_.uniform(0.06, 0.32), rng_.uniform(0.05, 0.3));
+    const Eigen::Vector3d size(rng_.uniform(0.06, 0.32), rng_.uniform(0.06, 0.32),
+                               rng_.uniform(0.05, 0.3));
     const auto spot = tableSpot(0.5 * std::hypot(size.x(), size.y()));
     if (!spot) return;
     addBox(*spot, size);
   }
 
   void addFloorBox() {
-    const Eigen::Vector3d size(rng_.uniform(0.2, 0.45), rng_.uniform(0.2, 0.45), rng_.uniform(0.15, 0.45));
+    const Eigen::Vector3d size(rng_.uniform(0.2, 0.45), rng_.uniform(0.2, 0.45),
+                               rng_.uniform(0.15, 0.45));
     const auto spot = floorSpot(0.5 * std::hypot(size.x(), size.y()), size.z());
     if (!spot) return;
     addBox(*spot, size);
@@ -656,7 +706,8 @@ class LayoutBuilder {
     } else {
       Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
       flip.translation() = Eigen::Vector3d(0.0, 0.0, -rim_z);
-      flip.linear() = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      flip.linear() =
+          Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX()).toRotationMatrix();
       bowl.world_from_object = *spot * flip;
     }
     auto shape = std::make_unique<BowlShape>(radius, rim_z, thickness);
@@ -664,12 +715,14 @@ class LayoutBuilder {
     const std::uint16_t id = addObject(bowl);
     const Eigen::Vector3f colour = objectColour();
     std::vector<std::uint16_t> faces(3);
-    faces[BowlShape::kOuter] = addSurface(bowl.name + "_outer", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
+    faces[BowlShape::kOuter] =
+        addSurface(bowl.name + "_outer", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
     faces[BowlShape::kRim] =
         addSurface(bowl.name + "_rim", SurfaceKind::kPlane,
-                   worldPlane(bowl.world_from_object, Eigen::Vector3d::UnitZ(), {0.0, 0.0, rim_z}), id,
-                   colour * 1.05f);
-    faces[BowlShape::kInner] = addSurface(bowl.name + "_inner", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour * 0.9f);
+                   worldPlane(bowl.world_from_object, Eigen::Vector3d::UnitZ(), {0.0, 0.0, rim_z}),
+                   id, colour * 1.05f);
+    faces[BowlShape::kInner] = addSurface(bowl.name + "_inner", SurfaceKind::kCurved,
+                                          Eigen::Vector4d::Zero(), id, colour * 0.9f);
     addPrimitive(std::move(shape), bowl.world_from_object, id, std::move(faces));
   }
 
@@ -690,14 +743,18 @@ class LayoutBuilder {
     const Eigen::Vector3f colour = objectColour();
     const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
     std::vector<std::uint16_t> faces(5);
-    faces[CupShape::kOuter] = addSurface(cup.name + "_outer", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
-    faces[CupShape::kBottom] = addSurface(cup.name + "_bottom", SurfaceKind::kPlane,
-                                          worldPlane(*spot, -up, Eigen::Vector3d::Zero()), id, colour);
+    faces[CupShape::kOuter] =
+        addSurface(cup.name + "_outer", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
+    faces[CupShape::kBottom] =
+        addSurface(cup.name + "_bottom", SurfaceKind::kPlane,
+                   worldPlane(*spot, -up, Eigen::Vector3d::Zero()), id, colour);
     faces[CupShape::kRim] = addSurface(cup.name + "_rim", SurfaceKind::kPlane,
                                        worldPlane(*spot, up, height * up), id, colour * 1.05f);
-    faces[CupShape::kInner] = addSurface(cup.name + "_inner", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour * 0.9f);
-    faces[CupShape::kInnerBottom] = addSurface(cup.name + "_inner_bottom", SurfaceKind::kPlane,
-                                               worldPlane(*spot, up, bottom * up), id, colour * 0.8f);
+    faces[CupShape::kInner] = addSurface(cup.name + "_inner", SurfaceKind::kCurved,
+                                         Eigen::Vector4d::Zero(), id, colour * 0.9f);
+    faces[CupShape::kInnerBottom] =
+        addSurface(cup.name + "_inner_bottom", SurfaceKind::kPlane,
+                   worldPlane(*spot, up, bottom * up), id, colour * 0.8f);
     addPrimitive(std::move(shape), cup.world_from_object, id, std::move(faces));
   }
 
@@ -713,12 +770,15 @@ class LayoutBuilder {
     auto shape = std::make_unique<CylinderShape>(radius, height);
     tin.local_box = shape->bounds();
     const std::uint16_t id = addObject(tin);
-    const Eigen::Vector3f colour = rng_.chance(0.5) ? jitterColour(rng_, {175, 175, 180}, 0.1) : objectColour();
+    const Eigen::Vector3f colour =
+        rng_.chance(0.5) ? jitterColour(rng_, {175, 175, 180}, 0.1) : objectColour();
     const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
     std::vector<std::uint16_t> faces(3);
-    faces[CylinderShape::kSide] = addSurface(tin.name + "_side", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
-    faces[CylinderShape::kBottom] = addSurface(tin.name + "_bottom", SurfaceKind::kPlane,
-                                               worldPlane(*spot, -up, Eigen::Vector3d::Zero()), id, colour);
+    faces[CylinderShape::kSide] =
+        addSurface(tin.name + "_side", SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, colour);
+    faces[CylinderShape::kBottom] =
+        addSurface(tin.name + "_bottom", SurfaceKind::kPlane,
+                   worldPlane(*spot, -up, Eigen::Vector3d::Zero()), id, colour);
     faces[CylinderShape::kTop] = addSurface(tin.name + "_top", SurfaceKind::kPlane,
                                             worldPlane(*spot, up, height * up), id, colour * 1.1f);
     addPrimitive(std::move(shape), tin.world_from_object, id, std::move(faces));
@@ -735,23 +795,27 @@ class LayoutBuilder {
     auto shape = std::make_unique<SphereShape>(radius);
     ball.local_box = shape->bounds();
     const std::uint16_t id = addObject(ball);
-    addPrimitive(std::move(shape), ball.world_from_object, id,
-                 {addSurface(ball.name, SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, objectColour())});
+    addPrimitive(
+        std::move(shape), ball.world_from_object, id,
+        {addSurface(ball.name, SurfaceKind::kCurved, Eigen::Vector4d::Zero(), id, objectColour())});
   }
 
-  // --- placement ----------------------------------------------------------------------------------
+  // --- placement
+  // ----------------------------------------------------------------------------------
   /// A free spot on the table top for a footprint of `radius`, as a pose on the top surface
   /// with random yaw; nullopt when none is found.
   std::optional<Eigen::Isometry3d> tableSpot(double radius) {
     const Eigen::Vector2d reach = table_size_ / 2.0 - Eigen::Vector2d::Constant(radius + 0.01);
     if (reach.minCoeff() < 0.0) return std::nullopt;
     for (int attempt = 0; attempt < 200; ++attempt) {
-      const Eigen::Vector2d c(rng_.uniform(-reach.x(), reach.x()), rng_.uniform(-reach.y(), reach.y()));
+      const Eigen::Vector2d c(rng_.uniform(-reach.x(), reach.x()),
+                              rng_.uniform(-reach.y(), reach.y()));
       if (!isFree(table_footprints_, c, radius)) continue;
       table_footprints_.push_back({c, radius});
       const Eigen::Isometry3d table_top =
           poseAt({table_center_.x(), table_center_.y(), table_height_}, table_yaw_);
-      return table_top * poseAt({c.x(), c.y(), 0.0}, rng_.uniform(-std::numbers::pi, std::numbers::pi));
+      return table_top *
+             poseAt({c.x(), c.y(), 0.0}, rng_.uniform(-std::numbers::pi, std::numbers::pi));
     }
     return std::nullopt;
   }
@@ -764,12 +828,14 @@ class LayoutBuilder {
       Eigen::Vector2d local;  // table frame
       const double gap = rng_.uniform(0.05, 0.6);
       if (rng_.chance(0.7)) {
-        local = {rng_.sign() * (table_size_.x() / 2 + radius + gap), rng_.uniform(-0.5, 0.5) * table_size_.y()};
+        local = {rng_.sign() * (table_size_.x() / 2 + radius + gap),
+                 rng_.uniform(-0.5, 0.5) * table_size_.y()};
       } else {
         local = {rng_.uniform(-0.5, 0.5) * table_size_.x(), -(table_size_.y() / 2 + radius + gap)};
       }
       const Eigen::Vector2d c = table_center_ + Eigen::Rotation2Dd(table_yaw_) * local;
-      if ((c - room_min_).minCoeff() < radius + 0.02 || (room_max_ - c).minCoeff() < radius + 0.02) continue;
+      if ((c - room_min_).minCoeff() < radius + 0.02 || (room_max_ - c).minCoeff() < radius + 0.02)
+        continue;
       if ((c - camera_position_.head<2>()).norm() < radius + 0.45) continue;
       if (!isFree(floor_footprints_, c, radius)) continue;
       const Eigen::Vector3d top_cam = camera_from_world * Eigen::Vector3d(c.x(), c.y(), height);
@@ -789,7 +855,8 @@ class LayoutBuilder {
     });
   }
 
-  // --- bookkeeping ----------------------------------------------------------------------------------
+  // --- bookkeeping
+  // ----------------------------------------------------------------------------------
   std::uint16_t addSurface(std::string name, SurfaceKind kind, const Eigen::Vector4d& plane,
                            std::uint16_t object_id, const Eigen::Vector3f& colour) {
     model_->surfaces.push_back({std::move(name), kind, plane, object_id, colour.cwiseMin(255.0f)});
@@ -801,19 +868,21 @@ class LayoutBuilder {
     return static_cast<std::uint16_t>(model_->objects.size());
   }
 
-  void addPrimitive(std::unique_ptr<const Shape> shape, const Eigen::Isometry3d& pose, std::uint16_t object_id,
-                    std::vector<std::uint16_t> faces) {
+  void addPrimitive(std::unique_ptr<const Shape> shape, const Eigen::Isometry3d& pose,
+                    std::uint16_t object_id, std::vector<std::uint16_t> faces) {
     model_->primitives.push_back({std::move(shape), pose, object_id, std::move(faces)});
   }
 
   /// A box whose six faces (-x, +x, -y, +y, -z, +z) are surfaces named `names`.
-  void addBoxPrimitive(const Eigen::Isometry3d& pose, const Eigen::Vector3d& half, std::uint16_t object_id,
-                       const std::array<std::string, 6>& names, const Eigen::Vector3f& colour) {
+  void addBoxPrimitive(const Eigen::Isometry3d& pose, const Eigen::Vector3d& half,
+                       std::uint16_t object_id, const std::array<std::string, 6>& names,
+                       const Eigen::Vector3f& colour) {
     std::vector<std::uint16_t> faces;
     for (int f = 0; f < 6; ++f) {
       const Eigen::Vector3d n = axisNormal(f);
-      faces.push_back(addSurface(names[f], SurfaceKind::kPlane, worldPlane(pose, n, n.cwiseProduct(half)),
-                                 object_id, jitterColour(rng_, colour, 0.06)));
+      faces.push_back(addSurface(names[f], SurfaceKind::kPlane,
+                                 worldPlane(pose, n, n.cwiseProduct(half)), object_id,
+                                 jitterColour(rng_, colour, 0.06)));
     }
     addPrimitive(std::make_unique<BoxShape>(half), pose, object_id, std::move(faces));
   }
@@ -860,8 +929,12 @@ struct HitBuffer {
   std::vector<Eigen::Vector3f> normal;  ///< camera frame, unit
 
   HitBuffer(int w, int h)
-      : width(w), height(h), depth(static_cast<std::size_t>(w) * h, std::numeric_limits<float>::infinity()),
-        surface(depth.size(), 0), object(depth.size(), 0), normal(depth.size(), Eigen::Vector3f::Zero()) {}
+      : width(w),
+        height(h),
+        depth(static_cast<std::size_t>(w) * h, std::numeric_limits<float>::infinity()),
+        surface(depth.size(), 0),
+        object(depth.size(), 0),
+        normal(depth.size(), Eigen::Vector3f::Zero()) {}
   std::size_t index(int u, int v) const { return static_cast<std::size_t>(v) * width + u; }
 };
 
@@ -872,7 +945,8 @@ class RayCaster {
       : k_(k), world_from_camera_(world_from_camera), hits_(hits) {}
 
   void cast(const Primitive& primitive) {
-    const Eigen::Isometry3d local_from_camera = primitive.world_from_local.inverse() * world_from_camera_;
+    const Eigen::Isometry3d local_from_camera =
+        primitive.world_from_local.inverse() * world_from_camera_;
     const cv::Rect rect = screenRect(primitive, local_from_camera.inverse());
     const Eigen::Matrix3d r = local_from_camera.linear();
     const Eigen::Vector3d origin = local_from_camera.translation();
@@ -880,7 +954,8 @@ class RayCaster {
     const Shape& shape = *primitive.shape;
     LocalHit hit;
     for (int v = rect.y; v < rect.y + rect.height; ++v) {
-      const Eigen::Vector3d row = r.col(1) * ((v - k_.cy) / k_.fy) + r.col(2) - r.col(0) * (k_.cx / k_.fx);
+      const Eigen::Vector3d row =
+          r.col(1) * ((v - k_.cy) / k_.fy) + r.col(2) - r.col(0) * (k_.cx / k_.fx);
       for (int u = rect.x; u < rect.x + rect.width; ++u) {
         const Eigen::Vector3d direction = row + du * u;
         if (!shape.intersect(origin, direction, hit)) continue;
@@ -896,12 +971,14 @@ class RayCaster {
 
  private:
   /// Pixels the primitive can cover: the bounds of its projected bounding box.
-  cv::Rect screenRect(const Primitive& primitive, const Eigen::Isometry3d& camera_from_local) const {
+  cv::Rect screenRect(const Primitive& primitive,
+                      const Eigen::Isometry3d& camera_from_local) const {
     const cv::Rect all(0, 0, hits_.width, hits_.height);
     const Eigen::AlignedBox3d box = primitive.shape->bounds();
     double u0 = kInf, v0 = kInf, u1 = -kInf, v1 = -kInf;
     for (int c = 0; c < 8; ++c) {
-      const Eigen::Vector3d p = camera_from_local * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c));
+      const Eigen::Vector3d p =
+          camera_from_local * box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c));
       if (p.z() < 1e-3) return all;  // straddles the camera plane: no cheap bound
       const Eigen::Vector2d px = k_.project(p);
       u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x());
@@ -925,7 +1002,8 @@ class RayCaster {
 /// and a point at column u appears at projector column u - f*b/z. Scanning a row from the right,
 /// a point is hidden from the projector exactly when some point to its right already occupies a
 /// smaller projector column (the projector's view of the row folds over it).
-std::vector<std::uint8_t> projectorShadows(const HitBuffer& hits, int image_width, double fx, double baseline) {
+std::vector<std::uint8_t> projectorShadows(const HitBuffer& hits, int image_width, double fx,
+                                           double baseline) {
   std::vector<std::uint8_t> shadow(static_cast<std::size_t>(image_width) * hits.height, 0);
   const double fb = fx * baseline;
   for (int v = 0; v < hits.height; ++v) {
@@ -955,8 +1033,9 @@ class SensorModel {
     const CameraIntrinsics& k = params_.intrinsics;
     const KinectParams& kp = params_.kinect;
     const std::vector<std::uint8_t> shadow =
-        kp.projector_shadows ? projectorShadows(hits, k.width, k.fx, kp.projector_baseline_m)
-                             : std::vector<std::uint8_t>(static_cast<std::size_t>(k.width) * k.height, 0);
+        kp.projector_shadows
+            ? projectorShadows(hits, k.width, k.fx, kp.projector_baseline_m)
+            : std::vector<std::uint8_t>(static_cast<std::size_t>(k.width) * k.height, 0);
     frame.depth = cv::Mat::zeros(k.height, k.width, CV_16UC1);
     truth.surface_labels = cv::Mat::zeros(k.height, k.width, CV_16UC1);
     truth.object_labels = cv::Mat::zeros(k.height, k.width, CV_16UC1);
@@ -966,7 +1045,8 @@ class SensorModel {
     const double cos_max_incidence = std::cos(degToRad(kp.max_incidence_deg));
     // Light from above and a little from the camera's side, fixed in the world.
     const Eigen::Vector3f light =
-        (world_from_camera.linear().transpose() * Eigen::Vector3d(0.3, -0.5, 1.0).normalized()).cast<float>();
+        (world_from_camera.linear().transpose() * Eigen::Vector3d(0.3, -0.5, 1.0).normalized())
+            .cast<float>();
 
     for (int v = 0; v < k.height; ++v) {
       auto* depth_row = frame.depth.ptr<std::uint16_t>(v);
@@ -986,13 +1066,15 @@ class SensorModel {
         ideal_row[u] = static_cast<float>(z);
 
         if (shadow[pixel]) continue;
-        const Eigen::Vector3f ray = Eigen::Vector3f(static_cast<float>((u - k.cx) / k.fx),
-                                                    static_cast<float>(ray_y), 1.0f).normalized();
+        const Eigen::Vector3f ray =
+            Eigen::Vector3f(static_cast<float>((u - k.cx) / k.fx), static_cast<float>(ray_y), 1.0f)
+                .normalized();
         if (std::abs(n.dot(ray)) < cos_max_incidence) continue;
         if (noise_.uniform(pixel, kDropoutDraw) < kp.dropout_rate) continue;
         const double measured = measure(z, noise_.normal(pixel, kDisparityDraw));
         if (measured < kp.min_range_m || measured > kp.max_range_m) continue;
-        depth_row[u] = static_cast<std::uint16_t>(measured * 1000.0 + 0.5);  // positive: round half up
+        depth_row[u] =
+            static_cast<std::uint16_t>(measured * 1000.0 + 0.5);  // positive: round half up
         surface_row[u] = hits.surface[i];
         object_row[u] = hits.object[i];
       }
@@ -1007,12 +1089,13 @@ class SensorModel {
     if (disparity <= 0.0) return 0.0;
     // Round half up by truncation (cheaper than std::round; the value is positive).
     const double quantised =
-        static_cast<double>(static_cast<std::int64_t>(disparity / kp.disparity_step_px + 0.5)) * kp.disparity_step_px;
+        static_cast<double>(static_cast<std::int64_t>(disparity / kp.disparity_step_px + 0.5)) *
+        kp.disparity_step_px;
     return quantised > 0.0 ? kp.focal_baseline_px_m / quantised : 0.0;
   }
 
-  cv::Vec3b shade(std::uint16_t surface, const Eigen::Vector3f& normal, const Eigen::Vector3f& light,
-                  std::uint64_t bits) const {
+  cv::Vec3b shade(std::uint16_t surface, const Eigen::Vector3f& normal,
+                  const Eigen::Vector3f& light, std::uint64_t bits) const {
     const Eigen::Vector3f& base = model_.surfaces[surface - 1].colour_bgr;
     const float lambert = std::max(0.0f, normal.dot(light));
     cv::Vec3b out;
@@ -1093,7 +1176,8 @@ class TruthBuilder {
   }
 
   TruthObject objectTruth(const ObjectDef& def) const {
-    const Eigen::Isometry3d camera_from_object = world_from_camera_.inverse() * def.world_from_object;
+    const Eigen::Isometry3d camera_from_object =
+        world_from_camera_.inverse() * def.world_from_object;
     TruthObject out;
     out.kind = def.kind;
     out.name = def.name;
@@ -1102,7 +1186,8 @@ class TruthBuilder {
     out.rotation = camera_from_object.linear();
     for (int i = 0; i < 8; ++i) {
       const Eigen::Vector3d signs((i & 1) ? 1.0 : -1.0, (i & 2) ? 1.0 : -1.0, (i & 4) ? 1.0 : -1.0);
-      out.corners[static_cast<std::size_t>(i)] = out.center + out.rotation * signs.cwiseProduct(out.size / 2.0);
+      out.corners[static_cast<std::size_t>(i)] =
+          out.center + out.rotation * signs.cwiseProduct(out.size / 2.0);
     }
     if (!def.is_bowl) return out;
     out.upright = def.upright;
@@ -1133,16 +1218,21 @@ void validate(const SceneParams& p) {
   require(p.camera_height_min_m <= p.camera_height_max_m, "camera height range is empty");
   require(p.table_distance_min_m > 0 && p.table_distance_min_m <= p.table_distance_max_m,
           "table distance range is empty");
-  require(p.min_table_elevation_deg > 0 && p.min_table_elevation_deg < 90, "min_table_elevation_deg out of (0, 90)");
-  require(p.boxes_on_table_min >= 0 && p.boxes_on_table_min <= p.boxes_on_table_max, "box count range");
+  require(p.min_table_elevation_deg > 0 && p.min_table_elevation_deg < 90,
+          "min_table_elevation_deg out of (0, 90)");
+  require(p.boxes_on_table_min >= 0 && p.boxes_on_table_min <= p.boxes_on_table_max,
+          "box count range");
   require(p.bowls_min >= 0 && p.bowls_min <= p.bowls_max, "bowl count range");
   require(p.cups_min >= 0 && p.cups_min <= p.cups_max, "cup count range");
   require(p.tins_min >= 0 && p.tins_min <= p.tins_max, "tin count range");
   require(p.balls_min >= 0 && p.balls_min <= p.balls_max, "ball count range");
   const KinectParams& kp = p.kinect;
-  require(kp.focal_baseline_px_m > 0 && kp.disparity_step_px > 0, "disparity model must be positive");
-  require(kp.disparity_noise_px >= 0 && kp.dropout_rate >= 0 && kp.dropout_rate <= 1, "noise params");
-  require(kp.min_range_m > 0 && kp.min_range_m < kp.max_range_m && kp.max_range_m < 65.0, "range limits");
+  require(kp.focal_baseline_px_m > 0 && kp.disparity_step_px > 0,
+          "disparity model must be positive");
+  require(kp.disparity_noise_px >= 0 && kp.dropout_rate >= 0 && kp.dropout_rate <= 1,
+          "noise params");
+  require(kp.min_range_m > 0 && kp.min_range_m < kp.max_range_m && kp.max_range_m < 65.0,
+          "range limits");
   require(kp.projector_baseline_m >= 0, "projector_baseline_m must not be negative");
 }
 
@@ -1176,7 +1266,9 @@ RenderedFrame SyntheticScene::render(std::uint64_t index, TimestampNs timestamp_
   // below the sensor's minimum range and ignored).
   const int extra_columns =
       params_.kinect.projector_shadows
-          ? static_cast<int>(std::ceil(k.fx * params_.kinect.projector_baseline_m / params_.kinect.min_range_m)) + 2
+          ? static_cast<int>(std::ceil(k.fx * params_.kinect.projector_baseline_m /
+                                       params_.kinect.min_range_m)) +
+                2
           : 0;
   HitBuffer hits(k.width + extra_columns, k.height);
   RayCaster caster(k, world_from_camera, hits);

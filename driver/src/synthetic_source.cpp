@@ -42,8 +42,10 @@ SourceEvent SyntheticSource::next(std::stop_token stop) {
   const auto now = std::chrono::steady_clock::now();
   if (!first_call_) first_call_ = now;
   if (options_.pacing == Pacing::kRecorded) {
-    const auto due = *first_call_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                        std::chrono::duration<double>(static_cast<double>(next_index_) / options_.fps));
+    const auto due =
+        *first_call_ +
+        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+            std::chrono::duration<double>(static_cast<double>(next_index_) / options_.fps));
     std::unique_lock lock(wait_mutex_);
     // Nothing ever notifies: the wait ends at the deadline or on the stop request.
     wait_cv_.wait_until(lock, stop, due, [] { return false; });

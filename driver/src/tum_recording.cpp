@@ -45,8 +45,9 @@ TumIndex readTumIndex(const std::filesystem::path& dir) {
   }
   const auto depth_file = dir / "depth.txt";
   if (!std::filesystem::exists(depth_file)) {
-    throw std::runtime_error(depth_file.string() + ": missing; a TUM recording lists its depth "
-                                                   "images there");
+    throw std::runtime_error(depth_file.string() +
+                             ": missing; a TUM recording lists its depth "
+                             "images there");
   }
   TumIndex index;
   index.camera = readRecordingCamera(dir);
@@ -90,7 +91,8 @@ void TumRecordingWriter::write(const Frame& frame) {
     }
     rgb_index_ << stamp << ' ' << rgb_name << '\n' << std::flush;
   }
-  if (!depth_index_ || !rgb_index_) throw std::runtime_error("cannot append to the index files in " + dir_.string());
+  if (!depth_index_ || !rgb_index_)
+    throw std::runtime_error("cannot append to the index files in " + dir_.string());
 }
 
 }  // namespace shapesense

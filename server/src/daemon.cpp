@@ -21,13 +21,15 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
         synthetic_options.scene.seed = std::stoull(argument, &used);
         if (used != argument.size()) throw std::invalid_argument(argument);
       } catch (const std::exception&) {
-        throw std::invalid_argument("--source synthetic:SEED needs a whole number, got '" + argument + "'");
+        throw std::invalid_argument("--source synthetic:SEED needs a whole number, got '" +
+                                    argument + "'");
       }
     }
     return std::make_unique<synthetic::SyntheticSource>(synthetic_options);
   }
   if (kind == "tum") {
-    if (argument.empty()) throw std::invalid_argument("--source tum:DIR needs a recording directory");
+    if (argument.empty())
+      throw std::invalid_argument("--source tum:DIR needs a recording directory");
     return std::make_unique<ReplaySource>(argument, ReplayOptions{.pacing = pacing, .loop = loop});
   }
   if (auto live = openLiveSource(kind, argument)) return live;

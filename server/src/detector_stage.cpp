@@ -84,7 +84,10 @@ const char* toString(PlaneDetectorKind kind) {
 
 PlaneStage::PlaneStage(PlaneDetectorKind kind, HoughPlaneParams hough, RansacPlaneParams ransac,
                        PlaneAccumulatorParams accumulator)
-    : kind_(kind), hough_(std::move(hough)), ransac_(std::move(ransac)), accumulator_(accumulator) {}
+    : kind_(kind),
+      hough_(std::move(hough)),
+      ransac_(std::move(ransac)),
+      accumulator_(accumulator) {}
 
 void PlaneStage::run(const Frame& frame, FrameResults& results) {
   PlaneResult result;
@@ -119,8 +122,9 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
       // contains the bowl's entire projection, rim and far side included: that is mode 2's
       // reading of a ROI. Modes 1 and 3 take the ROI as the front face alone and would widen
       // the back of the box beyond the silhouette by the bowl's depth.
-      auto estimate = estimateBox(frame.depth, frame.intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
-                                  BoxMode::kAxisAlignedContained, box_params);
+      auto estimate =
+          estimateBox(frame.depth, frame.intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
+                      BoxMode::kAxisAlignedContained, box_params);
       if (auto* box = std::get_if<BoxEstimate>(&estimate)) bowl.box = std::move(*box);
     }
     bowls.push_back(std::move(bowl));
@@ -164,11 +168,12 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
   if (config.segmentation) {
-    chain.add(std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
+    chain.add(
+        std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
   }
   if (config.planes) {
-    chain.add(std::make_unique<PlaneStage>(*config.planes, config.hough_params, config.ransac_params,
-                                           config.accumulator_params));
+    chain.add(std::make_unique<PlaneStage>(*config.planes, config.hough_params,
+                                           config.ransac_params, config.accumulator_params));
   }
   if (config.object_boxes && config.segmentation && config.planes) {
     chain.add(std::make_unique<ObjectBoxStage>(config.object_box_params));
@@ -178,8 +183,9 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
     BowlDetectorParams params = config.bowl_params;
     params.parallel = false;  // one detector thread per pipeline; OpenCV's pool is not ours to fill
     try {
-      chain.add(std::make_unique<BowlStage>(std::make_unique<const BowlDetector>(BowlDetector::load(models, params)),
-                                            config.bowl_box_params));
+      chain.add(std::make_unique<BowlStage>(
+          std::make_unique<const BowlDetector>(BowlDetector::load(models, params)),
+          config.bowl_box_params));
     } catch (const std::exception& e) {
       throw std::runtime_error("the bowl stage is on but its models in '" + models.string() +
                                "' do not load (" + e.what() +

@@ -47,14 +47,14 @@ bool FrameCache::publishResults(std::uint64_t sequence,
 std::variant<CachedFrame, LookupError> FrameCache::at(TimestampNs t) const {
   std::lock_guard lock(mutex_);
   if (entries_.empty()) {
-    return LookupError{LookupError::Kind::kEmpty, "no frame cached yet: the source has delivered none"};
+    return LookupError{LookupError::Kind::kEmpty,
+                       "no frame cached yet: the source has delivered none"};
   }
   if (t == 0 || t >= entries_.back().frame->timestamp_ns) return entries_.back();
   // First entry captured after t; the one before it is the latest at or before t.
-  auto after = std::upper_bound(entries_.begin(), entries_.end(), t,
-                                [](TimestampNs time, const CachedFrame& entry) {
-                                  return time < entry.frame->timestamp_ns;
-                                });
+  auto after = std::upper_bound(
+      entries_.begin(), entries_.end(), t,
+      [](TimestampNs time, const CachedFrame& entry) { return time < entry.frame->timestamp_ns; });
   if (after == entries_.begin()) {
     return LookupError{LookupError::Kind::kBeforeCache,
                        "T = " + formatNsAsSeconds(t) + " s is older than the cache, which holds " +

@@ -28,7 +28,7 @@ std::vector<LatencySummary> LatencyTracker::summaries() const {
     std::vector<double> sorted = w.samples;
     std::sort(sorted.begin(), sorted.end());
     auto quantile = [&](double q) {
-      const auto i = static_cast<std::size_t>(std::ceil(q * static_cast<double>(sorted.size()))) ;
+      const auto i = static_cast<std::size_t>(std::ceil(q * static_cast<double>(sorted.size())));
       return sorted[std::min(sorted.size() - 1, i == 0 ? 0 : i - 1)];
     };
     out.push_back({stage, w.runs, w.last, quantile(0.5), quantile(0.95)});

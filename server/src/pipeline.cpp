@@ -6,11 +6,16 @@ namespace shapesense {
 
 const char* toString(SourceState state) {
   switch (state) {
-    case SourceState::kStreaming: return "streaming";
-    case SourceState::kEnded: return "ended";
-    case SourceState::kFailed: return "failed";
-    case SourceState::kStopped: return "stopped";
-    case SourceState::kReconnecting: return "reconnecting";
+    case SourceState::kStreaming:
+      return "streaming";
+    case SourceState::kEnded:
+      return "ended";
+    case SourceState::kFailed:
+      return "failed";
+    case SourceState::kStopped:
+      return "stopped";
+    case SourceState::kReconnecting:
+      return "reconnecting";
   }
   return "unknown";
 }
@@ -63,7 +68,8 @@ void Pipeline::captureLoop(std::stop_token stop) {
     }
     if (std::holds_alternative<EndOfStream>(event)) {
       if (stop.stop_requested()) break;
-      spdlog::info("source {} ended; serving the {} cached frames", source_name_, cache_.range().frames);
+      spdlog::info("source {} ended; serving the {} cached frames", source_name_,
+                   cache_.range().frames);
       setState(SourceState::kEnded);
       break;
     }
@@ -107,7 +113,8 @@ void Pipeline::detectLoop(std::stop_token stop) {
     }
     const auto start = std::chrono::steady_clock::now();
     auto results = std::make_shared<const FrameResults>(chain_.process(*frame));
-    const std::chrono::duration<double, std::milli> total = std::chrono::steady_clock::now() - start;
+    const std::chrono::duration<double, std::milli> total =
+        std::chrono::steady_clock::now() - start;
     for (const auto& [stage, ms] : results->timings_ms) latency_.record(stage, ms);
     latency_.record("total", total.count());
     cache_.publishResults(frame->sequence, results);

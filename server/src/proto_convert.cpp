@@ -37,11 +37,16 @@ void toProto(const CachedRange& range, v1::CacheRange* out) {
 
 v1::GetStatusResponse::SourceState toProto(SourceState state) {
   switch (state) {
-    case SourceState::kStreaming: return v1::GetStatusResponse::STREAMING;
-    case SourceState::kEnded: return v1::GetStatusResponse::ENDED;
-    case SourceState::kFailed: return v1::GetStatusResponse::FAILED;
-    case SourceState::kStopped: return v1::GetStatusResponse::STOPPED;
-    case SourceState::kReconnecting: return v1::GetStatusResponse::RECONNECTING;
+    case SourceState::kStreaming:
+      return v1::GetStatusResponse::STREAMING;
+    case SourceState::kEnded:
+      return v1::GetStatusResponse::ENDED;
+    case SourceState::kFailed:
+      return v1::GetStatusResponse::FAILED;
+    case SourceState::kStopped:
+      return v1::GetStatusResponse::STOPPED;
+    case SourceState::kReconnecting:
+      return v1::GetStatusResponse::RECONNECTING;
   }
   return v1::GetStatusResponse::SOURCE_STATE_UNSPECIFIED;
 }

@@ -72,12 +72,13 @@ void expectResultLine(const std::string& line, const std::string& stamp) {
 
 TEST(Analyze, MosdTabletopWritesOneLinePerFrameInOrder) {
   const auto recording = shapesense::testing::realRecording("mosd_tabletop");
-  if (!std::filesystem::exists(recording / "depth.txt")) GTEST_SKIP() << "shared data missing: " << recording;
+  if (!std::filesystem::exists(recording / "depth.txt"))
+    GTEST_SKIP() << "shared data missing: " << recording;
   const auto out = shapesense::testing::scratchDir("analyze_mosd");
   std::vector<std::pair<std::size_t, std::size_t>> progress;
-  const AnalyzeSummary summary =
-      analyzeRecording(recording, out, makeDetectorChain({}),
-                       [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
+  const AnalyzeSummary summary = analyzeRecording(
+      recording, out, makeDetectorChain({}),
+      [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
   EXPECT_EQ(summary.frames, 6u);
   EXPECT_EQ(summary.bad_frames, 0u);
   const auto lines = readLines(out / "results.jsonl");
@@ -94,7 +95,8 @@ TEST(Analyze, MosdTabletopWritesOneLinePerFrameInOrder) {
 
 TEST(Analyze, CorruptFrameIsLeftOutAndCounted) {
   const auto source = shapesense::testing::realRecording("mosd_tabletop");
-  if (!std::filesystem::exists(source / "depth.txt")) GTEST_SKIP() << "shared data missing: " << source;
+  if (!std::filesystem::exists(source / "depth.txt"))
+    GTEST_SKIP() << "shared data missing: " << source;
   const auto scratch = shapesense::testing::scratchDir("analyze_corrupt");
   const auto recording = scratch / "recording";
   shapesense::testing::copyRecording(source, recording);
@@ -103,7 +105,8 @@ TEST(Analyze, CorruptFrameIsLeftOutAndCounted) {
   const auto victim = recording / readTumIndex(recording).depth[3].relative_path;
   shapesense::testing::truncateFile(victim, std::filesystem::file_size(victim) / 3);
 
-  const AnalyzeSummary summary = analyzeRecording(recording, scratch / "out", makeDetectorChain({}));
+  const AnalyzeSummary summary =
+      analyzeRecording(recording, scratch / "out", makeDetectorChain({}));
   EXPECT_EQ(summary.frames, 5u);
   EXPECT_EQ(summary.bad_frames, 1u);
   const auto lines = readLines(scratch / "out" / "results.jsonl");
@@ -131,7 +134,8 @@ TEST(Analyze, SmallScratchRecordingWithAMissingFile) {
 
 TEST(Analyze, MissingRecordingThrows) {
   const auto dir = shapesense::testing::scratchDir("analyze_missing");
-  EXPECT_THROW(analyzeRecording(dir / "nothing", dir / "out", makeDetectorChain({})), std::runtime_error);
+  EXPECT_THROW(analyzeRecording(dir / "nothing", dir / "out", makeDetectorChain({})),
+               std::runtime_error);
 }
 
 // A held-out synthetic scene with a raised camera (bowls seen from 20-60 degrees) as a recording
@@ -174,8 +178,8 @@ TEST(Analyze, BowlsOfASyntheticRecordingMatchItsTruth) {
     double previous_score = 1e300;
     for (const auto& bowl : json["bowls"]) {
       ASSERT_EQ(bowl["box"].size(), 4u);
-      boxes.emplace_back(bowl["box"][0].get<int>(), bowl["box"][1].get<int>(), bowl["box"][2].get<int>(),
-                         bowl["box"][3].get<int>());
+      boxes.emplace_back(bowl["box"][0].get<int>(), bowl["box"][1].get<int>(),
+                         bowl["box"][2].get<int>(), bowl["box"][3].get<int>());
       EXPECT_THAT(bowl["view"].get<std::string>(), ::testing::AnyOf("top", "middle", "side"));
       const double score = bowl["score"].get<double>();
       EXPECT_GE(score, defaults.score_threshold);

@@ -52,7 +52,8 @@ class BowlsCommand : public ::testing::Test {
     ASSERT_TRUE(srv.cache().insert(frame));
     results = std::make_shared<const FrameResults>(makeDetectorChain(config).process(*frame));
     ASSERT_TRUE(srv.cache().publishResults(frame->sequence, results));
-    ASSERT_FALSE(results->bowls->empty()) << "the scene must hold a detected bowl to test the command";
+    ASSERT_FALSE(results->bowls->empty())
+        << "the scene must hold a detected bowl to test the command";
     global.server = "127.0.0.1:" + std::to_string(srv.port());
   }
 

@@ -38,7 +38,8 @@ TEST(RecordCommand, WithSourceRecordsARecordingThatReplaysBitIdentically) {
   const fs::path original = testing::makeSmallRecording("record_cli_original", 6);
   const fs::path out = testing::scratchDir("record_cli") / "copy";
   cli::GlobalOptions global;
-  runRecord(global, {"--source", "tum:" + original.string(), "--out", out.string(), "--seconds", "0"});
+  runRecord(global,
+            {"--source", "tum:" + original.string(), "--out", out.string(), "--seconds", "0"});
   const auto want = replayAll(original);
   const auto got = replayAll(out);
   ASSERT_EQ(want.size(), 6u);
@@ -92,12 +93,15 @@ TEST(RecordCommand, WithoutSourceTheDaemonRecords) {
   // Consecutive frames of those added, each bit-identical to its original.
   const auto& added = srv.added();
   std::size_t first = 0;
-  while (first < added.size() && (added[first]->timestamp_ns + 500) / 1000 * 1000 != got[0].timestamp_ns) ++first;
+  while (first < added.size() &&
+         (added[first]->timestamp_ns + 500) / 1000 * 1000 != got[0].timestamp_ns)
+    ++first;
   ASSERT_LT(first + got.size(), added.size() + 1);
   for (std::size_t i = 0; i < got.size(); ++i) {
     SCOPED_TRACE("frame " + std::to_string(i));
     const Frame& want = *added[first + i];
-    expectSameFrame(got[i], want, (want.timestamp_ns + 500) / 1000 * 1000, added[first]->intrinsics);
+    expectSameFrame(got[i], want, (want.timestamp_ns + 500) / 1000 * 1000,
+                    added[first]->intrinsics);
   }
 }
 

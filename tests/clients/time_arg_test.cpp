@@ -2,9 +2,9 @@
 
 #include "time_arg.h"
 
-#include <CLI/CLI.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <CLI/CLI.hpp>
 
 namespace shapesense::cli {
 namespace {

@@ -51,8 +51,9 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
     frames.push_back(std::move(f));
   }
   const auto res = evaluateBowlDetections(frames, 0.5, 0.1);
-  std::printf("held-out synthetic: %d bowls, AP50 %.3f, miss rate @0.1 FPPI %.3f, TP %d FP %d\n", res.positives,
-              res.ap, res.miss_rate_at_fppi, res.true_positives, res.false_positives);
+  std::printf("held-out synthetic: %d bowls, AP50 %.3f, miss rate @0.1 FPPI %.3f, TP %d FP %d\n",
+              res.positives, res.ap, res.miss_rate_at_fppi, res.true_positives,
+              res.false_positives);
   ASSERT_GE(res.positives, 16);
   // Floor set from the shipped models' measured AP on these frames (see models/README.md).
   EXPECT_GE(res.ap, kApFloor);
@@ -66,8 +67,10 @@ TEST(BowlDetection, ParallelLevelsGiveTheSameDetections) {
   BowlDetectorParams serial, parallel;
   parallel.parallel = true;
   serial.score_threshold = parallel.score_threshold = 0.0;  // many raw windows to compare
-  const auto a = BowlDetector::load(shippedModels(), serial).detectRaw(r.frame.depth, r.frame.intrinsics);
-  const auto b = BowlDetector::load(shippedModels(), parallel).detectRaw(r.frame.depth, r.frame.intrinsics);
+  const auto a =
+      BowlDetector::load(shippedModels(), serial).detectRaw(r.frame.depth, r.frame.intrinsics);
+  const auto b =
+      BowlDetector::load(shippedModels(), parallel).detectRaw(r.frame.depth, r.frame.intrinsics);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i].box, b[i].box);
@@ -85,11 +88,14 @@ TEST(BowlDetection, CodeImagesGiveTheSameWindowsAsTheIntegralImage) {
   BowlDetectorParams integral_only, some_codes, all_codes;
   integral_only.code_image_stages = 0;
   all_codes.code_image_stages = 1000;
-  for (auto* params : {&integral_only, &some_codes, &all_codes}) params->score_threshold = 0.0;  // many windows
-  const auto want = BowlDetector::load(shippedModels(), integral_only).detectRaw(r.frame.depth, r.frame.intrinsics);
+  for (auto* params : {&integral_only, &some_codes, &all_codes})
+    params->score_threshold = 0.0;  // many windows
+  const auto want = BowlDetector::load(shippedModels(), integral_only)
+                        .detectRaw(r.frame.depth, r.frame.intrinsics);
   ASSERT_GT(want.size(), 10u);
   for (const auto* params : {&some_codes, &all_codes}) {
-    const auto got = BowlDetector::load(shippedModels(), *params).detectRaw(r.frame.depth, r.frame.intrinsics);
+    const auto got =
+        BowlDetector::load(shippedModels(), *params).detectRaw(r.frame.depth, r.frame.intrinsics);
     ASSERT_EQ(got.size(), want.size()) << "code_image_stages " << params->code_image_stages;
     for (std::size_t i = 0; i < got.size(); ++i) {
       EXPECT_EQ(got[i].box, want[i].box);

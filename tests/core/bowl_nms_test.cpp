@@ -14,7 +14,8 @@ namespace {
 // Overlap by counting pixels on a fine grid (reference for the lens formula).
 double numericOverlap(const cv::Rect& a, const cv::Rect& b) {
   const double r1 = std::min(a.width, a.height) / 2.0, r2 = std::min(b.width, b.height) / 2.0;
-  const double ax = a.x + a.width / 2.0, ay = a.y + a.height / 2.0, bx = b.x + b.width / 2.0, by = b.y + b.height / 2.0;
+  const double ax = a.x + a.width / 2.0, ay = a.y + a.height / 2.0, bx = b.x + b.width / 2.0,
+               by = b.y + b.height / 2.0;
   const double step = 0.1;
   long both = 0;
   for (double y = std::min(a.y, b.y); y < std::max(a.br().y, b.br().y); y += step)
@@ -48,7 +49,8 @@ TEST(BowlNms, DistinctBelowTenPercentSuppressedAbove) {
   auto kept = suppressNonMaxima({{{33, 0, 40, 40}, 1.0, "top"}, {a, 2.0, "middle"}}, 0.10);
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_EQ(kept[0].box, a);  // highest response first
-  kept = suppressNonMaxima({{{25, 0, 40, 40}, 1.0, "side"}, {a, 2.0, "middle"}, {{200, 0, 40, 40}, 0.5, "top"}}, 0.10);
+  kept = suppressNonMaxima(
+      {{{25, 0, 40, 40}, 1.0, "side"}, {a, 2.0, "middle"}, {{200, 0, 40, 40}, 0.5, "top"}}, 0.10);
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_EQ(kept[0].box, a);
   EXPECT_EQ(kept[0].view, "middle");
@@ -66,7 +68,8 @@ TEST(BowlNms, MergedBoxIsTheMeanOfTheKeptWindowsNeighbours) {
   ASSERT_GE(boxIoU(windows[0].box, windows[2].box), 0.3);
   const auto kept = suppressNonMaxima(windows, 0.10, 0.3);
   ASSERT_EQ(kept.size(), 2u);
-  // Corners: left (10+6+8)/3 = 8, top (10+8+6)/3 = 8, right (50+66+58)/3 = 58, bottom (30+38+40)/3 = 36.
+  // Corners: left (10+6+8)/3 = 8, top (10+8+6)/3 = 8, right (50+66+58)/3 = 58, bottom (30+38+40)/3
+  // = 36.
   EXPECT_EQ(kept[0].box, cv::Rect(8, 8, 50, 28));
   EXPECT_DOUBLE_EQ(kept[0].score, 3.0);  // score and view stay the kept window's
   EXPECT_EQ(kept[0].view, "side");

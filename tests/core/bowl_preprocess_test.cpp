@@ -60,7 +60,8 @@ TEST(BowlPreprocess, ConfigurableRangeGivesFinerSteps) {
   const cv::Mat m = mapDepthTo8Bit(d, p);
   EXPECT_EQ(m.at<std::uint8_t>(0, 0), 129);
   EXPECT_EQ(m.at<std::uint8_t>(0, 1) - m.at<std::uint8_t>(0, 0), 2);  // 8 mm = 2 steps
-  EXPECT_THROW(mapDepthTo8Bit(d, DepthPreprocessParams{.near_m = 2.0, .far_m = 1.0}), std::invalid_argument);
+  EXPECT_THROW(mapDepthTo8Bit(d, DepthPreprocessParams{.near_m = 2.0, .far_m = 1.0}),
+               std::invalid_argument);
 }
 
 TEST(BowlPreprocess, PreprocessFillsThenMaps) {
@@ -87,7 +88,8 @@ int referenceFill(cv::Mat& d, int passes) {
         int n = 0;
         for (int rr = r - 1; rr <= r + 1; ++rr)
           for (int cc = c - 1; cc <= c + 1; ++cc)
-            if ((rr != r || cc != c) && rr >= 0 && rr < d.rows && cc >= 0 && cc < d.cols && d.at<std::uint16_t>(rr, cc) != 0)
+            if ((rr != r || cc != c) && rr >= 0 && rr < d.rows && cc >= 0 && cc < d.cols &&
+                d.at<std::uint16_t>(rr, cc) != 0)
               nb[static_cast<std::size_t>(n++)] = d.at<std::uint16_t>(rr, cc);
         if (n == 0) continue;
         std::nth_element(nb.begin(), nb.begin() + (n - 1) / 2, nb.begin() + n);
@@ -111,7 +113,8 @@ TEST(BowlPreprocess, FillEqualsTheReferenceOnRandomHoles) {
     for (int r = 0; r < big.rows; ++r)
       for (int c = 0; c < big.cols; ++c) {
         const bool extreme = rng() % 10 == 0;
-        big.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(extreme ? 65535 - rng() % 2 : 400 + rng() % 40);
+        big.at<std::uint16_t>(r, c) =
+            static_cast<std::uint16_t>(extreme ? 65535 - rng() % 2 : 400 + rng() % 40);
       }
     for (int r = 0; r < rows; ++r)
       for (int c = 0; c < cols; ++c)

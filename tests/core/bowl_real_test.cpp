@@ -37,7 +37,8 @@ TEST(BowlReal, MosdUprightBowlsFoundNoFalsePositives) {
     dets.push_back(detector.detect(mm, index.camera.intrinsics));
   }
   for (int i = 0; i < 4; ++i) {
-    EXPECT_TRUE(dets[i].empty()) << "frame " << i + 1 << ": " << dets[i].size() << " detections, first at "
+    EXPECT_TRUE(dets[i].empty()) << "frame " << i + 1 << ": " << dets[i].size()
+                                 << " detections, first at "
                                  << (dets[i].empty() ? cv::Rect() : dets[i][0].box);
   }
   const cv::Rect truth5 = inclusive(55, 173, 151, 243), truth6 = inclusive(154, 125, 252, 197);
@@ -50,8 +51,10 @@ TEST(BowlReal, MosdUprightBowlsFoundNoFalsePositives) {
   EXPECT_GE(best(dets[4], truth5), 0.5);
   EXPECT_GE(best(dets[5], truth6), 0.5);
   // Reported, not asserted: the upside-down bowl is not a bowl, and other windows on 5-6.
-  std::printf("frame 5: %zu detections, best IoU with the upright bowl %.2f, with the upside-down one %.2f\n",
-              dets[4].size(), best(dets[4], truth5), best(dets[4], upside_down5));
+  std::printf(
+      "frame 5: %zu detections, best IoU with the upright bowl %.2f, with the upside-down one "
+      "%.2f\n",
+      dets[4].size(), best(dets[4], truth5), best(dets[4], upside_down5));
   std::printf("frame 6: %zu detections, best IoU %.2f\n", dets[5].size(), best(dets[5], truth6));
 }
 

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <tuple>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 namespace shapesense {
 namespace {
@@ -17,10 +17,11 @@ constexpr double kDeg = M_PI / 180.0;
 Eigen::Vector3d unit(double x, double y, double z) { return Eigen::Vector3d(x, y, z).normalized(); }
 
 TEST(HoughAccumulator, LambertCellsRoundTripEverywhereVisible) {
-  HoughAccumulator acc;  // 1.5 deg cells
+  HoughAccumulator acc;                     // 1.5 deg cells
   for (double t = 0; t <= 100; t += 7)      // angle from -z (deg)
     for (double p = 0; p < 360; p += 23) {  // azimuth
-      const Eigen::Vector3d n(std::sin(t * kDeg) * std::cos(p * kDeg), std::sin(t * kDeg) * std::sin(p * kDeg), -std::cos(t * kDeg));
+      const Eigen::Vector3d n(std::sin(t * kDeg) * std::cos(p * kDeg),
+                              std::sin(t * kDeg) * std::sin(p * kDeg), -std::cos(t * kDeg));
       int i, j, k;
       ASSERT_TRUE(acc.cellOf(n, 1.0, i, j, k)) << t << " " << p;
       const Eigen::Vector3d c = acc.cellCoordinates(n, 1.0);
@@ -28,7 +29,8 @@ TEST(HoughAccumulator, LambertCellsRoundTripEverywhereVisible) {
       EXPECT_LT(std::acos(std::clamp(back.dot(n), -1.0, 1.0)) / kDeg, 1e-4) << t << " " << p;
       // A cell never spans more than ~2x its nominal angle (equal-area map, mild distortion).
       const Eigen::Vector3d nb = acc.normalAt(i + 1, j);
-      EXPECT_LT(std::acos(std::clamp(nb.dot(acc.normalAt(i, j)), -1.0, 1.0)) / kDeg, 1.5 * 2.0) << t;
+      EXPECT_LT(std::acos(std::clamp(nb.dot(acc.normalAt(i, j)), -1.0, 1.0)) / kDeg, 1.5 * 2.0)
+          << t;
       EXPECT_NEAR(acc.dAt(c.z()), 1.0, 1e-9);
     }
 }
@@ -86,7 +88,8 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   HoughAccumulator acc, smooth;
   // Two planes 30 deg apart, 400 and 200 votes spread over +-1 deg / +-1 cm, plus a single
   // far-away vote that must not produce a maximum.
-  const Eigen::Vector3d n1 = unit(0, -1, -0.5), n2 = Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitX()) * n1;
+  const Eigen::Vector3d n1 = unit(0, -1, -0.5),
+                        n2 = Eigen::AngleAxisd(30 * kDeg, Eigen::Vector3d::UnitX()) * n1;
   for (int r = 0; r < 400; ++r) {
     const double a = ((r % 7) - 3) / 3.0 * kDeg, dd = ((r % 5) - 2) * 0.005;
     acc.vote((Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()) * n1).normalized(), 1.2 + dd);
@@ -97,7 +100,8 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   const auto maxima = smooth.findMaxima(static_cast<float>(20 * smooth.kernelPeak(2.0, 0.03)));
   ASSERT_EQ(maxima.size(), 2u);
   EXPECT_GT(maxima[0].value, maxima[1].value);  // strongest first
-  EXPECT_LT(std::acos(std::min(1.0, maxima[0].normal.dot(n1))) / kDeg, 1.0);  // 2/3 of a 1.5-deg cell
+  EXPECT_LT(std::acos(std::min(1.0, maxima[0].normal.dot(n1))) / kDeg,
+            1.0);  // 2/3 of a 1.5-deg cell
   EXPECT_NEAR(maxima[0].d, 1.2, 0.01);
   EXPECT_LT(std::acos(std::min(1.0, maxima[1].normal.dot(n2))) / kDeg, 1.0);
   EXPECT_NEAR(maxima[1].d, 0.8, 0.01);

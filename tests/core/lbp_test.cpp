@@ -20,7 +20,7 @@ TEST(Lbp, HandMadePatterns) {
   EXPECT_EQ(lbpCodeDirect(grid(only_top_left, 1, 1), 0, 0, 1, 1), 0x01);
   const int flat[9] = {7, 7, 7, 7, 7, 7, 7, 7, 7};
   EXPECT_EQ(lbpCodeDirect(grid(flat, 2, 2), 0, 0, 2, 2), 0xFF);  // ties count as >=
-  const int right_column[9] = {0, 0, 9, 0, 5, 9, 0, 0, 9};  // bits 2, 3, 4
+  const int right_column[9] = {0, 0, 9, 0, 5, 9, 0, 0, 9};       // bits 2, 3, 4
   EXPECT_EQ(lbpCodeDirect(grid(right_column, 2, 1), 0, 0, 2, 1), 0x1C);
   const int left_column[9] = {9, 0, 0, 9, 5, 0, 9, 0, 0};  // bits 0, 6, 7
   EXPECT_EQ(lbpCodeDirect(grid(left_column, 1, 2), 0, 0, 1, 2), 0xC1);
@@ -57,7 +57,8 @@ TEST(Lbp, CodeImagesEqualDirectCodesAtEveryPositionAndZeroWhereTheGridDoesNotFit
         for (int x = 0; x < img.cols; ++x) {
           const bool fits = x + 3 * cw <= img.cols && y + 3 * ch <= img.rows;
           const int want = fits ? lbpCodeDirect(img, x, y, cw, ch) : 0;
-          ASSERT_EQ(codes.at<std::uint8_t>(y, x), want) << "cell " << cw << "x" << ch << " at " << x << "," << y;
+          ASSERT_EQ(codes.at<std::uint8_t>(y, x), want)
+              << "cell " << cw << "x" << ch << " at " << x << "," << y;
         }
     }
   EXPECT_THROW(lbpCodeImage(ii, 3, 1), std::invalid_argument);

@@ -32,8 +32,8 @@ std::uint16_t kinectQuantise(double z, double noise_steps, std::mt19937& rng) {
 }
 
 // Plane n.X + d = 0 (n unit, facing the camera) rendered into a depth image.
-cv::Mat renderPlane(const Eigen::Vector3d& n, double d, const CameraIntrinsics& K, double noise_steps,
-                    unsigned seed = 1) {
+cv::Mat renderPlane(const Eigen::Vector3d& n, double d, const CameraIntrinsics& K,
+                    double noise_steps, unsigned seed = 1) {
   std::mt19937 rng(seed);
   cv::Mat depth(K.height, K.width, CV_16UC1, cv::Scalar(0));
   for (int v = 0; v < K.height; ++v) {
@@ -49,8 +49,10 @@ Eigen::Vector3d tiltedNormal(double rx_deg, double ry_deg) {
   const double ax = rx_deg * kPi / 180.0, ay = ry_deg * kPi / 180.0;
   // Start facing the camera (0, 0, -1) and rotate about x then y.
   Eigen::Vector3d n(0, 0, -1);
-  n = Eigen::Vector3d(n.x(), std::cos(ax) * n.y() - std::sin(ax) * n.z(), std::sin(ax) * n.y() + std::cos(ax) * n.z());
-  n = Eigen::Vector3d(std::cos(ay) * n.x() + std::sin(ay) * n.z(), n.y(), -std::sin(ay) * n.x() + std::cos(ay) * n.z());
+  n = Eigen::Vector3d(n.x(), std::cos(ax) * n.y() - std::sin(ax) * n.z(),
+                      std::sin(ax) * n.y() + std::cos(ax) * n.z());
+  n = Eigen::Vector3d(std::cos(ay) * n.x() + std::sin(ay) * n.z(), n.y(),
+                      -std::sin(ay) * n.x() + std::cos(ay) * n.z());
   return n.normalized();
 }
 
@@ -69,7 +71,8 @@ ErrorStats angularError(const cv::Mat& normals, const Eigen::Vector3d& truth) {
       ++total;
       const cv::Vec3f n = normals.at<cv::Vec3f>(v, u);
       if (std::isnan(n[0])) continue;
-      const double c = std::clamp(static_cast<double>(n[0] * truth.x() + n[1] * truth.y() + n[2] * truth.z()), -1.0, 1.0);
+      const double c = std::clamp(
+          static_cast<double>(n[0] * truth.x() + n[1] * truth.y() + n[2] * truth.z()), -1.0, 1.0);
       err.push_back(std::acos(c) * 180.0 / kPi);
     }
   }
@@ -84,9 +87,12 @@ ErrorStats angularError(const cv::Mat& normals, const Eigen::Vector3d& truth) {
 
 const char* name(NormalMethod m) {
   switch (m) {
-    case NormalMethod::kCovariance: return "covariance";
-    case NormalMethod::kAverage3dGradient: return "average_3d_gradient";
-    case NormalMethod::kAverageDepthChange: return "average_depth_change";
+    case NormalMethod::kCovariance:
+      return "covariance";
+    case NormalMethod::kAverage3dGradient:
+      return "average_3d_gradient";
+    case NormalMethod::kAverageDepthChange:
+      return "average_depth_change";
   }
   return "?";
 }
@@ -98,14 +104,17 @@ TEST(Normals, TiltedPlaneEachModeMatchesTruth) {
     // Plane through (0, 0, range).
     const double d = -n.dot(Eigen::Vector3d(0, 0, range));
     const cv::Mat depth = renderPlane(n, d, K, 0.3);
-    for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
+    for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
+                   NormalMethod::kAverageDepthChange}) {
       NormalParams p;
       p.method = m;
       const ErrorStats e = angularError(computeNormals(depth, K, p), n);
-      std::printf("[normals] %-22s range %.1f m: median %.2f deg, p90 %.2f deg, valid %.3f\n", name(m), range,
-                  e.median_deg, e.p90_deg, e.valid_fraction);
+      std::printf("[normals] %-22s range %.1f m: median %.2f deg, p90 %.2f deg, valid %.3f\n",
+                  name(m), range, e.median_deg, e.p90_deg, e.valid_fraction);
       EXPECT_GT(e.valid_fraction, 0.95) << name(m) << " at " << range;
-      const double tol = m == NormalMethod::kCovariance ? 2.0 : (m == NormalMethod::kAverage3dGradient ? 2.5 : 4.0);
+      const double tol = m == NormalMethod::kCovariance
+                             ? 2.0
+                             : (m == NormalMethod::kAverage3dGradient ? 2.5 : 4.0);
       EXPECT_LT(e.median_deg, tol) << name(m) << " at " << range;
       EXPECT_LT(e.p90_deg, 2 * tol) << name(m) << " at " << range;
     }
@@ -116,7 +125,8 @@ TEST(Normals, PointsInputMatchesDepthInput) {
   const CameraIntrinsics K;
   const Eigen::Vector3d n = tiltedNormal(10.0, 30.0);
   const cv::Mat depth = renderPlane(n, -n.dot(Eigen::Vector3d(0, 0, 1.5)), K, 0.3);
-  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
+  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
+                 NormalMethod::kAverageDepthChange}) {
     NormalParams p;
     p.method = m;
     const cv::Mat a = computeNormals(depth, K, p);
@@ -125,8 +135,10 @@ TEST(Normals, PointsInputMatchesDepthInput) {
     for (int v = 0; v < a.rows; ++v)
       for (int u = 0; u < a.cols; ++u) {
         const cv::Vec3f x = a.at<cv::Vec3f>(v, u), y = b.at<cv::Vec3f>(v, u);
-        if (std::isnan(x[0]) != std::isnan(y[0])) ++mismatches;
-        else if (!std::isnan(x[0]) && cv::norm(x - y) > 1e-4) ++mismatches;
+        if (std::isnan(x[0]) != std::isnan(y[0]))
+          ++mismatches;
+        else if (!std::isnan(x[0]) && cv::norm(x - y) > 1e-4)
+          ++mismatches;
       }
     EXPECT_EQ(mismatches, 0) << name(m);
   }
@@ -146,7 +158,8 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
     }
   // A hole.
   depth(cv::Rect(50, 50, 20, 20)).setTo(0);
-  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
+  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
+                 NormalMethod::kAverageDepthChange}) {
     NormalParams p;
     p.method = m;
     const cv::Mat normals = computeNormals(depth, K, p);
@@ -162,8 +175,12 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
     EXPECT_GT(valid, K.width * K.height * 0.8) << name(m);
     // Pixels on both sides of the step and inside the hole are invalid.
     for (int v = 150; v < 330; v += 7) {
-      EXPECT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, 199)[0]) || std::isnan(normals.at<cv::Vec3f>(v, 200)[0])) << v;
-      EXPECT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, 198)[0]) && std::isnan(normals.at<cv::Vec3f>(v, 201)[0])) << v;
+      EXPECT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, 199)[0]) ||
+                  std::isnan(normals.at<cv::Vec3f>(v, 200)[0]))
+          << v;
+      EXPECT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, 198)[0]) &&
+                  std::isnan(normals.at<cv::Vec3f>(v, 201)[0]))
+          << v;
     }
     for (int v = 50; v < 70; ++v)
       for (int u = 50; u < 70; ++u) ASSERT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, u)[0]));
@@ -176,7 +193,8 @@ TEST(Normals, TimingPrint) {
   const CameraIntrinsics K;
   const Eigen::Vector3d n = tiltedNormal(20.0, 10.0);
   const cv::Mat depth = renderPlane(n, -n.dot(Eigen::Vector3d(0, 0, 2.0)), K, 0.3);
-  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
+  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
+                 NormalMethod::kAverageDepthChange}) {
     NormalParams p;
     p.method = m;
     NormalEstimator est(p);

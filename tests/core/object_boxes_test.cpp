@@ -23,10 +23,12 @@ TEST(ObjectBoxes, ObjectsOnTheTableGetBoxesAndStructureDoesNot) {
     params.render_colour = false;
     const auto rendered = synthetic::SyntheticScene(params).render(0, 1);
     const Frame& frame = rendered.frame;
-    const cv::Mat segments = segmentDepth(frame.depth, frame.intrinsics, SegmentationMethod::kFused);
+    const cv::Mat segments =
+        segmentDepth(frame.depth, frame.intrinsics, SegmentationMethod::kFused);
     const auto statistics = computeSegmentStatistics(segments, frame.depth, frame.intrinsics);
     const auto planes = planes_detector.detect(frame.depth, frame.intrinsics);
-    const auto boxes = boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, segments, statistics, planes);
+    const auto boxes =
+        boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, segments, statistics, planes);
     boxes_total += static_cast<int>(boxes.size());
     for (const auto& box : boxes) {
       for (const auto& object : rendered.truth.objects) {
@@ -45,14 +47,15 @@ TEST(ObjectBoxes, ObjectsOnTheTableGetBoxesAndStructureDoesNot) {
           // The box lies where the object is: its centre within 10 cm + half the object's size.
           Eigen::Vector3d centre = Eigen::Vector3d::Zero();
           for (const auto& c : box.box.corners) centre += c / 8.0;
-          EXPECT_LT((centre - object.center).norm(), 0.10 + 0.5 * object.size.norm()) << object.name;
+          EXPECT_LT((centre - object.center).norm(), 0.10 + 0.5 * object.size.norm())
+              << object.name;
           break;
         }
       }
     }
   }
-  std::printf("[object boxes] %d of %d visible objects boxed; %d of %d boxes match an object\n", found,
-              objects, boxes_matched, boxes_total);
+  std::printf("[object boxes] %d of %d visible objects boxed; %d of %d boxes match an object\n",
+              found, objects, boxes_matched, boxes_total);
   ASSERT_GT(objects, 20);
   // Measured on seeds 1-6 (fused segmentation, Hough planes): 18 of 42 objects boxed, 18 of 25
   // boxes on an object. Floors just below; the misses are objects whose faces the segmentation
@@ -69,8 +72,9 @@ TEST(ObjectBoxes, NoPlanesMeansNoBoxes) {
   const cv::Mat segments = segmentDepth(frame.depth, frame.intrinsics, SegmentationMethod::kFused);
   PlaneDetection none;
   none.labels = cv::Mat::zeros(frame.depth.size(), CV_16UC1);
-  EXPECT_TRUE(boxesOfObjectsOnPlanes(frame.depth, frame.intrinsics, segments,
-                                     computeSegmentStatistics(segments, frame.depth, frame.intrinsics), none)
+  EXPECT_TRUE(boxesOfObjectsOnPlanes(
+                  frame.depth, frame.intrinsics, segments,
+                  computeSegmentStatistics(segments, frame.depth, frame.intrinsics), none)
                   .empty());
 }
 

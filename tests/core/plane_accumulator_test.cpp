@@ -54,8 +54,9 @@ TEST(PlaneAccumulator, MovingCameraWithPosesDoesNotSmear) {
     double best_angle, best_dist, single_angle, single_dist;
     nearest(planes, best_angle, best_dist);
     nearest(last.planes, single_angle, single_dist);
-    std::printf("[accumulator] %s: accumulated %.3f deg %.2f mm, last frame alone %.3f deg %.2f mm\n", s.name.c_str(),
-                best_angle, 1e3 * best_dist, single_angle, 1e3 * single_dist);
+    std::printf(
+        "[accumulator] %s: accumulated %.3f deg %.2f mm, last frame alone %.3f deg %.2f mm\n",
+        s.name.c_str(), best_angle, 1e3 * best_dist, single_angle, 1e3 * single_dist);
     EXPECT_LT(best_angle, single_angle + 0.3) << s.name;
     EXPECT_LT(best_dist, single_dist + 0.003) << s.name;
     if (s.name != "table_top") {
@@ -88,7 +89,8 @@ TEST(PlaneAccumulator, ResetsOnALargeChangeWithoutPoses) {
   for (int i = 0; i < 5; ++i) acc.update(b);
   for (const auto& p : acc.planes()) {
     bool in_b = false;
-    for (const auto& q : b.planes) in_b |= q.normal.dot(p.normal) > 0.999 && std::fabs(q.d - p.d) < 0.01;
+    for (const auto& q : b.planes)
+      in_b |= q.normal.dot(p.normal) > 0.999 && std::fabs(q.d - p.d) < 0.01;
     EXPECT_TRUE(in_b) << p.id;
   }
 }

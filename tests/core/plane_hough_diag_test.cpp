@@ -3,9 +3,9 @@
 // name and size, and the found regions that overlap it (fraction of the truth region, fraction
 // of the found region on planar truth), which tells split (several partial overlaps), merged
 // (one found region much larger than the truth) and missed (no overlap) apart.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <algorithm>
 #include <ctime>
 #include <map>
 #include <vector>
@@ -22,8 +22,10 @@ namespace {
 // Parameter overrides for experiments: PLANE_DIAG_TOL_FACTOR, PLANE_DIAG_MIN_TOL_STEPS.
 HoughPlaneParams diagParams() {
   HoughPlaneParams p;
-  if (const char* e = std::getenv("PLANE_DIAG_TOL_FACTOR")) p.labeling.adaptive_tolerance_factor = std::atof(e);
-  if (const char* e = std::getenv("PLANE_DIAG_MIN_TOL_STEPS")) p.labeling.min_tolerance_steps = std::atof(e);
+  if (const char* e = std::getenv("PLANE_DIAG_TOL_FACTOR"))
+    p.labeling.adaptive_tolerance_factor = std::atof(e);
+  if (const char* e = std::getenv("PLANE_DIAG_MIN_TOL_STEPS"))
+    p.labeling.min_tolerance_steps = std::atof(e);
   return p;
 }
 
@@ -52,9 +54,10 @@ TEST(PlaneHoughDiag, DISABLED_MissedTruthPlanes) {
     for (const auto& [tid, fid] : s.matches) correct[tid] = true;
     const double min_px = 0.005 * t.total();
     for (const auto& ts : f.truth.surfaces) {
-      if (ts.kind != synthetic::SurfaceKind::kPlane || tsize[ts.id] < min_px || correct[ts.id]) continue;
-      std::printf("seed %2llu MISS %-18s %5.2f%% of image:", static_cast<unsigned long long>(seed), ts.name.c_str(),
-                  100.0 * tsize[ts.id] / t.total());
+      if (ts.kind != synthetic::SurfaceKind::kPlane || tsize[ts.id] < min_px || correct[ts.id])
+        continue;
+      std::printf("seed %2llu MISS %-18s %5.2f%% of image:", static_cast<unsigned long long>(seed),
+                  ts.name.c_str(), 100.0 * tsize[ts.id] / t.total());
       for (const auto& [key, o] : ov) {
         if (key.first != ts.id || o < 0.05 * tsize[ts.id]) continue;
         if (key.second == 0) {
@@ -67,14 +70,17 @@ TEST(PlaneHoughDiag, DISABLED_MissedTruthPlanes) {
         for (const auto& [k2, o2] : ov)
           if (k2.second == key.second && o2 > main_o) main_o = o2, main_t = k2.first;
         const auto& fp = out.planes[key.second - 1];
-        std::printf(" [found %d (group %d, n %.2f %.2f %.2f, d %.3f): %.2f of truth, %.2f of found, mostly %d]", key.second,
-                    fp.group, fp.normal.x(), fp.normal.y(), fp.normal.z(), fp.d, double(o) / tsize[ts.id],
-                    double(o) / fsize[key.second], main_t == ts.id ? 0 : main_t);
+        std::printf(
+            " [found %d (group %d, n %.2f %.2f %.2f, d %.3f): %.2f of truth, %.2f of found, mostly "
+            "%d]",
+            key.second, fp.group, fp.normal.x(), fp.normal.y(), fp.normal.z(), fp.d,
+            double(o) / tsize[ts.id], double(o) / fsize[key.second], main_t == ts.id ? 0 : main_t);
       }
       std::printf("\n");
     }
   }
-  std::printf("correct %.3f (%d/%d)\n", total.correctFraction(), total.correct, total.truth_regions);
+  std::printf("correct %.3f (%d/%d)\n", total.correctFraction(), total.correct,
+              total.truth_regions);
 }
 
 double threadCpuMs() {

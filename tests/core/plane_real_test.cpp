@@ -34,7 +34,8 @@ struct RealFrame {
   std::filesystem::path depth_path;
 };
 
-std::vector<RealFrame> loadRecording(const std::filesystem::path& dir, CameraIntrinsics& intrinsics) {
+std::vector<RealFrame> loadRecording(const std::filesystem::path& dir,
+                                     CameraIntrinsics& intrinsics) {
   const TumIndex index = readTumIndex(dir);
   intrinsics = index.camera.intrinsics;
   std::vector<RealFrame> frames;
@@ -107,13 +108,16 @@ TEST(PlaneReal, PclOfficeFloorAndWalls) {
     const double frac = p.inliers / image;
     covered += static_cast<double>(p.inliers);
     const double to_up = angleDeg(p.normal, Eigen::Vector3d(0, -1, 0));
-    std::printf("[planes real] office plane %d: n=(%.2f %.2f %.2f) d=%.2f %.3f of image, rms %.1f mm\n", p.id,
-                p.normal.x(), p.normal.y(), p.normal.z(), p.d, frac, 1e3 * p.rms_m);
+    std::printf(
+        "[planes real] office plane %d: n=(%.2f %.2f %.2f) d=%.2f %.3f of image, rms %.1f mm\n",
+        p.id, p.normal.x(), p.normal.y(), p.normal.z(), p.d, frac, 1e3 * p.rms_m);
     if (to_up < 30 && p.d > 0.8 && p.d < 2.0) floor_best = std::max(floor_best, frac);
     if (std::fabs(to_up - 90) < 30) wall_best = std::max(wall_best, frac);
   }
-  std::printf("[planes real] office: floor %.3f, wall %.3f of the image, planes cover %.3f of valid pixels\n",
-              floor_best, wall_best, covered / valid);
+  std::printf(
+      "[planes real] office: floor %.3f, wall %.3f of the image, planes cover %.3f of valid "
+      "pixels\n",
+      floor_best, wall_best, covered / valid);
   EXPECT_GE(floor_best, 0.03);
   EXPECT_GE(wall_best, 0.05);
   EXPECT_GE(covered / valid, 0.5);
@@ -135,8 +139,9 @@ TEST(PlaneReal, TumFr2DeskTopFound) {
       largest = std::max(largest, frac);
       if (angleDeg(p.normal, Eigen::Vector3d(0, -1, 0)) < 35) desk = std::max(desk, frac);
     }
-    std::printf("[planes real] tum %s: largest plane %.3f, desk-like %.3f of the image, %zu regions\n",
-                f.depth_path.filename().c_str(), largest, desk, out.planes.size());
+    std::printf(
+        "[planes real] tum %s: largest plane %.3f, desk-like %.3f of the image, %zu regions\n",
+        f.depth_path.filename().c_str(), largest, desk, out.planes.size());
     EXPECT_GE(largest, 0.10);
     EXPECT_GE(desk, 0.05);
   }

@@ -2,8 +2,8 @@
 #include <cmath>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "shapesense/core/plane_fitting.h"
 #include "shapesense/core/plane_polygon.h"
@@ -36,7 +36,8 @@ TEST(PlaneFitting, ExactOnNoiselessPointsAndOrientedToTheViewpoint) {
   for (int i = -20; i <= 20; ++i) direct.add(-d * n + 0.05 * i * a + 0.01 * (i % 3) * b);
   EXPECT_NEAR(all.fit().normal.dot(direct.fit().normal), 1.0, 1e-12);
   EXPECT_NEAR(all.fit().d, direct.fit().d, 1e-9);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const Eigen::Vector3d t(0.1, -0.2, 0.3);
   PlaneMoments moved = m;
   moved.transform(R, t);
@@ -72,8 +73,8 @@ TEST(PlanePolygon, EarClippingTriangulatesConcavePolygons) {
 
 // Kinect-like rendering of analytic planes: disparity 43.5/z px with Gaussian noise of 0.5
 // steps, quantised to 1/8 px.
-cv::Mat renderPlanes(const std::vector<std::pair<Eigen::Vector3d, double>>& planes, const CameraIntrinsics& K,
-                     std::vector<int>* owner = nullptr) {
+cv::Mat renderPlanes(const std::vector<std::pair<Eigen::Vector3d, double>>& planes,
+                     const CameraIntrinsics& K, std::vector<int>* owner = nullptr) {
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.5);
   cv::Mat depth(K.height, K.width, CV_16UC1, cv::Scalar(0));
@@ -93,7 +94,8 @@ cv::Mat renderPlanes(const std::vector<std::pair<Eigen::Vector3d, double>>& plan
       }
       if (who < 0) continue;
       const double disp = std::round(43.5 / best * 8.0 + noise(rng));
-      depth.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(std::lround(43.5 / (disp / 8.0) * 1000.0));
+      depth.at<std::uint16_t>(v, u) =
+          static_cast<std::uint16_t>(std::lround(43.5 / (disp / 8.0) * 1000.0));
       if (owner) (*owner)[v * K.width + u] = who;
     }
   return depth;
@@ -117,19 +119,22 @@ TEST(PlaneRefinement, AnalyticPlanesRecoveredWithinNoise) {
     for (std::size_t t = 0; t < truth.size(); ++t) {
       const DetectedPlane* best = nullptr;
       for (const auto& p : out.planes)
-        if (p.normal.dot(truth[t].first) > std::cos(5 * kDeg) && std::fabs(p.d - truth[t].second) < 0.05 &&
-            (!best || p.inliers > best->inliers))
+        if (p.normal.dot(truth[t].first) > std::cos(5 * kDeg) &&
+            std::fabs(p.d - truth[t].second) < 0.05 && (!best || p.inliers > best->inliers))
           best = &p;
       ASSERT_NE(best, nullptr) << "method " << method << " plane " << t;
-      EXPECT_LT(std::acos(std::min(1.0, best->normal.dot(truth[t].first))) / kDeg, 0.5) << method << " " << t;
-      EXPECT_LT(std::fabs(best->d - truth[t].second), 0.005) << method << " " << t << " d " << best->d << " n " << best->normal.transpose();
+      EXPECT_LT(std::acos(std::min(1.0, best->normal.dot(truth[t].first))) / kDeg, 0.5)
+          << method << " " << t;
+      EXPECT_LT(std::fabs(best->d - truth[t].second), 0.005)
+          << method << " " << t << " d " << best->d << " n " << best->normal.transpose();
       long own = 0, hit = 0;
       for (int i = 0; i < K.width * K.height; ++i) {
         if (owner[i] != static_cast<int>(t)) continue;
         ++own;
         hit += out.labels.at<std::uint16_t>(i / K.width, i % K.width) == best->id;
       }
-      EXPECT_GE(static_cast<double>(hit) / own, 0.95) << method << " " << t << " regions " << out.planes.size();
+      EXPECT_GE(static_cast<double>(hit) / own, 0.95)
+          << method << " " << t << " regions " << out.planes.size();
     }
   }
 }

@@ -32,8 +32,9 @@ planetest::PlaneScore scoreTenFrames(const char* tag, Detect&& detect) {
       const auto f = scene.render(frame, 0);
       const PlaneDetection out = detect(f);
       const auto s = planetest::scorePlanes(out.labels, out.planes, f.truth);
-      std::printf("[%s] seed %llu frame %llu: %d/%d correct, %zu regions\n", tag, static_cast<unsigned long long>(seed),
-                  static_cast<unsigned long long>(frame), s.correct, s.truth_regions, out.planes.size());
+      std::printf("[%s] seed %llu frame %llu: %d/%d correct, %zu regions\n", tag,
+                  static_cast<unsigned long long>(seed), static_cast<unsigned long long>(frame),
+                  s.correct, s.truth_regions, out.planes.size());
       total.add(s);
     }
   }
@@ -154,7 +155,8 @@ TEST(PlaneSynthetic, AccumulationOverStaticFramesBeatsSingleFrames) {
       const DetectedPlane* best = nullptr;
       double best_cost = 1e9;
       for (const auto& p : planes) {
-        const double cost = std::acos(std::clamp(p.normal.dot(fp.normal), -1.0, 1.0)) * 57.3 + 100 * std::fabs(p.d - fp.d);
+        const double cost = std::acos(std::clamp(p.normal.dot(fp.normal), -1.0, 1.0)) * 57.3 +
+                            100 * std::fabs(p.d - fp.d);
         if (cost < best_cost) {
           best_cost = cost;
           best = &p;
@@ -163,7 +165,8 @@ TEST(PlaneSynthetic, AccumulationOverStaticFramesBeatsSingleFrames) {
       ASSERT_NE(best, nullptr);
       if (best_cost > 3.0) continue;  // not a stable plane of the accumulator
       const Eigen::Vector3d tn = ts.plane.head<3>();
-      acc_angle.push_back(std::acos(std::clamp(std::fabs(best->normal.dot(tn)), 0.0, 1.0)) * 180.0 / M_PI);
+      acc_angle.push_back(std::acos(std::clamp(std::fabs(best->normal.dot(tn)), 0.0, 1.0)) * 180.0 /
+                          M_PI);
       acc_dist.push_back(std::fabs(best->d - ts.plane[3]));
       single_angle.push_back(median(per_truth_angle[tid]));
       single_dist.push_back(median(per_truth_dist[tid]));
@@ -171,9 +174,11 @@ TEST(PlaneSynthetic, AccumulationOverStaticFramesBeatsSingleFrames) {
   }
   const double sa = median(single_angle), sd = median(single_dist);
   const double aa = median(acc_angle), ad = median(acc_dist);
-  std::printf("[accumulate] %zu truth planes (%zu single-frame detections): median over planes of the single-frame "
-              "median %.4f deg %.3f mm; accumulated 30 frames: %.4f deg %.3f mm\n",
-              acc_angle.size(), single_count, sa, 1e3 * sd, aa, 1e3 * ad);
+  std::printf(
+      "[accumulate] %zu truth planes (%zu single-frame detections): median over planes of the "
+      "single-frame "
+      "median %.4f deg %.3f mm; accumulated 30 frames: %.4f deg %.3f mm\n",
+      acc_angle.size(), single_count, sa, 1e3 * sd, aa, 1e3 * ad);
   ASSERT_GE(acc_angle.size(), 10u);
   EXPECT_LT(aa, sa);
   EXPECT_LT(ad, sd);

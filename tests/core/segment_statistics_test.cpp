@@ -30,7 +30,7 @@ TEST(SegmentStatistics, PlaneAndFrontoSquare) {
   EXPECT_EQ(stats[0].pixels, 180 * 640);
   EXPECT_EQ(stats[0].box, cv::Rect(0, 300, 640, 180));
   EXPECT_NEAR(stats[0].mean_normal.y(), -1.0, 1e-3);
-  EXPECT_NEAR(stats[0].centroid.y(), 0.5, 2e-3);   // mm rounding of depth
+  EXPECT_NEAR(stats[0].centroid.y(), 0.5, 2e-3);  // mm rounding of depth
   EXPECT_LT(stats[0].plane_rms_m, 1e-3);
 
   EXPECT_EQ(stats[1].id, 9);

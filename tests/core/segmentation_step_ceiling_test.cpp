@@ -27,8 +27,8 @@ namespace {
 constexpr int kMinContact = 150;
 
 struct Ceiling {
-  double accuracy = 0;       // best pixel accuracy of any partition that merges crease contacts
-  double crease_lost = 0;    // fraction of labelled pixels that partition must lose
+  double accuracy = 0;     // best pixel accuracy of any partition that merges crease contacts
+  double crease_lost = 0;  // fraction of labelled pixels that partition must lose
 };
 
 Ceiling stepOnlyCeiling(const synthetic::RenderedFrame& f, bool print) {
@@ -55,20 +55,26 @@ Ceiling stepOnlyCeiling(const synthetic::RenderedFrame& f, bool print) {
         const int b = t.at<std::uint16_t>(v + dv, u + du);
         if (!b || b == a) continue;
         const double za = 1e3 * z.at<float>(v, u), zb = 1e3 * z.at<float>(v + dv, u + du);
-        if (std::fabs(za - zb) <= threshold(std::min(za, zb), 2.0)) ++contact[{std::min(a, b), std::max(a, b)}];
+        if (std::fabs(za - zb) <= threshold(std::min(za, zb), 2.0))
+          ++contact[{std::min(a, b), std::max(a, b)}];
       }
     }
   std::map<int, int> parent;
   for (const auto& [l, n] : size) parent[l] = l;
-  std::function<int(int)> root = [&](int x) { return parent[x] == x ? x : parent[x] = root(parent[x]); };
+  std::function<int(int)> root = [&](int x) {
+    return parent[x] == x ? x : parent[x] = root(parent[x]);
+  };
   auto name = [&](int id) {
-    for (const auto& s : f.truth.surfaces) if (s.id == id) return s.name;
+    for (const auto& s : f.truth.surfaces)
+      if (s.id == id) return s.name;
     return std::string("?");
   };
   for (const auto& [k, n] : contact) {
     if (n < kMinContact) continue;
     parent[root(k.first)] = root(k.second);
-    if (print) std::printf("   crease %-24s / %-24s %5d px pairs\n", name(k.first).c_str(), name(k.second).c_str(), n);
+    if (print)
+      std::printf("   crease %-24s / %-24s %5d px pairs\n", name(k.first).c_str(),
+                  name(k.second).c_str(), n);
   }
   std::map<int, long> best;
   for (const auto& [l, n] : size) best[root(l)] = std::max(best[root(l)], n);
@@ -92,17 +98,21 @@ TEST(SegmentationStepCeiling, CreasesBoundDepthStepBelowIssueTarget) {
     std::printf("[step ceiling] seed %llu, truth surfaces touching without a depth step:\n",
                 static_cast<unsigned long long>(seed));
     const Ceiling c = stepOnlyCeiling(f, true);
-    const cv::Mat r = segmentDepth(f.frame.depth, f.frame.intrinsics, SegmentationMethod::kDepthStep);
+    const cv::Mat r =
+        segmentDepth(f.frame.depth, f.frame.intrinsics, SegmentationMethod::kDepthStep);
     const double acc = scoreSegmentation(r, f.truth.surface_labels).pixel_accuracy;
-    std::printf("[step ceiling] seed %llu ceiling %.3f (crease-merged pixels %.3f)  depth_step reaches %.3f\n",
-                static_cast<unsigned long long>(seed), c.accuracy, c.crease_lost, acc);
+    std::printf(
+        "[step ceiling] seed %llu ceiling %.3f (crease-merged pixels %.3f)  depth_step reaches "
+        "%.3f\n",
+        static_cast<unsigned long long>(seed), c.accuracy, c.crease_lost, acc);
     ceiling += c.accuracy;
     reached += acc;
     ++frames;
   }
   ceiling /= frames;
   reached /= frames;
-  std::printf("[step ceiling] mean ceiling %.3f, depth_step %.3f, issue target 0.9\n", ceiling, reached);
+  std::printf("[step ceiling] mean ceiling %.3f, depth_step %.3f, issue target 0.9\n", ceiling,
+              reached);
   // The bound itself: creases alone cost more than the 10% the issue's target allows.
   EXPECT_LT(ceiling, 0.9);
   // And depth_step is not far from it (it also loses short contacts the bound leaves apart, and

@@ -14,9 +14,9 @@ namespace shapesense {
 namespace {
 
 TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
-  const SegmentationMethod methods[] = {SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges,
-                                        SegmentationMethod::kFused, SegmentationMethod::kPlanePrediction,
-                                        SegmentationMethod::kTiledRansac};
+  const SegmentationMethod methods[] = {
+      SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges, SegmentationMethod::kFused,
+      SegmentationMethod::kPlanePrediction, SegmentationMethod::kTiledRansac};
   std::map<SegmentationMethod, double> correct, accuracy;
   int frames = 0;
   for (std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
@@ -29,10 +29,12 @@ TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
     for (auto m : methods) {
       const cv::Mat r = segmentDepth(f.frame.depth, f.frame.intrinsics, m);
       const SegCompScore s = scoreSegmentation(r, f.truth.surface_labels, 0.8, 0.005);
-      std::printf("[seg synthetic] seed %llu %-16s correct %2d/%2d (%.2f) over %d under %d missed %d  pixel acc %.3f\n",
-                  static_cast<unsigned long long>(seed), std::string(formatSegmentationMethod(m)).c_str(),
-                  s.correct, s.truth_regions, s.correct_fraction, s.over_segmented, s.under_segmented, s.missed,
-                  s.pixel_accuracy);
+      std::printf(
+          "[seg synthetic] seed %llu %-16s correct %2d/%2d (%.2f) over %d under %d missed %d  "
+          "pixel acc %.3f\n",
+          static_cast<unsigned long long>(seed), std::string(formatSegmentationMethod(m)).c_str(),
+          s.correct, s.truth_regions, s.correct_fraction, s.over_segmented, s.under_segmented,
+          s.missed, s.pixel_accuracy);
       correct[m] += s.correct_fraction;
       accuracy[m] += s.pixel_accuracy;
     }
@@ -53,11 +55,11 @@ TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
   // creases, 0% unassigned). Variants measured (DISABLED_Sweep) stay within +-0.02 of the default:
   // noise_steps 2, min_threshold_mm 4, slope_factor 0.005 / 0.02, window radius 1 / 3, full
   // resolution, and a first-difference slope test (a step = a jump larger than 1.5-4x the
-  // one-sided differences beside it; not kept). So the 0.9 is not asserted for depth_step; the methods that also see creases
-  // are asserted above 0.9.
-  // Regression floors, about 0.02-0.03 below the values measured (seeds 1-6, frame 0): pixel
-  // accuracy depth_step 0.668, normal_edges 0.936, fused 0.939, plane_prediction 0.945,
-  // tiled_ransac 0.950; correct fraction 0.19, 0.67, 0.71, 0.67, 0.67.
+  // one-sided differences beside it; not kept). So the 0.9 is not asserted for depth_step;
+  // the methods that also see creases are asserted above 0.9. Regression floors, about 0.02-0.03
+  // below the values measured (seeds 1-6, frame 0): pixel accuracy depth_step 0.668, normal_edges
+  // 0.936, fused 0.939, plane_prediction 0.945, tiled_ransac 0.950; correct fraction 0.19, 0.67,
+  // 0.71, 0.67, 0.67.
   EXPECT_GE(accuracy[SegmentationMethod::kDepthStep], 0.65);
   EXPECT_GE(accuracy[SegmentationMethod::kNormalEdges], 0.92);
   EXPECT_GE(accuracy[SegmentationMethod::kFused], 0.92);
@@ -69,7 +71,8 @@ TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
   EXPECT_GE(correct[SegmentationMethod::kPlanePrediction], 0.64);
   EXPECT_GE(correct[SegmentationMethod::kTiledRansac], 0.64);
   // Fusion must use both cues: fused at least as good as normal edges alone.
-  EXPECT_GE(accuracy[SegmentationMethod::kFused], accuracy[SegmentationMethod::kNormalEdges] - 0.005);
+  EXPECT_GE(accuracy[SegmentationMethod::kFused],
+            accuracy[SegmentationMethod::kNormalEdges] - 0.005);
 }
 
 }  // namespace

@@ -11,11 +11,11 @@
 #include <string>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 #include <time.h>
+#include <opencv2/imgcodecs.hpp>
 
-#include "shapesense/core/segmentation_scoring.h"
 #include "mosd_table.h"
+#include "shapesense/core/segmentation_scoring.h"
 #include "test_paths.h"
 
 namespace shapesense {
@@ -41,7 +41,7 @@ struct PlaneObj {
 struct BoxObj {
   Eigen::Vector3d centre, half;  // box frame = camera frame rotated by yaw about y
   double yaw_deg;
-  std::uint16_t label_base;      // faces get label_base + face (0..5), or label_base if one_label
+  std::uint16_t label_base;  // faces get label_base + face (0..5), or label_base if one_label
   bool one_label;
 };
 struct Scene {
@@ -56,8 +56,8 @@ std::uint16_t kinectQuantise(double z, double noise_steps, std::mt19937& rng) {
   return static_cast<std::uint16_t>(std::lround(43.5 / (disp / 8.0) * 1000.0));
 }
 
-void render(const Scene& s, const CameraIntrinsics& K, double noise_steps, cv::Mat& depth, cv::Mat& labels,
-            unsigned seed = 7) {
+void render(const Scene& s, const CameraIntrinsics& K, double noise_steps, cv::Mat& depth,
+            cv::Mat& labels, unsigned seed = 7) {
   std::mt19937 rng(seed);
   depth.create(K.height, K.width, CV_16UC1);
   labels.create(K.height, K.width, CV_16UC1);
@@ -121,7 +121,8 @@ void render(const Scene& s, const CameraIntrinsics& K, double noise_steps, cv::M
 // floor turned 30 deg (three visible faces).
 Scene roomWithBox() {
   Scene s;
-  s.planes = {{{0, -1, 0}, 0.8, 1}, {{0, 0, -1}, 3.0, 2}, {{1, 0, 0}, 1.5, 3}, {{-1, 0, 0}, 1.8, 4}};
+  s.planes = {
+      {{0, -1, 0}, 0.8, 1}, {{0, 0, -1}, 3.0, 2}, {{1, 0, 0}, 1.5, 3}, {{-1, 0, 0}, 1.8, 4}};
   s.boxes = {{{0.1, 0.55, 1.8}, {0.35, 0.25, 0.3}, 30.0, 10, false}};
   return s;
 }
@@ -131,7 +132,8 @@ Scene roomWithBox() {
 Scene floatingBoxes() {
   Scene s;
   s.planes = {{{0, 0, -1}, 2.2, 1}};
-  s.boxes = {{{0.2, 0.0, 1.6}, {0.25, 0.2, 0.15}, 25.0, 10, true}, {{-0.5, -0.2, 1.2}, {0.1, 0.1, 0.1}, -20.0, 20, true}};
+  s.boxes = {{{0.2, 0.0, 1.6}, {0.25, 0.2, 0.15}, 25.0, 10, true},
+             {{-0.5, -0.2, 1.2}, {0.1, 0.1, 0.1}, -20.0, 20, true}};
   return s;
 }
 
@@ -185,13 +187,16 @@ TEST(Segmentation, RoomWithBoxSeparatesFaces) {
   const CameraIntrinsics K;
   cv::Mat depth, truth;
   render(roomWithBox(), K, 0.3, depth, truth);
-  if (std::getenv("SHAPESENSE_SEG_DUMP")) cv::imwrite(std::string(std::getenv("SHAPESENSE_SEG_DUMP")) + "/room.png", depth);
+  if (std::getenv("SHAPESENSE_SEG_DUMP"))
+    cv::imwrite(std::string(std::getenv("SHAPESENSE_SEG_DUMP")) + "/room.png", depth);
   for (auto m : kAll) {
     const cv::Mat r = segmentDepth(depth, K, m);
     const SegCompScore s = scoreSegmentation(r, truth);
-    std::printf("[seg room] %-16s regions %3d  truth %d correct %d (%.2f) over %d under %d missed %d noise %d  pixel acc %.3f\n",
-                methodName(m).c_str(), regionCount(r), s.truth_regions, s.correct, s.correct_fraction,
-                s.over_segmented, s.under_segmented, s.missed, s.noise, s.pixel_accuracy);
+    std::printf(
+        "[seg room] %-16s regions %3d  truth %d correct %d (%.2f) over %d under %d missed %d noise "
+        "%d  pixel acc %.3f\n",
+        methodName(m).c_str(), regionCount(r), s.truth_regions, s.correct, s.correct_fraction,
+        s.over_segmented, s.under_segmented, s.missed, s.noise, s.pixel_accuracy);
     if (m == SegmentationMethod::kDepthStep) {
       // No depth step separates the faces of a room; only the box's top edge against the wall is
       // a step. Depth-step must still not shatter anything.
@@ -213,8 +218,9 @@ TEST(Segmentation, FloatingBoxesSeparatedByDepthSteps) {
   for (auto m : kAll) {
     const cv::Mat r = segmentDepth(depth, K, m);
     const SegCompScore s = scoreSegmentation(r, truth);
-    std::printf("[seg floating] %-16s regions %3d  correct %d/%d  pixel acc %.3f\n", methodName(m).c_str(),
-                regionCount(r), s.correct, s.truth_regions, s.pixel_accuracy);
+    std::printf("[seg floating] %-16s regions %3d  correct %d/%d  pixel acc %.3f\n",
+                methodName(m).c_str(), regionCount(r), s.correct, s.truth_regions,
+                s.pixel_accuracy);
     if (m == SegmentationMethod::kDepthStep) {  // NOLINT(readability-else-after-return)
       EXPECT_EQ(s.correct, s.truth_regions);
       EXPECT_GE(s.pixel_accuracy, 0.97);
@@ -240,8 +246,8 @@ TEST(Segmentation, FarWallDoesNotShatter) {
   for (auto m : kAll) {
     const cv::Mat r = segmentDepth(depth, K, m);
     const SegCompScore sc = scoreSegmentation(r, truth);
-    std::printf("[seg far wall] %-16s regions %3d  pixel acc %.3f\n", methodName(m).c_str(), regionCount(r),
-                sc.pixel_accuracy);
+    std::printf("[seg far wall] %-16s regions %3d  pixel acc %.3f\n", methodName(m).c_str(),
+                regionCount(r), sc.pixel_accuracy);
     EXPECT_LE(regionCount(r), 3) << methodName(m);
     EXPECT_GE(sc.pixel_accuracy, 0.9) << methodName(m);
   }
@@ -270,8 +276,8 @@ TEST(Segmentation, MosdTabletopTablePlaneIsOneRegion) {
     for (auto m : kAll) {
       const cv::Mat r = segmentDepth(depth, K, m);
       const double frac = testing::mosdTableCoverage(r, labels, depth);
-      std::printf("[seg mosd] %s %-16s regions %3d  table coverage by one region %.3f\n", name.c_str(),
-                  methodName(m).c_str(), regionCount(r), frac);
+      std::printf("[seg mosd] %s %-16s regions %3d  table coverage by one region %.3f\n",
+                  name.c_str(), methodName(m).c_str(), regionCount(r), frac);
       worst[m] = std::min(worst[m], frac);
     }
   }
@@ -289,7 +295,8 @@ TEST(Segmentation, TimingPrint) {
     const int reps = 10;
     const double t0 = threadCpuMs();
     for (int i = 0; i < reps; ++i) segmentDepth(depth, K, m);
-    std::printf("[seg timing] %-16s %.2f ms cpu / 640x480 frame\n", methodName(m).c_str(), (threadCpuMs() - t0) / reps);
+    std::printf("[seg timing] %-16s %.2f ms cpu / 640x480 frame\n", methodName(m).c_str(),
+                (threadCpuMs() - t0) / reps);
   }
 }
 
@@ -300,7 +307,8 @@ namespace shapesense {
 namespace {
 // Degenerate sizes must give a clear error or a valid label image, never a crash.
 TEST(Segmentation, TinyImagesDoNotCrash) {
-  for (cv::Size size : {cv::Size(1, 1), cv::Size(5, 1), cv::Size(1, 5), cv::Size(3, 3), cv::Size(7, 5)}) {
+  for (cv::Size size :
+       {cv::Size(1, 1), cv::Size(5, 1), cv::Size(1, 5), cv::Size(3, 3), cv::Size(7, 5)}) {
     const cv::Mat depth(size, CV_16UC1, cv::Scalar(1500));
     CameraIntrinsics K;
     K.width = size.width;

@@ -13,10 +13,14 @@ namespace {
 
 TEST(ParseSecondsToNs, ExactAtEpochScale) {
   // Through a double this would come out ~100 ns off.
-  EXPECT_EQ(parseSecondsToNs("1700000000.033333"), std::optional<TimestampNs>(1700000000033333000LL));
-  EXPECT_EQ(parseSecondsToNs("1600000000.066667"), std::optional<TimestampNs>(1600000000066667000LL));
-  EXPECT_EQ(parseSecondsToNs("1700000000.123456789"), std::optional<TimestampNs>(1700000000123456789LL));
-  EXPECT_EQ(parseSecondsToNs("1700000000.999999999"), std::optional<TimestampNs>(1700000000999999999LL));
+  EXPECT_EQ(parseSecondsToNs("1700000000.033333"),
+            std::optional<TimestampNs>(1700000000033333000LL));
+  EXPECT_EQ(parseSecondsToNs("1600000000.066667"),
+            std::optional<TimestampNs>(1600000000066667000LL));
+  EXPECT_EQ(parseSecondsToNs("1700000000.123456789"),
+            std::optional<TimestampNs>(1700000000123456789LL));
+  EXPECT_EQ(parseSecondsToNs("1700000000.999999999"),
+            std::optional<TimestampNs>(1700000000999999999LL));
 }
 
 TEST(ParseSecondsToNs, WholeAndFractionForms) {
@@ -44,8 +48,9 @@ TEST(ParseSecondsToNs, RoundsPastTheNinthDecimal) {
 }
 
 TEST(ParseSecondsToNs, RejectsGarbage) {
-  for (const char* bad : {"", "-", "+", ".", "-.", "abc", "12a", "1.2.3", "1,5", " 1", "1 ", "1e9",
-                          "1E9", "1.5e3", "0x10", "--1", "+-1", "1.-5", "inf", "nan", "1700000000.0333x"}) {
+  for (const char* bad : {"",      "-",   "+",   ".",    "-.",  "abc", "12a",
+                          "1.2.3", "1,5", " 1",  "1 ",   "1e9", "1E9", "1.5e3",
+                          "0x10",  "--1", "+-1", "1.-5", "inf", "nan", "1700000000.0333x"}) {
     EXPECT_FALSE(parseSecondsToNs(bad).has_value()) << "'" << bad << "'";
   }
 }
@@ -63,7 +68,8 @@ TEST(ParseSecondsToNs, RejectsOverflow) {
 TEST(ParseSecondsToNs, Negative) {
   EXPECT_EQ(parseSecondsToNs("-1"), std::optional<TimestampNs>(-1'000'000'000));
   EXPECT_EQ(parseSecondsToNs("-0.5"), std::optional<TimestampNs>(-500'000'000));
-  EXPECT_EQ(parseSecondsToNs("-1700000000.033333"), std::optional<TimestampNs>(-1700000000033333000LL));
+  EXPECT_EQ(parseSecondsToNs("-1700000000.033333"),
+            std::optional<TimestampNs>(-1700000000033333000LL));
   EXPECT_EQ(parseSecondsToNs("-0"), std::optional<TimestampNs>(0));
 }
 
@@ -91,15 +97,16 @@ TEST(FormatNsAsSeconds, RoundsToTheRequestedDigits) {
 TEST(FormatNsAsSeconds, Negative) {
   EXPECT_EQ(formatNsAsSeconds(-1'500'000'000, 6), "-1.500000");
   EXPECT_EQ(formatNsAsSeconds(-1700000000033333000LL, 6), "-1700000000.033333");
-  EXPECT_EQ(formatNsAsSeconds(std::numeric_limits<std::int64_t>::min(), 9), "-9223372036.854775808");
+  EXPECT_EQ(formatNsAsSeconds(std::numeric_limits<std::int64_t>::min(), 9),
+            "-9223372036.854775808");
   EXPECT_EQ(formatNsAsSeconds(std::numeric_limits<std::int64_t>::max(), 9), "9223372036.854775807");
 }
 
 TEST(TimestampRoundTrip, FormatThenParseIsExactAtNineDigits) {
-  for (TimestampNs ns : {TimestampNs{0}, TimestampNs{1}, TimestampNs{999'999'999},
-                         TimestampNs{1700000000033333000LL}, TimestampNs{1700000000123456789LL},
-                         TimestampNs{-42}, TimestampNs{-1700000000000000001LL},
-                         TimestampNs{9000000000999999999LL}}) {
+  for (TimestampNs ns :
+       {TimestampNs{0}, TimestampNs{1}, TimestampNs{999'999'999},
+        TimestampNs{1700000000033333000LL}, TimestampNs{1700000000123456789LL}, TimestampNs{-42},
+        TimestampNs{-1700000000000000001LL}, TimestampNs{9000000000999999999LL}}) {
     const std::string text = formatNsAsSeconds(ns, 9);
     EXPECT_EQ(parseSecondsToNs(text), std::optional<TimestampNs>(ns)) << text;
   }

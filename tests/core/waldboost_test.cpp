@@ -1,7 +1,8 @@
 // WaldBoost on a toy separable problem: positives are windows with a bright disc at the centre
 // of a noisy background, negatives are noise, half of them with the disc 4-5 px off centre
-// (so that hard negatives remain for the bootstrapping). Checks that the rejection thresholds respect the target miss
-// rate, that the classifier separates held-out data, and that a resumed run is identical.
+// (so that hard negatives remain for the bootstrapping). Checks that the rejection thresholds
+// respect the target miss rate, that the classifier separates held-out data, and that a resumed run
+// is identical.
 #include <algorithm>
 
 #include <gtest/gtest.h>
@@ -24,7 +25,8 @@ cv::Mat noise(cv::RNG& rng) {
 cv::Mat disc(cv::RNG& rng) {
   cv::Mat m = noise(rng);
   cv::Mat blob(kH, kW, CV_8UC1, cv::Scalar(0));
-  cv::circle(blob, {kW / 2 + rng.uniform(-1, 2), kH / 2 + rng.uniform(-1, 2)}, 3, cv::Scalar(90), cv::FILLED);
+  cv::circle(blob, {kW / 2 + rng.uniform(-1, 2), kH / 2 + rng.uniform(-1, 2)}, 3, cv::Scalar(90),
+             cv::FILLED);
   return m * 0.65 + blob;  // a faint disc: single features cannot separate it
 }
 
@@ -145,8 +147,10 @@ TEST(WaldBoost, TightenedThresholdsKeepExactlyTheWindowsThatReachTheFinalScore) 
       const cv::Mat ii = lbpIntegral(w);
       const auto offsets = clf.offsetsFor(static_cast<int>(ii.step1()));
       std::int32_t full_score = 0, tight_score = 0;
-      const bool full = clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), full_score) && full_score >= min_final;
-      const bool tight = clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), thresholds.data(), tight_score);
+      const bool full = clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), full_score) &&
+                        full_score >= min_final;
+      const bool tight =
+          clf.evaluate(ii.ptr<std::int32_t>(0), offsets.data(), thresholds.data(), tight_score);
       EXPECT_EQ(full, tight);
       if (tight) {
         EXPECT_EQ(tight_score, full_score);

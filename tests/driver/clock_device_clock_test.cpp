@@ -30,9 +30,8 @@ struct SimulatedSensor {
   TimestampNs capture(int i) const { return kEpoch + static_cast<TimestampNs>(i * 1e9 / 30.0); }
   std::uint32_t ticks(int i) const {
     const double device_s = (i / 30.0) * (1.0 + drift_ppm * 1e-6);
-    return static_cast<std::uint32_t>((first_ticks + static_cast<std::uint64_t>(
-                                                          std::llround(device_s * kTick))) &
-                                      0xFFFFFFFFull);
+    return static_cast<std::uint32_t>(
+        (first_ticks + static_cast<std::uint64_t>(std::llround(device_s * kTick))) & 0xFFFFFFFFull);
   }
   TimestampNs arrival(int i) {
     std::uniform_real_distribution<double> jitter(0.0, jitter_ms);
@@ -161,7 +160,8 @@ TEST(DeviceClock, SixtyFourBitMicrosecondCounters) {
   const std::uint64_t start = 5'000'000'000'000ull;
   TimestampNs t = 0;
   for (int i = 0; i < 100; ++i) {
-    t = clock.map(start + static_cast<std::uint64_t>(i) * 33'333, kEpoch + TimestampNs{i} * 33'333'000 + 5'000'000);
+    t = clock.map(start + static_cast<std::uint64_t>(i) * 33'333,
+                  kEpoch + TimestampNs{i} * 33'333'000 + 5'000'000);
   }
   EXPECT_NEAR((t - (kEpoch + TimestampNs{99} * 33'333'000)) / 1e6, 5.0, 0.01);
 }

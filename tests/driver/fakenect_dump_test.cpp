@@ -56,10 +56,12 @@ TEST(FakenectDump, WriterProducesTheRecordLayout) {
   std::getline(depth, header);
   EXPECT_EQ(header, "P5 640 480 65535");
   EXPECT_EQ(fs::file_size(dir / lines[0]), header.size() + 1 + 640u * 480u * 2u);
-  EXPECT_EQ(fs::file_size(dir / lines[1]), std::string("P6 640 480 255\n").size() + 640u * 480u * 3u);
+  EXPECT_EQ(fs::file_size(dir / lines[1]),
+            std::string("P6 640 480 255\n").size() + 640u * 480u * 3u);
   // Raw depth is little-endian 11-bit: every second byte is at most 0x07.
   std::string payload((std::istreambuf_iterator<char>(depth)), std::istreambuf_iterator<char>());
-  for (std::size_t i = 1; i < payload.size(); i += 2) ASSERT_LE(static_cast<unsigned char>(payload[i]), 7u);
+  for (std::size_t i = 1; i < payload.size(); i += 2)
+    ASSERT_LE(static_cast<unsigned char>(payload[i]), 7u);
   EXPECT_TRUE(validateFakenectDump(dir).empty());
 }
 
@@ -69,7 +71,8 @@ TEST(FakenectDump, RoundTripThroughOwnReaderIsWithinRawQuantisation) {
   std::vector<Frame> frames;
   for (const auto& r : rendered) frames.push_back(r.frame);
   // Start 2 frames before the 32-bit counter wraps.
-  writeFakenectDump(dir, frames, FakenectWriteOptions{.first_device_ticks = 0xFFFFFFFFu - 3'000'000});
+  writeFakenectDump(dir, frames,
+                    FakenectWriteOptions{.first_device_ticks = 0xFFFFFFFFu - 3'000'000});
   FakenectDumpSource source(dir, FakenectDumpOptions{.pacing = Pacing::kAsFastAsPossible});
   EXPECT_EQ(source.describe(), "fakenect:" + dir.string());
   EXPECT_EQ(source.depthCount(), frames.size());
@@ -83,7 +86,8 @@ TEST(FakenectDump, RoundTripThroughOwnReaderIsWithinRawQuantisation) {
     // Capture times are the device counter mapped against the recorded host times; with
     // exact recorded times that is the original stamp (to the microsecond of the file name).
     EXPECT_NEAR(static_cast<double>(frame.timestamp_ns - frames[i].timestamp_ns), 0.0, 2000.0);
-    EXPECT_EQ(testing::compareThroughRawDisparity(frames[i].depth, frame.depth).violations, 0) << "frame " << i;
+    EXPECT_EQ(testing::compareThroughRawDisparity(frames[i].depth, frame.depth).violations, 0)
+        << "frame " << i;
     EXPECT_EQ(cv::norm(frame.depth, frames[i].depth, cv::NORM_INF) > 0, true);  // quantised
     ASSERT_FALSE(frame.rgb.empty());
     EXPECT_EQ(cv::norm(frame.rgb, frames[i].rgb, cv::NORM_INF), 0.0);
@@ -175,7 +179,8 @@ TEST_F(BrokenDump, TruncatedDepthIsReportedWithItsPathAndSkipped) {
 
 TEST_F(BrokenDump, BadHeaderMissingFileAndMalformedLineAreAllReported) {
   {
-    std::ofstream out(dir / lines[1], std::ios::binary | std::ios::trunc);  // RGB with a 2-line header
+    std::ofstream out(dir / lines[1],
+                      std::ios::binary | std::ios::trunc);  // RGB with a 2-line header
     out << "P6\n640 480 255\n" << std::string(640 * 480 * 3, 'x');
   }
   fs::remove(dir / lines[4]);

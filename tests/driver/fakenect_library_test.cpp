@@ -46,10 +46,10 @@ constexpr int kFrames = 12;
 constexpr std::uint64_t kSeed = 3;
 constexpr const char* kInnerEnv = "SHAPESENSE_FAKENECT_INNER";
 
-
 TEST(FakenectLibrary, FreenectSourceReplaysADumpAndReportsItsEndAsLoss) {
   const auto library_dir = fakenectLibraryDir();
-  if (!library_dir) GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
+  if (!library_dir)
+    GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
   const fs::path dump = testing::scratchDir("fakenect_library_dump");
   const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);
   // Start just before a wrap of the 32-bit device counter.
@@ -61,7 +61,8 @@ TEST(FakenectLibrary, FreenectSourceReplaysADumpAndReportsItsEndAsLoss) {
   ASSERT_TRUE(problems.empty()) << problems.front();
 
   std::string asan = "ASAN_OPTIONS=detect_leaks=0";  // fakenect's own allocations at exit
-  if (const char* existing = std::getenv("ASAN_OPTIONS")) asan = std::string("ASAN_OPTIONS=") + existing + ":detect_leaks=0";
+  if (const char* existing = std::getenv("ASAN_OPTIONS"))
+    asan = std::string("ASAN_OPTIONS=") + existing + ":detect_leaks=0";
   const char* ld_path = std::getenv("LD_LIBRARY_PATH");
   const std::vector<std::string> env = {
       std::string(kInnerEnv) + "=1",
@@ -69,24 +70,27 @@ TEST(FakenectLibrary, FreenectSourceReplaysADumpAndReportsItsEndAsLoss) {
       "LD_LIBRARY_PATH=" + library_dir->string() + (ld_path ? std::string(":") + ld_path : ""),
       asan,
   };
-  const auto [code, output] =
-      runSelf("FakenectLibrary.Inner*", env, dump.parent_path() / "fakenect_library_child.log", 90s);
+  const auto [code, output] = runSelf("FakenectLibrary.Inner*", env,
+                                      dump.parent_path() / "fakenect_library_child.log", 90s);
   EXPECT_EQ(code, 0) << output;
-  EXPECT_NE(output.find("[       OK ] FakenectLibrary.InnerFreenectSourceUnderFakenect"), std::string::npos)
+  EXPECT_NE(output.find("[       OK ] FakenectLibrary.InnerFreenectSourceUnderFakenect"),
+            std::string::npos)
       << output;
   EXPECT_EQ(output.find("SKIPPED"), std::string::npos) << output;
 }
 
 /// Runs only inside the child process started above.
 TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
-  if (std::getenv(kInnerEnv) == nullptr) GTEST_SKIP() << "runs inside FreenectSourceReplaysADump...";
+  if (std::getenv(kInnerEnv) == nullptr)
+    GTEST_SKIP() << "runs inside FreenectSourceReplaysADump...";
   // Make sure this process really uses fakenect's libfreenect.
   Dl_info info{};
   ASSERT_NE(dladdr(reinterpret_cast<void*>(&freenect_process_events), &info), 0);
   ASSERT_NE(std::string(info.dli_fname).find("fakenect"), std::string::npos) << info.dli_fname;
 
   // Rendered before the source opens: fakenect starts replaying at once.
-  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
+  const std::vector<Frame> frames =
+      testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
 
   FreenectOptions options;
   options.live.frame_timeout = 2s;
@@ -110,7 +114,8 @@ TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
     SourceEvent event = source.next(stop.get_token());
     ASSERT_TRUE(std::holds_alternative<Frame>(event))
         << "frame " << i << ": "
-        << (std::holds_alternative<SourceError>(event) ? std::get<SourceError>(event).message : "end");
+        << (std::holds_alternative<SourceError>(event) ? std::get<SourceError>(event).message
+                                                       : "end");
     const Frame& frame = std::get<Frame>(event);
     EXPECT_EQ(frame.sequence, static_cast<std::uint64_t>(i));
     // Live stamps: host time of this run, 1/30 s apart (fakenect replays at the recorded pace).
@@ -140,7 +145,8 @@ TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
   SourceEvent event = source.next(stop.get_token());
   ASSERT_TRUE(std::holds_alternative<SourceError>(event));
   const std::string message = std::get<SourceError>(event).message;
-  EXPECT_NE(message.find("freenect:0: sensor lost: freenect_process_events returned -1"), std::string::npos)
+  EXPECT_NE(message.find("freenect:0: sensor lost: freenect_process_events returned -1"),
+            std::string::npos)
       << message;
   // It keeps trying to reopen (fakenect reopens, then is at the end again) without crashing.
   SourceEvent again = source.next(stop.get_token());

@@ -20,9 +20,9 @@ using namespace std::chrono_literals;
 
 /// What the scripted device does in one session.
 struct SessionScript {
-  int frames = 5;                  ///< depth images delivered, one per pump, 30 Hz device time
-  bool fail_at_end = true;         ///< pump returns an error after the frames (else: silence)
-  std::uint32_t first_ticks = 0;   ///< 60 MHz counter of the first frame
+  int frames = 5;                 ///< depth images delivered, one per pump, 30 Hz device time
+  bool fail_at_end = true;        ///< pump returns an error after the frames (else: silence)
+  std::uint32_t first_ticks = 0;  ///< 60 MHz counter of the first frame
   bool colour = false;
 };
 
@@ -35,19 +35,23 @@ struct Script {
 
 class ScriptedSession final : public DeviceSession {
  public:
-  ScriptedSession(SessionScript script, Script& owner) : script_(script), owner_(owner) { ++owner_.sessions_alive; }
+  ScriptedSession(SessionScript script, Script& owner) : script_(script), owner_(owner) {
+    ++owner_.sessions_alive;
+  }
   ~ScriptedSession() override { --owner_.sessions_alive; }
 
-  std::optional<std::string> pump(std::chrono::milliseconds budget, const DeviceImageSink& sink) override {
+  std::optional<std::string> pump(std::chrono::milliseconds budget,
+                                  const DeviceImageSink& sink) override {
     if (sent_ < script_.frames) {
       std::this_thread::sleep_for(2ms);
       const auto ticks = static_cast<std::uint32_t>(script_.first_ticks + sent_ * 2'000'000u);
-      DeviceImage depth{DeviceImage::Kind::kDepth, cv::Mat(4, 4, CV_16UC1, cv::Scalar(1000 + sent_)),
-                        ticks, hostNowNs()};
+      DeviceImage depth{DeviceImage::Kind::kDepth,
+                        cv::Mat(4, 4, CV_16UC1, cv::Scalar(1000 + sent_)), ticks, hostNowNs()};
       sink(std::move(depth));
       if (script_.colour) {
-        sink(DeviceImage{DeviceImage::Kind::kColour, cv::Mat(4, 4, CV_8UC3, cv::Scalar(sent_, 0, 0)),
-                         ticks + 60'000u, hostNowNs()});
+        sink(DeviceImage{DeviceImage::Kind::kColour,
+                         cv::Mat(4, 4, CV_8UC3, cv::Scalar(sent_, 0, 0)), ticks + 60'000u,
+                         hostNowNs()});
       }
       ++sent_;
       return std::nullopt;
@@ -103,8 +107,9 @@ using testing::nextWithin;
 TEST(LiveSource, WaitsForTheSensorThenDeliversLosesAndReopens) {
   Script script;
   script.absent_opens = 3;
-  script.sessions = {SessionScript{.frames = 5, .fail_at_end = true, .first_ticks = 0xFFFFFFFFu - 5'000'000u},
-                     SessionScript{.frames = 4, .fail_at_end = true, .first_ticks = 1000}};
+  script.sessions = {
+      SessionScript{.frames = 5, .fail_at_end = true, .first_ticks = 0xFFFFFFFFu - 5'000'000u},
+      SessionScript{.frames = 4, .fail_at_end = true, .first_ticks = 1000}};
   LiveSource source(std::make_unique<ScriptedConnector>(script), fastOptions());
   EXPECT_EQ(source.describe(), "scripted");
 
@@ -133,7 +138,8 @@ TEST(LiveSource, WaitsForTheSensorThenDeliversLosesAndReopens) {
   auto lost = nextWithin(source, 2s);
   ASSERT_TRUE(std::holds_alternative<SourceError>(lost));
   const std::string message = std::get<SourceError>(lost).message;
-  EXPECT_NE(message.find("scripted: sensor lost: scripted failure; reopening every 50 ms"), std::string::npos)
+  EXPECT_NE(message.find("scripted: sensor lost: scripted failure; reopening every 50 ms"),
+            std::string::npos)
       << message;
   EXPECT_EQ(source.lastError(), message);
 

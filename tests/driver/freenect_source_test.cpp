@@ -2,8 +2,8 @@
 // device selectors, and the openLiveSource factory behind the daemon's --source specs.
 
 #include "shapesense/driver/freenect_source.h"
-#include "shapesense/driver/live_sources.h"
 #include "shapesense/driver/fakenect_dump.h"
+#include "shapesense/driver/live_sources.h"
 #include "shapesense/driver/openni2_source.h"
 
 #include <gtest/gtest.h>

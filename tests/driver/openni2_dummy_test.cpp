@@ -17,7 +17,8 @@
 // (device infos, video mode tables) that no API frees. LeakSanitizer reads this hook from the
 // executable in sanitizer builds (.ci/run); elsewhere it is an unused function.
 extern "C" const char* __lsan_default_suppressions() {
-  return "leak:libOpenNI2.so\nleak:libDummyDevice.so\nleak:libPS1080.so\nleak:libPSLink.so\nleak:libOniFile.so\n";
+  return "leak:libOpenNI2.so\nleak:libDummyDevice.so\nleak:libPS1080.so\nleak:libPSLink.so\nleak:"
+         "libOniFile.so\n";
 }
 
 namespace shapesense {
@@ -26,8 +27,9 @@ namespace {
 using namespace std::chrono_literals;
 
 bool dummyDriverInstalled() {
-  for (const char* dir : {"/usr/lib/x86_64-linux-gnu/OpenNI2/Drivers", "/usr/lib/aarch64-linux-gnu/OpenNI2/Drivers",
-                          "/usr/lib/OpenNI2/Drivers"}) {
+  for (const char* dir :
+       {"/usr/lib/x86_64-linux-gnu/OpenNI2/Drivers", "/usr/lib/aarch64-linux-gnu/OpenNI2/Drivers",
+        "/usr/lib/OpenNI2/Drivers"}) {
     if (std::filesystem::exists(std::filesystem::path(dir) / "libDummyDevice.so")) return true;
   }
   return false;
@@ -36,7 +38,8 @@ bool dummyDriverInstalled() {
 using testing::nextWithin;
 
 TEST(OpenNI2Source, DummyDeviceDeliversStampedFramesAndShutsDownCleanly) {
-  if (!dummyDriverInstalled()) GTEST_SKIP() << "OpenNI2 DummyDevice driver not installed (libopenni2-0)";
+  if (!dummyDriverInstalled())
+    GTEST_SKIP() << "OpenNI2 DummyDevice driver not installed (libopenni2-0)";
   // Two rounds: the second checks that a clean shutdown leaves OpenNI2 usable.
   for (int round = 0; round < 2; ++round) {
     OpenNI2Options options;
@@ -49,7 +52,8 @@ TEST(OpenNI2Source, DummyDeviceDeliversStampedFramesAndShutsDownCleanly) {
       auto event = nextWithin(*source, 3s);
       ASSERT_TRUE(std::holds_alternative<Frame>(event))
           << "round " << round << " frame " << i << ": "
-          << (std::holds_alternative<SourceError>(event) ? std::get<SourceError>(event).message : "end");
+          << (std::holds_alternative<SourceError>(event) ? std::get<SourceError>(event).message
+                                                         : "end");
       const Frame& frame = std::get<Frame>(event);
       EXPECT_EQ(frame.sequence, static_cast<std::uint64_t>(i));
       ASSERT_EQ(frame.depth.type(), CV_16UC1);
@@ -98,7 +102,8 @@ TEST(OpenNI2Source, MissingDeviceIsReportedAndWaitedFor) {
   auto event = nextWithin(source, 5s);
   ASSERT_TRUE(std::holds_alternative<SourceError>(event));
   const std::string message = std::get<SourceError>(event).message;
-  EXPECT_NE(message.find("openni2:NoSuchDevice: sensor not available"), std::string::npos) << message;
+  EXPECT_NE(message.find("openni2:NoSuchDevice: sensor not available"), std::string::npos)
+      << message;
   EXPECT_FALSE(source.connected());
   // Reported once, not once per retry.
   EXPECT_TRUE(std::holds_alternative<EndOfStream>(nextWithin(source, 400ms)));

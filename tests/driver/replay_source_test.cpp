@@ -91,15 +91,15 @@ std::filesystem::path recordingWithProblemLines(const std::string& name, const s
   builder.addDepth("1600000000.066667", 2);
   // Hand-written depth.txt: comments, blank lines, two malformed lines.
   testing::writeTextFile(dir / "depth.txt",
-                         "# depth maps" + nl +                                  // 1
-                             "# timestamp filename" + nl +                      // 2
+                         "# depth maps" + nl +                                       // 1
+                             "# timestamp filename" + nl +                           // 2
                              "1600000000.000000 depth/1600000000.000000.png" + nl +  // 3
-                             nl +                                               // 4
-                             "yesterday depth/1600000000.033333.png" + nl +     // 5
-                             "   # an indented comment" + nl +                  // 6
+                             nl +                                                    // 4
+                             "yesterday depth/1600000000.033333.png" + nl +          // 5
+                             "   # an indented comment" + nl +                       // 6
                              "1600000000.033333 depth/1600000000.033333.png" + nl +  // 7
-                             "1600000000.050000" + nl +                         // 8: no path
-                             "  \t " + nl +                                     // 9
+                             "1600000000.050000" + nl +                              // 8: no path
+                             "  \t " + nl +                                          // 9
                              "1600000000.066667 depth/1600000000.066667.png" + nl);  // 10
   return dir;
 }
@@ -137,7 +137,8 @@ TEST(ReadTumIndex, HandlesCrlfLineEndings) {
   ReplaySource source(dir, fast());
   EXPECT_THAT(expectError(source), HasSubstr("depth.txt:5"));
   EXPECT_THAT(expectError(source), HasSubstr("depth.txt:8"));
-  for (int i = 0; i < 3; ++i) EXPECT_EQ(expectFrame(source).sequence, static_cast<std::uint64_t>(i));
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(expectFrame(source).sequence, static_cast<std::uint64_t>(i));
   expectEnd(source);
 }
 
@@ -265,7 +266,8 @@ TEST(ReadRecordingCamera, MissingFieldsKeepTheirDefaults) {
   EXPECT_DOUBLE_EQ(camera.depth_scale, 1000.0);
 }
 
-void expectCameraError(const std::string& name, const std::string& text, const std::string& mention) {
+void expectCameraError(const std::string& name, const std::string& text,
+                       const std::string& mention) {
   SCOPED_TRACE(name + ": " + text);
   const auto dir = scratchDir(name);
   testing::writeTextFile(dir / "camera.json", text);
@@ -365,9 +367,9 @@ TEST(ReplaySource, BadDepthFilesAreReportedAndSkipped) {
   builder.addDepth(s[2], 2);    // truncated below
   testing::truncateFile(builder.depthPath(s[2]),
                         std::filesystem::file_size(builder.depthPath(s[2])) / 2);
-  builder.addDepth(s[3], 3, cv::Mat(6, 8, CV_8UC1, cv::Scalar(100)));    // 8-bit
-  builder.addDepth(s[4], 4, testing::patternDepthUnits(10, 6, 4));        // wrong size
-  builder.addDepth(s[5], 5);    // header only
+  builder.addDepth(s[3], 3, cv::Mat(6, 8, CV_8UC1, cv::Scalar(100)));  // 8-bit
+  builder.addDepth(s[4], 4, testing::patternDepthUnits(10, 6, 4));     // wrong size
+  builder.addDepth(s[5], 5);                                           // header only
   testing::truncateFile(builder.depthPath(s[5]), 20);
   builder.addDepth(s[6], 6, cv::Mat(6, 8, CV_16UC3, cv::Scalar(1000, 1000, 1000)));  // 3 channels
   const cv::Mat good7 = builder.addDepth(s[7], 7);
@@ -428,14 +430,14 @@ TEST(ReplaySource, PairsRgbWithinMaxOffsetOnly) {
   builder.addDepth("1600000000.000000", 0);
   const cv::Mat rgb_a = builder.addRgb("1600000000.015000", 1);  // +15 ms: paired
   builder.addDepth("1600000001.000000", 1);
-  builder.addRgb("1600000001.025000", 2);                        // +25 ms: too far
+  builder.addRgb("1600000001.025000", 2);  // +25 ms: too far
   builder.addDepth("1600000002.000000", 2);
-  builder.addRgb("1600000001.985000", 3);                        // -15 ms
+  builder.addRgb("1600000001.985000", 3);                           // -15 ms
   const cv::Mat rgb_near = builder.addRgb("1600000002.004000", 4);  // +4 ms: the nearest
   builder.addDepth("1600000003.000000", 3);
   const cv::Mat rgb_edge = builder.addRgb("1600000003.020000", 5);  // exactly +20 ms: paired
   builder.addDepth("1600000004.000000", 4);
-  builder.addRgb("1600000003.979999", 6);                        // -20.001 ms: too far
+  builder.addRgb("1600000003.979999", 6);  // -20.001 ms: too far
   builder.finish();
 
   {

@@ -21,7 +21,8 @@ cv::Mat falseColour(const cv::Mat& labels) {
       const unsigned id = labels.at<std::uint16_t>(v, u);
       if (id == 0) continue;
       const unsigned h = id * 2654435761u;
-      out.at<cv::Vec3b>(v, u) = cv::Vec3b(64 + (h & 0xBF), 64 + ((h >> 8) & 0xBF), 64 + ((h >> 16) & 0xBF));
+      out.at<cv::Vec3b>(v, u) =
+          cv::Vec3b(64 + (h & 0xBF), 64 + ((h >> 8) & 0xBF), 64 + ((h >> 16) & 0xBF));
     }
   return out;
 }

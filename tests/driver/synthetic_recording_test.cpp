@@ -40,16 +40,18 @@ TEST(SyntheticRecording, WritesTumFramesTruthImagesAndJsonLines) {
     const RenderedFrame expected = scene.render(i, entry.timestamp_ns);
 
     // Depth round-trips through the 5000/m PNG to the millimetre.
-    const cv::Mat depth_units = cv::imread((dir / entry.relative_path).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat depth_units =
+        cv::imread((dir / entry.relative_path).string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(depth_units.type(), CV_16UC1);
     cv::Mat depth_mm;
     depth_units.convertTo(depth_mm, CV_16UC1, 1000.0 / index.camera.depth_scale);
     EXPECT_EQ(cv::norm(depth_mm, expected.frame.depth, cv::NORM_INF), 0.0);
 
-    for (const auto& [suffix, labels] : {std::pair{".surfaces.png", &expected.truth.surface_labels},
-                                         std::pair{".objects.png", &expected.truth.object_labels}}) {
-      const cv::Mat read =
-          cv::imread((dir / "truth" / (entry.seconds_text + suffix)).string(), cv::IMREAD_UNCHANGED);
+    for (const auto& [suffix, labels] :
+         {std::pair{".surfaces.png", &expected.truth.surface_labels},
+          std::pair{".objects.png", &expected.truth.object_labels}}) {
+      const cv::Mat read = cv::imread((dir / "truth" / (entry.seconds_text + suffix)).string(),
+                                      cv::IMREAD_UNCHANGED);
       ASSERT_EQ(read.type(), CV_16UC1) << suffix;
       EXPECT_EQ(cv::norm(read, *labels, cv::NORM_INF), 0.0) << suffix;
     }

@@ -7,9 +7,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
-#include <cmath>
 #include <map>
 #include <numbers>
 #include <set>
@@ -33,7 +33,9 @@ bool identical(const cv::Mat& a, const cv::Mat& b) {
 
 double depthStep(double z) { return z * z * 0.125 / kFocalBaseline; }
 
-const TruthSurface& surfaceById(const TruthFrame& truth, std::uint16_t id) { return truth.surfaces.at(id - 1u); }
+const TruthSurface& surfaceById(const TruthFrame& truth, std::uint16_t id) {
+  return truth.surfaces.at(id - 1u);
+}
 
 Eigen::Vector3d cameraUp(const TruthFrame& truth) {
   return truth.world_from_camera.linear().transpose() * Eigen::Vector3d::UnitZ();
@@ -154,7 +156,11 @@ TEST(SyntheticScene, LayoutIsPlausible) {
 
     // Every object rests on the floor or on the table top, and footprints on the same support
     // keep apart (footprint radius: half diagonal of a box's base, radius of a round object).
-    struct Footprint { Eigen::Vector2d c; double r; double support; };
+    struct Footprint {
+      Eigen::Vector2d c;
+      double r;
+      double support;
+    };
     std::vector<Footprint> footprints;
     for (const TruthObject& o : t.objects) {
       if (o.kind == "table") continue;
@@ -218,7 +224,9 @@ TEST(SyntheticScene, PlanarSurfacesFitTheirPlanes) {
           if (t.surface_labels.at<std::uint16_t>(v, u) != s.id) continue;
           const double z_ideal = t.ideal_depth.at<float>(v, u);
           const double z = f.frame.depth.at<std::uint16_t>(v, u) / 1000.0;
-          max_ideal = std::max(max_ideal, std::abs(s.plane.head<3>().dot(k.backproject(u, v, z_ideal)) + s.plane.w()));
+          max_ideal =
+              std::max(max_ideal,
+                       std::abs(s.plane.head<3>().dot(k.backproject(u, v, z_ideal)) + s.plane.w()));
           const double dist = s.plane.head<3>().dot(k.backproject(u, v, z)) + s.plane.w();
           sum_sq += dist * dist;
           sum_sq_steps += std::pow(dist / depthStep(z_ideal), 2);
@@ -249,7 +257,8 @@ TEST(SyntheticScene, MeasuredDepthTakesQuantisedDisparityLevels) {
       const double level = kFocalBaseline / z / 0.125;
       // Rounding z to whole millimetres moves the disparity by up to fb * 0.5 mm / z^2 (with z
       // the smaller of the two).
-      const double tolerance = kFocalBaseline * 0.0005 / ((z - 0.0005) * (z - 0.0005)) / 0.125 + 1e-9;
+      const double tolerance =
+          kFocalBaseline * 0.0005 / ((z - 0.0005) * (z - 0.0005)) / 0.125 + 1e-9;
       ASSERT_LE(std::abs(level - std::round(level)), tolerance) << "z = " << z;
       if (mm >= 2000 && mm < 2100) mm_between_2_and_2_1.insert(mm);
       ++checked;
@@ -338,7 +347,8 @@ TEST(SyntheticScene, ValidPixelsAreNotAtGrazingIncidence) {
       const std::uint16_t s = t.surface_labels.at<std::uint16_t>(v, u);
       if (s == 0 || surfaceById(t, s).kind != SurfaceKind::kPlane) continue;
       const Eigen::Vector3d ray = k.ray(u, v).normalized();
-      ASSERT_GE(std::abs(surfaceById(t, s).plane.head<3>().dot(ray)), cos_limit) << surfaceById(t, s).name;
+      ASSERT_GE(std::abs(surfaceById(t, s).plane.head<3>().dot(ray)), cos_limit)
+          << surfaceById(t, s).name;
     }
 }
 
@@ -357,7 +367,8 @@ TEST(SyntheticScene, ObjectBoxesContainTheirPixels) {
         ASSERT_TRUE(o.image_box.contains({u, v})) << o.name;
         const Eigen::Vector3d p = k.backproject(u, v, t.ideal_depth.at<float>(v, u));
         const Eigen::Vector3d local = o.rotation.transpose() * (p - o.center);
-        ASSERT_TRUE((local.cwiseAbs() - o.size / 2).maxCoeff() < 1e-4) << o.name << " " << local.transpose();
+        ASSERT_TRUE((local.cwiseAbs() - o.size / 2).maxCoeff() < 1e-4)
+            << o.name << " " << local.transpose();
       }
     for (const TruthObject& o : t.objects) {
       EXPECT_EQ(o.pixel_count, counts[o.id]) << o.name;
@@ -365,7 +376,8 @@ TEST(SyntheticScene, ObjectBoxesContainTheirPixels) {
       EXPECT_TRUE(o.rotation.isUnitary(1e-9));
       for (int i = 0; i < 8; ++i) {
         const Eigen::Vector3d signs((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1);
-        EXPECT_TRUE(o.corners[i].isApprox(o.center + o.rotation * signs.cwiseProduct(o.size / 2), 1e-9));
+        EXPECT_TRUE(
+            o.corners[i].isApprox(o.center + o.rotation * signs.cwiseProduct(o.size / 2), 1e-9));
       }
     }
   }
@@ -383,7 +395,9 @@ TEST(SyntheticScene, RangeLimitsAreRespected) {
         const int mm = f.frame.depth.at<std::uint16_t>(v, u);
         const float ideal = f.truth.ideal_depth.at<float>(v, u);
         if (mm != 0) min_mm = std::min<double>(min_mm, mm), max_mm = std::max<double>(max_mm, mm);
-        if (ideal != 0) min_ideal = std::min<double>(min_ideal, ideal), max_ideal = std::max<double>(max_ideal, ideal);
+        if (ideal != 0)
+          min_ideal = std::min<double>(min_ideal, ideal),
+          max_ideal = std::max<double>(max_ideal, ideal);
       }
     EXPECT_GE(min_mm, lo * 1000);
     EXPECT_LE(max_mm, hi * 1000);
@@ -412,7 +426,8 @@ std::vector<TruthObject> bowlsOf(SceneParams params, int seeds) {
       EXPECT_LE(o.rim_radius_m, 0.15);
       EXPECT_GT(o.shell_thickness_m, 0.0);
       EXPECT_NEAR(o.axis.dot(up), o.upright ? 1.0 : -1.0, 1e-9);
-      const double elevation = std::asin(up.dot(-o.rim_center.normalized())) * 180 / std::numbers::pi;
+      const double elevation =
+          std::asin(up.dot(-o.rim_center.normalized())) * 180 / std::numbers::pi;
       EXPECT_NEAR(o.view_elevation_deg, elevation, 1e-6);
       EXPECT_EQ(o.view_class, bowlViewClass(elevation));
       bowls.push_back(o);
@@ -502,10 +517,13 @@ TEST(SyntheticScene, RendersAFrameQuickly) {
       const double cpu_start = threadCpuMs();
       scene.render(i, 0);
       best_cpu = std::min(best_cpu, threadCpuMs() - cpu_start);
-      total_wall += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall_start).count();
+      total_wall +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wall_start)
+              .count();
     }
-    std::printf("synthetic render (colour %s): best %.1f ms CPU, mean %.1f ms wall per 640x480 frame\n",
-                colour ? "on" : "off", best_cpu, total_wall / kFrames);
+    std::printf(
+        "synthetic render (colour %s): best %.1f ms CPU, mean %.1f ms wall per 640x480 frame\n",
+        colour ? "on" : "off", best_cpu, total_wall / kFrames);
     RecordProperty(colour ? "render_cpu_ms" : "render_cpu_ms_no_colour", std::to_string(best_cpu));
     // The Release target is < 40 ms; the bound is loose for Debug and sanitizer builds.
     EXPECT_LT(best_cpu, 400.0);

@@ -36,12 +36,15 @@ TEST(SyntheticSource, StampsAndSequencesFramesAndEnds) {
     ASSERT_TRUE(std::holds_alternative<Frame>(event)) << i;
     const Frame& frame = std::get<Frame>(event);
     EXPECT_EQ(frame.sequence, i);
-    EXPECT_EQ(frame.timestamp_ns, options.start_ns + static_cast<TimestampNs>(std::llround(i * 1e9 / 15.0)));
+    EXPECT_EQ(frame.timestamp_ns,
+              options.start_ns + static_cast<TimestampNs>(std::llround(i * 1e9 / 15.0)));
     // The truth handed out matches a fresh render of the same frame.
     ASSERT_TRUE(source.lastTruth().has_value());
     const RenderedFrame again = source.scene().render(i, frame.timestamp_ns);
     EXPECT_EQ(cv::norm(again.frame.depth, frame.depth, cv::NORM_INF), 0.0);
-    EXPECT_EQ(cv::norm(again.truth.surface_labels, source.lastTruth()->surface_labels, cv::NORM_INF), 0.0);
+    EXPECT_EQ(
+        cv::norm(again.truth.surface_labels, source.lastTruth()->surface_labels, cv::NORM_INF),
+        0.0);
   }
   EXPECT_TRUE(std::holds_alternative<EndOfStream>(source.next({})));
   EXPECT_EQ(source.scene().params().frame_rate_hz, 15.0);  // the sway runs in real time

@@ -38,9 +38,8 @@ cv::Mat depthMm(int width, int height, int seed, int max_mm) {
 std::vector<Frame> makeFrames(const CameraIntrinsics& k, int max_mm) {
   std::vector<Frame> frames;
   // Microsecond-exact stamps at epoch scale, 1/30 s apart, plus one with a 7 s gap.
-  const TimestampNs stamps[] = {1700000000033333000LL, 1700000000066667000LL,
-                                1700000000100000000LL, 1700000000133333000LL,
-                                1700000007000001000LL};
+  const TimestampNs stamps[] = {1700000000033333000LL, 1700000000066667000LL, 1700000000100000000LL,
+                                1700000000133333000LL, 1700000007000001000LL};
   std::uint64_t sequence = 0;
   for (TimestampNs t : stamps) {
     Frame f;
@@ -94,8 +93,8 @@ void roundTrip(const std::string& name, const RecordingCamera& camera, int max_m
     EXPECT_EQ(replayed.sequence, written[i].sequence);
     EXPECT_EQ(replayed.intrinsics, written[i].intrinsics);
     EXPECT_TRUE(identical(replayed.depth, written[i].depth)) << "depth differs";
-    EXPECT_TRUE(identical(replayed.rgb, written[i].rgb)) << "rgb differs (empty: "
-                                                         << replayed.rgb.empty() << ")";
+    EXPECT_TRUE(identical(replayed.rgb, written[i].rgb))
+        << "rgb differs (empty: " << replayed.rgb.empty() << ")";
   }
   EXPECT_TRUE(std::holds_alternative<EndOfStream>(source.next(stop.get_token())));
 }

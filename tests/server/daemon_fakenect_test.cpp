@@ -23,9 +23,9 @@
 #include "depth_compare.h"
 #include "self_exec.h"
 #include "server_fixture.h"
-#include "synthetic_frames.h"
 #include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/server/daemon.h"
+#include "synthetic_frames.h"
 #include "test_paths.h"
 
 namespace shapesense {
@@ -39,21 +39,22 @@ constexpr int kFrames = 10;
 constexpr std::uint64_t kSeed = 5;
 constexpr const char* kInnerEnv = "SHAPESENSE_DAEMON_FAKENECT_INNER";
 
-
 TEST(DaemonFakenect, ServesADumpThroughLibfreenectAndReportsItsEndAsALostSensor) {
   const auto library_dir = testing::fakenectLibraryDir();
-  if (!library_dir) GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
+  if (!library_dir)
+    GTEST_SKIP() << "Debian's fakenect library (package libfreenect0.5) is not installed";
   const fs::path dump = testing::scratchDir("daemon_fakenect_dump");
   const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);
   writeFakenectDump(dump, frames);
   const auto problems = validateFakenectDump(dump);  // fakenect exit()s on a bad dump
   ASSERT_TRUE(problems.empty()) << problems.front();
 
-  const auto [code, output] =
-      testing::runSelf("DaemonFakenect.Inner*", testing::fakenectEnvironment(*library_dir, dump, kInnerEnv),
-                       dump.parent_path() / "daemon_fakenect_child.log", 90s);
+  const auto [code, output] = testing::runSelf(
+      "DaemonFakenect.Inner*", testing::fakenectEnvironment(*library_dir, dump, kInnerEnv),
+      dump.parent_path() / "daemon_fakenect_child.log", 90s);
   EXPECT_EQ(code, 0) << output;
-  EXPECT_NE(output.find("[       OK ] DaemonFakenect.InnerDaemonUnderFakenect"), std::string::npos) << output;
+  EXPECT_NE(output.find("[       OK ] DaemonFakenect.InnerDaemonUnderFakenect"), std::string::npos)
+      << output;
   EXPECT_EQ(output.find("SKIPPED"), std::string::npos) << output;
 }
 
@@ -67,7 +68,8 @@ v1::GetStatusResponse status(v1::ShapeSense::Stub& stub) {
 
 /// Runs only inside the child process started above.
 TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
-  if (std::getenv(kInnerEnv) == nullptr) GTEST_SKIP() << "runs inside ServesADumpThroughLibfreenect...";
+  if (std::getenv(kInnerEnv) == nullptr)
+    GTEST_SKIP() << "runs inside ServesADumpThroughLibfreenect...";
   Dl_info info{};
   ASSERT_NE(dladdr(reinterpret_cast<void*>(&freenect_process_events), &info), 0);
   ASSERT_NE(std::string(info.dli_fname).find("fakenect"), std::string::npos) << info.dli_fname;
@@ -78,8 +80,8 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
   options.detectors.segmentation = std::nullopt;  // the test is about the frame path
   options.detectors.planes = std::nullopt;
   Daemon daemon(options);
-  auto stub = v1::ShapeSense::NewStub(
-      grpc::CreateChannel("127.0.0.1:" + std::to_string(daemon.port()), grpc::InsecureChannelCredentials()));
+  auto stub = v1::ShapeSense::NewStub(grpc::CreateChannel(
+      "127.0.0.1:" + std::to_string(daemon.port()), grpc::InsecureChannelCredentials()));
 
   // All frames arrive, then the end of the dump reads as a lost sensor.
   v1::GetStatusResponse s;
@@ -105,7 +107,8 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
     ASSERT_TRUE(stub->ListFrames(context.get(), {}, &list).ok());
   }
   ASSERT_EQ(list.frames_size(), kFrames);
-  const std::vector<Frame> frames = testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
+  const std::vector<Frame> frames =
+      testing::syntheticFrames(kSeed, kFrames);  // what the dump holds
   for (int i = 0; i < kFrames; ++i) {
     SCOPED_TRACE("frame " + std::to_string(i));
     if (i > 0) {
@@ -119,8 +122,9 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
     ASSERT_TRUE(got.ok()) << got.error_message();
     EXPECT_EQ(frame.info().sequence(), static_cast<std::uint64_t>(i));
     const std::string& png = frame.depth_png();
-    const cv::Mat depth = cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1,
-                                               const_cast<char*>(png.data())), cv::IMREAD_UNCHANGED);
+    const cv::Mat depth = cv::imdecode(
+        cv::Mat(1, static_cast<int>(png.size()), CV_8UC1, const_cast<char*>(png.data())),
+        cv::IMREAD_UNCHANGED);
     ASSERT_EQ(depth.type(), CV_16UC1);
     ASSERT_EQ(depth.size(), frames[i].depth.size());
     const auto comparison = testing::compareThroughRawDisparity(frames[i].depth, depth);

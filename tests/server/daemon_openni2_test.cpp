@@ -16,7 +16,8 @@
 // OpenNI2 and its drivers leak small allocations of their own that no API frees (see
 // tests/driver/openni2_dummy_test.cpp); LeakSanitizer reads this hook in sanitizer builds.
 extern "C" const char* __lsan_default_suppressions() {
-  return "leak:libOpenNI2.so\nleak:libDummyDevice.so\nleak:libPS1080.so\nleak:libPSLink.so\nleak:libOniFile.so\n";
+  return "leak:libOpenNI2.so\nleak:libDummyDevice.so\nleak:libPS1080.so\nleak:libPSLink.so\nleak:"
+         "libOniFile.so\n";
 }
 
 namespace shapesense {
@@ -26,23 +27,25 @@ using namespace std::chrono_literals;
 using testing::clientContext;
 
 bool dummyDriverInstalled() {
-  for (const char* dir : {"/usr/lib/x86_64-linux-gnu/OpenNI2/Drivers", "/usr/lib/aarch64-linux-gnu/OpenNI2/Drivers",
-                          "/usr/lib/OpenNI2/Drivers"}) {
+  for (const char* dir :
+       {"/usr/lib/x86_64-linux-gnu/OpenNI2/Drivers", "/usr/lib/aarch64-linux-gnu/OpenNI2/Drivers",
+        "/usr/lib/OpenNI2/Drivers"}) {
     if (std::filesystem::exists(std::filesystem::path(dir) / "libDummyDevice.so")) return true;
   }
   return false;
 }
 
 TEST(DaemonOpenNI2, DummyDeviceFramesArriveWithIncreasingTimestamps) {
-  if (!dummyDriverInstalled()) GTEST_SKIP() << "OpenNI2 DummyDevice driver not installed (libopenni2-0)";
+  if (!dummyDriverInstalled())
+    GTEST_SKIP() << "OpenNI2 DummyDevice driver not installed (libopenni2-0)";
   DaemonOptions options;
   options.source = "openni2:Dummy";
   options.listen = "127.0.0.1:0";
   options.detectors.segmentation = std::nullopt;
   options.detectors.planes = std::nullopt;
   Daemon daemon(options);
-  auto stub = v1::ShapeSense::NewStub(
-      grpc::CreateChannel("127.0.0.1:" + std::to_string(daemon.port()), grpc::InsecureChannelCredentials()));
+  auto stub = v1::ShapeSense::NewStub(grpc::CreateChannel(
+      "127.0.0.1:" + std::to_string(daemon.port()), grpc::InsecureChannelCredentials()));
 
   constexpr std::uint64_t kWanted = 10;
   v1::GetStatusResponse s;
@@ -65,7 +68,8 @@ TEST(DaemonOpenNI2, DummyDeviceFramesArriveWithIncreasingTimestamps) {
   ASSERT_TRUE(stub->ListFrames(context.get(), {}, &list).ok());
   ASSERT_GE(list.frames_size(), static_cast<int>(kWanted));
   const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                          std::chrono::system_clock::now().time_since_epoch()).count();
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
   for (int i = 1; i < list.frames_size(); ++i) {
     EXPECT_GT(list.frames(i).timestamp_ns(), list.frames(i - 1).timestamp_ns()) << i;
     EXPECT_GT(list.frames(i).sequence(), list.frames(i - 1).sequence()) << i;

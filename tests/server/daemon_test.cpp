@@ -23,12 +23,12 @@ namespace shapesense {
 namespace {
 
 using namespace std::chrono_literals;
-using ::testing::HasSubstr;
 using testing::clientContext;
+using ::testing::HasSubstr;
 
 std::unique_ptr<v1::ShapeSense::Stub> connect(int port) {
-  return v1::ShapeSense::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
-                                                     grpc::InsecureChannelCredentials()));
+  return v1::ShapeSense::NewStub(
+      grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
 }
 
 DaemonOptions optionsFor(const std::filesystem::path& recording, Pacing pacing, bool loop = false) {
@@ -57,7 +57,8 @@ TEST(Daemon, ServesARecordingReplayedAtMaxRateAndKeepsServingAfterItEnds) {
   // The recording ends quickly at max rate; the state says so.
   const auto until = std::chrono::steady_clock::now() + 5s;
   v1::GetStatusResponse s = status(*stub);
-  while (s.source_state() != v1::GetStatusResponse::ENDED && std::chrono::steady_clock::now() < until) {
+  while (s.source_state() != v1::GetStatusResponse::ENDED &&
+         std::chrono::steady_clock::now() < until) {
     std::this_thread::sleep_for(5ms);
     s = status(*stub);
   }
@@ -117,7 +118,8 @@ TEST(Daemon, BowlStageRunsByDefaultWithTheShippedModels) {
   Daemon daemon(optionsFor(recording, Pacing::kAsFastAsPossible));
   auto stub = connect(daemon.port());
   const auto detectors = status(*stub).detectors();
-  EXPECT_THAT(std::vector<std::string>(detectors.begin(), detectors.end()), ::testing::Contains("bowls"));
+  EXPECT_THAT(std::vector<std::string>(detectors.begin(), detectors.end()),
+              ::testing::Contains("bowls"));
 }
 
 TEST(Daemon, BowlsOnWithMissingOrCorruptModelsIsAStartupErrorNamingTheFolder) {

@@ -54,7 +54,8 @@ TEST_F(EstimateBoxTest, Mode2BoxContainsMostOfTheObject) {
   const auto& object = someObject(1);
   const cv::Rect r = object.image_box;
   v1::EstimateBoxResponse response;
-  const auto status = call(kServerT0 + kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 2, response);
+  const auto status =
+      call(kServerT0 + kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 2, response);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_EQ(response.corners_size(), 8);
   EXPECT_EQ(response.frame_timestamp_ns(), kServerT0 + kFramePeriodNs);
@@ -101,11 +102,14 @@ TEST_F(EstimateBoxTest, EveryModeAnswersAndUnspecifiedMeansMode1) {
 TEST_F(EstimateBoxTest, UsesTheLatestFrameAtOrBeforeT) {
   const cv::Point p1(300, 200), p2(340, 240);
   v1::EstimateBoxResponse response;
-  ASSERT_TRUE(call(kServerT0 + 2 * kFramePeriodNs, p1, p2, 1, response).ok());  // exactly on frame 2
+  ASSERT_TRUE(
+      call(kServerT0 + 2 * kFramePeriodNs, p1, p2, 1, response).ok());  // exactly on frame 2
   EXPECT_EQ(response.frame_sequence(), 2u);
-  ASSERT_TRUE(call(kServerT0 + kFramePeriodNs + 1000, p1, p2, 1, response).ok());  // between 1 and 2
+  ASSERT_TRUE(
+      call(kServerT0 + kFramePeriodNs + 1000, p1, p2, 1, response).ok());  // between 1 and 2
   EXPECT_EQ(response.frame_sequence(), 1u);
-  ASSERT_TRUE(call(kServerT0 + 100 * kFramePeriodNs, p1, p2, 1, response).ok());  // after the newest
+  ASSERT_TRUE(
+      call(kServerT0 + 100 * kFramePeriodNs, p1, p2, 1, response).ok());  // after the newest
   EXPECT_EQ(response.frame_sequence(), 2u);
   ASSERT_TRUE(call(0, p1, p2, 1, response).ok());  // 0 = the newest
   EXPECT_EQ(response.frame_sequence(), 2u);
@@ -115,15 +119,16 @@ TEST_F(EstimateBoxTest, TimeBeforeTheCacheIsOutOfRangeNamingTheRange) {
   v1::EstimateBoxResponse response;
   const auto status = call(kServerT0 - 1, {300, 200}, {340, 240}, 1, response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::OUT_OF_RANGE);
-  EXPECT_NE(status.error_message().find("1700000000.000000"), std::string::npos) << status.error_message();
+  EXPECT_NE(status.error_message().find("1700000000.000000"), std::string::npos)
+      << status.error_message();
   EXPECT_NE(status.error_message().find("3 frames"), std::string::npos) << status.error_message();
 }
 
 TEST_F(EstimateBoxTest, RoiOutsideTheImageIsInvalidArgument) {
   v1::EstimateBoxResponse response;
-  for (auto [p1, p2] : {std::pair{cv::Point(600, 400), cv::Point(700, 470)},   // partly outside
-                        std::pair{cv::Point(-5, 10), cv::Point(20, 30)},        // negative
-                        std::pair{cv::Point(650, 500), cv::Point(700, 520)}}) { // wholly outside
+  for (auto [p1, p2] : {std::pair{cv::Point(600, 400), cv::Point(700, 470)},     // partly outside
+                        std::pair{cv::Point(-5, 10), cv::Point(20, 30)},         // negative
+                        std::pair{cv::Point(650, 500), cv::Point(700, 520)}}) {  // wholly outside
     const auto status = call(0, p1, p2, 2, response);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << p1 << p2;
     EXPECT_NE(status.error_message().find("640x480"), std::string::npos) << status.error_message();

@@ -60,12 +60,15 @@ TEST(FrameCache, EmptyCacheLookupIsKEmpty) {
   EXPECT_FALSE(cache.bySequence(0).has_value());
 }
 
-TEST(FrameCache, ZeroCapacityIsRejected) { EXPECT_THROW(FrameCache cache(0), std::invalid_argument); }
+TEST(FrameCache, ZeroCapacityIsRejected) {
+  EXPECT_THROW(FrameCache cache(0), std::invalid_argument);
+}
 
 TEST(FrameCache, ExactlyOnAFrameGivesThatFrame) {
   FrameCache cache(10);
   fill(cache, 5);
-  for (int i = 0; i < 5; ++i) EXPECT_EQ(sequenceAt(cache, kT0 + i * kStep), static_cast<std::uint64_t>(i));
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(sequenceAt(cache, kT0 + i * kStep), static_cast<std::uint64_t>(i));
 }
 
 TEST(FrameCache, BetweenTwoFramesGivesTheEarlier) {
@@ -231,7 +234,8 @@ TEST(FrameCache, OneWriterManyReaders) {
         const TimestampNs high = newest_inserted.load();
         if (high == 0) continue;
         const bool newest = (rng >> 60) == 0;
-        const TimestampNs t = newest ? 0 : high - static_cast<TimestampNs>((rng >> 20) % (80 * kStep)) + kStep;
+        const TimestampNs t =
+            newest ? 0 : high - static_cast<TimestampNs>((rng >> 20) % (80 * kStep)) + kStep;
         auto found = cache.at(t);
         lookups.fetch_add(1);
         if (auto* error = std::get_if<LookupError>(&found)) {
@@ -242,12 +246,12 @@ TEST(FrameCache, OneWriterManyReaders) {
         const CachedFrame& entry = std::get<CachedFrame>(found);
         const Frame& f = *entry.frame;
         // Frame i is at kT0 + i * kStep: the frame's content must match its identity.
-        if (f.timestamp_ns != kT0 + static_cast<TimestampNs>(f.sequence) * kStep) violations.fetch_add(1);
+        if (f.timestamp_ns != kT0 + static_cast<TimestampNs>(f.sequence) * kStep)
+          violations.fetch_add(1);
         if (t != 0 && f.timestamp_ns > t) violations.fetch_add(1);
         // When T is not past `high`, the frame at or before T was inserted before this lookup,
         // and the cache holds a contiguous run ending at the newest: it must be that frame.
-        if (t != 0 && t <= high &&
-            f.sequence != static_cast<std::uint64_t>((t - kT0) / kStep)) {
+        if (t != 0 && t <= high && f.sequence != static_cast<std::uint64_t>((t - kT0) / kStep)) {
           violations.fetch_add(1);
         }
         if (newest) {
@@ -256,7 +260,8 @@ TEST(FrameCache, OneWriterManyReaders) {
           last_newest = f.timestamp_ns;
         }
         // Like gRPC handlers, readers come and go rather than hold the lock back to back.
-        // (glibc's shared_mutex prefers readers: back-to-back readers on 2 cores starve the writer.)
+        // (glibc's shared_mutex prefers readers: back-to-back readers on 2 cores starve the
+        // writer.)
         std::this_thread::yield();
         // list() is oldest first, strictly increasing sequence and time, at most capacity.
         if ((rng >> 50) % 16 == 0) {

@@ -12,8 +12,8 @@
 namespace shapesense {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::clientContext;
+using ::testing::HasSubstr;
 using testing::kFramePeriodNs;
 using testing::kServerT0;
 using testing::ServerTest;
@@ -132,12 +132,12 @@ TEST_F(GetFrameTest, FrameWithoutColourOrResults) {
 TEST_F(GetFrameTest, LookupRuleAtTheEdges) {
   srv.addMany(5);  // frames 0..4
   for (int i = 0; i < 5; ++i) EXPECT_EQ(sequenceAt(t(i)), static_cast<std::uint64_t>(i));  // exact
-  EXPECT_EQ(sequenceAt(t(2) + 1), 2u);                  // between: the earlier
+  EXPECT_EQ(sequenceAt(t(2) + 1), 2u);  // between: the earlier
   EXPECT_EQ(sequenceAt(t(3) - 1), 2u);
   EXPECT_EQ(sequenceAt(t(2) + kFramePeriodNs / 2), 2u);
-  EXPECT_EQ(sequenceAt(t(4) + 1), 4u);                  // after the newest: the newest
+  EXPECT_EQ(sequenceAt(t(4) + 1), 4u);  // after the newest: the newest
   EXPECT_EQ(sequenceAt(t(4) + 3'600'000'000'000LL), 4u);
-  EXPECT_EQ(sequenceAt(0), 4u);                         // 0: the newest
+  EXPECT_EQ(sequenceAt(0), 4u);  // 0: the newest
 }
 
 TEST_F(GetFrameTest, BeforeTheCacheIsOutOfRangeNamingTheRange) {

@@ -34,7 +34,8 @@ TEST(GetStatus, ReportsThePipelineCountersAndTheCacheRange) {
   srv.addMany(10);  // capacity 8: frames 2..9 remain
   v1::GetStatusResponse response;
   auto context = clientContext();
-  const grpc::Status status = srv.stub().GetStatus(context.get(), v1::GetStatusRequest{}, &response);
+  const grpc::Status status =
+      srv.stub().GetStatus(context.get(), v1::GetStatusRequest{}, &response);
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_FALSE(response.version().empty());
   EXPECT_EQ(response.source(), "tum:/data/desk");
@@ -151,7 +152,8 @@ TEST(GetStatus, ReportsALostLiveSensorAsReconnecting) {
   std::atomic<bool> connected{true};
   FrameCache cache(4);
   SummaryHub hub;
-  Pipeline pipeline(std::make_unique<FakeLiveSource>(connected), makeDetectorChain(DetectorConfig{}), cache, hub);
+  Pipeline pipeline(std::make_unique<FakeLiveSource>(connected),
+                    makeDetectorChain(DetectorConfig{}), cache, hub);
   pipeline.start();
   TestServer srv(4, [&] { return pipeline.status(); });
 

@@ -64,7 +64,8 @@ HealthAnswer check(testing::TestServer& srv, const std::string& service) {
 TEST(Health, OverallServiceIsServing) {
   testing::TestServer srv(4);
   const HealthAnswer answer = check(srv, "");
-  ASSERT_TRUE(answer.status.ok()) << answer.status.error_code() << " " << answer.status.error_message();
+  ASSERT_TRUE(answer.status.ok()) << answer.status.error_code() << " "
+                                  << answer.status.error_message();
   // status (field 1, varint) = SERVING (1)
   EXPECT_EQ(answer.response, std::string("\x08\x01", 2));
 }
@@ -81,7 +82,8 @@ TEST(Health, ServingEvenBeforeAnyFrame) {
 TEST(Health, UnknownServiceIsNotFound) {
   testing::TestServer srv(4);
   const HealthAnswer answer = check(srv, "no.such.Service");
-  EXPECT_EQ(answer.status.error_code(), grpc::StatusCode::NOT_FOUND) << answer.status.error_message();
+  EXPECT_EQ(answer.status.error_code(), grpc::StatusCode::NOT_FOUND)
+      << answer.status.error_message();
 }
 
 }  // namespace

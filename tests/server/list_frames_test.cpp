@@ -28,7 +28,8 @@ class ListFramesTest : public ServerTest {
     return srv.stub().ListFrames(context.get(), request, &response);
   }
 
-  std::vector<std::uint64_t> sequences(std::int64_t from, std::int64_t to, std::uint32_t limit = 0) {
+  std::vector<std::uint64_t> sequences(std::int64_t from, std::int64_t to,
+                                       std::uint32_t limit = 0) {
     v1::ListFramesResponse response;
     const grpc::Status status = list(from, to, limit, response);
     EXPECT_TRUE(status.ok()) << status.error_message();

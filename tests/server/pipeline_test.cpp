@@ -242,7 +242,8 @@ TEST(Pipeline, StopIsPromptWhileTheSourceBlocks) {
   pipeline.start();
   auto received = [&] { return pipeline.status().frames_received; };
   const auto until = std::chrono::steady_clock::now() + 5s;
-  while (received() < 2 && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(1ms);
+  while (received() < 2 && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(1ms);
   ASSERT_EQ(received(), 2u);
   EXPECT_FALSE(pipeline.waitUntilDrained(50ms));  // the source is still "live"
   EXPECT_EQ(pipeline.status().state, SourceState::kStreaming);
@@ -258,8 +259,9 @@ TEST(Pipeline, DestructorStopsARunningPipeline) {
   FrameCache cache(16);
   SummaryHub hub;
   auto done = std::async(std::launch::async, [&] {
-    Pipeline pipeline(std::make_unique<FakeSource>(frames(1), FakeSource::After::kBlockUntilStopped),
-                      slowChain(0ms), cache, hub);
+    Pipeline pipeline(
+        std::make_unique<FakeSource>(frames(1), FakeSource::After::kBlockUntilStopped),
+        slowChain(0ms), cache, hub);
     pipeline.start();
     std::this_thread::sleep_for(20ms);
   });

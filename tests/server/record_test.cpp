@@ -19,11 +19,11 @@ namespace shapesense {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::replayAll;
-using ::testing::HasSubstr;
 using testing::clientContext;
+using ::testing::HasSubstr;
 using testing::kFramePeriodNs;
 using testing::kServerT0;
+using testing::replayAll;
 using testing::TestServer;
 
 grpc::Status recordOnce(TestServer& srv, const std::string& dir, double seconds,
@@ -44,7 +44,8 @@ TimestampNs roundedToMicroseconds(TimestampNs t) { return (t + 500) / 1000 * 100
 
 /// Recordings keep stamps to the microsecond.
 void expectSameFrame(const Frame& replayed, const Frame& original, const CameraIntrinsics& camera) {
-  testing::expectSameFrame(replayed, original, roundedToMicroseconds(original.timestamp_ns), camera);
+  testing::expectSameFrame(replayed, original, roundedToMicroseconds(original.timestamp_ns),
+                           camera);
 }
 
 TEST(Record, WritesTheFramesDeliveredDuringTheCallAndTheyReplayBitIdentically) {
@@ -96,14 +97,17 @@ TEST(Record, RejectsBadDirectoriesAndDurations) {
   expectStatus("relative/dir", 1, grpc::StatusCode::INVALID_ARGUMENT, "absolute path");
   expectStatus((scratch / "a").string(), 0, grpc::StatusCode::INVALID_ARGUMENT, "seconds must be");
   expectStatus((scratch / "a").string(), -2, grpc::StatusCode::INVALID_ARGUMENT, "seconds must be");
-  expectStatus((scratch / "a").string(), 1e6, grpc::StatusCode::INVALID_ARGUMENT, "seconds must be");
+  expectStatus((scratch / "a").string(), 1e6, grpc::StatusCode::INVALID_ARGUMENT,
+               "seconds must be");
   EXPECT_FALSE(fs::exists(scratch / "a"));
 
   fs::create_directories(scratch / "full");
   std::ofstream(scratch / "full" / "keep.txt") << "x";
-  expectStatus((scratch / "full").string(), 1, grpc::StatusCode::FAILED_PRECONDITION, "is not empty");
+  expectStatus((scratch / "full").string(), 1, grpc::StatusCode::FAILED_PRECONDITION,
+               "is not empty");
   std::ofstream(scratch / "file") << "x";
-  expectStatus((scratch / "file").string(), 1, grpc::StatusCode::FAILED_PRECONDITION, "not a directory");
+  expectStatus((scratch / "file").string(), 1, grpc::StatusCode::FAILED_PRECONDITION,
+               "not a directory");
 }
 
 TEST(Record, RefusesWhenTheSourceHasEnded) {

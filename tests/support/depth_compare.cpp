@@ -7,8 +7,10 @@
 
 namespace shapesense::testing {
 
-RawRoundTripComparison compareThroughRawDisparity(const cv::Mat& original_mm, const cv::Mat& back_mm) {
-  CV_Assert(original_mm.type() == CV_16UC1 && back_mm.type() == CV_16UC1 && original_mm.size() == back_mm.size());
+RawRoundTripComparison compareThroughRawDisparity(const cv::Mat& original_mm,
+                                                  const cv::Mat& back_mm) {
+  CV_Assert(original_mm.type() == CV_16UC1 && back_mm.type() == CV_16UC1 &&
+            original_mm.size() == back_mm.size());
   RawRoundTripComparison result;
   for (int y = 0; y < original_mm.rows; ++y) {
     const auto* a_row = original_mm.ptr<std::uint16_t>(y);

@@ -14,6 +14,7 @@ struct RawRoundTripComparison {
 /// Compares two CV_16UC1 millimetre images of the same size. A raw step at depth z is
 /// kinectRawDepthStep(z); rounding to the nearest raw value moves a depth by at most half of it
 /// (2% slack for the step's change within one step, 0.5 mm for millimetre rounding).
-RawRoundTripComparison compareThroughRawDisparity(const cv::Mat& original_mm, const cv::Mat& back_mm);
+RawRoundTripComparison compareThroughRawDisparity(const cv::Mat& original_mm,
+                                                  const cv::Mat& back_mm);
 
 }  // namespace shapesense::testing

@@ -6,8 +6,10 @@
 
 namespace shapesense::testing {
 
-double mosdTableCoverage(const cv::Mat& regions, const cv::Mat& truth_labels, const cv::Mat& depth_mm) {
-  CV_Assert(regions.type() == CV_16UC1 && truth_labels.type() == CV_16UC1 && depth_mm.type() == CV_16UC1);
+double mosdTableCoverage(const cv::Mat& regions, const cv::Mat& truth_labels,
+                         const cv::Mat& depth_mm) {
+  CV_Assert(regions.type() == CV_16UC1 && truth_labels.type() == CV_16UC1 &&
+            depth_mm.type() == CV_16UC1);
   CV_Assert(regions.size() == truth_labels.size() && regions.size() == depth_mm.size());
   std::map<int, int> overlap;  // region id -> table pixels in it
   int table = 0;

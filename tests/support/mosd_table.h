@@ -8,6 +8,7 @@ namespace shapesense::testing {
 
 /// Fraction of the table's labelled pixels that have a depth reading and lie in the one region
 /// of `regions` (CV_16UC1, 0 = unassigned) covering most of them; 0 when no table pixel has depth.
-double mosdTableCoverage(const cv::Mat& regions, const cv::Mat& truth_labels, const cv::Mat& depth_mm);
+double mosdTableCoverage(const cv::Mat& regions, const cv::Mat& truth_labels,
+                         const cv::Mat& depth_mm);
 
 }  // namespace shapesense::testing

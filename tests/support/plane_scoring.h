@@ -17,8 +17,8 @@
 namespace shapesense::planetest {
 
 struct PlaneScore {
-  int truth_regions = 0;   ///< truth planar surfaces >= 0.5% of the image
-  int correct = 0;         ///< SegComp correct detections at T = 0.8
+  int truth_regions = 0;          ///< truth planar surfaces >= 0.5% of the image
+  int correct = 0;                ///< SegComp correct detections at T = 0.8
   std::vector<double> angle_deg;  ///< per correctly detected truth plane
   std::vector<double> dist_m;
   std::vector<std::pair<int, int>> matches;  ///< (truth surface id, found id) of correct pairs
@@ -79,12 +79,14 @@ inline PlaneScore scorePlanes(const cv::Mat& labels, const std::vector<DetectedP
   for (const auto& [key, o] : ov) {
     const auto [tid, fid] = key;
     if (tsize[tid] < min_px || o < 0.8 * tsize[tid] || o < 0.8 * fsize[fid]) continue;
-    const auto fp = std::find_if(planes.begin(), planes.end(), [&](const DetectedPlane& p) { return p.id == fid; });
+    const auto fp = std::find_if(planes.begin(), planes.end(),
+                                 [&](const DetectedPlane& p) { return p.id == fid; });
     const auto tp = std::find_if(truth.surfaces.begin(), truth.surfaces.end(),
                                  [&](const synthetic::TruthSurface& x) { return x.id == tid; });
     if (fp == planes.end() || tp == truth.surfaces.end()) continue;
     const Eigen::Vector3d tn = tp->plane.head<3>();
-    s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) * 180.0 / M_PI);
+    s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) * 180.0 /
+                          M_PI);
     s.dist_m.push_back(std::fabs(fp->d - tp->plane[3]));
     s.matches.emplace_back(tid, fid);
   }

@@ -42,8 +42,9 @@ cv::Mat patternBgr(int width, int height, int seed) {
   cv::Mat bgr(height, width, CV_8UC3);
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
-      bgr.at<cv::Vec3b>(v, u) = cv::Vec3b(static_cast<uchar>(10 * u + seed), static_cast<uchar>(20 * v + 3 * seed),
-                                          static_cast<uchar>(255 - u - v - seed));
+      bgr.at<cv::Vec3b>(v, u) =
+          cv::Vec3b(static_cast<uchar>(10 * u + seed), static_cast<uchar>(20 * v + 3 * seed),
+                    static_cast<uchar>(255 - u - v - seed));
     }
   }
   return bgr;
@@ -81,9 +82,9 @@ void RecordingBuilder::writeCamera(double depth_scale, double fx, double fy, dou
   writeTextFile(dir_ / "camera.json",
                 "{\"fx\": " + std::to_string(fx) + ", \"fy\": " + std::to_string(fy) +
                     ", \"cx\": " + std::to_string(cx) + ", \"cy\": " + std::to_string(cy) +
-                    ", \"width\": " + std::to_string(width_) + ", \"height\": " +
-                    std::to_string(height_) + ", \"depth_scale\": " + std::to_string(depth_scale) +
-                    "}\n");
+                    ", \"width\": " + std::to_string(width_) +
+                    ", \"height\": " + std::to_string(height_) +
+                    ", \"depth_scale\": " + std::to_string(depth_scale) + "}\n");
 }
 
 void RecordingBuilder::writeCameraText(const std::string& text) {
@@ -103,7 +104,8 @@ void RecordingBuilder::finish(const std::string& newline) {
 
 std::string smallRecordingStamp(int i) {
   // 1/30 s spacing rounded to the microsecond, as TUM recordings write it.
-  const TimestampNs ns = 1'600'000'000'000'000'000LL + (static_cast<TimestampNs>(i) * 1'000'000'000LL) / 30;
+  const TimestampNs ns =
+      1'600'000'000'000'000'000LL + (static_cast<TimestampNs>(i) * 1'000'000'000LL) / 30;
   return formatNsAsSeconds(ns, 6);
 }
 
@@ -124,8 +126,9 @@ std::filesystem::path makeSmallRecording(const std::string& scratch_name, int fr
 
 void copyRecording(const std::filesystem::path& from, const std::filesystem::path& to) {
   std::filesystem::create_directories(to);
-  std::filesystem::copy(from, to, std::filesystem::copy_options::recursive |
-                                       std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy(
+      from, to,
+      std::filesystem::copy_options::recursive | std::filesystem::copy_options::overwrite_existing);
 }
 
 std::vector<Frame> replayAll(const std::filesystem::path& dir) {

@@ -72,8 +72,8 @@ class RecordingBuilder {
 
 /// A complete small recording of `frames` depth+RGB frames 1/30 s apart starting at
 /// 1600000000.000000 (stamps with 6 decimals), with camera.json. Returns its directory.
-std::filesystem::path makeSmallRecording(const std::string& scratch_name, int frames,
-                                         int width = 8, int height = 6);
+std::filesystem::path makeSmallRecording(const std::string& scratch_name, int frames, int width = 8,
+                                         int height = 6);
 
 /// The stamp text of frame i of makeSmallRecording: "1600000000.000000", "1600000000.033333", ...
 std::string smallRecordingStamp(int i);

@@ -15,8 +15,9 @@ namespace shapesense::testing {
 namespace fs = std::filesystem;
 
 std::optional<fs::path> fakenectLibraryDir() {
-  for (const char* dir : {"/usr/lib/x86_64-linux-gnu/fakenect", "/usr/lib/aarch64-linux-gnu/fakenect",
-                          "/usr/lib/arm-linux-gnueabihf/fakenect", "/usr/lib/fakenect"}) {
+  for (const char* dir :
+       {"/usr/lib/x86_64-linux-gnu/fakenect", "/usr/lib/aarch64-linux-gnu/fakenect",
+        "/usr/lib/arm-linux-gnueabihf/fakenect", "/usr/lib/fakenect"}) {
     if (fs::exists(fs::path(dir) / "libfreenect.so.0.5")) return fs::path(dir);
   }
   return std::nullopt;
@@ -48,17 +49,20 @@ std::pair<int, std::string> runSelf(const std::string& filter, const std::vector
   std::ifstream in(log);
   std::stringstream text;
   text << in.rdbuf();
-  const int code = status == -1 ? -1 : (WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status));
+  const int code =
+      status == -1 ? -1 : (WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status));
   return {code, text.str()};
 }
 
 std::vector<std::string> fakenectEnvironment(const fs::path& library_dir, const fs::path& dump,
                                              const std::string& inner_flag) {
   std::string asan = "ASAN_OPTIONS=detect_leaks=0";  // fakenect's own allocations at exit
-  if (const char* existing = std::getenv("ASAN_OPTIONS")) asan = std::string("ASAN_OPTIONS=") + existing + ":detect_leaks=0";
+  if (const char* existing = std::getenv("ASAN_OPTIONS"))
+    asan = std::string("ASAN_OPTIONS=") + existing + ":detect_leaks=0";
   const char* ld_path = std::getenv("LD_LIBRARY_PATH");
   return {inner_flag + "=1", "FAKENECT_PATH=" + dump.string(),
-          "LD_LIBRARY_PATH=" + library_dir.string() + (ld_path ? std::string(":") + ld_path : ""), asan};
+          "LD_LIBRARY_PATH=" + library_dir.string() + (ld_path ? std::string(":") + ld_path : ""),
+          asan};
 }
 
 }  // namespace shapesense::testing

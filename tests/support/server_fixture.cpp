@@ -14,13 +14,17 @@ Frame makeTestFrame(TimestampNs timestamp_ns, std::uint64_t sequence, bool with_
   Frame frame;
   frame.timestamp_ns = timestamp_ns;
   frame.sequence = sequence;
-  frame.intrinsics = CameraIntrinsics{100.0 + static_cast<double>(sequence % 7), 101.5, width / 2.0 - 0.5,
-                                      height / 2.0 - 0.5, width, height};
+  frame.intrinsics = CameraIntrinsics{100.0 + static_cast<double>(sequence % 7),
+                                      101.5,
+                                      width / 2.0 - 0.5,
+                                      height / 2.0 - 0.5,
+                                      width,
+                                      height};
   frame.depth.create(height, width, CV_16UC1);
   cv::RNG rng(0x5eed + sequence);
   // Up to the largest depth a TUM recording holds exactly (65535 units / 5 per mm = 13107 mm).
   rng.fill(frame.depth, cv::RNG::UNIFORM, 300, 13108);
-  frame.depth.at<std::uint16_t>(0, 0) = 0;               // no reading
+  frame.depth.at<std::uint16_t>(0, 0) = 0;  // no reading
   frame.depth.at<std::uint16_t>(1, 0) = 13107;
   if (with_rgb) {
     frame.rgb.create(height, width, CV_8UC3);

@@ -4,7 +4,8 @@
 
 namespace shapesense::testing {
 
-std::vector<synthetic::RenderedFrame> renderSyntheticSequence(std::uint64_t seed, int count, TimestampNs start_ns) {
+std::vector<synthetic::RenderedFrame> renderSyntheticSequence(std::uint64_t seed, int count,
+                                                              TimestampNs start_ns) {
   synthetic::SceneParams params;
   params.seed = seed;
   const synthetic::SyntheticScene scene(params);
@@ -19,7 +20,8 @@ std::vector<synthetic::RenderedFrame> renderSyntheticSequence(std::uint64_t seed
 
 std::vector<Frame> syntheticFrames(std::uint64_t seed, int count, TimestampNs start_ns) {
   std::vector<Frame> frames;
-  for (auto& rendered : renderSyntheticSequence(seed, count, start_ns)) frames.push_back(std::move(rendered.frame));
+  for (auto& rendered : renderSyntheticSequence(seed, count, start_ns))
+    frames.push_back(std::move(rendered.frame));
   return frames;
 }
 

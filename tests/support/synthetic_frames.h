@@ -15,10 +15,11 @@ inline constexpr TimestampNs kSyntheticStartNs = 1'700'000'000'000'000'000;
 
 /// Frames 0..count-1 of the default scene with `seed`, stamped start_ns + i/30 s (rounded to
 /// the nanosecond), with their ground truth.
-std::vector<synthetic::RenderedFrame> renderSyntheticSequence(std::uint64_t seed, int count,
-                                                              TimestampNs start_ns = kSyntheticStartNs);
+std::vector<synthetic::RenderedFrame> renderSyntheticSequence(
+    std::uint64_t seed, int count, TimestampNs start_ns = kSyntheticStartNs);
 
 /// The frames alone of renderSyntheticSequence.
-std::vector<Frame> syntheticFrames(std::uint64_t seed, int count, TimestampNs start_ns = kSyntheticStartNs);
+std::vector<Frame> syntheticFrames(std::uint64_t seed, int count,
+                                   TimestampNs start_ns = kSyntheticStartNs);
 
 }  // namespace shapesense::testing

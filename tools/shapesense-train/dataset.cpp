@@ -90,7 +90,8 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
           const auto r = scene.render(static_cast<std::uint64_t>(k * 45), 0);
           cv::Mat depth = r.frame.depth.clone();
           cv::RNG rng(scene_seed * 31 + static_cast<std::uint64_t>(k));
-          if (rng.uniform(0.0, 1.0) < gp.blank_room_fraction) depth.setTo(0, r.truth.object_labels == 0);
+          if (rng.uniform(0.0, 1.0) < gp.blank_room_fraction)
+            depth.setTo(0, r.truth.object_labels == 0);
           json line;
           char name[64];
           std::snprintf(name, sizeof name, "frames/%06d.png", s * gp.frames_per_scene + k);
@@ -106,12 +107,15 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
             if (o.kind != "bowl" || o.image_box.empty()) continue;
             const auto& b = o.image_box;
             any_upright |= o.upright;
-            bowls.push_back({{"box", {b.x, b.y, b.width, b.height}}, {"view", o.view_class}, {"upright", o.upright},
+            bowls.push_back({{"box", {b.x, b.y, b.width, b.height}},
+                             {"view", o.view_class},
+                             {"upright", o.upright},
                              {"difficult", isDifficultBowl(b, o.pixel_count)}});
           }
           line["negative"] = !any_upright;
           line["bowls"] = std::move(bowls);
-          if (!cv::imwrite((dir / name).string(), depth)) throw std::runtime_error(std::string("cannot write ") + name);
+          if (!cv::imwrite((dir / name).string(), depth))
+            throw std::runtime_error(std::string("cannot write ") + name);
           lines[static_cast<std::size_t>(s * gp.frames_per_scene + k)] = line.dump();
         }
         const int d = ++done;
@@ -158,7 +162,8 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
     f.negative = j.at("negative").get<bool>();
     for (const auto& b : j.at("bowls")) {
       BowlAnnotation a;
-      a.box = {b["box"][0].get<int>(), b["box"][1].get<int>(), b["box"][2].get<int>(), b["box"][3].get<int>()};
+      a.box = {b["box"][0].get<int>(), b["box"][1].get<int>(), b["box"][2].get<int>(),
+               b["box"][3].get<int>()};
       a.view = b.at("view").get<std::string>();
       a.upright = b.at("upright").get<bool>();
       a.difficult = b.at("difficult").get<bool>();
@@ -171,7 +176,8 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
 
 cv::Mat readDepth(const std::filesystem::path& dir, const DatasetFrame& frame) {
   cv::Mat d = cv::imread((dir / frame.file).string(), cv::IMREAD_UNCHANGED);
-  if (d.empty() || d.type() != CV_16UC1) throw std::runtime_error("bad depth frame " + (dir / frame.file).string());
+  if (d.empty() || d.type() != CV_16UC1)
+    throw std::runtime_error("bad depth frame " + (dir / frame.file).string());
   return d;
 }
 

@@ -48,8 +48,8 @@ cv::Rect windowToObjectBox(const cv::Rect& window, const WbDetectorMeta& meta) {
   const double y = (window.y + m * window.height) * meta.aspect;
   const double w = window.width * (1 - 2 * m);
   const double h = window.height * (1 - 2 * m) * meta.aspect;
-  return {static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)), static_cast<int>(std::lround(w)),
-          static_cast<int>(std::lround(h))};
+  return {static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)),
+          static_cast<int>(std::lround(w)), static_cast<int>(std::lround(h))};
 }
 
 namespace {
@@ -60,8 +60,9 @@ cv::Rect windowAround(const cv::Rect& box, const WbDetectorMeta& meta) {
   const double side = box.width / (1 - 2 * meta.margin);
   const double cx = box.x + box.width / 2.0;
   const double cy = (box.y + box.height / 2.0) / meta.aspect;
-  return {static_cast<int>(std::lround(cx - side / 2)), static_cast<int>(std::lround(cy - side / 2)),
-          static_cast<int>(std::lround(side)), static_cast<int>(std::lround(side))};
+  return {static_cast<int>(std::lround(cx - side / 2)),
+          static_cast<int>(std::lround(cy - side / 2)), static_cast<int>(std::lround(side)),
+          static_cast<int>(std::lround(side))};
 }
 
 std::string numbered(int i) {
@@ -72,7 +73,8 @@ std::string numbered(int i) {
 
 }  // namespace
 
-void exportWbDetectorData(const fs::path& data, const fs::path& out, const WbDetectorExportParams& params) {
+void exportWbDetectorData(const fs::path& data, const fs::path& out,
+                          const WbDetectorExportParams& params) {
   const auto frames = readDataset(data);
   const DepthPreprocessParams pre;  // as our models
   for (const auto& view : params.views) {
@@ -98,10 +100,12 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out, const WbDet
     writeWbDetectorMeta(dir / "meta.yml", meta);
 
     // Evenly spread subset: every k-th bowl (deterministic, covers all scenes and presets).
-    const std::size_t n = std::min<std::size_t>(bowls.size(), static_cast<std::size_t>(std::max(1, params.max_bowls_per_view)));
+    const std::size_t n = std::min<std::size_t>(
+        bowls.size(), static_cast<std::size_t>(std::max(1, params.max_bowls_per_view)));
     // (dx, dy, mirror) in window pixels, in the order they are added.
-    static constexpr int kVariants[10][3] = {{0, 0, 0},  {0, 0, 1},  {1, 0, 0},  {1, 0, 1},  {-1, 0, 0},
-                                             {-1, 0, 1}, {0, 1, 0},  {0, 1, 1},  {0, -1, 0}, {0, -1, 1}};
+    static constexpr int kVariants[10][3] = {{0, 0, 0},  {0, 0, 1},  {1, 0, 0}, {1, 0, 1},
+                                             {-1, 0, 0}, {-1, 0, 1}, {0, 1, 0}, {0, 1, 1},
+                                             {0, -1, 0}, {0, -1, 1}};
     const int variants = std::clamp(static_cast<int>((params.target_positives + n - 1) / n), 2, 10);
     int written = 0, skipped = 0;
     std::size_t cached_frame = SIZE_MAX;
@@ -115,7 +119,8 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out, const WbDet
       const cv::Rect w0 = windowAround(b->box, meta);
       const double px = w0.width / static_cast<double>(meta.window);  // one window pixel
       for (int v = 0; v < variants; ++v) {
-        const cv::Rect w = w0 + cv::Point(cvRound(kVariants[v][0] * px), cvRound(kVariants[v][1] * px));
+        const cv::Rect w =
+            w0 + cv::Point(cvRound(kVariants[v][0] * px), cvRound(kVariants[v][1] * px));
         if ((w & cv::Rect(0, 0, stretched.cols, stretched.rows)) != w) {
           ++skipped;  // as our trainer: windows reaching out of the image are not used
           continue;
@@ -128,7 +133,8 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out, const WbDet
     }
     std::vector<cv::Mat> bowl_free;
     for (const auto& f : frames)
-      if (f.negative) bowl_free.push_back(stretchForView(preprocessDepth(readDepth(data, f), pre), meta));
+      if (f.negative)
+        bowl_free.push_back(stretchForView(preprocessDepth(readDepth(data, f), pre), meta));
     if (bowl_free.empty()) throw std::runtime_error("no bowl-free frames in " + data.string());
     // WBDetector's first round takes its negatives as the 24x24 tiles of the first negative
     // images in name order (10 per positive). Tiles of whole depth frames are nearly all flat
@@ -146,16 +152,25 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out, const WbDet
       cv::Mat mosaic(tiles_y * W + 1, tiles_x * W + 1, CV_8UC1, cv::Scalar(255));
       for (int ty = 0; ty < tiles_y; ++ty)
         for (int tx = 0; tx < tiles_x; ++tx) {
-          const cv::Mat& img = bowl_free[static_cast<std::size_t>(rng.uniform(0, static_cast<int>(bowl_free.size())))];
-          const int side = std::min({cvRound(std::exp(rng.uniform(std::log(20.0), std::log(240.0)))), img.cols, img.rows});
-          const cv::Rect win(rng.uniform(0, img.cols - side + 1), rng.uniform(0, img.rows - side + 1), side, side);
-          cv::resize(img(win), mosaic(cv::Rect(tx * W, ty * W, W, W)), cv::Size(W, W), 0, 0, cv::INTER_AREA);
+          const cv::Mat& img = bowl_free[static_cast<std::size_t>(
+              rng.uniform(0, static_cast<int>(bowl_free.size())))];
+          const int side =
+              std::min({cvRound(std::exp(rng.uniform(std::log(20.0), std::log(240.0)))), img.cols,
+                        img.rows});
+          const cv::Rect win(rng.uniform(0, img.cols - side + 1),
+                             rng.uniform(0, img.rows - side + 1), side, side);
+          cv::resize(img(win), mosaic(cv::Rect(tx * W, ty * W, W, W)), cv::Size(W, W), 0, 0,
+                     cv::INTER_AREA);
         }
       cv::imwrite((dir / "neg" / numbered(negatives++)).string(), mosaic);
     }
-    for (const auto& img : bowl_free) cv::imwrite((dir / "neg" / numbered(negatives++)).string(), img);
-    std::fprintf(stderr, "[%s] aspect %.3f: %d positives (%d variants) from %zu of %zu bowls (%d out of the image), %d negative images (%d mosaics)\n",
-                 view.c_str(), meta.aspect, written, variants, n, bowls.size(), skipped, negatives, mosaics);
+    for (const auto& img : bowl_free)
+      cv::imwrite((dir / "neg" / numbered(negatives++)).string(), img);
+    std::fprintf(stderr,
+                 "[%s] aspect %.3f: %d positives (%d variants) from %zu of %zu bowls (%d out of "
+                 "the image), %d negative images (%d mosaics)\n",
+                 view.c_str(), meta.aspect, written, variants, n, bowls.size(), skipped, negatives,
+                 mosaics);
   }
 }
 

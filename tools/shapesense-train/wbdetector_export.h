@@ -46,7 +46,7 @@ struct WbDetectorExportParams {
 struct WbDetectorMeta {
   double aspect = 1.0;  ///< median box height / width of the view's training bowls
   double margin = 0.125;
-  int window = 24;      ///< WBDetector's fixed window side (pixels)
+  int window = 24;  ///< WBDetector's fixed window side (pixels)
 };
 
 /// Writes the folders described above from the dataset at `data`. Prints progress to stderr.

@@ -7,20 +7,24 @@ namespace shapesense {
 grpc::Status handleEstimateBox(const ServiceContext& context, const v1::EstimateBoxRequest& request,
                                v1::EstimateBoxResponse* response) {
   if (!request.has_p1() || !request.has_p2()) {
-    return {grpc::StatusCode::INVALID_ARGUMENT, "p1 and p2 (two opposite ROI corners) are required"};
+    return {grpc::StatusCode::INVALID_ARGUMENT,
+            "p1 and p2 (two opposite ROI corners) are required"};
   }
-  const int mode_value = request.mode() == v1::BOX_MODE_UNSPECIFIED ? 1 : static_cast<int>(request.mode());
+  const int mode_value =
+      request.mode() == v1::BOX_MODE_UNSPECIFIED ? 1 : static_cast<int>(request.mode());
   if (mode_value < 1 || mode_value > 3) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
-            "unknown box mode " + std::to_string(mode_value) + ": use 1 (frustum aligned), 2 "
-            "(axis aligned, ROI contains the box) or 3 (axis aligned, ROI is the front face)"};
+            "unknown box mode " + std::to_string(mode_value) +
+                ": use 1 (frustum aligned), 2 "
+                "(axis aligned, ROI contains the box) or 3 (axis aligned, ROI is the front face)"};
   }
   CachedFrame entry;
   if (auto status = lookupFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
   const Frame& frame = *entry.frame;
   const cv::Point p1(request.p1().x(), request.p1().y());
   const cv::Point p2(request.p2().x(), request.p2().y());
-  auto result = estimateBox(frame.depth, frame.intrinsics, p1, p2, static_cast<BoxMode>(mode_value));
+  auto result =
+      estimateBox(frame.depth, frame.intrinsics, p1, p2, static_cast<BoxMode>(mode_value));
   if (auto* failure = std::get_if<BoxEstimationFailure>(&result)) {
     const auto code = failure->code == BoxEstimationError::kNoValidDepth
                           ? grpc::StatusCode::FAILED_PRECONDITION

@@ -6,7 +6,8 @@ namespace shapesense {
 grpc::Status handleGetBowls(const ServiceContext& context, const v1::GetBowlsRequest& request,
                             v1::GetBowlsResponse* response) {
   CachedFrame entry;
-  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
+  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok())
+    return status;
   if (!entry.results->bowls) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "the bowl stage is off; start shapesensed with --bowls on (and --models DIR if the "

@@ -7,7 +7,8 @@ grpc::Status handleGetDetectedBoxes(const ServiceContext& context,
                                     const v1::GetDetectedBoxesRequest& request,
                                     v1::GetDetectedBoxesResponse* response) {
   CachedFrame entry;
-  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
+  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok())
+    return status;
   response->set_frame_timestamp_ns(entry.frame->timestamp_ns);
   for (const auto& object : entry.results->object_boxes) {
     auto* box = response->add_boxes();

@@ -11,7 +11,8 @@ grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesR
     return {grpc::StatusCode::INVALID_ARGUMENT, "view must be FRAME (0) or ACCUMULATED (1)"};
   }
   CachedFrame entry;
-  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok()) return status;
+  if (auto status = lookupProcessedFrame(context.cache, request.at_ns(), entry); !status.ok())
+    return status;
   if (!entry.results->planes) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "the plane stage is off; start shapesensed with --planes hough or --planes ransac"};

@@ -13,7 +13,8 @@ grpc::Status handleListFrames(const ServiceContext& context, const v1::ListFrame
   }
   auto frames = context.cache.list(request.from_ns(), request.to_ns());
   std::size_t first = 0;
-  if (request.limit() != 0 && frames.size() > request.limit()) first = frames.size() - request.limit();
+  if (request.limit() != 0 && frames.size() > request.limit())
+    first = frames.size() - request.limit();
   for (std::size_t i = first; i < frames.size(); ++i) toProto(frames[i], response->add_frames());
   toProto(context.cache.range(), response->mutable_cache());
   return grpc::Status::OK;

@@ -4,8 +4,9 @@ namespace shapesense {
 
 grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out) {
   if (at_ns < 0) {
-    return {grpc::StatusCode::INVALID_ARGUMENT,
-            "at_ns must be a capture time in nanoseconds since the epoch, or 0 for the newest frame"};
+    return {
+        grpc::StatusCode::INVALID_ARGUMENT,
+        "at_ns must be a capture time in nanoseconds since the epoch, or 0 for the newest frame"};
   }
   auto found = cache.at(at_ns);
   if (auto* error = std::get_if<LookupError>(&found)) {

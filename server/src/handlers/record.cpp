@@ -1,8 +1,9 @@
 // Record: the frames the source delivers for a while, written on the daemon's machine in the TUM
 // layout (TumRecordingWriter) with camera.json, depth at the layout's 5000 units per metre
-// (replays bit-identically up to 13.1 m, far past any Kinect-class reading). Frames come from the FrameTap (every delivered
-// frame, processed or not) into a bounded queue this handler's thread drains, so a slow disk
-// never slows the capture thread: it loses frames instead, counted in frames_dropped.
+// (replays bit-identically up to 13.1 m, far past any Kinect-class reading). Frames come from the
+// FrameTap (every delivered frame, processed or not) into a bounded queue this handler's thread
+// drains, so a slow disk never slows the capture thread: it loses frames instead, counted in
+// frames_dropped.
 
 #include <cmath>
 #include <condition_variable>
@@ -26,7 +27,8 @@ constexpr auto kProgressInterval = std::chrono::milliseconds(100);
 constexpr double kMaxSeconds = 86400.0;
 
 bool sourceFinished(SourceState state) {
-  return state == SourceState::kEnded || state == SourceState::kFailed || state == SourceState::kStopped;
+  return state == SourceState::kEnded || state == SourceState::kFailed ||
+         state == SourceState::kStopped;
 }
 
 /// Clears the "a recording runs" flag when the call ends, however it ends.
@@ -82,7 +84,8 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
   const fs::path dir(request.dir());
   if (!dir.is_absolute()) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
-            "dir '" + request.dir() + "' is relative: the daemon writes on its own machine, give an absolute path"};
+            "dir '" + request.dir() +
+                "' is relative: the daemon writes on its own machine, give an absolute path"};
   }
   const double seconds = request.seconds();
   if (!std::isfinite(seconds) || seconds <= 0.0 || seconds > kMaxSeconds) {
@@ -94,7 +97,8 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
   if (sourceFinished(status.state)) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "the source " + status.source + " is " + toString(status.state) +
-                ": no new frames to record (record a recording with `shapesense record --source SPEC`)"};
+                ": no new frames to record (record a recording with `shapesense record --source "
+                "SPEC`)"};
   }
   if (context.recording->exchange(true)) {
     return {grpc::StatusCode::ABORTED,
@@ -105,7 +109,8 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
   std::error_code error;
   if (fs::exists(dir, error)) {
     if (!fs::is_directory(dir, error)) {
-      return {grpc::StatusCode::FAILED_PRECONDITION, "'" + dir.string() + "' exists and is not a directory"};
+      return {grpc::StatusCode::FAILED_PRECONDITION,
+              "'" + dir.string() + "' exists and is not a directory"};
     }
     if (!fs::is_empty(dir, error)) {
       return {grpc::StatusCode::FAILED_PRECONDITION,
@@ -121,9 +126,11 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
 
   FrameQueue queue;
   auto subscription = std::make_unique<FrameTapSubscription>(
-      *context.frame_tap, [&queue](const std::shared_ptr<const Frame>& frame) { queue.push(frame); });
+      *context.frame_tap,
+      [&queue](const std::shared_ptr<const Frame>& frame) { queue.push(frame); });
   const auto start = Clock::now();
-  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
   std::optional<TumRecordingWriter> out;
   std::uint64_t written = 0;
   auto last_sent = start;
@@ -139,7 +146,8 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
     return writer->Write(message);
   };
   const auto stopped_after = [&] {
-    return std::to_string(written) + " frame(s) written to " + dir.string() + " stay a valid recording";
+    return std::to_string(written) + " frame(s) written to " + dir.string() +
+           " stay a valid recording";
   };
 
   while (true) {
@@ -155,7 +163,7 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
         if (!out) {
           RecordingCamera camera;
           camera.intrinsics = frame->intrinsics;
-                    out.emplace(dir, camera);
+          out.emplace(dir, camera);
         }
         out->write(*frame);
         ++written;

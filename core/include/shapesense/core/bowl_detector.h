@@ -31,7 +31,7 @@
 namespace shapesense {
 
 struct BowlDetection {
-  cv::Rect box;      ///< object box in the input image (pixels)
+  cv::Rect box;  ///< object box in the input image (pixels)
   /// WaldBoost score of the kept window (Real AdaBoost units) plus its support bonus
   /// (BowlDetectorParams::support_score_weight); higher = more bowl-like
   double score = 0;
@@ -106,8 +106,9 @@ void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_s
 /// the same function so training and detection see the same resampling.
 /// Levels finer than `min_integral_scale` get no integral image (the detector skips levels
 /// whose windows are smaller than any object it searches for).
-std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w, int min_h,
-                                               double max_scale = 1e9, double min_integral_scale = 0.0);
+std::vector<BowlPyramidLevel> buildBowlPyramid(const cv::Mat& image8, double scale_step, int min_w,
+                                               int min_h, double max_scale = 1e9,
+                                               double min_integral_scale = 0.0);
 
 /// Area of the intersection of the circles inscribed in two boxes over the smaller circle's
 /// area (0 = disjoint, 1 = the smaller inside the larger).
@@ -119,21 +120,25 @@ double inscribedCircleOverlap(const cv::Rect& a, const cv::Rect& b);
 /// BowlDetectorParams::box_merge_iou), and its score gains support_weight * ln(number of those
 /// boxes) (BowlDetectorParams::support_score_weight); the result is sorted by that score. Views
 /// and the set of kept detections do not depend on support_weight.
-std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> detections, double max_overlap,
-                                             double merge_iou = 0.0, double support_weight = 0.0);
+std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> detections,
+                                             double max_overlap, double merge_iou = 0.0,
+                                             double support_weight = 0.0);
 
 class BowlDetector {
  public:
   /// Loads bowl_*.json from a folder (sorted by name) or one model file. Throws
   /// std::runtime_error when nothing loads or the models disagree on preprocessing.
-  static BowlDetector load(const std::filesystem::path& models_dir_or_file, BowlDetectorParams params = {});
+  static BowlDetector load(const std::filesystem::path& models_dir_or_file,
+                           BowlDetectorParams params = {});
 
   explicit BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams params = {});
 
   /// Bowls in a CV_16UC1 millimetre depth image, after NMS, highest score first.
-  std::vector<BowlDetection> detect(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics) const;
+  std::vector<BowlDetection> detect(const cv::Mat& depth_mm,
+                                    const CameraIntrinsics& intrinsics) const;
   /// Every accepted window before NMS (for evaluation and debugging).
-  std::vector<BowlDetection> detectRaw(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics) const;
+  std::vector<BowlDetection> detectRaw(const cv::Mat& depth_mm,
+                                       const CameraIntrinsics& intrinsics) const;
 
   const std::vector<BowlViewModel>& models() const { return models_; }
   const BowlDetectorParams& params() const { return params_; }
@@ -146,8 +151,9 @@ class BowlDetector {
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
 /// trainer's bootstrapping); a stage reads its code from level.codes when the image of its
-/// cell size is there, from the integral image otherwise, with the same result. `filled_mm` (the filled
-/// depth of the input, may be empty = no gate) and `fx` feed the depth gate. Each hit is (x, y, score) in level pixels.
+/// cell size is there, from the integral image otherwise, with the same result. `filled_mm` (the
+/// filled depth of the input, may be empty = no gate) and `fx` feed the depth gate. Each hit is (x,
+/// y, score) in level pixels.
 struct BowlWindowHit {
   int x = 0;
   int y = 0;

@@ -29,7 +29,7 @@ struct BowlEvalResult {
   double max_recall = 0.0;         ///< recall with every detection
   int positives = 0;               ///< non-difficult truth boxes
   int frames = 0;
-  int true_positives = 0;          ///< at the lowest score (all detections)
+  int true_positives = 0;  ///< at the lowest score (all detections)
   int false_positives = 0;
 };
 
@@ -38,6 +38,7 @@ double boxIoU(const cv::Rect& a, const cv::Rect& b);
 
 /// Greedy VOC matching per frame in decreasing score: a detection is a true positive when its
 /// best-IoU unmatched truth box has IoU >= iou (a difficult one: ignored), else a false positive.
-BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou = 0.5, double fppi = 0.1);
+BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou = 0.5,
+                                      double fppi = 0.1);
 
 }  // namespace shapesense

@@ -31,13 +31,13 @@ namespace shapesense {
 inline constexpr int kBowlModelVersion = 1;
 
 struct BowlViewModel {
-  std::string view;                 ///< "top", "middle" or "side"
+  std::string view;  ///< "top", "middle" or "side"
   WaldBoostClassifier classifier;
-  double object_margin = 0.125;     ///< see the file format
-  double min_object_width_m = 0.08; ///< depth gate, see the file format
+  double object_margin = 0.125;      ///< see the file format
+  double min_object_width_m = 0.08;  ///< depth gate, see the file format
   double max_object_width_m = 0.45;
   DepthPreprocessParams preprocess;
-  std::string training_json = "{}"; ///< the "training" object, verbatim
+  std::string training_json = "{}";  ///< the "training" object, verbatim
 
   bool operator==(const BowlViewModel& o) const {
     return view == o.view && classifier == o.classifier && object_margin == o.object_margin &&

@@ -14,11 +14,11 @@ namespace shapesense {
 using TimestampNs = std::int64_t;
 
 struct Frame {
-  cv::Mat depth;                ///< CV_16UC1, millimetres, 0 = no reading. Always present.
-  cv::Mat rgb;                  ///< CV_8UC3 in BGR order (OpenCV), or empty when absent.
-  CameraIntrinsics intrinsics;  ///< of the depth image (RGB is assumed registered to it)
-  TimestampNs timestamp_ns = 0; ///< capture time of the depth image
-  std::uint64_t sequence = 0;   ///< 0, 1, 2, ... per source, in delivery order
+  cv::Mat depth;                 ///< CV_16UC1, millimetres, 0 = no reading. Always present.
+  cv::Mat rgb;                   ///< CV_8UC3 in BGR order (OpenCV), or empty when absent.
+  CameraIntrinsics intrinsics;   ///< of the depth image (RGB is assumed registered to it)
+  TimestampNs timestamp_ns = 0;  ///< capture time of the depth image
+  std::uint64_t sequence = 0;    ///< 0, 1, 2, ... per source, in delivery order
 };
 
 }  // namespace shapesense

@@ -108,8 +108,14 @@ class HoughAccumulator {
 
  private:
   int blockIndex(int bi, int bj, int bk) const { return (bk * nba_ + bj) * nba_ + bi; }
-  float* block(int key) { const int b = index_[key]; return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells]; }
-  const float* block(int key) const { const int b = index_[key]; return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells]; }
+  float* block(int key) {
+    const int b = index_[key];
+    return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells];
+  }
+  const float* block(int key) const {
+    const int b = index_[key];
+    return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells];
+  }
   float* blockOrCreate(int key);
   void prepareLike(const HoughAccumulator& other);
   // Passes of smoothInto a block of the output needs: none, x, x and y, all three.
@@ -121,13 +127,14 @@ class HoughAccumulator {
 
   HoughSpaceParams params_;
   double a_cell_ = 0;  // Lambert units per cell
-  double inv_a_cell_ = 0, inv_d_cell_ = 0;  // voting multiplies (a division per vote costs more than the rest)
+  double inv_a_cell_ = 0,
+         inv_d_cell_ = 0;  // voting multiplies (a division per vote costs more than the rest)
   int na_ = 0, nd_ = 0, nba_ = 0, nbd_ = 0;
-  std::vector<std::int32_t> index_;       // top level: block number or -1
-  std::vector<float> cells_;              // pool: block b at [b * kBlockCells, ...)
-  std::vector<std::int32_t> block_keys_;  // top-level key of each pooled block
-  std::vector<float> scratch_;            // smoothInto's intermediate pass, kept between frames
-  std::vector<float> block_mass_;         // smoothInto (output side): the source's block masses
+  std::vector<std::int32_t> index_;        // top level: block number or -1
+  std::vector<float> cells_;               // pool: block b at [b * kBlockCells, ...)
+  std::vector<std::int32_t> block_keys_;   // top-level key of each pooled block
+  std::vector<float> scratch_;             // smoothInto's intermediate pass, kept between frames
+  std::vector<float> block_mass_;          // smoothInto (output side): the source's block masses
   std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
 };
 

@@ -53,7 +53,9 @@ inline std::uint8_t lbpCodeIntegral(const std::int32_t* origin, const LbpOffsets
   // Cell (i, j) sum = A(i,j) - A(i,j+1) - A(i+1,j) + A(i+1,j+1) with A the 4x4 corners.
   std::int32_t a[16];
   for (int k = 0; k < 16; ++k) a[k] = p[o[k]];
-  auto cell = [&](int i, int j) { return a[i * 4 + j] - a[i * 4 + j + 1] - a[(i + 1) * 4 + j] + a[(i + 1) * 4 + j + 1]; };
+  auto cell = [&](int i, int j) {
+    return a[i * 4 + j] - a[i * 4 + j + 1] - a[(i + 1) * 4 + j] + a[(i + 1) * 4 + j + 1];
+  };
   const std::int32_t c = cell(1, 1);
   std::uint8_t code = 0;
   code |= static_cast<std::uint8_t>((cell(0, 0) >= c) << 0);

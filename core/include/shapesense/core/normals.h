@@ -86,18 +86,18 @@ class NormalEstimator {
   std::vector<std::uint32_t> packed_;  // gradients: ring of rows of the packed integral of
                                        // (sums, valid count)
   std::vector<std::uint32_t*> integral_rows_;  // gradients: each integral row's place in packed_
-  std::vector<float> zplane_;          // z of points_ (contiguous), NaN invalid
-  std::vector<float> ray_x_;           // (u - cx) / fx per column
-  std::vector<float> ray_y_;           // (v - cy) / fy per row
-  bool points_from_depth_ = false;     // points_ = z * (ray_x_, ray_y_, 1) (depth input)
-  std::vector<int> rad_;               // one row of window radii
-  std::vector<int> min_count_;         // fewest valid pixels per window radius
-  std::vector<float> col_bound_;       // largest window radius the image width allows per column
-  std::vector<float> row_n_;           // one row of unnormalised normals (x, y, z planes)
-  std::vector<float> inv_count_;       // 1 / n for every window pixel count n
-  std::vector<float> win_mean_;        // window means (and counts) of three rows of centres
-  std::vector<int> win_radius_;        // the radius win_mean_ holds per centre, 0 = none
-  std::vector<float> last_z_;          // per-column scratch for the vertical step scan
+  std::vector<float> zplane_;                  // z of points_ (contiguous), NaN invalid
+  std::vector<float> ray_x_;                   // (u - cx) / fx per column
+  std::vector<float> ray_y_;                   // (v - cy) / fy per row
+  bool points_from_depth_ = false;             // points_ = z * (ray_x_, ray_y_, 1) (depth input)
+  std::vector<int> rad_;                       // one row of window radii
+  std::vector<int> min_count_;                 // fewest valid pixels per window radius
+  std::vector<float> col_bound_;  // largest window radius the image width allows per column
+  std::vector<float> row_n_;      // one row of unnormalised normals (x, y, z planes)
+  std::vector<float> inv_count_;  // 1 / n for every window pixel count n
+  std::vector<float> win_mean_;   // window means (and counts) of three rows of centres
+  std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
+  std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
   std::vector<std::uint8_t> vstep_;  // one row of flags: vertical steps, then pixels after a hole
   std::vector<int> vrow_;            // the row each vertical step marks

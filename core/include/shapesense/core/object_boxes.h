@@ -51,10 +51,11 @@ struct ObjectBox {
 
 /// Boxes of the segments of `segment_labels` that stand on a region of `planes` (see the file
 /// comment). `segments` are the statistics of `segment_labels`.
-std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                                             const cv::Mat& segment_labels,
-                                             const std::vector<SegmentStatistics>& segments,
-                                             const PlaneDetection& planes,
-                                             const ObjectBoxParams& params = {});
+std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
+                                              const CameraIntrinsics& intrinsics,
+                                              const cv::Mat& segment_labels,
+                                              const std::vector<SegmentStatistics>& segments,
+                                              const PlaneDetection& planes,
+                                              const ObjectBoxParams& params = {});
 
 }  // namespace shapesense

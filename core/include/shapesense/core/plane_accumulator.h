@@ -63,7 +63,8 @@ class PlaneAccumulator {
   explicit PlaneAccumulator(PlaneAccumulatorParams params = {});
 
   /// Adds one frame's detection. `world_from_camera`: the frame's pose when known.
-  void update(const PlaneDetection& frame, const std::optional<Eigen::Isometry3d>& world_from_camera = std::nullopt);
+  void update(const PlaneDetection& frame,
+              const std::optional<Eigen::Isometry3d>& world_from_camera = std::nullopt);
 
   /// The accumulated planes in the camera frame of the last update; `id` is a track id, stable
   /// across frames; inliers, rms, box, polygon and colour are those of the track's last sighting
@@ -83,7 +84,7 @@ class PlaneAccumulator {
     double weight = 0.0;
     Eigen::Vector3d normal() const { return sum_normal.normalized(); }
     double d() const { return -normal().dot(sum_point / weight); }
-    DetectedPlane last;                  // in the camera frame of its sighting
+    DetectedPlane last;  // in the camera frame of its sighting
     Eigen::Isometry3d ref_from_last = Eigen::Isometry3d::Identity();
   };
   int matchTrack(const Eigen::Vector3d& n, double d) const;

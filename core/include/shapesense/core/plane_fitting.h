@@ -69,8 +69,8 @@ class PlaneMoments {
   /// The moments of a point set of total weight n whose offsets from `reference` sum to `sum`
   /// and whose offsets' outer products sum to `sum_sq`: for loops that keep raw sums in
   /// registers instead of calling add() per point.
-  static PlaneMoments fromSums(const Eigen::Vector3d& reference, double n, const Eigen::Vector3d& sum,
-                               const Eigen::Matrix3d& sum_sq) {
+  static PlaneMoments fromSums(const Eigen::Vector3d& reference, double n,
+                               const Eigen::Vector3d& sum, const Eigen::Matrix3d& sum_sq) {
     PlaneMoments m(reference);
     m.n_ = n;
     m.s_ = sum;

@@ -18,9 +18,9 @@ namespace shapesense {
 struct PlaneSampleGrid {
   int step = 1;
   int offset = 0;
-  cv::Mat depth_mm;               ///< CV_16UC1 subsampled depth
-  CameraIntrinsics intrinsics;    ///< of the subsampled image (a pinhole camera of its own)
-  cv::Mat points;                 ///< CV_32FC3 camera-frame points (m), NaN where invalid
+  cv::Mat depth_mm;             ///< CV_16UC1 subsampled depth
+  CameraIntrinsics intrinsics;  ///< of the subsampled image (a pinhole camera of its own)
+  cv::Mat points;               ///< CV_32FC3 camera-frame points (m), NaN where invalid
   /// Optional (filled by detectors that estimate them): CV_32FC3 unit normals (NaN = none) and
   /// CV_8UC1 reliability (non-zero = the normal agrees with its neighbours: inside a smooth
   /// surface, not on a crease). Growth will not cross reliable normals of another orientation.
@@ -41,25 +41,30 @@ struct PlaneHypothesis {
 /// 4-neighbour and within the tolerance of its plane (samples near edges and holes have no
 /// normal, so detectors leave them unassigned). A sample with a reliable normal more than
 /// params.grow_max_normal_deg off the plane is not taken: it belongs to a surface crossing the
-/// plane (without this, every plane claims a band along each intersection line). `sample_labels` as in labelPlanes.
+/// plane (without this, every plane claims a band along each intersection line). `sample_labels` as
+/// in labelPlanes.
 void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                      const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params);
+                      const std::vector<PlaneHypothesis>& planes,
+                      const PlaneLabelingParams& params);
 
 /// Per plane, the coefficient c of its inlier tolerance max(tolerance.floor_m, c z^2) (see
 /// PlaneLabelingParams::adaptive_tolerance_factor), from the samples currently labelled with it.
-std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
+                                              const cv::Mat& sample_labels,
                                               const std::vector<PlaneHypothesis>& planes,
                                               const PlaneLabelingParams& params);
 
 /// Whether two neighbouring samples at ranges z1, z2 (m) are depth-continuous (one surface):
 /// |z1 - z2| <= max(1% of the range per sample step, the tolerance at that range).
-bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid, const PlaneLabelingParams& params);
+bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid,
+                       const PlaneLabelingParams& params);
 
 /// Turns per-sample plane assignments into a PlaneDetection.
 /// `sample_labels`: CV_32SC1 on the sample grid, -1 = none, k = index into `planes`; it is
 /// modified (grown into unassigned samples that fit a neighbouring plane).
-PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, const cv::Mat& bgr,
-                           const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                           const std::vector<PlaneHypothesis>& planes, const PlaneLabelingParams& params);
+PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                           const cv::Mat& bgr, const PlaneSampleGrid& grid, cv::Mat& sample_labels,
+                           const std::vector<PlaneHypothesis>& planes,
+                           const PlaneLabelingParams& params);
 
 }  // namespace shapesense

@@ -24,7 +24,7 @@ struct RansacPlaneParams {
   /// Half-size (samples) of the window the 2nd and 3rd points are drawn from; 0 = anywhere.
   /// Default 10 (40 px at step 4).
   int neighbourhood_samples = 10;
-  std::uint64_t seed = 1;          ///< random generator seed (results are deterministic). Default 1.
+  std::uint64_t seed = 1;  ///< random generator seed (results are deterministic). Default 1.
 };
 
 PlaneDetection detectPlanesRansac(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,

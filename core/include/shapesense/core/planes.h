@@ -53,10 +53,10 @@ struct DetectedPlane {
   /// detected plane (e.g. two box tops at the same height) but are separate surfaces.
   int group = 0;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit, towards the camera
-  double d = 0.0;                  ///< n.X + d = 0, d > 0 (metres)
-  std::size_t inliers = 0;         ///< full-resolution pixels labelled `id`
-  double rms_m = 0.0;              ///< RMS orthogonal distance of the inliers to the plane
-  cv::Rect box;                    ///< image bounds of the inliers
+  double d = 0.0;                                    ///< n.X + d = 0, d > 0 (metres)
+  std::size_t inliers = 0;                           ///< full-resolution pixels labelled `id`
+  double rms_m = 0.0;  ///< RMS orthogonal distance of the inliers to the plane
+  cv::Rect box;        ///< image bounds of the inliers
   /// Boundary of the region on the plane (camera frame, metres): the outer contour of the
   /// label region (a concave hull), simplified, with its vertices cast onto the plane.
   std::vector<Eigen::Vector3d> polygon;
@@ -96,7 +96,8 @@ struct PlaneLabelingParams {
   /// 0 = always the fixed tolerance. Defaults 3 and 1.5 steps.
   double adaptive_tolerance_factor = 3.0;
   double min_tolerance_steps = 1.5;
-  /// Split planes into connected regions (one id per physical surface, SegComp-style). Default true.
+  /// Split planes into connected regions (one id per physical surface, SegComp-style). Default
+  /// true.
   bool split_connected_regions = true;
   /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
   /// plane itself (floor between table legs): one id per physical surface. Default true.

@@ -52,7 +52,8 @@ std::optional<SegmentationMethod> parseSegmentationMethod(std::string_view name)
 
 /// Region growing shared by every method (all sizes in full-resolution pixels).
 struct RegionParams {
-  /// Work at 1/downsample resolution (1 or 2; 2x2 blocks are averaged, see file comment). Default 2.
+  /// Work at 1/downsample resolution (1 or 2; 2x2 blocks are averaged, see file comment).
+  /// Default 2.
   int downsample = 2;
   /// Pixels with edge strength <= this seed the watershed markers. Default 0.
   int marker_max_edge = 0;

@@ -70,8 +70,8 @@ struct WaldBoostClassifier {
   }
 
   /// The same with per-stage thresholds (from rejectionThresholds) in place of the stages' own.
-  bool evaluate(const std::int32_t* origin, const LbpOffsets* offsets, const std::int32_t* thresholds,
-                std::int32_t& score) const {
+  bool evaluate(const std::int32_t* origin, const LbpOffsets* offsets,
+                const std::int32_t* thresholds, std::int32_t& score) const {
     std::int32_t h = 0;
     const std::size_t n = stages.size();
     for (std::size_t t = 0; t < n; ++t) {
@@ -106,10 +106,11 @@ struct WaldBoostClassifier {
 
 /// Parameters of WaldBoostTrainer.
 struct WaldBoostTrainParams {
-  int stages = 100;                ///< weak classifiers T. Default 100.
-  double target_miss_rate = 0.05;  ///< alpha: training positives all thresholds may reject. Default 0.05.
-  int max_cell = 2;                ///< LBP cell sizes 1..max_cell pixels each way. Default 2 (seed).
-  double lut_clip = 3.0;           ///< |vote| cap (Real AdaBoost units). Default 3.
+  int stages = 100;  ///< weak classifiers T. Default 100.
+  double target_miss_rate =
+      0.05;               ///< alpha: training positives all thresholds may reject. Default 0.05.
+  int max_cell = 2;       ///< LBP cell sizes 1..max_cell pixels each way. Default 2 (seed).
+  double lut_clip = 3.0;  ///< |vote| cap (Real AdaBoost units). Default 3.
   /// eps of the table, relative to 1/(samples): keeps empty bins finite. Default 0.5.
   double lut_smoothing = 0.5;
   std::size_t negative_pool = 4000;  ///< negatives drawn at each refill. Default 4000.
@@ -134,8 +135,8 @@ struct WaldBoostStageStats {
 /// Supplies `count` negative windows (CV_8UC1, win_w x win_h) that `current` accepts, drawn
 /// deterministically from `stage` (0-based index of the stage about to be trained); may
 /// return fewer when the source is exhausted.
-using NegativeSource =
-    std::function<std::vector<cv::Mat>(const WaldBoostClassifier& current, int stage, std::size_t count)>;
+using NegativeSource = std::function<std::vector<cv::Mat>(const WaldBoostClassifier& current,
+                                                          int stage, std::size_t count)>;
 
 class WaldBoostTrainer {
  public:
@@ -143,7 +144,8 @@ class WaldBoostTrainer {
   /// it and the pool is refilled before the next stage, exactly as at a scheduled refill, so a
   /// resumed run equals an uninterrupted one when it resumes at a refill stage (see
   /// isRefillStage).
-  WaldBoostTrainer(std::vector<cv::Mat> positives, WaldBoostClassifier start, WaldBoostTrainParams params);
+  WaldBoostTrainer(std::vector<cv::Mat> positives, WaldBoostClassifier start,
+                   WaldBoostTrainParams params);
 
   /// Trains one stage. Returns false (and trains nothing) when done or out of negatives.
   bool trainStage(const NegativeSource& source, WaldBoostStageStats* stats = nullptr);

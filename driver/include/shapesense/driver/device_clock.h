@@ -30,11 +30,11 @@
 namespace shapesense {
 
 struct DeviceClockParams {
-  double tick_hz = 60e6;         ///< counter frequency. Default 60 MHz (Kinect v1).
-  int counter_bits = 32;         ///< counter width, 1-64. Default 32 (Kinect v1).
-  std::size_t window = 90;       ///< samples in the offset median (3 s of one 30 Hz stream). Default 90.
-  std::size_t block = 30;        ///< samples per drift point. Default 30.
-  std::size_t drift_blocks = 60; ///< drift points kept (60 x 30 samples ~ 1 min). Default 60.
+  double tick_hz = 60e6;    ///< counter frequency. Default 60 MHz (Kinect v1).
+  int counter_bits = 32;    ///< counter width, 1-64. Default 32 (Kinect v1).
+  std::size_t window = 90;  ///< samples in the offset median (3 s of one 30 Hz stream). Default 90.
+  std::size_t block = 30;   ///< samples per drift point. Default 30.
+  std::size_t drift_blocks = 60;  ///< drift points kept (60 x 30 samples ~ 1 min). Default 60.
   /// Drift estimates beyond this magnitude (parts per million) are clamped. Default 500.
   double max_drift_ppm = 500.0;
 };
@@ -79,7 +79,7 @@ class DeviceClock {
   DeviceClockParams params_;
   std::uint64_t mask_;
   std::optional<std::uint64_t> last_raw_;
-  std::int64_t last_ticks_ = 0;      // unwrapped ticks of the latest sample
+  std::int64_t last_ticks_ = 0;  // unwrapped ticks of the latest sample
   std::int64_t last_device_ns_ = 0;
   std::deque<Sample> samples_;
   std::vector<Sample> current_block_;

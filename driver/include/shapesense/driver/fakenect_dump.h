@@ -16,11 +16,11 @@
 
 #include <chrono>
 #include <condition_variable>
-#include <mutex>
 #include <cstdint>
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -38,11 +38,11 @@ inline constexpr int kFakenectHeight = 480;
 
 /// One INDEX.txt line.
 struct FakenectIndexEntry {
-  char type = 0;                 ///< 'd' depth, 'r' RGB, 'a' accelerometer, other: unknown
-  TimestampNs host_ns = 0;       ///< arrival time written by the recorder (host seconds)
+  char type = 0;                   ///< 'd' depth, 'r' RGB, 'a' accelerometer, other: unknown
+  TimestampNs host_ns = 0;         ///< arrival time written by the recorder (host seconds)
   std::uint32_t device_ticks = 0;  ///< 60 MHz device counter
-  std::string file_name;         ///< as written in INDEX.txt, relative to the dump directory
-  int line = 0;                  ///< 1-based line number in INDEX.txt
+  std::string file_name;           ///< as written in INDEX.txt, relative to the dump directory
+  int line = 0;                    ///< 1-based line number in INDEX.txt
 };
 
 /// Parses "<type>-<seconds>-<ticks>..." (the same fields fakenect's sscanf reads).
@@ -101,13 +101,13 @@ void writeFakenectDump(const std::filesystem::path& dir, std::span<const Frame> 
                        const FakenectWriteOptions& options = {});
 
 struct FakenectDumpOptions {
-  KinectRawParams raw{};               ///< raw -> mm conversion. Default: kinect_raw.h defaults.
-  Pacing pacing = Pacing::kRecorded;   ///< kRecorded sleeps to the recorded host times.
+  KinectRawParams raw{};              ///< raw -> mm conversion. Default: kinect_raw.h defaults.
+  Pacing pacing = Pacing::kRecorded;  ///< kRecorded sleeps to the recorded host times.
   /// A colour image is paired with a depth image when their device times differ by at most
   /// this. Default 20 ms (the Kinect's streams are not synchronised: up to half a period).
   std::chrono::milliseconds max_rgb_offset{20};
-  DeviceClockParams clock{};           ///< maps device counters to capture times.
-  CameraIntrinsics intrinsics{};       ///< Kinect v1 defaults.
+  DeviceClockParams clock{};      ///< maps device counters to capture times.
+  CameraIntrinsics intrinsics{};  ///< Kinect v1 defaults.
 };
 
 /// Replays a fakenect dump with this project's own reader (no libfreenect involved).

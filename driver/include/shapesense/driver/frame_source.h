@@ -31,10 +31,10 @@ enum class Pacing { kRecorded, kAsFastAsPossible };
 /// The sensor state behind a source, for status displays. Recordings and the synthetic scene
 /// keep the default: not live, always connected.
 struct SourceHealth {
-  bool live = false;               ///< a sensor that can be lost and reopened
-  bool connected = true;           ///< open and delivering
-  std::uint64_t reconnects = 0;    ///< times reopened after a loss
-  std::uint64_t dropped_frames = 0;///< dropped because next() was not called fast enough
+  bool live = false;                 ///< a sensor that can be lost and reopened
+  bool connected = true;             ///< open and delivering
+  std::uint64_t reconnects = 0;      ///< times reopened after a loss
+  std::uint64_t dropped_frames = 0;  ///< dropped because next() was not called fast enough
 };
 
 class FrameSource {

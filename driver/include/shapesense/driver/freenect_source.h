@@ -2,8 +2,8 @@
 // Kinect v1 through libfreenect: 640x480 11-bit raw depth (converted to millimetres with
 // kinect_raw.h) and 640x480 RGB, both at 30 Hz, on one device thread that runs
 // freenect_process_events. Frames are stamped by mapping the 32-bit 60 MHz device counter to
-// host time (DeviceClock, one per stream) and colour is paired with depth by time. Loss and return of the
-// sensor are handled by LiveSource (see live_sources_device.h).
+// host time (DeviceClock, one per stream) and colour is paired with depth by time. Loss and return
+// of the sensor are handled by LiveSource (see live_sources_device.h).
 //
 // The colour image comes from the RGB camera, ~2.5 cm beside the IR camera, and is NOT
 // registered to the depth image (registration needs freenect_copy_registration, which the
@@ -41,10 +41,10 @@ struct FreenectOptions {
   FreenectDeviceSelector device{};  ///< Default: the first Kinect.
   bool colour = true;               ///< also stream RGB. Default true.
   KinectRawParams raw{};            ///< raw -> mm conversion. Default: kinect_raw.h.
-  CameraIntrinsics intrinsics{};    ///< of the depth camera. Default: Kinect v1 525/525/319.5/239.5.
+  CameraIntrinsics intrinsics{};  ///< of the depth camera. Default: Kinect v1 525/525/319.5/239.5.
   /// Device counter. Default: 32 bits at 60 MHz. (The window etc. can be tuned here.)
   DeviceClockParams clock{};
-  LiveSourceOptions live{};         ///< timeouts, reopening, queue. Defaults: see LiveSourceOptions.
+  LiveSourceOptions live{};  ///< timeouts, reopening, queue. Defaults: see LiveSourceOptions.
 };
 
 /// "freenect:<selector>" source. Construction never fails for a missing sensor: it waits for

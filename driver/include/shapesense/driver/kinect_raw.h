@@ -29,8 +29,8 @@ inline constexpr std::uint16_t kKinectRawNoReading = 2047;
 inline constexpr int kKinectRawValues = 2048;
 
 struct KinectRawParams {
-  double inverse_depth_at_raw0 = 3.3309495161;     ///< 1/m at raw 0. Default: Burrus.
-  double inverse_depth_per_raw = 0.0030711016;     ///< 1/m per raw step. Default: Burrus.
+  double inverse_depth_at_raw0 = 3.3309495161;  ///< 1/m at raw 0. Default: Burrus.
+  double inverse_depth_per_raw = 0.0030711016;  ///< 1/m per raw step. Default: Burrus.
   /// Readings nearer than this (m) become 0 (raw 0 is ~0.30 m). Default 0.3.
   double min_depth_m = 0.3;
   /// Readings farther than this (m) become 0; beyond ~10 m the sensor reports noise. Default 10.

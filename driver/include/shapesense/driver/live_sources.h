@@ -19,6 +19,7 @@ namespace shapesense {
 std::unique_ptr<FrameSource> openLiveSource(const std::string& kind, const std::string& argument);
 
 /// Help text for the kinds above, for the daemon's "unknown source" message.
-inline constexpr const char* kLiveSourceSpecs = "freenect[:SERIAL|INDEX], openni2[:URI], fakenect:DIR";
+inline constexpr const char* kLiveSourceSpecs =
+    "freenect[:SERIAL|INDEX], openni2[:URI], fakenect:DIR";
 
 }  // namespace shapesense

@@ -40,9 +40,9 @@ namespace shapesense {
 struct DeviceImage {
   enum class Kind { kDepth, kColour };
   Kind kind = Kind::kDepth;
-  cv::Mat image;                   ///< depth: CV_16UC1 mm; colour: CV_8UC3 BGR
-  std::uint64_t device_ticks = 0;  ///< the device's own counter (see DeviceClockParams)
-  TimestampNs host_arrival_ns = 0; ///< host CLOCK_REALTIME when the image was received
+  cv::Mat image;                    ///< depth: CV_16UC1 mm; colour: CV_8UC3 BGR
+  std::uint64_t device_ticks = 0;   ///< the device's own counter (see DeviceClockParams)
+  TimestampNs host_arrival_ns = 0;  ///< host CLOCK_REALTIME when the image was received
 };
 
 using DeviceImageSink = std::function<void(DeviceImage)>;

@@ -23,14 +23,14 @@
 namespace shapesense {
 
 struct OpenNI2Options {
-  std::string uri;      ///< device URI; empty = the first device OpenNI2 lists. Default empty.
-  bool colour = true;   ///< also stream colour when the device has it. Default true.
+  std::string uri;     ///< device URI; empty = the first device OpenNI2 lists. Default empty.
+  bool colour = true;  ///< also stream colour when the device has it. Default true.
   /// Ask for depth registered to colour when supported (then intrinsics are the colour
   /// camera's). Default true.
   bool registration = true;
-  int width = 640;      ///< preferred resolution; the closest supported mode is used. Default 640.
-  int height = 480;     ///< Default 480.
-  int fps = 30;         ///< preferred frame rate. Default 30.
+  int width = 640;   ///< preferred resolution; the closest supported mode is used. Default 640.
+  int height = 480;  ///< Default 480.
+  int fps = 30;      ///< preferred frame rate. Default 30.
   /// Intrinsics of the delivered depth; nullopt = from the stream's field of view, or the
   /// Kinect-class default (525 px at 640 wide, scaled) when the device does not report it.
   std::optional<CameraIntrinsics> intrinsics;

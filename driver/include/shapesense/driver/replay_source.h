@@ -45,8 +45,8 @@ class ReplaySource : public FrameSource {
   TumIndex index_;
   std::deque<std::string> pending_problems_;
   TimestampNs pass_length_ns_ = 0;
-  std::size_t position_ = 0;   // next depth entry
-  std::uint64_t pass_ = 0;     // completed passes (loop)
+  std::size_t position_ = 0;  // next depth entry
+  std::uint64_t pass_ = 0;    // completed passes (loop)
   std::uint64_t sequence_ = 0;
   bool started_ = false;
   std::chrono::steady_clock::time_point wall_start_;

@@ -62,15 +62,15 @@ namespace shapesense::synthetic {
 /// the shadow geometry uses projector_baseline_m (the Kinect's nominal values disagree a bit).
 /// Noise is independent per pixel and per frame (no 9x9 correlation window, no edge blur).
 struct KinectParams {
-  double focal_baseline_px_m = 43.5;  ///< f * b of the disparity model (px * m). Default 43.5.
+  double focal_baseline_px_m = 43.5;    ///< f * b of the disparity model (px * m). Default 43.5.
   double projector_baseline_m = 0.075;  ///< IR projector offset along camera +x (m). Default 0.075.
-  double disparity_noise_px = 0.07;   ///< sigma of the Gaussian disparity noise (px). Default 0.07.
-  double disparity_step_px = 0.125;   ///< disparity quantisation (px). Default 1/8.
-  double min_range_m = 0.5;           ///< nearer readings are dropped. Default 0.5.
-  double max_range_m = 4.5;           ///< farther readings are dropped. Default 4.5.
-  double dropout_rate = 0.002;        ///< probability a valid pixel reads 0 anyway. Default 0.002.
-  double max_incidence_deg = 80.0;    ///< steeper incidence (ray vs normal) reads 0. Default 80.
-  bool projector_shadows = true;      ///< drop pixels the projector cannot see. Default true.
+  double disparity_noise_px = 0.07;  ///< sigma of the Gaussian disparity noise (px). Default 0.07.
+  double disparity_step_px = 0.125;  ///< disparity quantisation (px). Default 1/8.
+  double min_range_m = 0.5;          ///< nearer readings are dropped. Default 0.5.
+  double max_range_m = 4.5;          ///< farther readings are dropped. Default 4.5.
+  double dropout_rate = 0.002;       ///< probability a valid pixel reads 0 anyway. Default 0.002.
+  double max_incidence_deg = 80.0;   ///< steeper incidence (ray vs normal) reads 0. Default 80.
+  bool projector_shadows = true;     ///< drop pixels the projector cannot see. Default true.
 };
 
 /// Everything that defines a scene. Two equal SceneParams give byte-identical frames.
@@ -95,18 +95,18 @@ struct SceneParams {
   /// Minimum angle at which the camera looks down on the table-top centre (deg). Default 12.
   double min_table_elevation_deg = 12.0;
 
-  int boxes_on_table_min = 2;          ///< Default 2.
-  int boxes_on_table_max = 4;          ///< Default 4.
-  double floor_box_probability = 0.5;  ///< chance of one more box on the floor. Default 0.5.
-  int bowls_min = 1;                   ///< Default 1.
-  int bowls_max = 3;                   ///< Default 3.
+  int boxes_on_table_min = 2;                 ///< Default 2.
+  int boxes_on_table_max = 4;                 ///< Default 4.
+  double floor_box_probability = 0.5;         ///< chance of one more box on the floor. Default 0.5.
+  int bowls_min = 1;                          ///< Default 1.
+  int bowls_max = 3;                          ///< Default 3.
   double bowl_upside_down_probability = 0.0;  ///< Default 0 (all bowls upright).
-  int cups_min = 0;                    ///< Default 0.
-  int cups_max = 2;                    ///< Default 2.
-  int tins_min = 0;                    ///< Default 0.
-  int tins_max = 2;                    ///< Default 2.
-  int balls_min = 0;                   ///< Default 0.
-  int balls_max = 2;                   ///< Default 2.
+  int cups_min = 0;                           ///< Default 0.
+  int cups_max = 2;                           ///< Default 2.
+  int tins_min = 0;                           ///< Default 0.
+  int tins_max = 2;                           ///< Default 2.
+  int balls_min = 0;                          ///< Default 0.
+  int balls_max = 2;                          ///< Default 2.
 
   bool render_colour = true;  ///< false leaves Frame::rgb empty (saves ~25% time). Default true.
 };
@@ -115,8 +115,8 @@ enum class SurfaceKind { kPlane, kCurved };
 
 /// One surface of the scene as seen in one frame.
 struct TruthSurface {
-  std::uint16_t id = 0;         ///< the value in TruthFrame::surface_labels (never 0)
-  std::string name;             ///< e.g. "floor", "table_top", "box2_face_top", "bowl1_inner"
+  std::uint16_t id = 0;  ///< the value in TruthFrame::surface_labels (never 0)
+  std::string name;      ///< e.g. "floor", "table_top", "box2_face_top", "bowl1_inner"
   SurfaceKind kind = SurfaceKind::kPlane;
   /// kPlane only: (n, d) with n.X + d = 0 in this frame's camera coordinates, |n| = 1 and
   /// d >= 0 (n points to the camera's side). Zero for curved surfaces. Planar faces are
@@ -146,7 +146,7 @@ struct TruthObject {
   std::size_t pixel_count = 0;  ///< labelled pixels in this frame
 
   // Bowls only (defaults elsewhere).
-  bool upright = true;          ///< opening faces world up
+  bool upright = true;  ///< opening faces world up
   /// Elevation of the camera above the bowl's rim plane, seen from the rim centre, using world
   /// up as the reference: asin(up . unit(camera - rim_centre)), degrees.
   double view_elevation_deg = 0.0;
@@ -154,7 +154,7 @@ struct TruthObject {
   std::string view_class;
   Eigen::Vector3d rim_center = Eigen::Vector3d::Zero();  ///< camera frame
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();        ///< unit, towards the opening
-  double rim_radius_m = 0.0;       ///< outer radius at the rim
+  double rim_radius_m = 0.0;                             ///< outer radius at the rim
   double depth_m = 0.0;            ///< outer depth, rim plane to the outer bottom
   double shell_thickness_m = 0.0;  ///< also the rim width
 };

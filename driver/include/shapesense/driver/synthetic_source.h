@@ -1,8 +1,8 @@
 #pragma once
 // A FrameSource that renders a SyntheticScene: the stand-in sensor for tests, demos and CI.
 
-#include <condition_variable>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <mutex>
 #include <optional>

@@ -35,8 +35,8 @@ struct SegmentationResult {
 
 /// Planes of the frame and the planes accumulated over the frames up to it.
 struct PlaneResult {
-  std::string detector;                  ///< "hough" or "ransac"
-  PlaneDetection frame;                  ///< this frame's planes and their label image
+  std::string detector;                    ///< "hough" or "ransac"
+  PlaneDetection frame;                    ///< this frame's planes and their label image
   std::vector<DetectedPlane> accumulated;  ///< stable planes over time (ids are track ids)
 };
 
