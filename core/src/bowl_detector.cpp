@@ -113,7 +113,7 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
 void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes) {
   CV_Assert(!level.integral.empty());
   for (int k = 0; k < 4; ++k)
-    if (cell_sizes[k]) level.codes[k] = lbpCodeImageFromPixels(level.image8, 1 + k % 2, 1 + k / 2);
+    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.image8, 1 + k % 2, 1 + k / 2);
 }
 
 namespace {

@@ -45,21 +45,6 @@ cv::Mat lbpIntegral(const cv::Mat& image8) {
 
 namespace {
 
-/// Cell sums of every position: element (y, x) = sum of the cw x ch pixels from (x, y). At most
-/// 4 * 255, so 16 bits hold them and the code loop below runs on 8 lanes instead of 4.
-template <int CW>
-void cellSums(const cv::Mat& integral, int ch, cv::Mat& sums) {
-  const int rows = integral.rows - 1 - (ch - 1), cols = integral.cols - 1 - (CW - 1);
-  sums.create(rows, cols, CV_16SC1);
-  for (int y = 0; y < rows; ++y) {
-    const auto* top = integral.ptr<std::int32_t>(y);
-    const auto* bottom = integral.ptr<std::int32_t>(y + ch);
-    auto* out = sums.ptr<std::int16_t>(y);
-    for (int x = 0; x < cols; ++x)
-      out[x] = static_cast<std::int16_t>(bottom[x + CW] - top[x + CW] - bottom[x] + top[x]);
-  }
-}
-
 /// Codes of 8 consecutive grid positions (SSE2, 16-bit lanes): bit k of lane i is set when
 /// neighbour k of position i has a sum >= its centre's.
 template <int CW>
@@ -109,14 +94,6 @@ void codeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t*
   }
 }
 
-template <int CW>
-void codesFromCellSums(const cv::Mat& sums, int ch, cv::Mat& codes) {
-  const int out_rows = sums.rows - 2 * ch, out_cols = sums.cols - 2 * CW;
-  for (int y = 0; y < out_rows; ++y)
-    codeRow<CW>(sums.ptr<std::int16_t>(y), sums.ptr<std::int16_t>(y + ch),
-                sums.ptr<std::int16_t>(y + 2 * ch), codes.ptr<std::uint8_t>(y), out_cols);
-}
-
 /// Sums of the CW x CH cells starting at each x of pixel row `y` (cols - CW + 1 of them).
 template <int CW, int CH>
 void cellSumRowFromPixels(const cv::Mat& image8, int y, std::int16_t* out) {
@@ -132,7 +109,7 @@ void cellSumRowFromPixels(const cv::Mat& image8, int y, std::int16_t* out) {
   }
 }
 
-/// lbpCodeImageFromPixels for one cell size. The cell sums of the 2 * CH + 1 pixel rows a code
+/// lbpCodeImage for one cell size. The cell sums of the 2 * CH + 1 pixel rows a code
 /// row reads are kept in a ring of rows, so each is computed once and stays in cache.
 template <int CW, int CH>
 void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
@@ -155,27 +132,10 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
 
 }  // namespace
 
-cv::Mat lbpCodeImage(const cv::Mat& integral, int cw, int ch) {
-  CV_Assert(integral.type() == CV_32SC1 && integral.rows >= 1 && integral.cols >= 1);
-  if (cw < 1 || cw > 2 || ch < 1 || ch > 2)
-    throw std::invalid_argument("lbpCodeImage: cells must be 1 or 2 pixels");
-  cv::Mat codes = cv::Mat::zeros(integral.rows - 1, integral.cols - 1, CV_8UC1);
-  if (codes.rows < 3 * ch || codes.cols < 3 * cw) return codes;
-  cv::Mat sums;
-  if (cw == 1) {
-    cellSums<1>(integral, ch, sums);
-    codesFromCellSums<1>(sums, ch, codes);
-  } else {
-    cellSums<2>(integral, ch, sums);
-    codesFromCellSums<2>(sums, ch, codes);
-  }
-  return codes;
-}
-
-cv::Mat lbpCodeImageFromPixels(const cv::Mat& image8, int cw, int ch) {
+cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch) {
   CV_Assert(image8.type() == CV_8UC1);
   if (cw < 1 || cw > 2 || ch < 1 || ch > 2)
-    throw std::invalid_argument("lbpCodeImageFromPixels: cells must be 1 or 2 pixels");
+    throw std::invalid_argument("lbpCodeImage: cells must be 1 or 2 pixels");
   if (image8.rows < 3 * ch || image8.cols < 3 * cw) return cv::Mat::zeros(image8.size(), CV_8UC1);
   cv::Mat codes(image8.size(), CV_8UC1);
   switch (cw + 2 * ch) {

@@ -96,7 +96,7 @@ struct BowlPyramidLevel {
   std::array<cv::Mat, 4> codes;
 };
 
-/// Fills level.codes (lbpCodeImageFromPixels of level.image8) for the cell sizes marked in
+/// Fills level.codes (lbpCodeImage of level.image8) for the cell sizes marked in
 /// `cell_sizes` (same index as level.codes). Only for levels that are scanned, i.e. that have
 /// their integral image.
 void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes);

@@ -69,18 +69,14 @@ inline std::uint8_t lbpCodeIntegral(const std::int32_t* origin, const LbpOffsets
   return code;
 }
 
-/// The codes of every grid position for one cell size, from an integral image (lbpIntegral):
-/// a CV_8UC1 image of the source image's size whose element (y, x) is the code of the grid with
-/// top-left pixel (x, y) and cw x ch cells; positions whose grid does not fit hold 0. Equal to
-/// lbpCodeIntegral wherever the grid fits. A detector that evaluates most positions of a level
-/// with several features of few cell sizes computes codes once here, in vectorisable row loops,
-/// instead of 16 scattered reads per feature and window. `cw` and `ch` must be 1 or 2.
-cv::Mat lbpCodeImage(const cv::Mat& integral, int cw, int ch);
-
-/// The same code image from the CV_8UC1 pixels themselves (equal to lbpCodeImage of their
-/// integral). Faster: a cell sum is 1-4 byte reads instead of 4 integral reads, and the sums
-/// live in a few cache-resident rows instead of a whole image. `cw` and `ch` must be 1 or 2.
-cv::Mat lbpCodeImageFromPixels(const cv::Mat& image8, int cw, int ch);
+/// The codes of every grid position for one cell size, from the CV_8UC1 image itself: a CV_8UC1
+/// image of its size whose element (y, x) is the code of the grid with top-left pixel (x, y) and
+/// cw x ch cells; positions whose grid does not fit hold 0. Equal to lbpCodeIntegral wherever the
+/// grid fits. A detector that evaluates most positions of a level with several features of few
+/// cell sizes computes codes once here, in vectorised row loops, instead of 16 scattered
+/// integral reads per feature and window; a cell sum is 1-4 byte reads, and the sums live in a
+/// few cache-resident rows. `cw` and `ch` must be 1 or 2.
+cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch);
 
 /// Convenience: the code of feature `f` for the window at (wx, wy) of integral image `ii`.
 std::uint8_t lbpCodeAt(const cv::Mat& ii, const LbpFeature& f, int wx, int wy);
