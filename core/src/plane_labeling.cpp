@@ -189,21 +189,23 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
   reg.v1 = std::max(reg.v1, v);
 }
 
-// The same for several candidates: the closest within its tolerance (ties to the later one).
-// Branch-free over a fixed 4 slots (an unused one can never win) so that it vectorises too.
-void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv,
-                            const std::vector<float>& region_tol, float tol_floor) {
-  float qa[4], qv[4], qc[4], qd[4], tk[4];
-  std::uint16_t label[4];
-  for (int k = 0; k < 4; ++k) {
+// The same for K >= 2 candidates (run.list[0..K)): the closest within its tolerance (ties to the
+// later one). Branch-free over the K slots so that it vectorises; K is a template parameter
+// because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
+template <int K>
+void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                        const std::vector<float>& coef, float fv,
+                        const std::vector<float>& region_tol, float tol_floor) {
+  float qa[K], qv[K], qc[K], qd[K], tk[K];
+  std::uint16_t label[K];
+  for (int k = 0; k < K; ++k) {
     const int reg = run.list[k];
-    const float* q = &coef[4 * std::max(reg, 0)];
-    qa[k] = reg >= 0 ? q[0] : 0.0f;
-    qv[k] = reg >= 0 ? q[1] * fv : 0.0f;
-    qc[k] = reg >= 0 ? q[2] : 0.0f;
-    qd[k] = reg >= 0 ? q[3] : std::numeric_limits<float>::infinity();
-    tk[k] = reg >= 0 ? region_tol[reg] : 0.0f;
+    const float* q = &coef[4 * reg];
+    qa[k] = q[0];
+    qv[k] = q[1] * fv;
+    qc[k] = q[2];
+    qd[k] = q[3];
+    tk[k] = region_tol[reg];
     label[k] = static_cast<std::uint16_t>(reg + 1);
   }
   for (int u = run.u0; u < run.u1; ++u) {
@@ -211,7 +213,7 @@ void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, cons
     const float fu = static_cast<float>(u), z2 = z * z;
     float best = std::numeric_limits<float>::max();
     std::uint16_t best_label = 0;
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < K; ++k) {
       const float dd = std::fabs(z * (qa[k] * fu + qv[k] + qc[k]) + qd[k]);
       const bool take = (dd <= best) & (dd <= std::max(tol_floor, tk[k] * z2));
       best = take ? dd : best;
@@ -219,6 +221,18 @@ void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, cons
     }
     lrow[u] = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
   }
+}
+
+// Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
+void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                            const std::vector<float>& coef, float fv,
+                            const std::vector<float>& region_tol, float tol_floor) {
+  if (run.list[2] < 0)
+    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor);
+  else if (run.list[3] < 0)
+    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor);
+  else
+    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor);
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -238,36 +252,72 @@ RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, 
   return span;
 }
 
-// Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
-// their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
-// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
-// the same pass (one test of the label per pixel).
-void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
-                   int u0, int u1, std::uint16_t label, const double* xr, double yr,
-                   RegionAccumulator& reg) {
+// Moments and colour are accumulated on every kMomentStride-th pixel of every kMomentStride-th
+// row (see labelPixels).
+constexpr int kMomentStride = 2;
+
+// The first pixel column >= u0 on the moment lattice.
+inline int firstMomentPixel(int u0) {
+  return (u0 + kMomentStride - 1) / kMomentStride * kMomentStride;
+}
+
+// The six sums of a run's moments (see addRunMoments).
+struct RunSums {
   double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  auto addMoments = [&](int u) {
-    const double z = drow[u] * 0.001, xz = xr[u] * z;
+  void add(double z, double xr) {
+    const double xz = xr * z;
     n += 1.0;
     sz += z;
     szz += z * z;
     sxz += xz;
     sxzz += xz * z;
     sxxzz += xz * xz;
-  };
-  if (crow) {
-    for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-      if (lrow[u] != label) continue;
-      addMoments(u);
-      b += crow[u][0];
-      g += crow[u][1];
-      r += crow[u][2];
-    }
-  } else {
-    for (int u = u0 + (u0 & 1); u < u1; u += 2)
-      if (lrow[u] == label) addMoments(u);
   }
+  void add(const RunSums& o) {
+    n += o.n;
+    sz += o.sz;
+    szz += o.szz;
+    sxz += o.sxz;
+    sxzz += o.sxzz;
+    sxxzz += o.sxxzz;
+  }
+};
+
+// Adds the pixels labelled `label` in lrow[u0, u1) on the moment lattice to the moments and colour
+// of their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
+// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
+// the same pass (one test of the label per pixel). Alternate lattice pixels go to two sets of
+// sums: each sum is a chain of dependent additions, and two chains run in parallel.
+void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
+                   int u0, int u1, std::uint16_t label, const double* xr, double yr,
+                   RegionAccumulator& reg) {
+  RunSums even, odd;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
+  auto addColour = [&](int u) {
+    if (!crow) return;
+    b += crow[u][0];
+    g += crow[u][1];
+    r += crow[u][2];
+  };
+  int u = firstMomentPixel(u0);
+  for (; u + kMomentStride < u1; u += 2 * kMomentStride) {
+    const int u2 = u + kMomentStride;
+    if (lrow[u] == label) {
+      even.add(drow[u] * 0.001, xr[u]);
+      addColour(u);
+    }
+    if (lrow[u2] == label) {
+      odd.add(drow[u2] * 0.001, xr[u2]);
+      addColour(u2);
+    }
+  }
+  if (u < u1 && lrow[u] == label) {
+    even.add(drow[u] * 0.001, xr[u]);
+    addColour(u);
+  }
+  even.add(odd);
+  const double n = even.n, sz = even.sz, szz = even.szz, sxz = even.sxz, sxzz = even.sxzz,
+               sxxzz = even.sxxzz;
   if (n == 0) return;
   Eigen::Matrix3d sum_sq;  // upper triangle
   sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
@@ -322,7 +372,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     const auto* drow = depth_mm.ptr<std::uint16_t>(v);
     auto* lrow = labels.ptr<std::uint16_t>(v);
     const float fv = static_cast<float>(v);
-    const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
+    const cv::Vec3b* crow =
+        !bgr.empty() && v % kMomentStride == 0 ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
     int gap_u0 = 0;
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
@@ -342,7 +393,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
         addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, count), v);
-        if (!(v & 1)) addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        if (v % kMomentStride == 0)
+          addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
       }
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
