@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 
@@ -436,16 +437,27 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   std::vector<int> count(planes_count, 0);
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const int* lab = sample_labels.ptr<int>(0);
+  // Consecutive samples mostly share a plane: its sum stays in a register until the plane
+  // changes (the same additions in the same order as sum[L] += ..., without a store-to-load
+  // round trip per sample).
+  int cur = -1;
+  double cur_sum = 0.0;
   for (int i = 0; i < grid.points.rows * grid.points.cols; ++i) {
     const int L = lab[i];
     if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
+    if (L != cur) {
+      if (cur >= 0) sum[cur] = cur_sum;
+      cur = L;
+      cur_sum = sum[L];
+    }
     const auto& h = planes[L];
     const cv::Vec3f& p = pts[i];
     const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) /
                      (step1 * p[2] * p[2]);
-    sum[L] += r * r;
+    cur_sum += r * r;
     ++count[L];
   }
+  if (cur >= 0) sum[cur] = cur_sum;
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
   for (std::size_t L = 0; L < planes_count; ++L) {
     if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
@@ -523,14 +535,18 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   queue.reserve(static_cast<std::size_t>(R) * C);
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
-  auto open = [&](int j) { return lab[j] == -1 && point(j)[2] > 0; };
+  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass; the seed
+  // test then ORs four flags instead of branching on each neighbour's label and depth.
+  std::vector<std::uint8_t> open(static_cast<std::size_t>(R) * C);
+  for (int i = 0; i < R * C; ++i)
+    open[i] = static_cast<std::uint8_t>((lab[i] == -1) & (point(i)[2] > 0));
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       const int i = r * C + c;
       if (lab[i] < 0) continue;
-      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) ||
-          (r + 1 < R && open(i + C)))
-        queue.push_back(i);
+      const int any = (c > 0 ? open[i - 1] : 0) | (c + 1 < C ? open[i + 1] : 0) |
+                      (r > 0 ? open[i - C] : 0) | (r + 1 < R ? open[i + C] : 0);
+      if (any) queue.push_back(i);
     }
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const int i = queue[q], r = i / C, c = i % C, L = lab[i];
