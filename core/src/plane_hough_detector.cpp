@@ -140,6 +140,7 @@ struct HoughPlaneDetector::Impl {
   std::vector<int> free_idx;
   std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
+  std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
   std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
 
   explicit Impl(const HoughPlaneParams& p)
@@ -207,6 +208,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
   s.free_idx.resize(N);
   s.fin.resize(N);
+  // Each sample's inlier tolerance, once per frame (tol.at costs a division; the rounds would
+  // recompute it for every free sample).
+  s.sample_tol.resize(N);
+  for (int i = 0; i < N; ++i)
+    if (nrm[i][2] == nrm[i][2]) s.sample_tol[i] = static_cast<float>(tol.at(pts[i][2]));
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
@@ -219,7 +225,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       s.free_idx[F] = i;
       s.fx[F] = p[0], s.fy[F] = p[1], s.fz[F] = p[2];
       s.fnx[F] = n[0], s.fny[F] = n[1], s.fnz[F] = n[2];
-      s.ftol[F] = static_cast<float>(tol.at(p[2]));
+      s.ftol[F] = s.sample_tol[i];
       s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
       ++F;
       if (!reliable[i]) continue;
@@ -428,6 +434,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   //    by least squares; a component that is mostly one plane (trimmed refit) becomes a plane.
   if (P.fit_leftover_components) {
     growSampleLabels(s.grid, s.sample_labels, planes, P.labeling);
+    const SampleContinuity continuous(s.grid, P.labeling);
     std::vector<int> comp(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
@@ -446,7 +453,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                             r + 1 < R ? i + C : -1};
         for (int j : nbr) {
           if (j < 0 || comp[j] >= 0 || lab[j] >= 0 || !(pts[j][2] > 0)) continue;
-          if (!samplesContinuous(pts[i][2], pts[j][2], s.grid, P.labeling)) continue;
+          if (!continuous(pts[i][2], pts[j][2])) continue;
           comp[j] = seed;
           stack.push_back(j);
         }

@@ -14,24 +14,6 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// samplesContinuous with its two constants computed once: the loops over the samples test
-// several neighbours per sample, and the tolerance constant costs a division.
-class SampleContinuity {
- public:
-  SampleContinuity(const PlaneSampleGrid& grid, const PlaneLabelingParams& params)
-      : range_factor_(0.01f * static_cast<float>(grid.step)),
-        tol_k_(static_cast<float>(params.tolerance.noise_steps *
-                                  params.tolerance.noise.depthStep(1.0))) {}
-  bool operator()(float z1, float z2) const {
-    const float z = std::min(z1, z2);
-    return std::fabs(z1 - z2) <= std::max(range_factor_ * z, tol_k_ * z * z);
-  }
-
- private:
-  float range_factor_;  // 1% of the range per sample step
-  float tol_k_;         // tolerance at 1 m (it grows with z^2)
-};
-
 int findRoot(std::vector<int>& parent, int i) {
   while (parent[i] != i) {
     parent[i] = parent[parent[i]];
