@@ -174,20 +174,17 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   s.grid.reliable.create(R, C, CV_8UC1);
   s.grid.reliable.setTo(0);
   auto* reliable = s.grid.reliable.ptr<std::uint8_t>(0);
+  // Branch-free (the four tests fail unpredictably along edges and holes). A NaN normal, own or
+  // a neighbour's, makes its dot product NaN, which fails the comparison.
+  auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
+    return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
+  };
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
       const cv::Vec3f& n = nrm[i];
-      if (!(n[2] == n[2])) continue;
-      bool ok = true;
-      for (int j : {i - 1, i + 1, i - C, i + C}) {
-        const float dot = n.dot(nrm[j]);  // NaN fails the comparison
-        if (!(dot >= cos_spread)) {
-          ok = false;
-          break;
-        }
-      }
-      reliable[i] = ok;
+      reliable[i] = agrees(n, nrm[i - 1]) & agrees(n, nrm[i + 1]) & agrees(n, nrm[i - C]) &
+                    agrees(n, nrm[i + C]);
     }
 
   s.sample_labels.create(R, C, CV_32SC1);

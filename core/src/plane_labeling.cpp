@@ -586,8 +586,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
+        // i is still its own root here (raster order): unite(i, i - 1) is one find.
         if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2]))
-          unite(parent, i, i - 1);
+          parent[i] = findRoot(parent, i - 1);
         if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2]))
           unite(parent, i, i - C);
       }
