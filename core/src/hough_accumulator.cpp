@@ -111,7 +111,10 @@ void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
   const int i = static_cast<int>(ci), j = static_cast<int>(cj), k = static_cast<int>(ck);
   // Non-negative indices: shifts and masks instead of signed division by the block edge.
   static_assert(kBlock == 4);
-  float* b = blockOrCreate(blockIndex(i >> 2, j >> 2, k >> 2));
+  // Most votes land in an existing block: look it up inline, call out only to create one.
+  const int key = blockIndex(i >> 2, j >> 2, k >> 2);
+  float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
+                              : blockOrCreate(key);
   b[cellInBlock(i & 3, j & 3, k & 3)] += w;
 }
 

@@ -47,9 +47,10 @@ using CandidateList = std::array<int, 4>;
 // Summary of a set of region ids: -1 none (only unlabelled samples), -2 several, else the one
 // region.
 inline int mergeRegionSummary(int a, int b) {
-  if (a == -1) return b;
-  if (b == -1 || a == b) return a;
-  return -2;
+  // Selects, not branches: along region borders the cases alternate unpredictably.
+  const int same_or_none = (b == -1) | (a == b);
+  const int ab = same_or_none ? a : -2;
+  return a == -1 ? b : ab;
 }
 
 std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
