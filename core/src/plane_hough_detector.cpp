@@ -354,10 +354,31 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     // Moments once; a merge then adds the pair's moments and relabels at the end.
     std::vector<PlaneMoments> mom(planes.size());
     std::vector<double> zsum(planes.size(), 0.0);
-    for (int i = 0; i < N; ++i) {
-      if (lab[i] < 0) continue;
-      mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
-      zsum[lab[i]] += pts[i][2];
+    {
+      // Runs of samples share a plane: its moments stay in locals until the plane changes (the
+      // same additions in the same order, without a round trip through memory per sample).
+      int cur = -1;
+      PlaneMoments cur_mom;
+      double cur_z = 0.0;
+      for (int i = 0; i < N; ++i) {
+        const int L = lab[i];
+        if (L < 0) continue;
+        if (L != cur) {
+          if (cur >= 0) {
+            mom[cur] = cur_mom;
+            zsum[cur] = cur_z;
+          }
+          cur = L;
+          cur_mom = mom[L];
+          cur_z = zsum[L];
+        }
+        cur_mom.add(pts[i][0], pts[i][1], pts[i][2]);
+        cur_z += pts[i][2];
+      }
+      if (cur >= 0) {
+        mom[cur] = cur_mom;
+        zsum[cur] = cur_z;
+      }
     }
     std::vector<PlaneFit> fits(planes.size());
     for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
