@@ -176,10 +176,12 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
 // The same for K >= 2 candidates (run.list[0..K)): the closest within its tolerance (ties to the
 // later one). Branch-free over the K slots so that it vectorises; K is a template parameter
 // because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
+// Adds the number of pixels labelled with each candidate to counts[0..K).
 template <int K>
 void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
                         const std::vector<float>& coef, float fv,
-                        const std::vector<float>& region_tol, float tol_floor) {
+                        const std::vector<float>& region_tol, float tol_floor, int* counts) {
+  int n[K] = {};
   float qa[K], qv[K], qc[K], qd[K], tk[K];
   std::uint16_t label[K];
   for (int k = 0; k < K; ++k) {
@@ -203,20 +205,26 @@ void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const Pi
       best = take ? dd : best;
       best_label = take ? label[k] : best_label;
     }
-    lrow[u] = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
+    const auto out = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
+    lrow[u] = out;
+    for (int k = 0; k < K; ++k) n[k] += out == label[k];
   }
+  for (int k = 0; k < K; ++k) counts[k] += n[k];
 }
 
 // Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
+// counts[k]: pixels labelled with candidate k (the runs' spans need them).
 void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
                             const std::vector<float>& coef, float fv,
-                            const std::vector<float>& region_tol, float tol_floor) {
+                            const std::vector<float>& region_tol, float tol_floor,
+                            std::array<int, 4>& counts) {
+  counts.fill(0);
   if (run.list[2] < 0)
-    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor);
+    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
   else if (run.list[3] < 0)
-    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor);
+    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
   else
-    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor);
+    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -364,19 +372,19 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       const PixelRun& run = lr.runs[k];
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
       gap_u0 = run.u1;
-      int count = -1;
+      std::array<int, 4> counts{};  // pixels labelled with each candidate
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
-                                        region_tol[run.list[0]], tol_floor,
-                                        static_cast<std::uint16_t>(run.list[0] + 1));
+        counts[0] = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
+                                            region_tol[run.list[0]], tol_floor,
+                                            static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
-        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
+        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
-        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, count), v);
+        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, counts[slot]), v);
         if (v % kMomentStride == 0)
           addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
       }
