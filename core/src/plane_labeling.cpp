@@ -590,16 +590,27 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
   std::iota(parent.begin(), parent.end(), 0);
   if (params.split_connected_regions) {
+    // Which joins were made (bit 0: with the left neighbour, bit 1: with the one above). When
+    // i joined its left neighbour, which joined the sample above it, which joined its own left
+    // neighbour (the one above i), then i and the one above are already in one set and the
+    // join (two finds) is skipped: the sets, and so the roots (their smallest index), are the
+    // same; inside a region that is almost every sample.
+    std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
         // i is still its own root here (raster order): unite(i, i - 1) is one find.
-        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2]))
+        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
           parent[i] = findRoot(parent, i - 1);
-        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2]))
-          unite(parent, i, i - C);
+          joined[i] = 1;
+        }
+        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
+          joined[i] |= 2;
+          const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
+          if (!linked) unite(parent, i, i - C);
+        }
       }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
