@@ -98,8 +98,24 @@ void HoughAccumulator::addToCell(int i, int j, int k, float w) {
 }
 
 void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
-  int i, j, k;
-  if (cellOf(n, d, i, j, k)) addToCell(i, j, k, w);
+  // cellOf's arithmetic, with floor(x) replaced by a truncation once x >= 0 is known (without
+  // SSE4.1 floor is a library call, three per vote); negative and NaN coordinates fail the
+  // range test exactly as in cellOf, so every vote lands in the cell cellOf reports.
+  const double den = 1.0 - n.z();
+  if (!(den > 1e-9)) return;
+  const double s = std::sqrt(2.0 / den);
+  const double ci = ((s * n.x() + params_.lambert_extent) * inv_a_cell_ - 0.5) + 0.5;
+  const double cj = ((s * n.y() + params_.lambert_extent) * inv_a_cell_ - 0.5) + 0.5;
+  const double ck = (d * inv_d_cell_ - 0.5) + 0.5;
+  if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return;
+  const int i = static_cast<int>(ci), j = static_cast<int>(cj), k = static_cast<int>(ck);
+  // Non-negative indices: shifts and masks instead of signed division by the block edge.
+  static_assert(kBlock == 4);
+  // Most votes land in an existing block: look it up inline, call out only to create one.
+  const int key = blockIndex(i >> 2, j >> 2, k >> 2);
+  float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
+                              : blockOrCreate(key);
+  b[cellInBlock(i & 3, j & 3, k & 3)] += w;
 }
 
 float HoughAccumulator::at(int i, int j, int k) const {

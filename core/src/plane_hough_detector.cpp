@@ -140,6 +140,7 @@ struct HoughPlaneDetector::Impl {
   std::vector<int> free_idx;
   std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
+  std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
   std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
 
   explicit Impl(const HoughPlaneParams& p)
@@ -173,20 +174,17 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   s.grid.reliable.create(R, C, CV_8UC1);
   s.grid.reliable.setTo(0);
   auto* reliable = s.grid.reliable.ptr<std::uint8_t>(0);
+  // Branch-free (the four tests fail unpredictably along edges and holes). A NaN normal, own or
+  // a neighbour's, makes its dot product NaN, which fails the comparison.
+  auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
+    return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
+  };
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
       const cv::Vec3f& n = nrm[i];
-      if (!(n[2] == n[2])) continue;
-      bool ok = true;
-      for (int j : {i - 1, i + 1, i - C, i + C}) {
-        const float dot = n.dot(nrm[j]);  // NaN fails the comparison
-        if (!(dot >= cos_spread)) {
-          ok = false;
-          break;
-        }
-      }
-      reliable[i] = ok;
+      reliable[i] = agrees(n, nrm[i - 1]) & agrees(n, nrm[i + 1]) & agrees(n, nrm[i - C]) &
+                    agrees(n, nrm[i + C]);
     }
 
   s.sample_labels.create(R, C, CV_32SC1);
@@ -207,6 +205,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
   s.free_idx.resize(N);
   s.fin.resize(N);
+  // Each sample's inlier tolerance, once per frame (tol.at costs a division; the rounds would
+  // recompute it for every free sample).
+  s.sample_tol.resize(N);
+  for (int i = 0; i < N; ++i)
+    if (nrm[i][2] == nrm[i][2]) s.sample_tol[i] = static_cast<float>(tol.at(pts[i][2]));
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
@@ -219,7 +222,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       s.free_idx[F] = i;
       s.fx[F] = p[0], s.fy[F] = p[1], s.fz[F] = p[2];
       s.fnx[F] = n[0], s.fny[F] = n[1], s.fnz[F] = n[2];
-      s.ftol[F] = static_cast<float>(tol.at(p[2]));
+      s.ftol[F] = s.sample_tol[i];
       s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
       ++F;
       if (!reliable[i]) continue;
@@ -351,10 +354,31 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     // Moments once; a merge then adds the pair's moments and relabels at the end.
     std::vector<PlaneMoments> mom(planes.size());
     std::vector<double> zsum(planes.size(), 0.0);
-    for (int i = 0; i < N; ++i) {
-      if (lab[i] < 0) continue;
-      mom[lab[i]].add(pts[i][0], pts[i][1], pts[i][2]);
-      zsum[lab[i]] += pts[i][2];
+    {
+      // Runs of samples share a plane: its moments stay in locals until the plane changes (the
+      // same additions in the same order, without a round trip through memory per sample).
+      int cur = -1;
+      PlaneMoments cur_mom;
+      double cur_z = 0.0;
+      for (int i = 0; i < N; ++i) {
+        const int L = lab[i];
+        if (L < 0) continue;
+        if (L != cur) {
+          if (cur >= 0) {
+            mom[cur] = cur_mom;
+            zsum[cur] = cur_z;
+          }
+          cur = L;
+          cur_mom = mom[L];
+          cur_z = zsum[L];
+        }
+        cur_mom.add(pts[i][0], pts[i][1], pts[i][2]);
+        cur_z += pts[i][2];
+      }
+      if (cur >= 0) {
+        mom[cur] = cur_mom;
+        zsum[cur] = cur_z;
+      }
     }
     std::vector<PlaneFit> fits(planes.size());
     for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
@@ -428,6 +452,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   //    by least squares; a component that is mostly one plane (trimmed refit) becomes a plane.
   if (P.fit_leftover_components) {
     growSampleLabels(s.grid, s.sample_labels, planes, P.labeling);
+    const SampleContinuity continuous(s.grid, P.labeling);
     std::vector<int> comp(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
@@ -446,7 +471,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                             r + 1 < R ? i + C : -1};
         for (int j : nbr) {
           if (j < 0 || comp[j] >= 0 || lab[j] >= 0 || !(pts[j][2] > 0)) continue;
-          if (!samplesContinuous(pts[i][2], pts[j][2], s.grid, P.labeling)) continue;
+          if (!continuous(pts[i][2], pts[j][2])) continue;
           comp[j] = seed;
           stack.push_back(j);
         }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 
@@ -12,24 +13,6 @@ namespace shapesense {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-
-// samplesContinuous with its two constants computed once: the loops over the samples test
-// several neighbours per sample, and the tolerance constant costs a division.
-class SampleContinuity {
- public:
-  SampleContinuity(const PlaneSampleGrid& grid, const PlaneLabelingParams& params)
-      : range_factor_(0.01f * static_cast<float>(grid.step)),
-        tol_k_(static_cast<float>(params.tolerance.noise_steps *
-                                  params.tolerance.noise.depthStep(1.0))) {}
-  bool operator()(float z1, float z2) const {
-    const float z = std::min(z1, z2);
-    return std::fabs(z1 - z2) <= std::max(range_factor_ * z, tol_k_ * z * z);
-  }
-
- private:
-  float range_factor_;  // 1% of the range per sample step
-  float tol_k_;         // tolerance at 1 m (it grows with z^2)
-};
 
 int findRoot(std::vector<int>& parent, int i) {
   while (parent[i] != i) {
@@ -64,9 +47,10 @@ using CandidateList = std::array<int, 4>;
 // Summary of a set of region ids: -1 none (only unlabelled samples), -2 several, else the one
 // region.
 inline int mergeRegionSummary(int a, int b) {
-  if (a == -1) return b;
-  if (b == -1 || a == b) return a;
-  return -2;
+  // Selects, not branches: along region borders the cases alternate unpredictably.
+  const int same_or_none = (b == -1) | (a == b);
+  const int ab = same_or_none ? a : -2;
+  return a == -1 ? b : ab;
 }
 
 std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
@@ -189,21 +173,25 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
   reg.v1 = std::max(reg.v1, v);
 }
 
-// The same for several candidates: the closest within its tolerance (ties to the later one).
-// Branch-free over a fixed 4 slots (an unused one can never win) so that it vectorises too.
-void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv,
-                            const std::vector<float>& region_tol, float tol_floor) {
-  float qa[4], qv[4], qc[4], qd[4], tk[4];
-  std::uint16_t label[4];
-  for (int k = 0; k < 4; ++k) {
+// The same for K >= 2 candidates (run.list[0..K)): the closest within its tolerance (ties to the
+// later one). Branch-free over the K slots so that it vectorises; K is a template parameter
+// because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
+// Adds the number of pixels labelled with each candidate to counts[0..K).
+template <int K>
+void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                        const std::vector<float>& coef, float fv,
+                        const std::vector<float>& region_tol, float tol_floor, int* counts) {
+  int n[K] = {};
+  float qa[K], qv[K], qc[K], qd[K], tk[K];
+  std::uint16_t label[K];
+  for (int k = 0; k < K; ++k) {
     const int reg = run.list[k];
-    const float* q = &coef[4 * std::max(reg, 0)];
-    qa[k] = reg >= 0 ? q[0] : 0.0f;
-    qv[k] = reg >= 0 ? q[1] * fv : 0.0f;
-    qc[k] = reg >= 0 ? q[2] : 0.0f;
-    qd[k] = reg >= 0 ? q[3] : std::numeric_limits<float>::infinity();
-    tk[k] = reg >= 0 ? region_tol[reg] : 0.0f;
+    const float* q = &coef[4 * reg];
+    qa[k] = q[0];
+    qv[k] = q[1] * fv;
+    qc[k] = q[2];
+    qd[k] = q[3];
+    tk[k] = region_tol[reg];
     label[k] = static_cast<std::uint16_t>(reg + 1);
   }
   for (int u = run.u0; u < run.u1; ++u) {
@@ -211,14 +199,32 @@ void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, cons
     const float fu = static_cast<float>(u), z2 = z * z;
     float best = std::numeric_limits<float>::max();
     std::uint16_t best_label = 0;
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < K; ++k) {
       const float dd = std::fabs(z * (qa[k] * fu + qv[k] + qc[k]) + qd[k]);
       const bool take = (dd <= best) & (dd <= std::max(tol_floor, tk[k] * z2));
       best = take ? dd : best;
       best_label = take ? label[k] : best_label;
     }
-    lrow[u] = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
+    const auto out = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
+    lrow[u] = out;
+    for (int k = 0; k < K; ++k) n[k] += out == label[k];
   }
+  for (int k = 0; k < K; ++k) counts[k] += n[k];
+}
+
+// Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
+// counts[k]: pixels labelled with candidate k (the runs' spans need them).
+void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                            const std::vector<float>& coef, float fv,
+                            const std::vector<float>& region_tol, float tol_floor,
+                            std::array<int, 4>& counts) {
+  counts.fill(0);
+  if (run.list[2] < 0)
+    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+  else if (run.list[3] < 0)
+    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+  else
+    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -238,36 +244,72 @@ RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, 
   return span;
 }
 
-// Adds the pixels labelled `label` in lrow[u0, u1) with even u to the moments and colour of
-// their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
-// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
-// the same pass (one test of the label per pixel).
-void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
-                   int u0, int u1, std::uint16_t label, const double* xr, double yr,
-                   RegionAccumulator& reg) {
+// Moments and colour are accumulated on every kMomentStride-th pixel of every kMomentStride-th
+// row (see labelPixels).
+constexpr int kMomentStride = 2;
+
+// The first pixel column >= u0 on the moment lattice.
+inline int firstMomentPixel(int u0) {
+  return (u0 + kMomentStride - 1) / kMomentStride * kMomentStride;
+}
+
+// The six sums of a run's moments (see addRunMoments).
+struct RunSums {
   double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  auto addMoments = [&](int u) {
-    const double z = drow[u] * 0.001, xz = xr[u] * z;
+  void add(double z, double xr) {
+    const double xz = xr * z;
     n += 1.0;
     sz += z;
     szz += z * z;
     sxz += xz;
     sxzz += xz * z;
     sxxzz += xz * xz;
-  };
-  if (crow) {
-    for (int u = u0 + (u0 & 1); u < u1; u += 2) {
-      if (lrow[u] != label) continue;
-      addMoments(u);
-      b += crow[u][0];
-      g += crow[u][1];
-      r += crow[u][2];
-    }
-  } else {
-    for (int u = u0 + (u0 & 1); u < u1; u += 2)
-      if (lrow[u] == label) addMoments(u);
   }
+  void add(const RunSums& o) {
+    n += o.n;
+    sz += o.sz;
+    szz += o.szz;
+    sxz += o.sxz;
+    sxzz += o.sxzz;
+    sxxzz += o.sxxzz;
+  }
+};
+
+// Adds the pixels labelled `label` in lrow[u0, u1) on the moment lattice to the moments and colour
+// of their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
+// sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
+// the same pass (one test of the label per pixel). Alternate lattice pixels go to two sets of
+// sums: each sum is a chain of dependent additions, and two chains run in parallel.
+void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
+                   int u0, int u1, std::uint16_t label, const double* xr, double yr,
+                   RegionAccumulator& reg) {
+  RunSums even, odd;
+  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
+  auto addColour = [&](int u) {
+    if (!crow) return;
+    b += crow[u][0];
+    g += crow[u][1];
+    r += crow[u][2];
+  };
+  int u = firstMomentPixel(u0);
+  for (; u + kMomentStride < u1; u += 2 * kMomentStride) {
+    const int u2 = u + kMomentStride;
+    if (lrow[u] == label) {
+      even.add(drow[u] * 0.001, xr[u]);
+      addColour(u);
+    }
+    if (lrow[u2] == label) {
+      odd.add(drow[u2] * 0.001, xr[u2]);
+      addColour(u2);
+    }
+  }
+  if (u < u1 && lrow[u] == label) {
+    even.add(drow[u] * 0.001, xr[u]);
+    addColour(u);
+  }
+  even.add(odd);
+  const double n = even.n, sz = even.sz, szz = even.szz, sxz = even.sxz, sxzz = even.sxzz,
+               sxxzz = even.sxxzz;
   if (n == 0) return;
   Eigen::Matrix3d sum_sq;  // upper triangle
   sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
@@ -322,27 +364,29 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     const auto* drow = depth_mm.ptr<std::uint16_t>(v);
     auto* lrow = labels.ptr<std::uint16_t>(v);
     const float fv = static_cast<float>(v);
-    const cv::Vec3b* crow = !bgr.empty() && !(v & 1) ? bgr.ptr<cv::Vec3b>(v) : nullptr;
+    const cv::Vec3b* crow =
+        !bgr.empty() && v % kMomentStride == 0 ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
     int gap_u0 = 0;
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
       const PixelRun& run = lr.runs[k];
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
       gap_u0 = run.u1;
-      int count = -1;
+      std::array<int, 4> counts{};  // pixels labelled with each candidate
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        count = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
-                                        region_tol[run.list[0]], tol_floor,
-                                        static_cast<std::uint16_t>(run.list[0] + 1));
+        counts[0] = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
+                                            region_tol[run.list[0]], tol_floor,
+                                            static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
-        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor);
+        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
-        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, count), v);
-        if (!(v & 1)) addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, counts[slot]), v);
+        if (v % kMomentStride == 0)
+          addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
       }
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
@@ -384,16 +428,27 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   std::vector<int> count(planes_count, 0);
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const int* lab = sample_labels.ptr<int>(0);
+  // Consecutive samples mostly share a plane: its sum stays in a register until the plane
+  // changes (the same additions in the same order as sum[L] += ..., without a store-to-load
+  // round trip per sample).
+  int cur = -1;
+  double cur_sum = 0.0;
   for (int i = 0; i < grid.points.rows * grid.points.cols; ++i) {
     const int L = lab[i];
     if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
+    if (L != cur) {
+      if (cur >= 0) sum[cur] = cur_sum;
+      cur = L;
+      cur_sum = sum[L];
+    }
     const auto& h = planes[L];
     const cv::Vec3f& p = pts[i];
     const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) /
                      (step1 * p[2] * p[2]);
-    sum[L] += r * r;
+    cur_sum += r * r;
     ++count[L];
   }
+  if (cur >= 0) sum[cur] = cur_sum;
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
   for (std::size_t L = 0; L < planes_count; ++L) {
     if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
@@ -471,14 +526,18 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   queue.reserve(static_cast<std::size_t>(R) * C);
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
-  auto open = [&](int j) { return lab[j] == -1 && point(j)[2] > 0; };
+  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass; the seed
+  // test then ORs four flags instead of branching on each neighbour's label and depth.
+  std::vector<std::uint8_t> open(static_cast<std::size_t>(R) * C);
+  for (int i = 0; i < R * C; ++i)
+    open[i] = static_cast<std::uint8_t>((lab[i] == -1) & (point(i)[2] > 0));
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       const int i = r * C + c;
       if (lab[i] < 0) continue;
-      if ((c > 0 && open(i - 1)) || (c + 1 < C && open(i + 1)) || (r > 0 && open(i - C)) ||
-          (r + 1 < R && open(i + C)))
-        queue.push_back(i);
+      const int any = (c > 0 ? open[i - 1] : 0) | (c + 1 < C ? open[i + 1] : 0) |
+                      (r > 0 ? open[i - C] : 0) | (r + 1 < R ? open[i + C] : 0);
+      if (any) queue.push_back(i);
     }
   for (std::size_t q = 0; q < queue.size(); ++q) {
     const int i = queue[q], r = i / C, c = i % C, L = lab[i];
@@ -531,15 +590,27 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> parent(static_cast<std::size_t>(R) * C);
   std::iota(parent.begin(), parent.end(), 0);
   if (params.split_connected_regions) {
+    // Which joins were made (bit 0: with the left neighbour, bit 1: with the one above). When
+    // i joined its left neighbour, which joined the sample above it, which joined its own left
+    // neighbour (the one above i), then i and the one above are already in one set and the
+    // join (two finds) is skipped: the sets, and so the roots (their smallest index), are the
+    // same; inside a region that is almost every sample.
+    std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
-        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2]))
-          unite(parent, i, i - 1);
-        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2]))
-          unite(parent, i, i - C);
+        // i is still its own root here (raster order): unite(i, i - 1) is one find.
+        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
+          parent[i] = findRoot(parent, i - 1);
+          joined[i] = 1;
+        }
+        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
+          joined[i] |= 2;
+          const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
+          if (!linked) unite(parent, i, i - C);
+        }
       }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table

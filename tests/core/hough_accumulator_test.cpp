@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
@@ -33,6 +35,43 @@ TEST(HoughAccumulator, LambertCellsRoundTripEverywhereVisible) {
           << t;
       EXPECT_NEAR(acc.dAt(c.z()), 1.0, 1e-9);
     }
+}
+
+// vote() computes its cell with its own (floor-free) arithmetic: it must land exactly in the
+// cell cellOf reports, or nowhere when cellOf says the plane is outside the space, including
+// planes on cell boundaries, outside the Lambert square, behind the camera and beyond max_d_m.
+TEST(HoughAccumulator, VoteLandsInTheCellOfCellOf) {
+  HoughAccumulator acc;
+  std::uint32_t rng = 12345u;
+  auto uniform = [&rng](double lo, double hi) {
+    rng = rng * 1664525u + 1013904223u;
+    return lo + (hi - lo) * static_cast<double>(rng >> 8) / static_cast<double>(1u << 24);
+  };
+  std::vector<std::pair<Eigen::Vector3d, double>> planes;
+  for (int t = 0; t < 3000; ++t)  // anywhere on the sphere, d from -1 to 9 m
+    planes.emplace_back(unit(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)), uniform(-1.0, 9.0));
+  for (int t = 0; t < 500; ++t) {  // on cell boundaries (half-integer cell coordinates)
+    const double i = std::floor(uniform(0, acc.cellsA())) + 0.5;
+    const double j = std::floor(uniform(0, acc.cellsA())) + 0.5;
+    const double k = std::floor(uniform(0, acc.cellsD())) + 0.5;
+    planes.emplace_back(acc.normalAt(i, j), acc.dAt(k));
+  }
+  planes.emplace_back(unit(0, 0, 1), 1.0);  // pointing away from the camera: the pole
+  int inside = 0;
+  for (const auto& [n, d] : planes) {
+    acc.clear();
+    acc.vote(n, d);
+    int i, j, k;
+    if (acc.cellOf(n, d, i, j, k)) {
+      ++inside;
+      EXPECT_EQ(acc.at(i, j, k), 1.0f) << n.transpose() << " " << d;
+      EXPECT_EQ(acc.totalMass(), 1.0) << n.transpose() << " " << d;
+    } else {
+      EXPECT_EQ(acc.totalMass(), 0.0) << n.transpose() << " " << d;
+    }
+  }
+  EXPECT_GT(inside, 1000);  // both cases are exercised
+  EXPECT_LT(inside, static_cast<int>(planes.size()) - 500);
 }
 
 TEST(HoughAccumulator, AllocatesOnlyWhereVotesLandAndRecyclesBlocks) {
