@@ -495,11 +495,6 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
   }
 }
 
-bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid,
-                       const PlaneLabelingParams& params) {
-  return SampleContinuity(grid, params)(z1, z2);
-}
-
 namespace {
 
 // growSampleLabels with the planes' tolerance coefficients already computed.

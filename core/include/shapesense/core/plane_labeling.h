@@ -57,12 +57,8 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
                                               const PlaneLabelingParams& params);
 
 /// Whether two neighbouring samples at ranges z1, z2 (m) are depth-continuous (one surface):
-/// |z1 - z2| <= max(1% of the range per sample step, the tolerance at that range).
-bool samplesContinuous(float z1, float z2, const PlaneSampleGrid& grid,
-                       const PlaneLabelingParams& params);
-
-/// samplesContinuous with its two constants computed once, for loops that test many sample
-/// pairs (the tolerance constant costs a division). Same results as samplesContinuous.
+/// |z1 - z2| <= max(1% of the range per sample step, the tolerance at that range). Built once
+/// per grid, because the tolerance constant costs a division and the loops test many pairs.
 class SampleContinuity {
  public:
   SampleContinuity(const PlaneSampleGrid& grid, const PlaneLabelingParams& params)
