@@ -618,9 +618,11 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     }
     // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
     // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
-    // (x, y + 1). Its mean (lane K - 1: the count) is cached per centre and radius for the three
-    // rows of centres in use, so that where neighbours share a radius each pixel computes one new
-    // window instead of four. Same arithmetic on the same exact sums: same bits as uncached.
+    // (x, y + 1). Its mean (channel K - 1: the count) is cached per centre and radius for the
+    // three rows of centres in use, so that where neighbours share a radius each pixel computes
+    // one new window instead of four. The cache is planar (channel c of a row of centres at
+    // c * cols) so that four consecutive centres are one vector per channel. The window sums are
+    // exact integers, so however and whenever a mean is computed it has the same bits.
     float* row_above = win_mean_.data() + static_cast<std::size_t>((v + 2) % 3) * cols * K;
     float* row_here = win_mean_.data() + static_cast<std::size_t>(v % 3) * cols * K;
     float* row_below = win_mean_.data() + static_cast<std::size_t>((v + 1) % 3) * cols * K;
@@ -629,11 +631,10 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     int* rad_below = win_radius_.data() + static_cast<std::size_t>((v + 1) % 3) * cols;
     std::fill(rad_below, rad_below + cols, 0);  // it held the centres of row v - 2
     const float* inv = inv_count_.data();
-    // The cached mean of the window of radius r centred on column x of a row of centres whose
-    // row is y (computed and cached on a miss).
-    auto window = [&](float* means, int* radii, int x, int y, int r) -> const float* {
-      float* e = means + static_cast<std::size_t>(x) * K;
-      if (radii[x] == r) return e;
+    // Caches the mean of the window of radius r centred on column x of a row of centres whose
+    // row is y (computed on a miss).
+    auto window = [&](float* means, int* radii, int x, int y, int r) {
+      if (radii[x] == r) return;
       radii[x] = r;
       const std::ptrdiff_t dh = (2 * r + 1) * L;
       const std::uint32_t* a = irow[y - r] + (x - r) * L;      // top left
@@ -641,9 +642,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       if constexpr (M == kGrad) {
         const v4u s = load4(c + dh) - load4(a + dh) - load4(c) + load4(a);
         const int n = static_cast<int>(s[3]);
-        v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
-        m[3] = static_cast<float>(n);
-        std::memcpy(e, &m, sizeof m);
+        const v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
+        for (int k = 0; k < 3; ++k) means[k * cols + x] = m[k];
+        means[3 * cols + x] = static_cast<float>(n);
       } else {
         auto corner = [](const std::uint32_t* c) {
           std::uint64_t x64;
@@ -652,40 +653,36 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         };
         const std::uint64_t s = corner(c + dh) - corner(a + dh) - corner(c) + corner(a);
         const auto n = static_cast<std::uint32_t>(s);
-        e[0] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
-        e[1] = static_cast<float>(n);
+        means[x] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
+        means[cols + x] = static_cast<float>(n);
       }
-      return e;
     };
-    std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
-    for (int u = 0; u < cols; ++u) {
+    // One pixel: the unnormalised normal, 0 where invalid.
+    auto pixel = [&](int u) {
       const int r = rr[u];
-      if (r == 0) continue;
-      const float* el = window(row_here, rad_here, u - 1, v, r);
-      const float* er = window(row_here, rad_here, u + 1, v, r);
-      const float* eu = window(row_above, rad_above, u, v - 1, r);
-      const float* ed = window(row_below, rad_below, u, v + 1, r);
+      rnx[u] = rny[u] = rnz[u] = 0.0f;
+      if (r == 0) return;
+      window(row_here, rad_here, u - 1, v, r);
+      window(row_here, rad_here, u + 1, v, r);
+      window(row_above, rad_above, u, v - 1, r);
+      window(row_below, rad_below, u, v + 1, r);
+      // Channel k of the left, right, up and down windows.
+      auto l = [&](int k) { return row_here[k * cols + u - 1]; };
+      auto rt = [&](int k) { return row_here[k * cols + u + 1]; };
+      auto up = [&](int k) { return row_above[k * cols + u]; };
+      auto dn = [&](int k) { return row_below[k * cols + u]; };
       const float min_n = static_cast<float>(min_count[r]);
-      if (std::min(std::min(el[K - 1], er[K - 1]), std::min(eu[K - 1], ed[K - 1])) < min_n)
-        continue;
+      if (std::min(std::min(l(K - 1), rt(K - 1)), std::min(up(K - 1), dn(K - 1))) < min_n) return;
       if constexpr (M == kGrad) {
-        v4f ml, mr, mu, md;
-        std::memcpy(&ml, el, sizeof ml);
-        std::memcpy(&mr, er, sizeof mr);
-        std::memcpy(&mu, eu, sizeof mu);
-        std::memcpy(&md, ed, sizeof md);
         // Differences of the means of the four windows: the averaged tangents (for a plane the
-        // mean of 3D points lies on the plane). Lane 3 (counts) is unused.
-        const v4f h = mr - ml, t = md - mu;
-        // h x t, three lanes at once.
-        const v4f n =
-            __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
-            __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
-        rnx[u] = n[0];
-        rny[u] = n[1];
-        rnz[u] = n[2];
+        // mean of 3D points lies on the plane); the normal is h x t.
+        const float hx = rt(0) - l(0), hy = rt(1) - l(1), hz = rt(2) - l(2);
+        const float tx = dn(0) - up(0), ty = dn(1) - up(1), tz = dn(2) - up(2);
+        rnx[u] = hy * tz - hz * ty;
+        rny[u] = hz * tx - hx * tz;
+        rnz[u] = hx * ty - hy * tx;
       } else {
-        const float zl = el[0], zr = er[0], zu_ = eu[0], zd = ed[0];
+        const float zl = l(0), zr = rt(0), zu_ = up(0), zd = dn(0);
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
@@ -694,7 +691,134 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         rny[u] = fy * dv;
         rnz[u] = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
       }
+    };
+    int u = 0;
+#if defined(__SSE2__)
+    // Four pixels at a time where the valid ones share one radius r (the radius follows the depth
+    // slowly, so this is most of the image): the windows of four consecutive centres are computed
+    // together (one 4x4 transpose of the corner differences) and the normals with the same
+    // operations, in the same order, as pixel() - the same bits. Invalid lanes (r = 0) ride along
+    // when their windows stay inside the image and are zeroed at the end; anything else goes to
+    // pixel().
+    if (simd_) {
+      // The windows of radius r of centres x..x+3 of the row of centres y, into the cache.
+      auto quad = [&](float* means, int* radii, int x, int y, int r) {
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(radii + x), _mm_set1_epi32(r));
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = irow[y - r] + (x - r) * L;
+        const std::uint32_t* c = irow[y + r + 1] + (x - r) * L;
+        auto ld = [](const std::uint32_t* p) {
+          return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+        };
+        auto sum = [&](int off) {
+          return _mm_add_epi32(
+              _mm_sub_epi32(_mm_sub_epi32(ld(c + dh + off), ld(a + dh + off)), ld(c + off)),
+              ld(a + off));
+        };
+        __m128i count;
+        __m128 chan[3];
+        if constexpr (M == kGrad) {
+          const __m128i s0 = sum(0), s1 = sum(4), s2 = sum(8), s3 = sum(12);  // (X, Y, Z, n)
+          const __m128i t0 = _mm_unpacklo_epi32(s0, s1), t1 = _mm_unpacklo_epi32(s2, s3);
+          const __m128i t2 = _mm_unpackhi_epi32(s0, s1), t3 = _mm_unpackhi_epi32(s2, s3);
+          chan[0] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t0, t1));
+          chan[1] = _mm_cvtepi32_ps(_mm_unpackhi_epi64(t0, t1));
+          chan[2] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t2, t3));
+          count = _mm_unpackhi_epi64(t2, t3);
+        } else {
+          // (n, Z) uint32 pairs: as exact as the uint64 difference (the counts never borrow).
+          const __m128 s01 = _mm_castsi128_ps(sum(0)), s23 = _mm_castsi128_ps(sum(4));
+          chan[0] =
+              _mm_cvtepi32_ps(_mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1))));
+          count = _mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)));
+        }
+        const __m128 nf = _mm_cvtepi32_ps(count);
+        // 1 / n, correctly rounded like the table, and 0 for n = 0 like the table.
+        const __m128 inv_n =
+            _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), nf), _mm_cmpgt_ps(nf, _mm_setzero_ps()));
+        for (int k = 0; k < K - 1; ++k)
+          _mm_storeu_ps(means + k * cols + x, _mm_mul_ps(chan[k], inv_n));
+        _mm_storeu_ps(means + (K - 1) * cols + x, nf);
+      };
+      auto ensure = [&](float* means, int* radii, int x, int y, __m128i rv, int r) {
+        const __m128i have = _mm_loadu_si128(reinterpret_cast<const __m128i*>(radii + x));
+        if (_mm_movemask_epi8(_mm_cmpeq_epi32(have, rv)) != 0xFFFF) quad(means, radii, x, y, r);
+      };
+      const __m128 lane = _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f);
+      const __m128 half = _mm_set1_ps(0.5f), quarter = _mm_set1_ps(0.25f);
+      const __m128 vfx = _mm_set1_ps(fx), vfy = _mm_set1_ps(fy), vcx = _mm_set1_ps(cx);
+      const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - cy);
+      // The normals of the lanes of pixels u..u+3 whose radius is r (rv: r in every lane; the
+      // other lanes come out 0).
+      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz) {
+        ensure(row_here, rad_here, u - 1, v, rv, r);
+        ensure(row_here, rad_here, u + 1, v, rv, r);
+        ensure(row_above, rad_above, u, v - 1, rv, r);
+        ensure(row_below, rad_below, u, v + 1, rv, r);
+        auto l = [&](int k) { return _mm_loadu_ps(row_here + k * cols + u - 1); };
+        auto rt = [&](int k) { return _mm_loadu_ps(row_here + k * cols + u + 1); };
+        auto up = [&](int k) { return _mm_loadu_ps(row_above + k * cols + u); };
+        auto dn = [&](int k) { return _mm_loadu_ps(row_below + k * cols + u); };
+        const __m128 nmin =
+            _mm_min_ps(_mm_min_ps(l(K - 1), rt(K - 1)), _mm_min_ps(up(K - 1), dn(K - 1)));
+        const __m128 ok =
+            _mm_and_ps(_mm_castsi128_ps(lanes),
+                       _mm_cmpge_ps(nmin, _mm_set1_ps(static_cast<float>(min_count[r]))));
+        if constexpr (M == kGrad) {
+          const __m128 hx = _mm_sub_ps(rt(0), l(0)), hy = _mm_sub_ps(rt(1), l(1)),
+                       hz = _mm_sub_ps(rt(2), l(2));
+          const __m128 tx = _mm_sub_ps(dn(0), up(0)), ty = _mm_sub_ps(dn(1), up(1)),
+                       tz = _mm_sub_ps(dn(2), up(2));
+          nx = _mm_sub_ps(_mm_mul_ps(hy, tz), _mm_mul_ps(hz, ty));
+          ny = _mm_sub_ps(_mm_mul_ps(hz, tx), _mm_mul_ps(hx, tz));
+          nz = _mm_sub_ps(_mm_mul_ps(hx, ty), _mm_mul_ps(hy, tx));
+        } else {
+          const __m128 zl = l(0), zr = rt(0), zu_ = up(0), zd = dn(0);
+          const __m128 du = _mm_mul_ps(half, _mm_sub_ps(zr, zl));
+          const __m128 dv = _mm_mul_ps(half, _mm_sub_ps(zd, zu_));
+          const __m128 zm =
+              _mm_mul_ps(quarter, _mm_add_ps(_mm_add_ps(_mm_add_ps(zl, zr), zu_), zd));
+          const __m128 dx = _mm_sub_ps(_mm_add_ps(_mm_set1_ps(static_cast<float>(u)), lane), vcx);
+          nx = _mm_mul_ps(vfx, du);
+          ny = _mm_mul_ps(vfy, dv);
+          nz = _mm_xor_ps(_mm_set1_ps(-0.0f),
+                          _mm_add_ps(_mm_add_ps(zm, _mm_mul_ps(dx, du)), _mm_mul_ps(vdy, dv)));
+        }
+        nx = _mm_and_ps(ok, nx);
+        ny = _mm_and_ps(ok, ny);
+        nz = _mm_and_ps(ok, nz);
+      };
+      for (; u + 4 <= cols; u += 4) {
+        const __m128i rv4 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
+        const __m128i invalid = _mm_cmpeq_epi32(rv4, _mm_setzero_si128());
+        const int valid_lanes = ~_mm_movemask_ps(_mm_castsi128_ps(invalid)) & 15;
+        if (valid_lanes == 0) {
+          _mm_storeu_ps(rnx + u, _mm_setzero_ps());
+          _mm_storeu_ps(rny + u, _mm_setzero_ps());
+          _mm_storeu_ps(rnz + u, _mm_setzero_ps());
+          continue;
+        }
+        const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
+        const __m128i rv = _mm_set1_epi32(r);
+        const __m128i lanes = _mm_cmpeq_epi32(rv4, rv);
+        // The valid lanes must share r (else one pass per radius would recompute the cached
+        // windows of each: one pixel at a time is cheaper), and the windows of centres
+        // u - 1 .. u + 4 must lie inside the image (rows: r is a valid pixel's radius, so it fits
+        // this row).
+        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) != 0 || u - 1 - r < 0 ||
+            u + 5 + r > cols) {
+          for (int k = 0; k < 4; ++k) pixel(u + k);
+          continue;
+        }
+        __m128 nx, ny, nz;
+        four(u, r, rv, lanes, nx, ny, nz);
+        _mm_storeu_ps(rnx + u, nx);
+        _mm_storeu_ps(rny + u, ny);
+        _mm_storeu_ps(rnz + u, nz);
+      }
     }
+#endif
+    for (; u < cols; ++u) pixel(u);
     // (c)
     normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols,
                  normals.ptr<float>(v));
