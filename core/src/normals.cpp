@@ -113,8 +113,9 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
 // mark, so "no mark in the window" is exactly "the window does not straddle a step".
 void NormalEstimator::markSteps() {
   const int rows = points_.rows, cols = points_.cols;
+  // No clearing: the horizontal pass assigns every pixel of a row before the vertical pass of
+  // later rows marks any of them.
   steps_.create(rows, cols, CV_8UC1);
-  steps_.setTo(0);
   const float factor = static_cast<float>(params_.max_depth_change_factor);
   const float noise_k =
       static_cast<float>(params_.depth_change_noise_steps * params_.noise.disparity_step_px /
@@ -126,19 +127,47 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
-  vstep_.resize(static_cast<std::size_t>(cols));
-  vrow_.resize(static_cast<std::size_t>(cols));
   float* last_z = last_z_.data();
   int* last_v = last_v_.data();
-  int* vrow = vrow_.data();
-  std::uint8_t* vstep = vstep_.data();
   for (int v = 0; v < rows; ++v) {
     const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     auto* s = steps_.ptr<std::uint8_t>(v);
-    // Vertical steps, against the last valid pixel above in the same column: branch-free so that
-    // it vectorises across the row; the (rare) marks are written afterwards, as they go to the
-    // row of that pixel.
-    for (int u = 0; u < cols; ++u) {
+    // Vertical steps, against the last valid pixel above in the same column: branch-free, four
+    // columns per SSE2 step (the same operations as the scalar loop, so the same flags); the
+    // (rare) marks are written at once, as they go to the row of that pixel. No mark of this
+    // pass lands in row v, which the horizontal pass below assigns.
+    int u = 0;
+#if defined(__SSE2__)
+    if (simd_) {
+      const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
+      const __m128 zero = _mm_setzero_ps(), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      const __m128i vv = _mm_set1_epi32(v), gap_limit = _mm_set1_epi32(max_gap + 2);
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u), za = _mm_loadu_ps(last_z + u);
+        const __m128i lv = _mm_loadu_si128(reinterpret_cast<const __m128i*>(last_v + u));
+        const __m128 ok = _mm_cmpgt_ps(z, zero);
+        const __m128i gap1 = _mm_sub_epi32(vv, lv);  // gap + 1
+        const __m128 zmin = _mm_min_ps(za, z);       // za < z ? za : z
+        const __m128 by_factor = _mm_mul_ps(_mm_mul_ps(vfactor, zmin), _mm_cvtepi32_ps(gap1));
+        const __m128 by_noise = _mm_mul_ps(_mm_mul_ps(vnoise, zmin), zmin);
+        const __m128 threshold = _mm_max_ps(by_noise, by_factor);  // bf < bn ? bn : bf
+        const __m128 step = _mm_cmpgt_ps(_mm_and_ps(_mm_sub_ps(z, za), abs_mask), threshold);
+        const __m128 near =
+            _mm_castsi128_ps(_mm_cmpgt_epi32(gap_limit, gap1));  // gap + 1 < max_gap + 2
+        const int marks = _mm_movemask_ps(_mm_and_ps(_mm_and_ps(ok, near), step));
+        _mm_storeu_ps(last_z + u, _mm_or_ps(_mm_and_ps(ok, z), _mm_andnot_ps(ok, za)));
+        const __m128i oki = _mm_castps_si128(ok);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(last_v + u),
+                         _mm_or_si128(_mm_and_si128(oki, vv), _mm_andnot_si128(oki, lv)));
+        if (marks == 0) continue;
+        alignas(16) int rows_above[4];
+        _mm_store_si128(reinterpret_cast<__m128i*>(rows_above), lv);
+        for (int k = 0; k < 4; ++k)
+          if (marks & (1 << k)) steps_.ptr<std::uint8_t>(rows_above[k])[u + k] = 1;
+      }
+    }
+#endif
+    for (; u < cols; ++u) {
       const float z = zrow[u], za = last_z[u];
       const int lv = last_v[u];
       const int ok = validZ(z);
@@ -149,47 +178,57 @@ void NormalEstimator::markSteps() {
                   by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
       const int step = std::fabs(z - za) > threshold;
-      vstep[u] = static_cast<std::uint8_t>(ok & (gap <= max_gap) & step);
+      if (ok & (gap <= max_gap) & step) steps_.ptr<std::uint8_t>(lv)[u] = 1;
       last_z[u] = ok ? z : za;
       last_v[u] = ok ? v : lv;
-      vrow[u] = lv;
-    }
-    for (int u0 = 0; u0 < cols; u0 += 8) {
-      std::uint64_t any = 0;  // eight flags at once: most of a row has none
-      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
-      if (any == 0) continue;
-      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
-        if (vstep[u]) steps_.ptr<std::uint8_t>(vrow[u])[u] = 1;
-      }
     }
     // Horizontal steps, against the last valid pixel to the left: between neighbours branch-free
-    // (vectorises; nothing has marked this row yet), then across the gaps before the (fewer)
-    // pixels that follow a hole.
+    // (four pixels per SSE2 step, the scalar loop's operations), then, at once, across the gap
+    // before each (rarer) pixel that follows a hole. Those marks go left of the pixel, to places
+    // already assigned.
     if (cols == 0) continue;
-    for (int u = 1; u < cols; ++u) {
+    auto acrossGap = [&](int u) {
+      int prev_u = u - 2;  // u - 1 has no depth
+      while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
+      if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
+        s[prev_u] = 1;
+    };
+    u = 1;
+#if defined(__SSE2__)
+    if (simd_) {
+      const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
+      const __m128 zero = _mm_setzero_ps(), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u), zl = _mm_loadu_ps(zrow + u - 1);
+        const __m128 zmin = _mm_min_ps(zl, z);  // zl < z ? zl : z
+        const __m128 by_factor = _mm_mul_ps(vfactor, zmin);
+        const __m128 by_noise = _mm_mul_ps(_mm_mul_ps(vnoise, zmin), zmin);
+        const __m128 threshold = _mm_max_ps(by_noise, by_factor);
+        const __m128 ok = _mm_cmpgt_ps(z, zero), okl = _mm_cmpgt_ps(zl, zero);
+        const __m128 step = _mm_and_ps(
+            _mm_and_ps(ok, okl), _mm_cmpgt_ps(_mm_and_ps(_mm_sub_ps(z, zl), abs_mask), threshold));
+        // 0 / -1 lanes to 0 / 1 bytes.
+        __m128i b = _mm_packs_epi32(_mm_castps_si128(step), _mm_castps_si128(step));
+        b = _mm_and_si128(_mm_packs_epi16(b, b), _mm_set1_epi8(1));
+        const int flags = _mm_cvtsi128_si32(b);
+        std::memcpy(s + u - 1, &flags, sizeof flags);
+        const int after_hole = _mm_movemask_ps(_mm_andnot_ps(okl, ok));
+        if (after_hole == 0) continue;
+        for (int k = 0; k < 4; ++k)
+          if (after_hole & (1 << k)) acrossGap(u + k);
+      }
+    }
+#endif
+    for (; u < cols; ++u) {
       const float z = zrow[u], zl = zrow[u - 1];
       const float zmin = zl < z ? zl : z;
       const float by_factor = factor * zmin, by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
       s[u - 1] =
           static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
-      vstep[u] = static_cast<std::uint8_t>(validZ(z) & !validZ(zl));
+      if (validZ(z) && !validZ(zl)) acrossGap(u);
     }
     s[cols - 1] = 0;
-    vstep[0] = 0;
-    for (int u0 = 0; u0 < cols; u0 += 8) {
-      std::uint64_t any = 0;
-      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
-      if (any == 0) continue;
-      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
-        if (!vstep[u]) continue;
-        int prev_u = u - 2;  // u - 1 has no depth
-        while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
-        if (prev_u >= 0 && u - prev_u - 1 <= max_gap &&
-            isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
-          s[prev_u] = 1;
-      }
-    }
   }
 }
 

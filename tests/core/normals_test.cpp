@@ -192,9 +192,10 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
   }
 }
 
-// The gradient modes evaluate four pixels per SIMD step where they share a window radius and one
-// pixel at a time elsewhere; both must give the same bits at every pixel. The frames make the
-// radius vary (range-scaled radius, clipped by depth steps, holes and the image border):
+// The depth-step detection runs four pixels per SIMD step, and the gradient modes evaluate four
+// pixels per SIMD step where they share a window radius and one pixel at a time elsewhere; the
+// SIMD and the one-pixel-at-a-time paths must give the same bits at every pixel. The frames make
+// the radius vary (range-scaled radius, clipped by depth steps, holes and the image border):
 // synthetic scenes, a steep ramp (the radius changes every few pixels) with steps and holes, and
 // the same ramp with a fixed radius.
 TEST(Normals, SimdPathMatchesOnePixelAtATime) {

@@ -70,8 +70,9 @@ class NormalEstimator {
   /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call.
   const cv::Mat& points() const { return points_; }
 
-  /// Tests only: false evaluates the gradient modes one pixel at a time instead of four pixels
-  /// per SIMD step (the results are bit-identical; the tests check that).
+  /// Tests only: false runs the depth-step detection and the gradient modes' windows one pixel
+  /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
+  /// check that).
   void setSimd(bool on) { simd_ = on; }
 
  private:
@@ -103,9 +104,7 @@ class NormalEstimator {
   std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
   std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  std::vector<std::uint8_t> vstep_;  // one row of flags: vertical steps, then pixels after a hole
-  std::vector<int> vrow_;            // the row each vertical step marks
-  bool simd_ = true;                 // see setSimd()
+  bool simd_ = true;  // see setSimd()
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
