@@ -61,32 +61,37 @@ inline void storeInterleaved(__m128 X, __m128 Y, __m128 Z, float* out) {
 }
 #endif
 
-// Unit normals facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1): the sign of
-// n . X for every point X with depth), NaN where the unnormalised normal is (near) zero;
-// branch-free SIMD, interleaved into the CV_32FC3 output row.
-void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx,
-                  float ifx, float ry, int cols, float* out) {
-  int u = 0;
 #if defined(__SSE2__)
+// Unit normals of pixels u..u+3 facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1):
+// the sign of n . X for every point X with depth), NaN where the unnormalised normal (nx, ny, nz)
+// is (near) zero; branch-free, interleaved into 12 floats of the CV_32FC3 output row.
+inline void normalize4(__m128 nx, __m128 ny, __m128 nz, int u, float cx, float ifx, float ry,
+                       float* out) {
   const __m128 sign = _mm_set1_ps(-0.0f), zero = _mm_setzero_ps();
   const __m128 nan = _mm_set1_ps(kNaN), eps = _mm_set1_ps(1e-20f), one = _mm_set1_ps(1.0f);
-  const __m128 vcx = _mm_set1_ps(cx), vifx = _mm_set1_ps(ifx), vry = _mm_set1_ps(ry);
-  for (; u + 4 <= cols; u += 4) {
-    const __m128 nx = _mm_loadu_ps(nx_row + u), ny = _mm_loadu_ps(ny_row + u),
-                 nz = _mm_loadu_ps(nz_row + u);
-    const __m128 uf =
-        _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
-    const __m128 len2 =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
-    const __m128 ok = _mm_cmpgt_ps(len2, eps);
-    const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, vcx), vifx);
-    const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, vry)), nz);
-    __m128 k = _mm_div_ps(one, _mm_sqrt_ps(_mm_max_ps(len2, eps)));
-    k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
-    k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
-    const __m128 X = _mm_mul_ps(nx, k), Y = _mm_mul_ps(ny, k), Z = _mm_mul_ps(nz, k);
-    storeInterleaved(X, Y, Z, out + 3 * u);
-  }
+  const __m128 uf =
+      _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
+  const __m128 len2 =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
+  const __m128 ok = _mm_cmpgt_ps(len2, eps);
+  const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, _mm_set1_ps(cx)), _mm_set1_ps(ifx));
+  const __m128 dot =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, _mm_set1_ps(ry))), nz);
+  __m128 k = _mm_div_ps(one, _mm_sqrt_ps(_mm_max_ps(len2, eps)));
+  k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
+  k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
+  storeInterleaved(_mm_mul_ps(nx, k), _mm_mul_ps(ny, k), _mm_mul_ps(nz, k), out + 3 * u);
+}
+#endif
+
+// normalize4() for pixels begin..cols-1 of a row of unnormalised normals (x, y, z planes).
+void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx,
+                  float ifx, float ry, int begin, int cols, float* out) {
+  int u = begin;
+#if defined(__SSE2__)
+  for (; u + 4 <= cols; u += 4)
+    normalize4(_mm_loadu_ps(nx_row + u), _mm_loadu_ps(ny_row + u), _mm_loadu_ps(nz_row + u), u, cx,
+               ifx, ry, out);
 #endif
   for (; u < cols; ++u) {
     const float x = nx_row[u], y = ny_row[u], z = nz_row[u];
@@ -599,7 +604,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
 
   // Per row: (a) the window radius of every pixel (branch-free), (b) per pixel the step check
   // and the four windows centred one pixel left/right/up/down (one packed fetch per corner),
-  // giving the unnormalised normal (0 where invalid), (c) normalisation (SIMD).
+  // giving the unnormalised normal (0 where invalid), (c) normalisation (SIMD; fused into (b)
+  // where (b) runs four pixels at a time).
   rad_.resize(static_cast<std::size_t>(cols));
   row_n_.resize(3 * static_cast<std::size_t>(cols));
   int* rr = rad_.data();
@@ -731,6 +737,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         rnz[u] = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
       }
     };
+    // (c)'s inputs: the ray y of this row, the output row.
+    const float ry = (static_cast<float>(v) - cy) * ify;
+    float* out = normals.ptr<float>(v);
     int u = 0;
 #if defined(__SSE2__)
     // Four pixels at a time where the valid ones share one radius r (the radius follows the depth
@@ -832,9 +841,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         const __m128i invalid = _mm_cmpeq_epi32(rv4, _mm_setzero_si128());
         const int valid_lanes = ~_mm_movemask_ps(_mm_castsi128_ps(invalid)) & 15;
         if (valid_lanes == 0) {
-          _mm_storeu_ps(rnx + u, _mm_setzero_ps());
-          _mm_storeu_ps(rny + u, _mm_setzero_ps());
-          _mm_storeu_ps(rnz + u, _mm_setzero_ps());
+          for (int k = 0; k < 3; ++k) _mm_storeu_ps(out + 3 * u + 4 * k, _mm_set1_ps(kNaN));
           continue;
         }
         const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
@@ -847,20 +854,20 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) != 0 || u - 1 - r < 0 ||
             u + 5 + r > cols) {
           for (int k = 0; k < 4; ++k) pixel(u + k);
+          normalize4(_mm_loadu_ps(rnx + u), _mm_loadu_ps(rny + u), _mm_loadu_ps(rnz + u), u, cx,
+                     ifx, ry, out);
           continue;
         }
         __m128 nx, ny, nz;
         four(u, r, rv, lanes, nx, ny, nz);
-        _mm_storeu_ps(rnx + u, nx);
-        _mm_storeu_ps(rny + u, ny);
-        _mm_storeu_ps(rnz + u, nz);
+        normalize4(nx, ny, nz, u, cx, ifx, ry, out);  // (c), fused: no round trip through rnx
       }
     }
 #endif
+    const int u_tail = u;  // (c) is done up to here
     for (; u < cols; ++u) pixel(u);
-    // (c)
-    normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols,
-                 normals.ptr<float>(v));
+    // (c) of the pixels (b) did one at a time at the end of the row (all of it without SIMD).
+    normalizeRow(rnx, rny, rnz, cx, ifx, ry, u_tail, cols, out);
   }
 }
 
