@@ -277,9 +277,14 @@ void NormalEstimator::stepDistance(int cap) {
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, one{}), _mm_set1_epi16(1)));
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, two{}), _mm_set1_epi16(2)));
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, four{}), _mm_set1_epi16(4)));
+        // The next carry, min(x[7], carry + 8) = the block's last value, without waiting for the
+        // extract and broadcast of that value: the serial chain is one add and one min a block.
+        const __m128i next =
+            _mm_min_epi16(_mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 7))),
+                          _mm_adds_epi16(carry, _mm_set1_epi16(8)));
         x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp));
         _mm_storeu_si128(p, x);
-        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 7)));
+        carry = next;
       }
     } else {
       __m128i carry = big;  // d[u + 1] in every lane
@@ -289,9 +294,12 @@ void NormalEstimator::stepDistance(int cap) {
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, one{}), _mm_set1_epi16(1)));
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, two{}), _mm_set1_epi16(2)));
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, four{}), _mm_set1_epi16(4)));
+        const __m128i next =
+            _mm_min_epi16(_mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 0))),
+                          _mm_adds_epi16(carry, _mm_set1_epi16(8)));
         x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp_back));
         _mm_storeu_si128(p, x);
-        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 0)));
+        carry = next;
       }
     }
 #endif
