@@ -61,32 +61,37 @@ inline void storeInterleaved(__m128 X, __m128 Y, __m128 Z, float* out) {
 }
 #endif
 
-// Unit normals facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1): the sign of
-// n . X for every point X with depth), NaN where the unnormalised normal is (near) zero;
-// branch-free SIMD, interleaved into the CV_32FC3 output row.
-void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx,
-                  float ifx, float ry, int cols, float* out) {
-  int u = 0;
 #if defined(__SSE2__)
+// Unit normals of pixels u..u+3 facing the camera (n . ray < 0, ray = ((u-cx)/fx, (v-cy)/fy, 1):
+// the sign of n . X for every point X with depth), NaN where the unnormalised normal (nx, ny, nz)
+// is (near) zero; branch-free, interleaved into 12 floats of the CV_32FC3 output row.
+inline void normalize4(__m128 nx, __m128 ny, __m128 nz, int u, float cx, float ifx, float ry,
+                       float* out) {
   const __m128 sign = _mm_set1_ps(-0.0f), zero = _mm_setzero_ps();
   const __m128 nan = _mm_set1_ps(kNaN), eps = _mm_set1_ps(1e-20f), one = _mm_set1_ps(1.0f);
-  const __m128 vcx = _mm_set1_ps(cx), vifx = _mm_set1_ps(ifx), vry = _mm_set1_ps(ry);
-  for (; u + 4 <= cols; u += 4) {
-    const __m128 nx = _mm_loadu_ps(nx_row + u), ny = _mm_loadu_ps(ny_row + u),
-                 nz = _mm_loadu_ps(nz_row + u);
-    const __m128 uf =
-        _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
-    const __m128 len2 =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
-    const __m128 ok = _mm_cmpgt_ps(len2, eps);
-    const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, vcx), vifx);
-    const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, vry)), nz);
-    __m128 k = _mm_div_ps(one, _mm_sqrt_ps(_mm_max_ps(len2, eps)));
-    k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
-    k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
-    const __m128 X = _mm_mul_ps(nx, k), Y = _mm_mul_ps(ny, k), Z = _mm_mul_ps(nz, k);
-    storeInterleaved(X, Y, Z, out + 3 * u);
-  }
+  const __m128 uf =
+      _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f));
+  const __m128 len2 =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, nx), _mm_mul_ps(ny, ny)), _mm_mul_ps(nz, nz));
+  const __m128 ok = _mm_cmpgt_ps(len2, eps);
+  const __m128 rx = _mm_mul_ps(_mm_sub_ps(uf, _mm_set1_ps(cx)), _mm_set1_ps(ifx));
+  const __m128 dot =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, rx), _mm_mul_ps(ny, _mm_set1_ps(ry))), nz);
+  __m128 k = _mm_div_ps(one, _mm_sqrt_ps(_mm_max_ps(len2, eps)));
+  k = _mm_xor_ps(k, _mm_and_ps(sign, _mm_cmpgt_ps(dot, zero)));  // face the camera
+  k = _mm_or_ps(_mm_and_ps(ok, k), _mm_andnot_ps(ok, nan));
+  storeInterleaved(_mm_mul_ps(nx, k), _mm_mul_ps(ny, k), _mm_mul_ps(nz, k), out + 3 * u);
+}
+#endif
+
+// normalize4() for pixels begin..cols-1 of a row of unnormalised normals (x, y, z planes).
+void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row, float cx,
+                  float ifx, float ry, int begin, int cols, float* out) {
+  int u = begin;
+#if defined(__SSE2__)
+  for (; u + 4 <= cols; u += 4)
+    normalize4(_mm_loadu_ps(nx_row + u), _mm_loadu_ps(ny_row + u), _mm_loadu_ps(nz_row + u), u, cx,
+               ifx, ry, out);
 #endif
   for (; u < cols; ++u) {
     const float x = nx_row[u], y = ny_row[u], z = nz_row[u];
@@ -113,8 +118,9 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
 // mark, so "no mark in the window" is exactly "the window does not straddle a step".
 void NormalEstimator::markSteps() {
   const int rows = points_.rows, cols = points_.cols;
+  // No clearing: the horizontal pass assigns every pixel of a row before the vertical pass of
+  // later rows marks any of them.
   steps_.create(rows, cols, CV_8UC1);
-  steps_.setTo(0);
   const float factor = static_cast<float>(params_.max_depth_change_factor);
   const float noise_k =
       static_cast<float>(params_.depth_change_noise_steps * params_.noise.disparity_step_px /
@@ -126,19 +132,47 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
-  vstep_.resize(static_cast<std::size_t>(cols));
-  vrow_.resize(static_cast<std::size_t>(cols));
   float* last_z = last_z_.data();
   int* last_v = last_v_.data();
-  int* vrow = vrow_.data();
-  std::uint8_t* vstep = vstep_.data();
   for (int v = 0; v < rows; ++v) {
     const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
     auto* s = steps_.ptr<std::uint8_t>(v);
-    // Vertical steps, against the last valid pixel above in the same column: branch-free so that
-    // it vectorises across the row; the (rare) marks are written afterwards, as they go to the
-    // row of that pixel.
-    for (int u = 0; u < cols; ++u) {
+    // Vertical steps, against the last valid pixel above in the same column: branch-free, four
+    // columns per SSE2 step (the same operations as the scalar loop, so the same flags); the
+    // (rare) marks are written at once, as they go to the row of that pixel. No mark of this
+    // pass lands in row v, which the horizontal pass below assigns.
+    int u = 0;
+#if defined(__SSE2__)
+    if (simd_) {
+      const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
+      const __m128 zero = _mm_setzero_ps(), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      const __m128i vv = _mm_set1_epi32(v), gap_limit = _mm_set1_epi32(max_gap + 2);
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u), za = _mm_loadu_ps(last_z + u);
+        const __m128i lv = _mm_loadu_si128(reinterpret_cast<const __m128i*>(last_v + u));
+        const __m128 ok = _mm_cmpgt_ps(z, zero);
+        const __m128i gap1 = _mm_sub_epi32(vv, lv);  // gap + 1
+        const __m128 zmin = _mm_min_ps(za, z);       // za < z ? za : z
+        const __m128 by_factor = _mm_mul_ps(_mm_mul_ps(vfactor, zmin), _mm_cvtepi32_ps(gap1));
+        const __m128 by_noise = _mm_mul_ps(_mm_mul_ps(vnoise, zmin), zmin);
+        const __m128 threshold = _mm_max_ps(by_noise, by_factor);  // bf < bn ? bn : bf
+        const __m128 step = _mm_cmpgt_ps(_mm_and_ps(_mm_sub_ps(z, za), abs_mask), threshold);
+        const __m128 near =
+            _mm_castsi128_ps(_mm_cmpgt_epi32(gap_limit, gap1));  // gap + 1 < max_gap + 2
+        const int marks = _mm_movemask_ps(_mm_and_ps(_mm_and_ps(ok, near), step));
+        _mm_storeu_ps(last_z + u, _mm_or_ps(_mm_and_ps(ok, z), _mm_andnot_ps(ok, za)));
+        const __m128i oki = _mm_castps_si128(ok);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(last_v + u),
+                         _mm_or_si128(_mm_and_si128(oki, vv), _mm_andnot_si128(oki, lv)));
+        if (marks == 0) continue;
+        alignas(16) int rows_above[4];
+        _mm_store_si128(reinterpret_cast<__m128i*>(rows_above), lv);
+        for (int k = 0; k < 4; ++k)
+          if (marks & (1 << k)) steps_.ptr<std::uint8_t>(rows_above[k])[u + k] = 1;
+      }
+    }
+#endif
+    for (; u < cols; ++u) {
       const float z = zrow[u], za = last_z[u];
       const int lv = last_v[u];
       const int ok = validZ(z);
@@ -149,47 +183,57 @@ void NormalEstimator::markSteps() {
                   by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
       const int step = std::fabs(z - za) > threshold;
-      vstep[u] = static_cast<std::uint8_t>(ok & (gap <= max_gap) & step);
+      if (ok & (gap <= max_gap) & step) steps_.ptr<std::uint8_t>(lv)[u] = 1;
       last_z[u] = ok ? z : za;
       last_v[u] = ok ? v : lv;
-      vrow[u] = lv;
-    }
-    for (int u0 = 0; u0 < cols; u0 += 8) {
-      std::uint64_t any = 0;  // eight flags at once: most of a row has none
-      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
-      if (any == 0) continue;
-      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
-        if (vstep[u]) steps_.ptr<std::uint8_t>(vrow[u])[u] = 1;
-      }
     }
     // Horizontal steps, against the last valid pixel to the left: between neighbours branch-free
-    // (vectorises; nothing has marked this row yet), then across the gaps before the (fewer)
-    // pixels that follow a hole.
+    // (four pixels per SSE2 step, the scalar loop's operations), then, at once, across the gap
+    // before each (rarer) pixel that follows a hole. Those marks go left of the pixel, to places
+    // already assigned.
     if (cols == 0) continue;
-    for (int u = 1; u < cols; ++u) {
+    auto acrossGap = [&](int u) {
+      int prev_u = u - 2;  // u - 1 has no depth
+      while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
+      if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
+        s[prev_u] = 1;
+    };
+    u = 1;
+#if defined(__SSE2__)
+    if (simd_) {
+      const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
+      const __m128 zero = _mm_setzero_ps(), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      for (; u + 4 <= cols; u += 4) {
+        const __m128 z = _mm_loadu_ps(zrow + u), zl = _mm_loadu_ps(zrow + u - 1);
+        const __m128 zmin = _mm_min_ps(zl, z);  // zl < z ? zl : z
+        const __m128 by_factor = _mm_mul_ps(vfactor, zmin);
+        const __m128 by_noise = _mm_mul_ps(_mm_mul_ps(vnoise, zmin), zmin);
+        const __m128 threshold = _mm_max_ps(by_noise, by_factor);
+        const __m128 ok = _mm_cmpgt_ps(z, zero), okl = _mm_cmpgt_ps(zl, zero);
+        const __m128 step = _mm_and_ps(
+            _mm_and_ps(ok, okl), _mm_cmpgt_ps(_mm_and_ps(_mm_sub_ps(z, zl), abs_mask), threshold));
+        // 0 / -1 lanes to 0 / 1 bytes.
+        __m128i b = _mm_packs_epi32(_mm_castps_si128(step), _mm_castps_si128(step));
+        b = _mm_and_si128(_mm_packs_epi16(b, b), _mm_set1_epi8(1));
+        const int flags = _mm_cvtsi128_si32(b);
+        std::memcpy(s + u - 1, &flags, sizeof flags);
+        const int after_hole = _mm_movemask_ps(_mm_andnot_ps(okl, ok));
+        if (after_hole == 0) continue;
+        for (int k = 0; k < 4; ++k)
+          if (after_hole & (1 << k)) acrossGap(u + k);
+      }
+    }
+#endif
+    for (; u < cols; ++u) {
       const float z = zrow[u], zl = zrow[u - 1];
       const float zmin = zl < z ? zl : z;
       const float by_factor = factor * zmin, by_noise = noise_k * zmin * zmin;
       const float threshold = by_factor < by_noise ? by_noise : by_factor;
       s[u - 1] =
           static_cast<std::uint8_t>(validZ(z) & validZ(zl) & (std::fabs(z - zl) > threshold));
-      vstep[u] = static_cast<std::uint8_t>(validZ(z) & !validZ(zl));
+      if (validZ(z) && !validZ(zl)) acrossGap(u);
     }
     s[cols - 1] = 0;
-    vstep[0] = 0;
-    for (int u0 = 0; u0 < cols; u0 += 8) {
-      std::uint64_t any = 0;
-      std::memcpy(&any, vstep + u0, static_cast<std::size_t>(std::min(8, cols - u0)));
-      if (any == 0) continue;
-      for (int u = u0; u < std::min(u0 + 8, cols); ++u) {
-        if (!vstep[u]) continue;
-        int prev_u = u - 2;  // u - 1 has no depth
-        while (prev_u >= 0 && u - prev_u - 1 <= max_gap && !validZ(zrow[prev_u])) --prev_u;
-        if (prev_u >= 0 && u - prev_u - 1 <= max_gap &&
-            isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
-          s[prev_u] = 1;
-      }
-    }
   }
 }
 
@@ -233,9 +277,14 @@ void NormalEstimator::stepDistance(int cap) {
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, one{}), _mm_set1_epi16(1)));
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, two{}), _mm_set1_epi16(2)));
         x = _mm_min_epi16(x, _mm_adds_epi16(up(x, four{}), _mm_set1_epi16(4)));
+        // The next carry, min(x[7], carry + 8) = the block's last value, without waiting for the
+        // extract and broadcast of that value: the serial chain is one add and one min a block.
+        const __m128i next =
+            _mm_min_epi16(_mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 7))),
+                          _mm_adds_epi16(carry, _mm_set1_epi16(8)));
         x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp));
         _mm_storeu_si128(p, x);
-        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 7)));
+        carry = next;
       }
     } else {
       __m128i carry = big;  // d[u + 1] in every lane
@@ -245,9 +294,12 @@ void NormalEstimator::stepDistance(int cap) {
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, one{}), _mm_set1_epi16(1)));
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, two{}), _mm_set1_epi16(2)));
         x = _mm_min_epi16(x, _mm_adds_epi16(down(x, four{}), _mm_set1_epi16(4)));
+        const __m128i next =
+            _mm_min_epi16(_mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 0))),
+                          _mm_adds_epi16(carry, _mm_set1_epi16(8)));
         x = _mm_min_epi16(x, _mm_adds_epi16(carry, ramp_back));
         _mm_storeu_si128(p, x);
-        carry = _mm_set1_epi16(static_cast<short>(_mm_extract_epi16(x, 0)));
+        carry = next;
       }
     }
 #endif
@@ -560,7 +612,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
 
   // Per row: (a) the window radius of every pixel (branch-free), (b) per pixel the step check
   // and the four windows centred one pixel left/right/up/down (one packed fetch per corner),
-  // giving the unnormalised normal (0 where invalid), (c) normalisation (SIMD).
+  // giving the unnormalised normal (0 where invalid), (c) normalisation (SIMD; fused into (b)
+  // where (b) runs four pixels at a time).
   rad_.resize(static_cast<std::size_t>(cols));
   row_n_.resize(3 * static_cast<std::size_t>(cols));
   int* rr = rad_.data();
@@ -618,9 +671,11 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     }
     // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
     // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
-    // (x, y + 1). Its mean (lane K - 1: the count) is cached per centre and radius for the three
-    // rows of centres in use, so that where neighbours share a radius each pixel computes one new
-    // window instead of four. Same arithmetic on the same exact sums: same bits as uncached.
+    // (x, y + 1). Its mean (channel K - 1: the count) is cached per centre and radius for the
+    // three rows of centres in use, so that where neighbours share a radius each pixel computes
+    // one new window instead of four. The cache is planar (channel c of a row of centres at
+    // c * cols) so that four consecutive centres are one vector per channel. The window sums are
+    // exact integers, so however and whenever a mean is computed it has the same bits.
     float* row_above = win_mean_.data() + static_cast<std::size_t>((v + 2) % 3) * cols * K;
     float* row_here = win_mean_.data() + static_cast<std::size_t>(v % 3) * cols * K;
     float* row_below = win_mean_.data() + static_cast<std::size_t>((v + 1) % 3) * cols * K;
@@ -629,11 +684,10 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     int* rad_below = win_radius_.data() + static_cast<std::size_t>((v + 1) % 3) * cols;
     std::fill(rad_below, rad_below + cols, 0);  // it held the centres of row v - 2
     const float* inv = inv_count_.data();
-    // The cached mean of the window of radius r centred on column x of a row of centres whose
-    // row is y (computed and cached on a miss).
-    auto window = [&](float* means, int* radii, int x, int y, int r) -> const float* {
-      float* e = means + static_cast<std::size_t>(x) * K;
-      if (radii[x] == r) return e;
+    // Caches the mean of the window of radius r centred on column x of a row of centres whose
+    // row is y (computed on a miss).
+    auto window = [&](float* means, int* radii, int x, int y, int r) {
+      if (radii[x] == r) return;
       radii[x] = r;
       const std::ptrdiff_t dh = (2 * r + 1) * L;
       const std::uint32_t* a = irow[y - r] + (x - r) * L;      // top left
@@ -641,9 +695,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       if constexpr (M == kGrad) {
         const v4u s = load4(c + dh) - load4(a + dh) - load4(c) + load4(a);
         const int n = static_cast<int>(s[3]);
-        v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
-        m[3] = static_cast<float>(n);
-        std::memcpy(e, &m, sizeof m);
+        const v4f m = __builtin_convertvector(reinterpret_cast<const v4i&>(s), v4f) * inv[n];
+        for (int k = 0; k < 3; ++k) means[k * cols + x] = m[k];
+        means[3 * cols + x] = static_cast<float>(n);
       } else {
         auto corner = [](const std::uint32_t* c) {
           std::uint64_t x64;
@@ -652,40 +706,36 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         };
         const std::uint64_t s = corner(c + dh) - corner(a + dh) - corner(c) + corner(a);
         const auto n = static_cast<std::uint32_t>(s);
-        e[0] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
-        e[1] = static_cast<float>(n);
+        means[x] = static_cast<float>(static_cast<std::int32_t>(s >> 32)) * inv[n];
+        means[cols + x] = static_cast<float>(n);
       }
-      return e;
     };
-    std::fill(rnx, rnx + 3 * static_cast<std::size_t>(cols), 0.0f);
-    for (int u = 0; u < cols; ++u) {
+    // One pixel: the unnormalised normal, 0 where invalid.
+    auto pixel = [&](int u) {
       const int r = rr[u];
-      if (r == 0) continue;
-      const float* el = window(row_here, rad_here, u - 1, v, r);
-      const float* er = window(row_here, rad_here, u + 1, v, r);
-      const float* eu = window(row_above, rad_above, u, v - 1, r);
-      const float* ed = window(row_below, rad_below, u, v + 1, r);
+      rnx[u] = rny[u] = rnz[u] = 0.0f;
+      if (r == 0) return;
+      window(row_here, rad_here, u - 1, v, r);
+      window(row_here, rad_here, u + 1, v, r);
+      window(row_above, rad_above, u, v - 1, r);
+      window(row_below, rad_below, u, v + 1, r);
+      // Channel k of the left, right, up and down windows.
+      auto l = [&](int k) { return row_here[k * cols + u - 1]; };
+      auto rt = [&](int k) { return row_here[k * cols + u + 1]; };
+      auto up = [&](int k) { return row_above[k * cols + u]; };
+      auto dn = [&](int k) { return row_below[k * cols + u]; };
       const float min_n = static_cast<float>(min_count[r]);
-      if (std::min(std::min(el[K - 1], er[K - 1]), std::min(eu[K - 1], ed[K - 1])) < min_n)
-        continue;
+      if (std::min(std::min(l(K - 1), rt(K - 1)), std::min(up(K - 1), dn(K - 1))) < min_n) return;
       if constexpr (M == kGrad) {
-        v4f ml, mr, mu, md;
-        std::memcpy(&ml, el, sizeof ml);
-        std::memcpy(&mr, er, sizeof mr);
-        std::memcpy(&mu, eu, sizeof mu);
-        std::memcpy(&md, ed, sizeof md);
         // Differences of the means of the four windows: the averaged tangents (for a plane the
-        // mean of 3D points lies on the plane). Lane 3 (counts) is unused.
-        const v4f h = mr - ml, t = md - mu;
-        // h x t, three lanes at once.
-        const v4f n =
-            __builtin_shufflevector(h, h, 1, 2, 0, 3) * __builtin_shufflevector(t, t, 2, 0, 1, 3) -
-            __builtin_shufflevector(h, h, 2, 0, 1, 3) * __builtin_shufflevector(t, t, 1, 2, 0, 3);
-        rnx[u] = n[0];
-        rny[u] = n[1];
-        rnz[u] = n[2];
+        // mean of 3D points lies on the plane); the normal is h x t.
+        const float hx = rt(0) - l(0), hy = rt(1) - l(1), hz = rt(2) - l(2);
+        const float tx = dn(0) - up(0), ty = dn(1) - up(1), tz = dn(2) - up(2);
+        rnx[u] = hy * tz - hz * ty;
+        rny[u] = hz * tx - hx * tz;
+        rnz[u] = hx * ty - hy * tx;
       } else {
-        const float zl = el[0], zr = er[0], zu_ = eu[0], zd = ed[0];
+        const float zl = l(0), zr = rt(0), zu_ = up(0), zd = dn(0);
         // Depth derivatives per pixel and the pinhole model: for z(u, v) the (unnormalised)
         // normal facing the camera is (fx zu, fy zv, -(z + (u-cx) zu + (v-cy) zv)).
         const float du = 0.5f * (zr - zl), dv = 0.5f * (zd - zu_);
@@ -694,10 +744,138 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         rny[u] = fy * dv;
         rnz[u] = -(zm + (static_cast<float>(u) - cx) * du + (static_cast<float>(v) - cy) * dv);
       }
+    };
+    // (c)'s inputs: the ray y of this row, the output row.
+    const float ry = (static_cast<float>(v) - cy) * ify;
+    float* out = normals.ptr<float>(v);
+    int u = 0;
+#if defined(__SSE2__)
+    // Four pixels at a time where the valid ones share one radius r (the radius follows the depth
+    // slowly, so this is most of the image): the windows of four consecutive centres are computed
+    // together (one 4x4 transpose of the corner differences) and the normals with the same
+    // operations, in the same order, as pixel() - the same bits. Invalid lanes (r = 0) ride along
+    // when their windows stay inside the image and are zeroed at the end; anything else goes to
+    // pixel().
+    if (simd_) {
+      // The windows of radius r of centres x..x+3 of the row of centres y, into the cache.
+      auto quad = [&](float* means, int* radii, int x, int y, int r) {
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(radii + x), _mm_set1_epi32(r));
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = irow[y - r] + (x - r) * L;
+        const std::uint32_t* c = irow[y + r + 1] + (x - r) * L;
+        auto ld = [](const std::uint32_t* p) {
+          return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+        };
+        auto sum = [&](int off) {
+          return _mm_add_epi32(
+              _mm_sub_epi32(_mm_sub_epi32(ld(c + dh + off), ld(a + dh + off)), ld(c + off)),
+              ld(a + off));
+        };
+        __m128i count;
+        __m128 chan[3];
+        if constexpr (M == kGrad) {
+          const __m128i s0 = sum(0), s1 = sum(4), s2 = sum(8), s3 = sum(12);  // (X, Y, Z, n)
+          const __m128i t0 = _mm_unpacklo_epi32(s0, s1), t1 = _mm_unpacklo_epi32(s2, s3);
+          const __m128i t2 = _mm_unpackhi_epi32(s0, s1), t3 = _mm_unpackhi_epi32(s2, s3);
+          chan[0] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t0, t1));
+          chan[1] = _mm_cvtepi32_ps(_mm_unpackhi_epi64(t0, t1));
+          chan[2] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t2, t3));
+          count = _mm_unpackhi_epi64(t2, t3);
+        } else {
+          // (n, Z) uint32 pairs: as exact as the uint64 difference (the counts never borrow).
+          const __m128 s01 = _mm_castsi128_ps(sum(0)), s23 = _mm_castsi128_ps(sum(4));
+          chan[0] =
+              _mm_cvtepi32_ps(_mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1))));
+          count = _mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)));
+        }
+        const __m128 nf = _mm_cvtepi32_ps(count);
+        // 1 / n, correctly rounded like the table, and 0 for n = 0 like the table.
+        const __m128 inv_n =
+            _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), nf), _mm_cmpgt_ps(nf, _mm_setzero_ps()));
+        for (int k = 0; k < K - 1; ++k)
+          _mm_storeu_ps(means + k * cols + x, _mm_mul_ps(chan[k], inv_n));
+        _mm_storeu_ps(means + (K - 1) * cols + x, nf);
+      };
+      auto ensure = [&](float* means, int* radii, int x, int y, __m128i rv, int r) {
+        const __m128i have = _mm_loadu_si128(reinterpret_cast<const __m128i*>(radii + x));
+        if (_mm_movemask_epi8(_mm_cmpeq_epi32(have, rv)) != 0xFFFF) quad(means, radii, x, y, r);
+      };
+      const __m128 lane = _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f);
+      const __m128 half = _mm_set1_ps(0.5f), quarter = _mm_set1_ps(0.25f);
+      const __m128 vfx = _mm_set1_ps(fx), vfy = _mm_set1_ps(fy), vcx = _mm_set1_ps(cx);
+      const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - cy);
+      // The normals of the lanes of pixels u..u+3 whose radius is r (rv: r in every lane; the
+      // other lanes come out 0).
+      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz) {
+        ensure(row_here, rad_here, u - 1, v, rv, r);
+        ensure(row_here, rad_here, u + 1, v, rv, r);
+        ensure(row_above, rad_above, u, v - 1, rv, r);
+        ensure(row_below, rad_below, u, v + 1, rv, r);
+        auto l = [&](int k) { return _mm_loadu_ps(row_here + k * cols + u - 1); };
+        auto rt = [&](int k) { return _mm_loadu_ps(row_here + k * cols + u + 1); };
+        auto up = [&](int k) { return _mm_loadu_ps(row_above + k * cols + u); };
+        auto dn = [&](int k) { return _mm_loadu_ps(row_below + k * cols + u); };
+        const __m128 nmin =
+            _mm_min_ps(_mm_min_ps(l(K - 1), rt(K - 1)), _mm_min_ps(up(K - 1), dn(K - 1)));
+        const __m128 ok =
+            _mm_and_ps(_mm_castsi128_ps(lanes),
+                       _mm_cmpge_ps(nmin, _mm_set1_ps(static_cast<float>(min_count[r]))));
+        if constexpr (M == kGrad) {
+          const __m128 hx = _mm_sub_ps(rt(0), l(0)), hy = _mm_sub_ps(rt(1), l(1)),
+                       hz = _mm_sub_ps(rt(2), l(2));
+          const __m128 tx = _mm_sub_ps(dn(0), up(0)), ty = _mm_sub_ps(dn(1), up(1)),
+                       tz = _mm_sub_ps(dn(2), up(2));
+          nx = _mm_sub_ps(_mm_mul_ps(hy, tz), _mm_mul_ps(hz, ty));
+          ny = _mm_sub_ps(_mm_mul_ps(hz, tx), _mm_mul_ps(hx, tz));
+          nz = _mm_sub_ps(_mm_mul_ps(hx, ty), _mm_mul_ps(hy, tx));
+        } else {
+          const __m128 zl = l(0), zr = rt(0), zu_ = up(0), zd = dn(0);
+          const __m128 du = _mm_mul_ps(half, _mm_sub_ps(zr, zl));
+          const __m128 dv = _mm_mul_ps(half, _mm_sub_ps(zd, zu_));
+          const __m128 zm =
+              _mm_mul_ps(quarter, _mm_add_ps(_mm_add_ps(_mm_add_ps(zl, zr), zu_), zd));
+          const __m128 dx = _mm_sub_ps(_mm_add_ps(_mm_set1_ps(static_cast<float>(u)), lane), vcx);
+          nx = _mm_mul_ps(vfx, du);
+          ny = _mm_mul_ps(vfy, dv);
+          nz = _mm_xor_ps(_mm_set1_ps(-0.0f),
+                          _mm_add_ps(_mm_add_ps(zm, _mm_mul_ps(dx, du)), _mm_mul_ps(vdy, dv)));
+        }
+        nx = _mm_and_ps(ok, nx);
+        ny = _mm_and_ps(ok, ny);
+        nz = _mm_and_ps(ok, nz);
+      };
+      for (; u + 4 <= cols; u += 4) {
+        const __m128i rv4 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
+        const __m128i invalid = _mm_cmpeq_epi32(rv4, _mm_setzero_si128());
+        const int valid_lanes = ~_mm_movemask_ps(_mm_castsi128_ps(invalid)) & 15;
+        if (valid_lanes == 0) {
+          for (int k = 0; k < 3; ++k) _mm_storeu_ps(out + 3 * u + 4 * k, _mm_set1_ps(kNaN));
+          continue;
+        }
+        const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
+        const __m128i rv = _mm_set1_epi32(r);
+        const __m128i lanes = _mm_cmpeq_epi32(rv4, rv);
+        // The valid lanes must share r (else one pass per radius would recompute the cached
+        // windows of each: one pixel at a time is cheaper), and the windows of centres
+        // u - 1 .. u + 4 must lie inside the image (rows: r is a valid pixel's radius, so it fits
+        // this row).
+        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) != 0 || u - 1 - r < 0 ||
+            u + 5 + r > cols) {
+          for (int k = 0; k < 4; ++k) pixel(u + k);
+          normalize4(_mm_loadu_ps(rnx + u), _mm_loadu_ps(rny + u), _mm_loadu_ps(rnz + u), u, cx,
+                     ifx, ry, out);
+          continue;
+        }
+        __m128 nx, ny, nz;
+        four(u, r, rv, lanes, nx, ny, nz);
+        normalize4(nx, ny, nz, u, cx, ifx, ry, out);  // (c), fused: no round trip through rnx
+      }
     }
-    // (c)
-    normalizeRow(rnx, rny, rnz, cx, ifx, (static_cast<float>(v) - cy) * ify, cols,
-                 normals.ptr<float>(v));
+#endif
+    const int u_tail = u;  // (c) is done up to here
+    for (; u < cols; ++u) pixel(u);
+    // (c) of the pixels (b) did one at a time at the end of the row (all of it without SIMD).
+    normalizeRow(rnx, rny, rnz, cx, ifx, ry, u_tail, cols, out);
   }
 }
 

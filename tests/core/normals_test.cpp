@@ -4,11 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 
 #include <time.h>
 
 #include <gtest/gtest.h>
+
+#include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {
 namespace {
@@ -186,6 +189,64 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
       for (int u = 50; u < 70; ++u) ASSERT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, u)[0]));
     // ... but pixels next to the hole keep a normal (holes are not steps).
     EXPECT_FALSE(std::isnan(normals.at<cv::Vec3f>(60, 72)[0])) << name(m);
+  }
+}
+
+// The depth-step detection runs four pixels per SIMD step, and the gradient modes evaluate four
+// pixels per SIMD step where they share a window radius and one pixel at a time elsewhere; the
+// SIMD and the one-pixel-at-a-time paths must give the same bits at every pixel. The frames make
+// the radius vary (range-scaled radius, clipped by depth steps, holes and the image border):
+// synthetic scenes, a steep ramp (the radius changes every few pixels) with steps and holes, and
+// the same ramp with a fixed radius.
+TEST(Normals, SimdPathMatchesOnePixelAtATime) {
+  const CameraIntrinsics K;
+  std::vector<cv::Mat> frames;
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    synthetic::SceneParams p;
+    p.seed = seed;
+    p.render_colour = false;
+    frames.push_back(synthetic::SyntheticScene(p).render(0, 0).frame.depth.clone());
+  }
+  std::mt19937 rng(7);
+  cv::Mat ramp(K.height, K.width, CV_16UC1);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      double z = 0.5 + 3.5 * u / K.width + 0.3 * v / K.height;  // radius 2..20 across the image
+      if ((u / 37 + v / 29) % 5 == 0) z += 0.25;                // depth steps
+      ramp.at<std::uint16_t>(v, u) = kinectQuantise(z, 0.5, rng);
+    }
+  for (int i = 0; i < 400; ++i) {  // scattered holes of 1-4 pixels
+    const int u = static_cast<int>(rng() % K.width), v = static_cast<int>(rng() % K.height);
+    ramp(cv::Rect(u, v, 1 + static_cast<int>(rng() % 4), 1) & cv::Rect(0, 0, K.width, K.height))
+        .setTo(0);
+  }
+  frames.push_back(ramp);
+  for (bool depth_dependent : {true, false}) {
+    for (auto m : {NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
+      NormalParams p;
+      p.method = m;
+      p.depth_dependent_smoothing = depth_dependent;
+      NormalEstimator simd(p), scalar(p);
+      scalar.setSimd(false);
+      for (std::size_t f = 0; f < frames.size(); ++f) {
+        cv::Mat a, b;
+        simd.compute(frames[f], K, a);
+        scalar.compute(frames[f], K, b);
+        int valid = 0, differ = 0;
+        for (int v = 0; v < K.height; ++v)
+          for (int u = 0; u < K.width; ++u) {
+            const auto* x = &a.at<cv::Vec3f>(v, u);
+            const auto* y = &b.at<cv::Vec3f>(v, u);
+            valid += !std::isnan((*y)[0]);
+            if (std::memcmp(x, y, sizeof *x) != 0) {
+              if (differ++ < 5)
+                ADD_FAILURE() << name(m) << " frame " << f << " (" << u << ", " << v << ")";
+            }
+          }
+        EXPECT_EQ(differ, 0) << name(m) << " frame " << f;
+        EXPECT_GT(valid, K.width * K.height / 4) << name(m) << " frame " << f;
+      }
+    }
   }
 }
 

@@ -70,6 +70,11 @@ class NormalEstimator {
   /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call.
   const cv::Mat& points() const { return points_; }
 
+  /// Tests only: false runs the depth-step detection and the gradient modes' windows one pixel
+  /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
+  /// check that).
+  void setSimd(bool on) { simd_ = on; }
+
  private:
   void markSteps();
   void stepDistance(int cap);
@@ -95,12 +100,11 @@ class NormalEstimator {
   std::vector<float> col_bound_;  // largest window radius the image width allows per column
   std::vector<float> row_n_;      // one row of unnormalised normals (x, y, z planes)
   std::vector<float> inv_count_;  // 1 / n for every window pixel count n
-  std::vector<float> win_mean_;   // window means (and counts) of three rows of centres
+  std::vector<float> win_mean_;   // window means (and counts) of three rows of centres, planar
   std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
   std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  std::vector<std::uint8_t> vstep_;  // one row of flags: vertical steps, then pixels after a hole
-  std::vector<int> vrow_;            // the row each vertical step marks
+  bool simd_ = true;  // see setSimd()
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
