@@ -286,7 +286,9 @@ BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorP
 }
 
 BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams params)
-    : models_(std::move(models)), params_(std::move(params)) {
+    : models_(std::move(models)),
+      params_(std::move(params)),
+      depth_map_(models_.empty() ? DepthPreprocessParams{} : models_.front().preprocess) {
   if (models_.empty()) throw std::runtime_error("BowlDetector: no models");
   const auto& p0 = models_.front().preprocess;
   for (const auto& m : models_) {
@@ -301,7 +303,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
   if (depth_mm.type() != CV_16UC1)
     throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
   cv::Mat filled;
-  const cv::Mat img8 = preprocessDepth(depth_mm, models_.front().preprocess, &filled);
+  const cv::Mat img8 = preprocessDepth(depth_mm, depth_map_, &filled);
   std::vector<const BowlViewModel*> active;
   int min_w = INT32_MAX, min_h = INT32_MAX;
   double min_obj_frac = 1.0;

@@ -27,6 +27,7 @@
 
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/camera.h"
+#include "shapesense/core/depth_preprocess.h"
 
 namespace shapesense {
 
@@ -147,6 +148,8 @@ class BowlDetector {
  private:
   std::vector<BowlViewModel> models_;
   BowlDetectorParams params_;
+  /// The models' depth mapping, its table built once here rather than per frame.
+  DepthTo8BitMap depth_map_;
 };
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
