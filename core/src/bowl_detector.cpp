@@ -110,10 +110,11 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
   return kept;
 }
 
-void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes) {
+void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes,
+                      const std::vector<std::uint8_t>& rows) {
   CV_Assert(!level.integral.empty());
   for (int k = 0; k < 4; ++k)
-    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.image8, 1 + k % 2, 1 + k / 2);
+    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.image8, 1 + k % 2, 1 + k / 2, rows);
 }
 
 namespace {
@@ -127,6 +128,59 @@ struct StageCodeReader {
   const std::uint8_t* code_base = nullptr;
   LbpOffsets offsets{};
 };
+
+/// The depth gate of one view on one level: object width in input pixels is
+/// W * (1 - 2m) * scale; at depth z it spans that * z / fx metres. Depths are whole millimetres,
+/// so the bounds are compared as integers, and each window column's input column is looked up
+/// once per level. A window at (x, y) passes when the filled depth at row(y) and
+/// input_column[x / stride] lies in [z_lo, z_hi].
+struct DepthGate {
+  bool on = false;
+  int z_lo = 0, z_hi = 0;
+  std::vector<int> input_column;
+  const std::uint16_t* row(const cv::Mat& filled_mm, int y, int win_h, double scale) const {
+    return filled_mm.ptr<std::uint16_t>(
+        std::min(filled_mm.rows - 1, static_cast<int>((y + win_h * 0.5) * scale)));
+  }
+};
+
+DepthGate depthGate(const BowlViewModel& model, const BowlPyramidLevel& level,
+                    const cv::Mat& filled_mm, double fx, int stride) {
+  DepthGate g;
+  const int W = model.classifier.win_w;
+  const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
+  g.on = !filled_mm.empty() && fx > 0;
+  const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
+  const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
+  g.z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
+  g.z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
+  if (g.on)
+    for (int x = 0; x + W <= level.image8.cols; x += stride)
+      g.input_column.push_back(
+          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  return g;
+}
+
+/// Marks in `rows` the level rows that the windows of `model` passing the depth gate cover
+/// (all rows of any window row with at least one window in the gate).
+void markGatedRows(const BowlViewModel& model, const BowlPyramidLevel& level,
+                   const cv::Mat& filled_mm, double fx, int stride,
+                   std::vector<std::uint8_t>& rows) {
+  const int H = model.classifier.win_h;
+  const DepthGate g = depthGate(model, level, filled_mm, fx, stride);
+  for (int y = 0; y + H <= level.image8.rows; y += stride) {
+    if (!g.on) {
+      std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
+      continue;
+    }
+    const std::uint16_t* zrow = g.row(filled_mm, y, H, level.scale);
+    for (const int c : g.input_column)
+      if (zrow[c] >= g.z_lo && zrow[c] <= g.z_hi) {
+        std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
+        break;
+      }
+  }
+}
 
 /// A model that cannot reach the final score anywhere would only cost time (a model without
 /// stages accepts every gated window: bootstrapping).
@@ -164,20 +218,10 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
     else
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
-  // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
-  // that * z / fx metres. Depths are whole millimetres, so the bounds are compared as integers,
-  // and each window column's input column is looked up once per level.
-  const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
-  const bool gate = !filled_mm.empty() && fx > 0;
-  const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
-  const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
-  const int z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
-  const int z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
-  std::vector<int> input_column;
-  if (gate)
-    for (int x = 0; x + W <= lw; x += stride)
-      input_column.push_back(
-          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  const DepthGate dg = depthGate(model, level, filled_mm, fx, stride);
+  const bool gate = dg.on;
+  const int z_lo = dg.z_lo, z_hi = dg.z_hi;
+  const std::vector<int>& input_column = dg.input_column;
 
   // The windows of one row go through the cascade together, stage by stage: each stage adds
   // its vote to every window still in the row and keeps those at or above its threshold in
@@ -197,8 +241,7 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   for (int y = 0; y + H <= lh; y += stride) {
     std::size_t alive = 0;
     if (gate) {
-      const std::uint16_t* zrow = filled_mm.ptr<std::uint16_t>(
-          std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale)));
+      const std::uint16_t* zrow = dg.row(filled_mm, y, H, level.scale);
       for (std::size_t i = 0; i < row_windows; ++i) {
         const int z = zrow[input_column[i]];
         alive_x[alive] = static_cast<int>(i) * stride;
@@ -347,10 +390,25 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
       if (f.cw <= 2 && f.ch <= 2) any_code_image = code_cell_sizes[cellSizeIndex(f)] = true;
     }
   }
-  if (any_code_image)
-    for (auto& level : levels)
-      if (!level.integral.empty()) addLbpCodeImages(level, code_cell_sizes);
   const cv::Mat gate = params_.depth_gate ? filled : cv::Mat();
+  // Code images only for the rows some scanned window in the depth gate covers: in real frames
+  // whole bands of a level (the depths its window size misfits) are never classified.
+  auto scanned = [&](const BowlPyramidLevel& level, std::size_t view) {
+    const auto& m = *active[view];
+    const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
+    return reachable[view] && !level.integral.empty() && obj_px >= params_.min_object_px &&
+           obj_px <= params_.max_object_px;
+  };
+  if (any_code_image)
+    for (auto& level : levels) {
+      if (level.integral.empty()) continue;
+      std::vector<std::uint8_t> rows(static_cast<std::size_t>(level.image8.rows), 0);
+      for (std::size_t v = 0; v < active.size(); ++v)
+        if (scanned(level, v))
+          markGatedRows(*active[v], level, gate, intr.fx, params_.stride, rows);
+      if (std::find(rows.begin(), rows.end(), std::uint8_t{1}) != rows.end())
+        addLbpCodeImages(level, code_cell_sizes, rows);
+    }
 
   // One task per (level, view); results gathered per task so the output order is fixed.
   std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
@@ -358,10 +416,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
     const auto& level = levels[task / active.size()];
     const std::size_t view = task % active.size();
     const auto& m = *active[view];
-    const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
-    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty())
-      return;
-    if (!reachable[view]) return;
+    if (!scanned(level, view)) return;
     const auto hits =
         scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
     const double mx = m.object_margin * m.classifier.win_w,
