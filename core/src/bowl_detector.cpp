@@ -110,10 +110,11 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> dets, do
   return kept;
 }
 
-void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes) {
+void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes,
+                      const std::vector<std::uint8_t>& rows) {
   CV_Assert(!level.integral.empty());
   for (int k = 0; k < 4; ++k)
-    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.image8, 1 + k % 2, 1 + k / 2);
+    if (cell_sizes[k]) level.codes[k] = lbpCodeImage(level.image8, 1 + k % 2, 1 + k / 2, rows);
 }
 
 namespace {
@@ -127,6 +128,59 @@ struct StageCodeReader {
   const std::uint8_t* code_base = nullptr;
   LbpOffsets offsets{};
 };
+
+/// The depth gate of one view on one level: object width in input pixels is
+/// W * (1 - 2m) * scale; at depth z it spans that * z / fx metres. Depths are whole millimetres,
+/// so the bounds are compared as integers, and each window column's input column is looked up
+/// once per level. A window at (x, y) passes when the filled depth at row(y) and
+/// input_column[x / stride] lies in [z_lo, z_hi].
+struct DepthGate {
+  bool on = false;
+  int z_lo = 0, z_hi = 0;
+  std::vector<int> input_column;
+  const std::uint16_t* row(const cv::Mat& filled_mm, int y, int win_h, double scale) const {
+    return filled_mm.ptr<std::uint16_t>(
+        std::min(filled_mm.rows - 1, static_cast<int>((y + win_h * 0.5) * scale)));
+  }
+};
+
+DepthGate depthGate(const BowlViewModel& model, const BowlPyramidLevel& level,
+                    const cv::Mat& filled_mm, double fx, int stride) {
+  DepthGate g;
+  const int W = model.classifier.win_w;
+  const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
+  g.on = !filled_mm.empty() && fx > 0;
+  const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
+  const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
+  g.z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
+  g.z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
+  if (g.on)
+    for (int x = 0; x + W <= level.image8.cols; x += stride)
+      g.input_column.push_back(
+          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  return g;
+}
+
+/// Marks in `rows` the level rows that the windows of `model` passing the depth gate cover
+/// (all rows of any window row with at least one window in the gate).
+void markGatedRows(const BowlViewModel& model, const BowlPyramidLevel& level,
+                   const cv::Mat& filled_mm, double fx, int stride,
+                   std::vector<std::uint8_t>& rows) {
+  const int H = model.classifier.win_h;
+  const DepthGate g = depthGate(model, level, filled_mm, fx, stride);
+  for (int y = 0; y + H <= level.image8.rows; y += stride) {
+    if (!g.on) {
+      std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
+      continue;
+    }
+    const std::uint16_t* zrow = g.row(filled_mm, y, H, level.scale);
+    for (const int c : g.input_column)
+      if (zrow[c] >= g.z_lo && zrow[c] <= g.z_hi) {
+        std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
+        break;
+      }
+  }
+}
 
 /// A model that cannot reach the final score anywhere would only cost time (a model without
 /// stages accepts every gated window: bootstrapping).
@@ -164,20 +218,10 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
     else
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
-  // Depth gate: object width in input pixels is W * (1 - 2m) * scale; at depth z it spans
-  // that * z / fx metres. Depths are whole millimetres, so the bounds are compared as integers,
-  // and each window column's input column is looked up once per level.
-  const double obj_px = W * (1.0 - 2.0 * model.object_margin) * level.scale;
-  const bool gate = !filled_mm.empty() && fx > 0;
-  const double zmin_mm = model.min_object_width_m * fx / obj_px * 1000.0;
-  const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
-  const int z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
-  const int z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
-  std::vector<int> input_column;
-  if (gate)
-    for (int x = 0; x + W <= lw; x += stride)
-      input_column.push_back(
-          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  const DepthGate dg = depthGate(model, level, filled_mm, fx, stride);
+  const bool gate = dg.on;
+  const int z_lo = dg.z_lo, z_hi = dg.z_hi;
+  const std::vector<int>& input_column = dg.input_column;
 
   // The windows of one row go through the cascade together, stage by stage: each stage adds
   // its vote to every window still in the row and keeps those at or above its threshold in
@@ -188,42 +232,44 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   const std::size_t row_windows = static_cast<std::size_t>((lw - W) / stride + 1);
   std::vector<int> alive_x(row_windows);               // x of the windows still in the cascade
   std::vector<std::int32_t> alive_score(row_windows);  // their running scores
-  // The depth gate and the first two stages (when both read code images) are fused into one
-  // pass over all windows of the row: the stages cost less than the compaction pass each
-  // would need, even for the windows the gate drops.
+  // The first two stages (when both read code images) are fused into one compaction pass.
+  // The depth gate goes first, in a pass of its own: on real frames it passes about half of
+  // the windows (and no window at all in about a third of the rows of a level), so the stages
+  // then run on the gated windows only.
   const std::size_t fused_stages =
       n_stages >= 2 && readers[0].code_base && readers[1].code_base ? 2 : 0;
   for (int y = 0; y + H <= lh; y += stride) {
-    const std::uint16_t* zrow = nullptr;
-    if (gate)
-      zrow = filled_mm.ptr<std::uint16_t>(
-          std::min(filled_mm.rows - 1, static_cast<int>((y + H * 0.5) * level.scale)));
-    auto inGate = [&](std::size_t i) -> int {
-      if (!zrow) return 1;
-      const int z = zrow[input_column[i]];
-      return (z >= z_lo) & (z <= z_hi);
-    };
-    const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
     std::size_t alive = 0;
+    if (gate) {
+      const std::uint16_t* zrow = dg.row(filled_mm, y, H, level.scale);
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        const int z = zrow[input_column[i]];
+        alive_x[alive] = static_cast<int>(i) * stride;
+        alive += static_cast<std::size_t>((z >= z_lo) & (z <= z_hi));
+      }
+      if (alive == 0) continue;
+    } else {
+      for (std::size_t i = 0; i < row_windows; ++i) alive_x[i] = static_cast<int>(i) * stride;
+      alive = row_windows;
+    }
+    const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
     if (fused_stages == 2) {
       const std::uint8_t* codes0 = readers[0].code_base + code_row;
       const std::uint8_t* codes1 = readers[1].code_base + code_row;
       const std::int16_t* lut0 = clf.stages[0].lut.data();
       const std::int16_t* lut1 = clf.stages[1].lut.data();
       const std::int32_t threshold0 = thresholds[0], threshold1 = thresholds[1];
-      for (std::size_t i = 0; i < row_windows; ++i) {
-        const int x = static_cast<int>(i) * stride;
+      std::size_t kept = 0;
+      for (std::size_t k = 0; k < alive; ++k) {
+        const int x = alive_x[k];
         const std::int32_t h0 = lut0[codes0[x]], h1 = h0 + lut1[codes1[x]];
-        alive_x[alive] = x;
-        alive_score[alive] = h1;
-        alive += static_cast<std::size_t>(inGate(i) & (h0 >= threshold0) & (h1 >= threshold1));
+        alive_x[kept] = x;
+        alive_score[kept] = h1;
+        kept += static_cast<std::size_t>((h0 >= threshold0) & (h1 >= threshold1));
       }
+      alive = kept;
     } else {
-      for (std::size_t i = 0; i < row_windows; ++i) {
-        alive_x[alive] = static_cast<int>(i) * stride;
-        alive_score[alive] = 0;
-        alive += static_cast<std::size_t>(inGate(i));
-      }
+      std::fill(alive_score.begin(), alive_score.begin() + static_cast<std::ptrdiff_t>(alive), 0);
     }
     const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
     for (std::size_t t = fused_stages; t < n_stages && alive > 0; ++t) {
@@ -286,7 +332,9 @@ BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorP
 }
 
 BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams params)
-    : models_(std::move(models)), params_(std::move(params)) {
+    : models_(std::move(models)),
+      params_(std::move(params)),
+      depth_map_(models_.empty() ? DepthPreprocessParams{} : models_.front().preprocess) {
   if (models_.empty()) throw std::runtime_error("BowlDetector: no models");
   const auto& p0 = models_.front().preprocess;
   for (const auto& m : models_) {
@@ -301,7 +349,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
   if (depth_mm.type() != CV_16UC1)
     throw std::invalid_argument("BowlDetector: depth must be CV_16UC1 mm");
   cv::Mat filled;
-  const cv::Mat img8 = preprocessDepth(depth_mm, models_.front().preprocess, &filled);
+  const cv::Mat img8 = preprocessDepth(depth_mm, depth_map_, &filled);
   std::vector<const BowlViewModel*> active;
   int min_w = INT32_MAX, min_h = INT32_MAX;
   double min_obj_frac = 1.0;
@@ -342,10 +390,25 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
       if (f.cw <= 2 && f.ch <= 2) any_code_image = code_cell_sizes[cellSizeIndex(f)] = true;
     }
   }
-  if (any_code_image)
-    for (auto& level : levels)
-      if (!level.integral.empty()) addLbpCodeImages(level, code_cell_sizes);
   const cv::Mat gate = params_.depth_gate ? filled : cv::Mat();
+  // Code images only for the rows some scanned window in the depth gate covers: in real frames
+  // whole bands of a level (the depths its window size misfits) are never classified.
+  auto scanned = [&](const BowlPyramidLevel& level, std::size_t view) {
+    const auto& m = *active[view];
+    const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
+    return reachable[view] && !level.integral.empty() && obj_px >= params_.min_object_px &&
+           obj_px <= params_.max_object_px;
+  };
+  if (any_code_image)
+    for (auto& level : levels) {
+      if (level.integral.empty()) continue;
+      std::vector<std::uint8_t> rows(static_cast<std::size_t>(level.image8.rows), 0);
+      for (std::size_t v = 0; v < active.size(); ++v)
+        if (scanned(level, v))
+          markGatedRows(*active[v], level, gate, intr.fx, params_.stride, rows);
+      if (std::find(rows.begin(), rows.end(), std::uint8_t{1}) != rows.end())
+        addLbpCodeImages(level, code_cell_sizes, rows);
+    }
 
   // One task per (level, view); results gathered per task so the output order is fixed.
   std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
@@ -353,10 +416,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
     const auto& level = levels[task / active.size()];
     const std::size_t view = task % active.size();
     const auto& m = *active[view];
-    const double obj_px = m.classifier.win_w * (1.0 - 2.0 * m.object_margin) * level.scale;
-    if (obj_px < params_.min_object_px || obj_px > params_.max_object_px || level.integral.empty())
-      return;
-    if (!reachable[view]) return;
+    if (!scanned(level, view)) return;
     const auto hits =
         scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
     const double mx = m.object_margin * m.classifier.win_w,

@@ -1,8 +1,6 @@
 #include "shapesense/core/depth_preprocess.h"
 
 #include <algorithm>
-#include <array>
-#include <bit>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -13,137 +11,152 @@ namespace shapesense {
 
 namespace {
 
-/// Sorts 8 values ascending with a fixed network of 19 compare-exchanges (Batcher's
-/// odd-even merge sort): no data-dependent branch, unlike std::nth_element on 8 elements.
-void sortEight(std::array<std::uint16_t, 8>& v) {
-  auto exchange = [&v](int i, int j) {
-    const std::uint16_t lo = std::min(v[i], v[j]), hi = std::max(v[i], v[j]);
-    v[i] = lo;
-    v[j] = hi;
+// The fill works on 8 pixels of a row at a time. A hole pixel's lower median depends on one
+// neighbour the scan has just filled (forward: the left one, backward: the right one); its
+// other 7 neighbours are already final (the row behind the scan) or not yet touched in this
+// pass (the row ahead, the pixel ahead in the row). So the 7 known neighbours of 8 pixels are
+// sorted together in SSE2 lanes, and only the last step is serial: with s the m valid known
+// values sorted ascending and L the just-filled neighbour, the lower median of the n = m + 1
+// valid values (index m / 2) is clamp(L, s[m/2 - 1], s[m/2]); when L is invalid it is s[(m-1)/2]
+// of the m values alone. That is the same value a median of the 8 neighbours gives, at a
+// fraction of the cost per pixel, which matters in the large holes of real frames (shadows,
+// out-of-range areas) where every pixel is filled.
+//
+// Values are compared in an "ordered" 16-bit signed form t = (v - 1) ^ 0x8000: valid depths
+// 1..65535 map in order to -32768..32766 and the invalid 0 maps to 32767 (kInvalid), above
+// every valid value, so the invalid neighbours sort last and the signed SSE2 min/max apply.
+constexpr std::int16_t kInvalid = 0x7FFF;
+
+inline std::int16_t toOrdered(std::uint16_t v) {
+  return static_cast<std::int16_t>(static_cast<std::uint16_t>(v - 1) ^ 0x8000);
+}
+inline std::uint16_t fromOrdered(std::int16_t t) {
+  return static_cast<std::uint16_t>((static_cast<std::uint16_t>(t) ^ 0x8000) + 1);
+}
+inline __m128i toOrdered(__m128i v) {
+  return _mm_xor_si128(_mm_sub_epi16(v, _mm_set1_epi16(1)),
+                       _mm_set1_epi16(static_cast<short>(0x8000)));
+}
+
+/// For 8 pixels: the bounds lo, hi of the clamp and the median mid without the serial neighbour
+/// (see above), in the ordered form. mid = kInvalid when a pixel has no valid known neighbour.
+struct BlockStats {
+  alignas(16) std::int16_t lo[8];
+  alignas(16) std::int16_t hi[8];
+  alignas(16) std::int16_t mid[8];
+};
+
+/// `above`, `here`, `below` point at column c - 1 of the three rows (columns c - 1 .. c + 8
+/// readable); the 8 pixels are columns c .. c + 7 of `here`. Forward: the known horizontal
+/// neighbour is the right one (c + 1), backward the left one (c - 1).
+template <bool Forward>
+void blockStats(const std::uint16_t* above, const std::uint16_t* here, const std::uint16_t* below,
+                BlockStats& out) {
+  auto load = [](const std::uint16_t* p) {
+    return toOrdered(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
   };
-  exchange(0, 1), exchange(2, 3), exchange(4, 5), exchange(6, 7);
-  exchange(0, 2), exchange(1, 3), exchange(4, 6), exchange(5, 7);
-  exchange(1, 2), exchange(5, 6);
-  exchange(0, 4), exchange(1, 5), exchange(2, 6), exchange(3, 7);
-  exchange(2, 4), exchange(3, 5);
+  __m128i s[7] = {load(above), load(above + 1), load(above + 2), load(Forward ? here + 2 : here),
+                  load(below), load(below + 1), load(below + 2)};
+  // Optimal 16-comparator network for 7 elements (checked on all 0/1 inputs).
+  auto exchange = [&s](int i, int j) {
+    const __m128i lo = _mm_min_epi16(s[i], s[j]);
+    s[j] = _mm_max_epi16(s[i], s[j]);
+    s[i] = lo;
+  };
+  exchange(0, 6), exchange(2, 3), exchange(4, 5);
+  exchange(0, 2), exchange(1, 4), exchange(3, 6);
+  exchange(0, 1), exchange(2, 5), exchange(3, 4);
+  exchange(1, 2), exchange(4, 6);
+  exchange(2, 3), exchange(4, 5);
   exchange(1, 2), exchange(3, 4), exchange(5, 6);
-}
-
-/// Index of the first zero of row[from, to), or `to` if none: 8 pixels per SSE2 compare,
-/// since most of a row is valid depth.
-int findZero(const std::uint16_t* row, int from, int to) {
-  const __m128i zero = _mm_setzero_si128();
-  int c = from;
-  for (; to - c >= 8; c += 8) {
-    const __m128i px = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c));
-    const int mask = _mm_movemask_epi8(_mm_cmpeq_epi16(px, zero));
-    if (mask != 0) return c + std::countr_zero(static_cast<unsigned>(mask)) / 2;
-  }
-  for (; c < to; ++c)
-    if (row[c] == 0) return c;
-  return to;
-}
-
-/// Index of the last zero of row[0, to), or -1 if none.
-int findZeroBackward(const std::uint16_t* row, int to) {
-  const __m128i zero = _mm_setzero_si128();
-  int c = to;
-  for (; c >= 8; c -= 8) {
-    const __m128i px = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c - 8));
-    const int mask = _mm_movemask_epi8(_mm_cmpeq_epi16(px, zero));
-    if (mask != 0) return c - 1 - std::countl_zero(static_cast<unsigned>(mask) << 16) / 2;
-  }
-  while (--c >= 0)
-    if (row[c] == 0) return c;
-  return -1;
-}
-
-/// True where column c of the three rows holds a valid pixel, for 8 columns from c (SSE2).
-int validColumnsMask(const std::uint16_t* above, const std::uint16_t* here,
-                     const std::uint16_t* below, int c) {
-  auto load = [c](const std::uint16_t* row) {
-    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c));
+  // Invalid values sort last, so s[i] is invalid exactly when i >= m. Selecting by m:
+  //   hi  = s[m/2]:          s0, s1 from m >= 2, s2 from m >= 4, s3 from m >= 6;
+  //   lo  = s[m/2 - 1]:      lowest for m < 2, s0 from m >= 2, s1 from 4, s2 from 6;
+  //   mid = s[(m - 1) / 2]:  s0 (invalid when m = 0), s1 from m >= 3, s2 from 5, s3 from 7.
+  const __m128i invalid = _mm_set1_epi16(kInvalid);
+  auto atLeast = [&](int m) {
+    return _mm_xor_si128(_mm_cmpeq_epi16(s[m - 1], invalid), _mm_set1_epi16(-1));
+  };  // i.e. m valid
+  auto select = [](__m128i mask, __m128i yes, __m128i no) {
+    return _mm_or_si128(_mm_and_si128(mask, yes), _mm_andnot_si128(mask, no));
   };
-  const __m128i any = _mm_or_si128(_mm_or_si128(load(above), load(here)), load(below));
-  return ~_mm_movemask_epi8(_mm_cmpeq_epi16(any, _mm_setzero_si128())) & 0xFFFF;
+  const __m128i m2 = atLeast(2), m3 = atLeast(3), m4 = atLeast(4), m5 = atLeast(5), m6 = atLeast(6),
+                m7 = atLeast(7);
+  const __m128i hi = select(m6, s[3], select(m4, s[2], select(m2, s[1], s[0])));
+  const __m128i lo = select(m6, s[2], select(m4, s[1], select(m2, s[0], _mm_set1_epi16(-32768))));
+  const __m128i mid = select(m7, s[3], select(m5, s[2], select(m3, s[1], s[0])));
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.lo), lo);
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.hi), hi);
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.mid), mid);
 }
 
-/// The first column in [from, to) where one of the three rows is valid, or `to`.
-int firstValidColumn(const std::uint16_t* above, const std::uint16_t* here,
-                     const std::uint16_t* below, int from, int to) {
-  int c = from;
-  for (; to - c >= 8; c += 8)
-    if (const int mask = validColumnsMask(above, here, below, c); mask != 0)
-      return c + std::countr_zero(static_cast<unsigned>(mask)) / 2;
-  for (; c < to; ++c)
-    if ((above[c] | here[c] | below[c]) != 0) return c;
-  return to;
+/// Bit i set when column c + i of `row` is 0 (8 columns from c).
+int zeroMask(const std::uint16_t* row, int c) {
+  const __m128i px = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c));
+  return _mm_movemask_epi8(
+      _mm_packs_epi16(_mm_cmpeq_epi16(px, _mm_setzero_si128()), _mm_setzero_si128()));
 }
 
-/// The last column in [0, to) where one of the three rows is valid, or -1.
-int lastValidColumn(const std::uint16_t* above, const std::uint16_t* here,
-                    const std::uint16_t* below, int to) {
-  int c = to;
-  for (; c >= 8; c -= 8)
-    if (const int mask = validColumnsMask(above, here, below, c - 8); mask != 0)
-      return c - 1 - std::countl_zero(static_cast<unsigned>(mask) << 16) / 2;
-  while (--c >= 0)
-    if ((above[c] | here[c] | below[c]) != 0) return c;
-  return -1;
+/// True when columns c - 1 .. c + 8 of the three rows hold no valid pixel.
+bool noValidAround(const std::uint16_t* above, const std::uint16_t* here,
+                   const std::uint16_t* below, int c) {
+  auto load = [](const std::uint16_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  const __m128i any = _mm_or_si128(
+      _mm_or_si128(_mm_or_si128(load(above + c - 1), load(here + c - 1)), load(below + c - 1)),
+      _mm_or_si128(_mm_or_si128(load(above + c + 1), load(here + c + 1)), load(below + c + 1)));
+  return _mm_movemask_epi8(_mm_cmpeq_epi16(any, _mm_setzero_si128())) == 0xFFFF;
 }
 
-/// Fills the invalid pixel (r, c) with the lower median of its valid 8-neighbours; returns
-/// false (and leaves it) when it has none.
-bool fillFromNeighbours(cv::Mat& depth_mm, int r, int c) {
-  // Neighbours are shifted down by one (mod 2^16) before sorting, so that invalid (0) and
-  // missing ones become 65535, above every valid one (at most 65534 after the shift): the
-  // k-th smallest of the n valid values is then the k-th element of the sorted eight.
-  std::array<std::uint16_t, 8> nb;
-  int n = 0;
-  if (r > 0 && r + 1 < depth_mm.rows && c > 0 && c + 1 < depth_mm.cols) {
-    // Inside the image (nearly every hole pixel): the 8 neighbours without bounds checks.
-    const std::uint16_t* above = depth_mm.ptr<std::uint16_t>(r - 1) + c - 1;
-    const std::uint16_t* here = depth_mm.ptr<std::uint16_t>(r) + c - 1;
-    const std::uint16_t* below = depth_mm.ptr<std::uint16_t>(r + 1) + c - 1;
-    const std::array<std::uint16_t, 8> v = {above[0], above[1], above[2], here[0],
-                                            here[2],  below[0], below[1], below[2]};
-    for (std::size_t k = 0; k < 8; ++k) {
-      nb[k] = static_cast<std::uint16_t>(v[k] - 1);
-      n += v[k] != 0;
+/// One pass over one row: fills the holes of columns [c, c + 8) ∩ [0, cols) block by block in
+/// scan order. Returns the number of pixels filled.
+template <bool Forward>
+int fillRow(const std::uint16_t* above, std::uint16_t* here, const std::uint16_t* below, int cols) {
+  int filled = 0;
+  const int blocks = (cols + 7) / 8;
+  BlockStats st;
+  for (int b = 0; b < blocks; ++b) {
+    const int c = 8 * (Forward ? b : blocks - 1 - b);
+    const int n = std::min(8, cols - c);  // pixels in this block
+    // The serial neighbour's value: final already (it lies behind the scan).
+    const int serial_col = Forward ? c - 1 : c + n;
+    std::int16_t L = serial_col >= 0 && serial_col < cols ? toOrdered(here[serial_col]) : kInvalid;
+    const bool interior = c >= 1 && c + 9 <= cols;
+    if (interior) {
+      const int holes = zeroMask(here, c);
+      if (holes == 0) continue;
+      // Inside a large hole with nothing valid near: every pixel stays invalid this pass.
+      if (L == kInvalid && noValidAround(above, here, below, c)) continue;
+      blockStats<Forward>(above + c - 1, here + c - 1, below + c - 1, st);
+    } else {
+      // Image border or row end: a copy of columns c - 1 .. c + 8 with 0 (invalid) outside.
+      alignas(16) std::uint16_t pad[3][16] = {};
+      const std::uint16_t* rows[3] = {above, here, below};
+      for (int k = 0; k < 3; ++k)
+        for (int x = std::max(0, c - 1); x <= std::min(cols - 1, c + 8); ++x)
+          pad[k][x - (c - 1)] = rows[k][x];
+      bool any_hole = false;
+      for (int i = 0; i < n; ++i) any_hole |= here[c + i] == 0;
+      if (!any_hole) continue;
+      blockStats<Forward>(pad[0], pad[1], pad[2], st);
     }
-  } else {
-    nb.fill(0xFFFF);
-    std::size_t k = 0;
-    for (int dr = -1; dr <= 1; ++dr) {
-      const int rr = r + dr;
-      if (rr < 0 || rr >= depth_mm.rows) continue;
-      const auto* q = depth_mm.ptr<std::uint16_t>(rr);
-      for (int dc = -1; dc <= 1; ++dc) {
-        const int cc = c + dc;
-        if ((dr == 0 && dc == 0) || cc < 0 || cc >= depth_mm.cols) continue;
-        nb[k++] = static_cast<std::uint16_t>(q[cc] - 1);
-        n += q[cc] != 0;
+    for (int k = 0; k < n; ++k) {
+      const int i = Forward ? k : n - 1 - k;
+      const std::uint16_t v = here[c + i];
+      if (v != 0) {
+        L = toOrdered(v);
+        continue;
       }
+      const std::int16_t t = L == kInvalid ? st.mid[i] : std::max(st.lo[i], std::min(L, st.hi[i]));
+      if (t != kInvalid) {
+        here[c + i] = fromOrdered(t);
+        ++filled;
+      }
+      L = t;
     }
   }
-  if (n == 0) return false;
-  // Inside a large hole the fill copies one surface's value along: when every valid neighbour
-  // holds the same value, that value is the median and the sort is not needed.
-  std::uint16_t lowest = nb[0], highest = 0;
-  for (std::size_t k = 0; k < 8; ++k) {
-    lowest = std::min(lowest, nb[k]);
-    highest = std::max(highest, static_cast<std::uint16_t>(nb[k] + 1));  // invalid ones: 0
-  }
-  if (static_cast<std::uint16_t>(lowest + 1) == highest) {
-    depth_mm.ptr<std::uint16_t>(r)[c] = highest;
-    return true;
-  }
-  sortEight(nb);
-  // Lower median for even counts: keeps the fill on the nearer surface at an edge less
-  // often than the mean would smear across it; any fixed choice is fine for detection.
-  depth_mm.ptr<std::uint16_t>(r)[c] =
-      static_cast<std::uint16_t>(nb[static_cast<std::size_t>((n - 1) / 2)] + 1);
-  return true;
+  return filled;
 }
 
 }  // namespace
@@ -157,43 +170,24 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
     const auto* p = depth_mm.ptr<std::uint16_t>(r);
     remaining += static_cast<int>(std::count(p, p + cols, std::uint16_t{0}));
   }
-  // Visiting only the zeros of a row in raster order is the same as visiting every pixel:
-  // filling a pixel changes no pixel ahead of it in its row, so the zeros ahead stay where the
-  // search finds them.
-  // A pixel that stays invalid has no valid neighbour, so the next pixel in scan order stays
-  // invalid too unless the column after it holds a valid pixel: in a large hole (a room that
-  // reads no depth) whole runs are skipped by a search for the next valid column.
-  const std::vector<std::uint16_t> no_row(static_cast<std::size_t>(cols), 0);  // beyond the border
+  // Rows beyond the border read as invalid; padded so that block loads stay inside.
+  const std::vector<std::uint16_t> no_row(static_cast<std::size_t>(cols) + 16, 0);
   for (int pass = 0; pass < passes && remaining > 0; ++pass) {
     const bool forward = pass % 2 == 0;
     for (int i = 0; i < rows; ++i) {
       const int r = forward ? i : rows - 1 - i;
-      const std::uint16_t* row = depth_mm.ptr<std::uint16_t>(r);
+      std::uint16_t* row = depth_mm.ptr<std::uint16_t>(r);
       const std::uint16_t* above = r > 0 ? depth_mm.ptr<std::uint16_t>(r - 1) : no_row.data();
       const std::uint16_t* below =
           r + 1 < rows ? depth_mm.ptr<std::uint16_t>(r + 1) : no_row.data();
-      if (forward) {
-        for (int c = findZero(row, 0, cols); c < cols; c = findZero(row, c + 1, cols)) {
-          if (fillFromNeighbours(depth_mm, r, c))
-            --remaining;
-          else  // columns c and c + 1 are empty; pixels before the next valid column - 1 stay
-            c = std::max(c, firstValidColumn(above, row, below, std::min(c + 2, cols), cols) - 2);
-        }
-      } else {
-        for (int c = findZeroBackward(row, cols); c >= 0; c = findZeroBackward(row, c)) {
-          if (fillFromNeighbours(depth_mm, r, c))
-            --remaining;
-          else
-            c = std::min(c, lastValidColumn(above, row, below, std::max(c - 1, 0)) + 2);
-        }
-      }
+      remaining -= forward ? fillRow<true>(above, row, below, cols)
+                           : fillRow<false>(above, row, below, cols);
     }
   }
   return remaining;
 }
 
-cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params) {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
+DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(params) {
   if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 ||
       params.low >= params.high)
     throw std::invalid_argument("mapDepthTo8Bit: bad range");
@@ -203,12 +197,17 @@ cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& par
   const double gain = (params.high - params.low) / (far_mm - near_mm);
   const int lo_end = std::clamp(static_cast<int>(std::ceil(near_mm)), 1, 65536);
   const int hi_begin = std::clamp(static_cast<int>(std::floor(far_mm)) + 1, lo_end, 65536);
-  std::vector<std::uint8_t> lut(65536);
-  std::fill(lut.begin() + 1, lut.begin() + lo_end, static_cast<std::uint8_t>(params.low));
+  lut_.resize(65536);
+  std::fill(lut_.begin() + 1, lut_.begin() + lo_end, static_cast<std::uint8_t>(params.low));
   for (int v = lo_end; v < hi_begin; ++v)
-    lut[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm) * gain));
-  std::fill(lut.begin() + hi_begin, lut.end(), static_cast<std::uint8_t>(params.high));
-  lut[0] = static_cast<std::uint8_t>(std::clamp(params.unfilled_value, 0, 255));
+    lut_[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm) * gain));
+  std::fill(lut_.begin() + hi_begin, lut_.end(), static_cast<std::uint8_t>(params.high));
+  lut_[0] = static_cast<std::uint8_t>(std::clamp(params.unfilled_value, 0, 255));
+}
+
+cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
+  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
+  const std::uint8_t* lut = lut_.data();
   cv::Mat out(depth_mm.size(), CV_8UC1);
   for (int r = 0; r < depth_mm.rows; ++r) {
     const auto* s = depth_mm.ptr<std::uint16_t>(r);
@@ -218,11 +217,20 @@ cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& par
   return out;
 }
 
+cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params) {
+  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
+  return DepthTo8BitMap(params)(depth_mm);
+}
+
 cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params,
                         cv::Mat* filled_mm) {
+  return preprocessDepth(depth_mm, DepthTo8BitMap(params), filled_mm);
+}
+
+cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthTo8BitMap& map, cv::Mat* filled_mm) {
   cv::Mat filled = depth_mm.clone();
-  fillInvalidRecursiveMedian(filled, params.fill_passes);
-  cv::Mat out = mapDepthTo8Bit(filled, params);
+  fillInvalidRecursiveMedian(filled, map.params().fill_passes);
+  cv::Mat out = map(filled);
   if (filled_mm) *filled_mm = std::move(filled);
   return out;
 }

@@ -110,9 +110,10 @@ void cellSumRowFromPixels(const cv::Mat& image8, int y, std::int16_t* out) {
 }
 
 /// lbpCodeImage for one cell size. The cell sums of the 2 * CH + 1 pixel rows a code
-/// row reads are kept in a ring of rows, so each is computed once and stays in cache.
+/// row reads are kept in a ring of rows, so each is computed once and stays in cache. With
+/// `rows` (not null) only the code rows flagged there are computed, the others are 0.
 template <int CW, int CH>
-void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
+void codesFromPixels(const cv::Mat& image8, cv::Mat& codes, const std::uint8_t* rows) {
   const int out_rows = image8.rows - 3 * CH + 1, out_cols = image8.cols - 3 * CW + 1;
   constexpr int kRing = 2 * CH + 1;
   const int sum_cols = image8.cols - (CW - 1);
@@ -120,10 +121,17 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
   auto ringRow = [&](int y) {
     return ring.data() + static_cast<std::ptrdiff_t>(y % kRing) * sum_cols;
   };
-  for (int y = 0; y < 2 * CH; ++y) cellSumRowFromPixels<CW, CH>(image8, y, ringRow(y));
+  int next_sum_row = 0;  // the first pixel row whose cell sums are not in the ring yet
   for (int y = 0; y < out_rows; ++y) {
-    cellSumRowFromPixels<CW, CH>(image8, y + 2 * CH, ringRow(y + 2 * CH));
     std::uint8_t* out = codes.ptr<std::uint8_t>(y);
+    if (rows && !rows[y]) {
+      std::fill(out, out + codes.cols, std::uint8_t{0});
+      continue;
+    }
+    // After skipped rows the ring restarts at y; the sums of rows before y are not read again.
+    next_sum_row = std::max(next_sum_row, y);
+    for (; next_sum_row <= y + 2 * CH; ++next_sum_row)
+      cellSumRowFromPixels<CW, CH>(image8, next_sum_row, ringRow(next_sum_row));
     codeRow<CW>(ringRow(y), ringRow(y + CH), ringRow(y + 2 * CH), out, out_cols);
     std::fill(out + out_cols, out + codes.cols, std::uint8_t{0});
   }
@@ -133,23 +141,30 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes) {
 }  // namespace
 
 cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch) {
+  return lbpCodeImage(image8, cw, ch, {});
+}
+
+cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch, const std::vector<std::uint8_t>& rows) {
   CV_Assert(image8.type() == CV_8UC1);
   if (cw < 1 || cw > 2 || ch < 1 || ch > 2)
     throw std::invalid_argument("lbpCodeImage: cells must be 1 or 2 pixels");
+  if (!rows.empty() && static_cast<int>(rows.size()) != image8.rows)
+    throw std::invalid_argument("lbpCodeImage: one row flag per image row");
   if (image8.rows < 3 * ch || image8.cols < 3 * cw) return cv::Mat::zeros(image8.size(), CV_8UC1);
   cv::Mat codes(image8.size(), CV_8UC1);
+  const std::uint8_t* flags = rows.empty() ? nullptr : rows.data();
   switch (cw + 2 * ch) {
     case 3:
-      codesFromPixels<1, 1>(image8, codes);
+      codesFromPixels<1, 1>(image8, codes, flags);
       break;
     case 4:
-      codesFromPixels<2, 1>(image8, codes);
+      codesFromPixels<2, 1>(image8, codes, flags);
       break;
     case 5:
-      codesFromPixels<1, 2>(image8, codes);
+      codesFromPixels<1, 2>(image8, codes, flags);
       break;
     default:
-      codesFromPixels<2, 2>(image8, codes);
+      codesFromPixels<2, 2>(image8, codes, flags);
       break;
   }
   return codes;

@@ -5,6 +5,8 @@
 #include <array>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "shapesense/core/depth_preprocess.h"
 
 namespace shapesense {
@@ -135,6 +137,81 @@ TEST(BowlPreprocess, FillEqualsTheReferenceOnRandomHoles) {
       cv::Mat orig_outside = big.clone();
       orig_outside(cv::Rect(3, 1, cols, rows)).setTo(0);
       EXPECT_EQ(cv::countNonZero(got_big != orig_outside), 0) << trial << " " << passes;
+    }
+  }
+}
+
+// Larger frames than above (many 8-pixel blocks per row, interior and border blocks) with
+// Kinect-like content: smooth surfaces with noise, scattered dropouts, large shadow and
+// out-of-range regions, rows and columns that read nothing, and extreme values.
+TEST(BowlPreprocess, FillEqualsTheReferenceOnLargeFramesWithLargeHoles) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 24; ++trial) {
+    const int rows = 20 + static_cast<int>(rng() % 100), cols = 20 + static_cast<int>(rng() % 150);
+    cv::Mat d(rows, cols, CV_16UC1);
+    const double gx = u(rng) * 20 - 10, gy = u(rng) * 20 - 10;
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c) {
+        double v = 1500 + gx * c + gy * r + static_cast<double>(rng() % 7);
+        if (trial % 4 == 3 && rng() % 8 == 0) v = 65535 - rng() % 3;  // extreme readings
+        if (trial % 4 == 2 && rng() % 8 == 0) v = 1 + rng() % 3;
+        d.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(std::clamp(v, 1.0, 65535.0));
+      }
+    // A few step edges between surfaces.
+    d(cv::Rect(0, rows / 3, cols, rows / 3)) += 400;
+    // Scattered dropouts, then large holes of random shape (rectangles and discs).
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c)
+        if (u(rng) < 0.05 * (trial % 3)) d.at<std::uint16_t>(r, c) = 0;
+    for (int k = 0; k < 1 + trial % 4; ++k) {
+      const int x = static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                y = static_cast<int>(rng() % static_cast<unsigned>(rows));
+      const int w = 1 + static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                h = 1 + static_cast<int>(rng() % static_cast<unsigned>(rows));
+      if (k % 2 == 0)
+        d(cv::Rect(x, y, std::min(w, cols - x), std::min(h, rows - y))).setTo(0);
+      else
+        cv::circle(d, {x, y}, std::max(w, h) / 3, cv::Scalar(0), -1);
+    }
+    if (trial % 5 == 0) d.rowRange(0, rows / 2).setTo(0);  // a room that reads nothing
+    if (trial % 6 == 1) d.col(cols - 1).setTo(0), d.col(0).setTo(0);
+    for (const int passes : {1, 2, 3}) {
+      cv::Mat want = d.clone(), got = d.clone();
+      const int want_left = referenceFill(want, passes);
+      EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
+      EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
+    }
+  }
+}
+
+// The table a DepthTo8BitMap builds once (and the detector keeps) maps every depth value as the
+// linear, clamped formula does; mapping several images with one map equals mapping each afresh.
+TEST(BowlPreprocess, PrebuiltMapEqualsTheFormulaAndFreshMapping) {
+  for (const DepthPreprocessParams p :
+       {DepthPreprocessParams{},
+        DepthPreprocessParams{
+            .near_m = 0.4, .far_m = 1.9, .low = 0, .high = 200, .unfilled_value = 7}}) {
+    const DepthTo8BitMap map(p);
+    ASSERT_EQ(map.table().size(), 65536u);
+    EXPECT_EQ(map.table()[0], p.unfilled_value);
+    const double near_mm = p.near_m * 1000, far_mm = p.far_m * 1000;
+    for (int v = 1; v < 65536; ++v) {
+      const double z = std::clamp(static_cast<double>(v), near_mm, far_mm);
+      const long want = std::lround(p.low + (z - near_mm) * (p.high - p.low) / (far_mm - near_mm));
+      ASSERT_EQ(map.table()[static_cast<std::size_t>(v)], want) << v;
+    }
+    std::mt19937 rng(3);
+    for (int k = 0; k < 3; ++k) {
+      cv::Mat d(37, 53, CV_16UC1);
+      for (int r = 0; r < d.rows; ++r)
+        for (int c = 0; c < d.cols; ++c)
+          d.at<std::uint16_t>(r, c) =
+              static_cast<std::uint16_t>(rng() % 3 == 0 ? 0 : rng() % 65536);
+      EXPECT_EQ(cv::countNonZero(map(d) != mapDepthTo8Bit(d, p)), 0);
+      cv::Mat f1, f2;
+      EXPECT_EQ(cv::countNonZero(preprocessDepth(d, map, &f1) != preprocessDepth(d, p, &f2)), 0);
+      EXPECT_EQ(cv::countNonZero(f1 != f2), 0);
     }
   }
 }

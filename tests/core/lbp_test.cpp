@@ -73,6 +73,39 @@ TEST(Lbp, CodeImagesEqualDirectCodesAtEveryPositionAndZeroWhereTheGridDoesNotFit
   EXPECT_THROW(lbpCodeImage(cv::Mat(8, 8, CV_8UC1), 1, 3), std::invalid_argument);
 }
 
+// Only some rows computed (the detector skips rows no gated window covers): those rows equal the
+// full code image, whatever rows were skipped before them (the cell-sum ring restarts), and the
+// others are 0.
+TEST(Lbp, CodeImageOfSelectedRowsEqualsTheFullImageThereAndZeroElsewhere) {
+  cv::RNG rng(5);
+  cv::Mat img(61, 53, CV_8UC1);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  for (int pattern = 0; pattern < 6; ++pattern) {
+    std::vector<std::uint8_t> rows(static_cast<std::size_t>(img.rows));
+    for (std::size_t y = 0; y < rows.size(); ++y)
+      rows[y] = pattern == 0   ? 1
+                : pattern == 1 ? 0
+                : pattern == 2 ? (y / 3) % 2  // short runs and gaps
+                : pattern == 3 ? (y >= 20 && y < 27) || y == 40
+                : pattern == 4 ? y + 2 >= rows.size()  // only rows where no grid fits
+                               : static_cast<std::uint8_t>(rng.uniform(0, 2));
+    for (int ch = 1; ch <= 2; ++ch)
+      for (int cw = 1; cw <= 2; ++cw) {
+        const cv::Mat full = lbpCodeImage(img, cw, ch);
+        const cv::Mat some = lbpCodeImage(img, cw, ch, rows);
+        ASSERT_EQ(some.size(), img.size());
+        for (int y = 0; y < img.rows; ++y) {
+          const cv::Mat want = rows[static_cast<std::size_t>(y)]
+                                   ? full.row(y)
+                                   : cv::Mat::zeros(1, img.cols, CV_8UC1);
+          ASSERT_EQ(cv::countNonZero(some.row(y) != want), 0)
+              << "pattern " << pattern << " cell " << cw << "x" << ch << " row " << y;
+        }
+      }
+  }
+  EXPECT_THROW(lbpCodeImage(img, 2, 2, std::vector<std::uint8_t>(3, 1)), std::invalid_argument);
+}
+
 TEST(Lbp, EnumerationCoversAllFittingGrids) {
   // 24x24, cells 1-2: 22*22 (1x1) + 19*22 (2x1) + 22*19 (1x2) + 19*19 (2x2).
   EXPECT_EQ(enumerateLbpFeatures(24, 24, 2).size(), 22u * 22 + 19 * 22 * 2 + 19 * 19);

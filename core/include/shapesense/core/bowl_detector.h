@@ -27,6 +27,7 @@
 
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/camera.h"
+#include "shapesense/core/depth_preprocess.h"
 
 namespace shapesense {
 
@@ -98,8 +99,11 @@ struct BowlPyramidLevel {
 
 /// Fills level.codes (lbpCodeImage of level.image8) for the cell sizes marked in
 /// `cell_sizes` (same index as level.codes). Only for levels that are scanned, i.e. that have
-/// their integral image.
-void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes);
+/// their integral image. With `rows` (one flag per level row) only the flagged rows are
+/// computed (lbpCodeImage), the others are 0: windows may only be scanned where every row they
+/// cover is flagged.
+void addLbpCodeImages(BowlPyramidLevel& level, const std::array<bool, 4>& cell_sizes,
+                      const std::vector<std::uint8_t>& rows = {});
 
 /// The pyramid the detector scans: level k is level k-1 resized by 1/scale_step (bilinear),
 /// down to the smallest level still holding a min_w x min_h window. Training crops come from
@@ -147,6 +151,8 @@ class BowlDetector {
  private:
   std::vector<BowlViewModel> models_;
   BowlDetectorParams params_;
+  /// The models' depth mapping, its table built once here rather than per frame.
+  DepthTo8BitMap depth_map_;
 };
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the

@@ -7,6 +7,9 @@
 // quantisation near 1 m (3 mm), so the range is a parameter: a model records the mapping it
 // was trained with and the detector applies the same one.
 
+#include <cstdint>
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 namespace shapesense {
@@ -33,12 +36,34 @@ struct DepthPreprocessParams {
 /// number of pixels still invalid.
 int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes);
 
+/// The 8-bit mapping of one DepthPreprocessParams as a table over all 65536 depth values, built
+/// once: building it costs about as much as mapping a whole 640x480 frame, so a caller that maps
+/// every frame with the same parameters (the detector) keeps one instead of rebuilding it.
+class DepthTo8BitMap {
+ public:
+  /// Throws std::invalid_argument for an empty or inverted range.
+  explicit DepthTo8BitMap(const DepthPreprocessParams& params);
+  /// Maps a CV_16UC1 millimetre depth image to CV_8UC1 (linear, clamped; 0 -> unfilled_value).
+  cv::Mat operator()(const cv::Mat& depth_mm) const;
+  const DepthPreprocessParams& params() const { return params_; }
+  /// The table: element v is the 8-bit value of depth v mm.
+  const std::vector<std::uint8_t>& table() const { return lut_; }
+
+ private:
+  DepthPreprocessParams params_;
+  std::vector<std::uint8_t> lut_;
+};
+
 /// Maps a CV_16UC1 millimetre depth image to CV_8UC1 (linear, clamped; 0 -> unfilled_value).
+/// Same as DepthTo8BitMap(params)(depth_mm).
 cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params);
 
 /// fillInvalidRecursiveMedian (on a copy) then mapDepthTo8Bit. If `filled_mm` is not null it
 /// receives the filled millimetre image (used by the detector's depth gate).
 cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params,
+                        cv::Mat* filled_mm = nullptr);
+/// The same with a prebuilt mapping (its params() give the fill passes).
+cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthTo8BitMap& map,
                         cv::Mat* filled_mm = nullptr);
 
 }  // namespace shapesense
