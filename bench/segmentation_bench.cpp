@@ -35,6 +35,7 @@
 
 #include "plane_peers.h"
 #include "shapesense/core/normals.h"
+#include "shapesense/core/segment_statistics.h"
 #include "shapesense/core/segmentation.h"
 #include "shapesense/core/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
@@ -146,6 +147,26 @@ BENCHMARK(BM_Segment)
                     static_cast<int>(SegmentationMethod::kTiledRansac)},
                    {0, 1}})
     ->Unit(benchmark::kMillisecond);
+
+// Per-segment statistics (the daemon's segmentation stage runs them after segmentDepth) of the
+// depth_step regions of each frame, segmented outside the timed loop.
+void BM_SegmentStatistics(benchmark::State& state) {
+  const auto& src = source(static_cast<int>(state.range(0)));
+  if (src.empty()) {
+    state.SkipWithError("no frames");
+    return;
+  }
+  std::vector<cv::Mat> regions;
+  for (const cv::Mat& d : src)
+    regions.push_back(segmentDepth(d, frames().intrinsics, SegmentationMethod::kDepthStep));
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % src.size();
+    auto stats = computeSegmentStatistics(regions[k], src[k], frames().intrinsics);
+    benchmark::DoNotOptimize(stats.data());
+  }
+}
+BENCHMARK(BM_SegmentStatistics)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 #ifdef SHAPESENSE_BENCH_OPENCV_RGBD
 void BM_OpenCvRgbdNormalsFals(benchmark::State& state) {

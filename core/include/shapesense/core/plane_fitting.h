@@ -88,6 +88,10 @@ class PlaneMoments {
   /// Rigidly moves the point set: every point X becomes R X + t.
   void transform(const Eigen::Matrix3d& R, const Eigen::Vector3d& t);
   double count() const { return n_; }
+  /// Mean of the points (the reference when there are none).
+  Eigen::Vector3d centroid() const { return n_ > 0 ? Eigen::Vector3d(ref_ + s_ / n_) : ref_; }
+  /// The point the sums are taken relative to (see addSums).
+  const Eigen::Vector3d& reference() const { return ref_; }
   void clear() { *this = PlaneMoments(); }
 
   /// Total-least-squares plane (smallest eigenvector of the covariance). The normal is oriented
