@@ -221,6 +221,21 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
         .setTo(0);
   }
   frames.push_back(ramp);
+  // Widths that are no multiple of the SIMD width, and a view into a larger image (rows not
+  // contiguous), with the intrinsics of the crop.
+  const cv::Rect crop(3, 5, 317, 233);
+  frames.push_back(ramp(crop).clone());
+  frames.push_back(frames[0](crop));
+  auto intrinsicsOf = [&](const cv::Mat& f) {
+    CameraIntrinsics k = K;
+    if (f.cols != K.width) {
+      k.cx -= crop.x;
+      k.cy -= crop.y;
+      k.width = f.cols;
+      k.height = f.rows;
+    }
+    return k;
+  };
   for (bool depth_dependent : {true, false}) {
     for (auto m : {NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
       NormalParams p;
@@ -229,12 +244,14 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
       NormalEstimator simd(p), scalar(p);
       scalar.setSimd(false);
       for (std::size_t f = 0; f < frames.size(); ++f) {
+        const CameraIntrinsics k = intrinsicsOf(frames[f]);
         cv::Mat a, b;
-        simd.compute(frames[f], K, a);
-        scalar.compute(frames[f], K, b);
+        simd.compute(frames[f], k, a);
+        scalar.compute(frames[f], k, b);
+        ASSERT_EQ(a.size(), frames[f].size());
         int valid = 0, differ = 0;
-        for (int v = 0; v < K.height; ++v)
-          for (int u = 0; u < K.width; ++u) {
+        for (int v = 0; v < frames[f].rows; ++v)
+          for (int u = 0; u < frames[f].cols; ++u) {
             const auto* x = &a.at<cv::Vec3f>(v, u);
             const auto* y = &b.at<cv::Vec3f>(v, u);
             valid += !std::isnan((*y)[0]);
@@ -244,7 +261,7 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
             }
           }
         EXPECT_EQ(differ, 0) << name(m) << " frame " << f;
-        EXPECT_GT(valid, K.width * K.height / 4) << name(m) << " frame " << f;
+        EXPECT_GT(valid, frames[f].cols * frames[f].rows / 4) << name(m) << " frame " << f;
       }
     }
   }
