@@ -1,13 +1,10 @@
 // Integral-image normals on analytic scenes rendered with Kinect-like disparity quantisation.
 #include "shapesense/core/normals.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <random>
-
-#include <time.h>
 
 #include <gtest/gtest.h>
 
@@ -17,12 +14,6 @@ namespace shapesense {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 // Depth (metres) -> Kinect v1 millimetres: disparity 43.5/z px (+ Gaussian noise of
 // `noise_steps` quantisation steps), rounded to 1/8 px.
@@ -264,26 +255,6 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
         EXPECT_GT(valid, frames[f].cols * frames[f].rows / 4) << name(m) << " frame " << f;
       }
     }
-  }
-}
-
-TEST(Normals, TimingPrint) {
-  const CameraIntrinsics K;
-  const Eigen::Vector3d n = tiltedNormal(20.0, 10.0);
-  const cv::Mat depth = renderPlane(n, -n.dot(Eigen::Vector3d(0, 0, 2.0)), K, 0.3);
-  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
-                 NormalMethod::kAverageDepthChange}) {
-    NormalParams p;
-    p.method = m;
-    NormalEstimator est(p);
-    cv::Mat out;
-    est.compute(depth, K, out);
-    const int reps = 20;
-    // Thread CPU time: the build machine is shared, wall-clock would measure the neighbours.
-    const double t0 = threadCpuMs();
-    for (int i = 0; i < reps; ++i) est.compute(depth, K, out);
-    const double ms = (threadCpuMs() - t0) / reps;
-    std::printf("[normals timing] %-22s %.2f ms / 640x480 frame\n", name(m), ms);
   }
 }
 
