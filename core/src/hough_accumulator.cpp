@@ -67,11 +67,16 @@ Eigen::Vector3d HoughAccumulator::cellCoordinates(const Eigen::Vector3d& n, doub
 }
 
 bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
+  // Rounds to the nearest cell centre. The range test comes first (NaN fails it too), so the
+  // rounding is a truncation of a non-negative value: without SSE4.1, floor is a library call,
+  // and this runs three times per vote.
   const Eigen::Vector3d c = cellCoordinates(n, d);
-  i = static_cast<int>(std::floor(c.x() + 0.5));
-  j = static_cast<int>(std::floor(c.y() + 0.5));
-  k = static_cast<int>(std::floor(c.z() + 0.5));
-  return i >= 0 && j >= 0 && k >= 0 && i < na_ && j < na_ && k < nd_;
+  const double ci = c.x() + 0.5, cj = c.y() + 0.5, ck = c.z() + 0.5;
+  if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return false;
+  i = static_cast<int>(ci);
+  j = static_cast<int>(cj);
+  k = static_cast<int>(ck);
+  return true;
 }
 
 Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
@@ -98,17 +103,8 @@ void HoughAccumulator::addToCell(int i, int j, int k, float w) {
 }
 
 void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
-  // cellOf's arithmetic, with floor(x) replaced by a truncation once x >= 0 is known (without
-  // SSE4.1 floor is a library call, three per vote); negative and NaN coordinates fail the
-  // range test exactly as in cellOf, so every vote lands in the cell cellOf reports.
-  const double den = 1.0 - n.z();
-  if (!(den > 1e-9)) return;
-  const double s = std::sqrt(2.0 / den);
-  const double ci = ((s * n.x() + params_.lambert_extent) * inv_a_cell_ - 0.5) + 0.5;
-  const double cj = ((s * n.y() + params_.lambert_extent) * inv_a_cell_ - 0.5) + 0.5;
-  const double ck = (d * inv_d_cell_ - 0.5) + 0.5;
-  if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return;
-  const int i = static_cast<int>(ci), j = static_cast<int>(cj), k = static_cast<int>(ck);
+  int i, j, k;
+  if (!cellOf(n, d, i, j, k)) return;
   // Non-negative indices: shifts and masks instead of signed division by the block edge.
   static_assert(kBlock == 4);
   // Most votes land in an existing block: look it up inline, call out only to create one.

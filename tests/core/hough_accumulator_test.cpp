@@ -37,9 +37,11 @@ TEST(HoughAccumulator, LambertCellsRoundTripEverywhereVisible) {
     }
 }
 
-// vote() computes its cell with its own (floor-free) arithmetic: it must land exactly in the
-// cell cellOf reports, or nowhere when cellOf says the plane is outside the space, including
-// planes on cell boundaries, outside the Lambert square, behind the camera and beyond max_d_m.
+// cellOf rounds without floor (a truncation after its range test): it must give the nearest
+// cell centre, floor(c + 0.5) of cellCoordinates, and refuse exactly the planes whose nearest
+// cell lies outside the space. vote() addresses blocks with shifts and masks, at() with
+// divisions: a vote must land in cellOf's cell, or nowhere. Planes include cell boundaries,
+// outside the Lambert square, behind the camera and beyond max_d_m.
 TEST(HoughAccumulator, VoteLandsInTheCellOfCellOf) {
   HoughAccumulator acc;
   std::uint32_t rng = 12345u;
@@ -61,8 +63,18 @@ TEST(HoughAccumulator, VoteLandsInTheCellOfCellOf) {
   for (const auto& [n, d] : planes) {
     acc.clear();
     acc.vote(n, d);
+    const Eigen::Vector3d c = acc.cellCoordinates(n, d);
+    const double fi = std::floor(c.x() + 0.5), fj = std::floor(c.y() + 0.5),
+                 fk = std::floor(c.z() + 0.5);
+    const bool nearest_inside = fi >= 0 && fj >= 0 && fk >= 0 && fi < acc.cellsA() &&
+                                fj < acc.cellsA() && fk < acc.cellsD();
     int i, j, k;
-    if (acc.cellOf(n, d, i, j, k)) {
+    const bool inside_space = acc.cellOf(n, d, i, j, k);
+    ASSERT_EQ(inside_space, nearest_inside) << n.transpose() << " " << d;
+    if (inside_space) {
+      EXPECT_EQ(i, fi);
+      EXPECT_EQ(j, fj);
+      EXPECT_EQ(k, fk);
       ++inside;
       EXPECT_EQ(acc.at(i, j, k), 1.0f) << n.transpose() << " " << d;
       EXPECT_EQ(acc.totalMass(), 1.0) << n.transpose() << " " << d;

@@ -62,7 +62,8 @@ class HoughAccumulator {
   /// Forgets every vote; keeps the block pool for the next frame.
   void clear();
 
-  /// The cell of plane (n, d); false when it lies outside the space.
+  /// The cell of plane (n, d) (the one vote() adds to); false, with i, j, k untouched, when it
+  /// lies outside the space.
   bool cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const;
   /// Continuous cell coordinates (cell centres at integers).
   Eigen::Vector3d cellCoordinates(const Eigen::Vector3d& n, double d) const;
