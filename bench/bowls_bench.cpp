@@ -353,7 +353,7 @@ class WbDetectorPeer {
   }
 
   std::vector<shapesense::BowlDetection> detect(const cv::Mat& depth_mm) const {
-    const cv::Mat img8 = shapesense::preprocessDepth(depth_mm, shapesense::DepthPreprocessParams{});
+    const cv::Mat img8 = shapesense::preprocessDepth(depth_mm, to8bit_);
     std::vector<shapesense::BowlDetection> all;
     for (const auto& v : views_) {
       const cv::Mat img = shapesense::train::stretchForView(img8, v.meta);
@@ -393,6 +393,7 @@ class WbDetectorPeer {
     cv::Ptr<cv::xobjdetect::WBDetector> detector;
   };
   std::vector<View> views_;
+  shapesense::DepthTo8BitMap to8bit_{shapesense::DepthPreprocessParams{}};  // as our models
   WbDetectorPeerParams params_;
 };
 

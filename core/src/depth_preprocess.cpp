@@ -190,7 +190,7 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
 DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(params) {
   if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 ||
       params.low >= params.high)
-    throw std::invalid_argument("mapDepthTo8Bit: bad range");
+    throw std::invalid_argument("DepthTo8BitMap: bad range");
   // One lookup table over all 16-bit values: the mapping is then a single gather per pixel.
   // Only the [near, far] part needs arithmetic; below and above are constant (clamping).
   const double near_mm = params.near_m * 1000.0, far_mm = params.far_m * 1000.0;
@@ -206,7 +206,7 @@ DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(pa
 }
 
 cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
+  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("DepthTo8BitMap: need CV_16UC1");
   const std::uint8_t* lut = lut_.data();
   cv::Mat out(depth_mm.size(), CV_8UC1);
   for (int r = 0; r < depth_mm.rows; ++r) {
@@ -215,16 +215,6 @@ cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
     for (int c = 0; c < depth_mm.cols; ++c) d[c] = lut[s[c]];
   }
   return out;
-}
-
-cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params) {
-  if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("mapDepthTo8Bit: need CV_16UC1");
-  return DepthTo8BitMap(params)(depth_mm);
-}
-
-cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params,
-                        cv::Mat* filled_mm) {
-  return preprocessDepth(depth_mm, DepthTo8BitMap(params), filled_mm);
 }
 
 cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthTo8BitMap& map, cv::Mat* filled_mm) {

@@ -43,7 +43,7 @@ TEST(BowlPreprocess, SeedMappingHalfToThreeMetres) {
   cv::Mat d(1, 6, CV_16UC1);
   const std::uint16_t v[6] = {0, 400, 500, 1750, 3000, 6000};
   for (int i = 0; i < 6; ++i) d.at<std::uint16_t>(0, i) = v[i];
-  const cv::Mat m = mapDepthTo8Bit(d, p);
+  const cv::Mat m = DepthTo8BitMap(p)(d);
   EXPECT_EQ(m.at<std::uint8_t>(0, 0), 255);  // no reading = far
   EXPECT_EQ(m.at<std::uint8_t>(0, 1), 2);    // clamped near
   EXPECT_EQ(m.at<std::uint8_t>(0, 2), 2);
@@ -59,10 +59,10 @@ TEST(BowlPreprocess, ConfigurableRangeGivesFinerSteps) {
   cv::Mat d(1, 2, CV_16UC1);
   d.at<std::uint16_t>(0, 0) = 1000;
   d.at<std::uint16_t>(0, 1) = 1008;
-  const cv::Mat m = mapDepthTo8Bit(d, p);
+  const cv::Mat m = DepthTo8BitMap(p)(d);
   EXPECT_EQ(m.at<std::uint8_t>(0, 0), 129);
   EXPECT_EQ(m.at<std::uint8_t>(0, 1) - m.at<std::uint8_t>(0, 0), 2);  // 8 mm = 2 steps
-  EXPECT_THROW(mapDepthTo8Bit(d, DepthPreprocessParams{.near_m = 2.0, .far_m = 1.0}),
+  EXPECT_THROW(DepthTo8BitMap(DepthPreprocessParams{.near_m = 2.0, .far_m = 1.0}),
                std::invalid_argument);
 }
 
@@ -70,7 +70,7 @@ TEST(BowlPreprocess, PreprocessFillsThenMaps) {
   cv::Mat d(5, 5, CV_16UC1, cv::Scalar(1750));
   d.at<std::uint16_t>(2, 2) = 0;
   cv::Mat filled;
-  const cv::Mat m = preprocessDepth(d, DepthPreprocessParams{}, &filled);
+  const cv::Mat m = preprocessDepth(d, DepthTo8BitMap(DepthPreprocessParams{}), &filled);
   EXPECT_EQ(filled.at<std::uint16_t>(2, 2), 1750);
   EXPECT_EQ(m.at<std::uint8_t>(2, 2), 129);
   EXPECT_EQ(d.at<std::uint16_t>(2, 2), 0);  // input untouched
@@ -208,9 +208,11 @@ TEST(BowlPreprocess, PrebuiltMapEqualsTheFormulaAndFreshMapping) {
         for (int c = 0; c < d.cols; ++c)
           d.at<std::uint16_t>(r, c) =
               static_cast<std::uint16_t>(rng() % 3 == 0 ? 0 : rng() % 65536);
-      EXPECT_EQ(cv::countNonZero(map(d) != mapDepthTo8Bit(d, p)), 0);
+      EXPECT_EQ(cv::countNonZero(map(d) != DepthTo8BitMap(p)(d)), 0);
       cv::Mat f1, f2;
-      EXPECT_EQ(cv::countNonZero(preprocessDepth(d, map, &f1) != preprocessDepth(d, p, &f2)), 0);
+      EXPECT_EQ(cv::countNonZero(preprocessDepth(d, map, &f1) !=
+                                 preprocessDepth(d, DepthTo8BitMap(p), &f2)),
+                0);
       EXPECT_EQ(cv::countNonZero(f1 != f2), 0);
     }
   }

@@ -100,13 +100,15 @@ int runTrain(const TrainOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto frames = readDataset(o.data);
   const DepthPreprocessParams pre;  // the seed's mapping
-  const BowlDetectorParams det;     // pyramid step and search range of the detector
+  const DepthTo8BitMap to8bit(pre);
+  const BowlDetectorParams det;  // pyramid step and search range of the detector
   std::vector<Prepared> prepared(frames.size());
   {
     std::atomic<std::size_t> next{0};
     auto work = [&] {
       for (std::size_t i; (i = next++) < frames.size();) {
-        prepared[i].img8 = preprocessDepth(readDepth(o.data, frames[i]), pre, &prepared[i].filled);
+        prepared[i].img8 =
+            preprocessDepth(readDepth(o.data, frames[i]), to8bit, &prepared[i].filled);
         prepared[i].fx = frames[i].intrinsics.fx;
       }
     };

@@ -76,7 +76,7 @@ std::string numbered(int i) {
 void exportWbDetectorData(const fs::path& data, const fs::path& out,
                           const WbDetectorExportParams& params) {
   const auto frames = readDataset(data);
-  const DepthPreprocessParams pre;  // as our models
+  const DepthTo8BitMap pre{DepthPreprocessParams{}};  // as our models
   for (const auto& view : params.views) {
     // (frame, bowl) pairs of this view that our trainer uses as positives.
     std::vector<std::pair<std::size_t, const BowlAnnotation*>> bowls;

@@ -54,15 +54,9 @@ class DepthTo8BitMap {
   std::vector<std::uint8_t> lut_;
 };
 
-/// Maps a CV_16UC1 millimetre depth image to CV_8UC1 (linear, clamped; 0 -> unfilled_value).
-/// Same as DepthTo8BitMap(params)(depth_mm).
-cv::Mat mapDepthTo8Bit(const cv::Mat& depth_mm, const DepthPreprocessParams& params);
-
-/// fillInvalidRecursiveMedian (on a copy) then mapDepthTo8Bit. If `filled_mm` is not null it
-/// receives the filled millimetre image (used by the detector's depth gate).
-cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthPreprocessParams& params,
-                        cv::Mat* filled_mm = nullptr);
-/// The same with a prebuilt mapping (its params() give the fill passes).
+/// fillInvalidRecursiveMedian (on a copy, map.params().fill_passes) then the 8-bit mapping. If
+/// `filled_mm` is not null it receives the filled millimetre image (used by the detector's depth
+/// gate).
 cv::Mat preprocessDepth(const cv::Mat& depth_mm, const DepthTo8BitMap& map,
                         cv::Mat* filled_mm = nullptr);
 
