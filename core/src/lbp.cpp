@@ -140,10 +140,6 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes, const std::uint8_t* 
 
 }  // namespace
 
-cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch) {
-  return lbpCodeImage(image8, cw, ch, {});
-}
-
 cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch, const std::vector<std::uint8_t>& rows) {
   CV_Assert(image8.type() == CV_8UC1);
   if (cw < 1 || cw > 2 || ch < 1 || ch > 2)

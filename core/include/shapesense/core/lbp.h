@@ -76,11 +76,11 @@ inline std::uint8_t lbpCodeIntegral(const std::int32_t* origin, const LbpOffsets
 /// cell sizes computes codes once here, in vectorised row loops, instead of 16 scattered
 /// integral reads per feature and window; a cell sum is 1-4 byte reads, and the sums live in a
 /// few cache-resident rows. `cw` and `ch` must be 1 or 2.
-cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch);
-/// The same, computing only the rows y with rows[y] != 0 (one flag per image row; empty = all);
-/// the other rows hold 0. A detector that knows which window rows it will scan (the depth
-/// gate rejects every window of many rows) skips the rest.
-cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch, const std::vector<std::uint8_t>& rows);
+/// With `rows` (one flag per image row) only the rows y with rows[y] != 0 are computed and the
+/// others hold 0: a detector that knows which window rows it will scan (the depth gate rejects
+/// every window of many rows) skips the rest. Empty = every row.
+cv::Mat lbpCodeImage(const cv::Mat& image8, int cw, int ch,
+                     const std::vector<std::uint8_t>& rows = {});
 
 /// Convenience: the code of feature `f` for the window at (wx, wy) of integral image `ii`.
 std::uint8_t lbpCodeAt(const cv::Mat& ii, const LbpFeature& f, int wx, int wy);
