@@ -161,13 +161,12 @@ DepthGate depthGate(const BowlViewModel& model, const BowlPyramidLevel& level,
   return g;
 }
 
-/// Marks in `rows` the level rows that the windows of `model` passing the depth gate cover
-/// (all rows of any window row with at least one window in the gate).
+/// Marks in `rows` the level rows that the windows of `model` passing its depth gate `g` on this
+/// level cover (all rows of any window row with at least one window in the gate).
 void markGatedRows(const BowlViewModel& model, const BowlPyramidLevel& level,
-                   const cv::Mat& filled_mm, double fx, int stride,
+                   const cv::Mat& filled_mm, const DepthGate& g, int stride,
                    std::vector<std::uint8_t>& rows) {
   const int H = model.classifier.win_h;
-  const DepthGate g = depthGate(model, level, filled_mm, fx, stride);
   for (int y = 0; y + H <= level.image8.rows; y += stride) {
     if (!g.on) {
       std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
@@ -188,10 +187,11 @@ bool canReach(const WaldBoostClassifier& clf, std::int32_t min_final_score) {
   return clf.stages.empty() || clf.maxScore() >= min_final_score;
 }
 
-/// scanBowlLevel for a model that canReach the score, with its rejectionThresholds(min_final_score)
-/// given: the detector computes those once per frame rather than once per level.
+/// scanBowlLevel for a model that canReach the score, with its depth gate on this level and its
+/// rejectionThresholds(min_final_score) given: the detector computes the thresholds once per
+/// frame rather than once per level, and the gate once for marking code rows and scanning.
 std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyramidLevel& level,
-                                     const cv::Mat& filled_mm, double fx, int stride,
+                                     const cv::Mat& filled_mm, const DepthGate& dg, int stride,
                                      std::int32_t min_final_score,
                                      const std::vector<std::int32_t>& thresholds) {
   std::vector<BowlWindowHit> hits;
@@ -218,7 +218,6 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
     else
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
-  const DepthGate dg = depthGate(model, level, filled_mm, fx, stride);
   const bool gate = dg.on;
   const int z_lo = dg.z_lo, z_hi = dg.z_hi;
   const std::vector<int>& input_column = dg.input_column;
@@ -309,8 +308,8 @@ std::vector<BowlWindowHit> scanBowlLevel(const BowlViewModel& model, const BowlP
                                          const cv::Mat& filled_mm, double fx, int stride,
                                          std::int32_t min_final_score) {
   if (!canReach(model.classifier, min_final_score)) return {};
-  return scanLevel(model, level, filled_mm, fx, stride, min_final_score,
-                   model.classifier.rejectionThresholds(min_final_score));
+  return scanLevel(model, level, filled_mm, depthGate(model, level, filled_mm, fx, stride), stride,
+                   min_final_score, model.classifier.rejectionThresholds(min_final_score));
 }
 
 BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorParams params) {
@@ -399,26 +398,39 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
     return reachable[view] && !level.integral.empty() && obj_px >= params_.min_object_px &&
            obj_px <= params_.max_object_px;
   };
-  if (any_code_image)
-    for (auto& level : levels) {
+  // One task per (level, view) that is scanned; its depth gate serves the code rows and the scan.
+  const std::size_t tasks = levels.size() * active.size();
+  std::vector<DepthGate> gates(tasks);
+  for (std::size_t task = 0; task < tasks; ++task) {
+    const auto& level = levels[task / active.size()];
+    const std::size_t view = task % active.size();
+    if (scanned(level, view))
+      gates[task] = depthGate(*active[view], level, gate, intr.fx, params_.stride);
+  }
+  if (any_code_image) {
+    std::vector<std::uint8_t> rows;
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+      auto& level = levels[l];
       if (level.integral.empty()) continue;
-      std::vector<std::uint8_t> rows(static_cast<std::size_t>(level.image8.rows), 0);
+      rows.assign(static_cast<std::size_t>(level.image8.rows), 0);
       for (std::size_t v = 0; v < active.size(); ++v)
         if (scanned(level, v))
-          markGatedRows(*active[v], level, gate, intr.fx, params_.stride, rows);
+          markGatedRows(*active[v], level, gate, gates[l * active.size() + v], params_.stride,
+                        rows);
       if (std::find(rows.begin(), rows.end(), std::uint8_t{1}) != rows.end())
         addLbpCodeImages(level, code_cell_sizes, rows);
     }
+  }
 
-  // One task per (level, view); results gathered per task so the output order is fixed.
-  std::vector<std::vector<BowlDetection>> per_task(levels.size() * active.size());
+  // Results gathered per task so the output order is fixed.
+  std::vector<std::vector<BowlDetection>> per_task(tasks);
   auto run = [&](std::size_t task) {
     const auto& level = levels[task / active.size()];
     const std::size_t view = task % active.size();
     const auto& m = *active[view];
     if (!scanned(level, view)) return;
     const auto hits =
-        scanLevel(m, level, gate, intr.fx, params_.stride, min_score, thresholds[view]);
+        scanLevel(m, level, gate, gates[task], params_.stride, min_score, thresholds[view]);
     const double mx = m.object_margin * m.classifier.win_w,
                  my = m.object_margin * m.classifier.win_h;
     const double ow = m.classifier.win_w - 2 * mx, oh = m.classifier.win_h - 2 * my;
