@@ -53,30 +53,78 @@ inline int mergeRegionSummary(int a, int b) {
   return a == -1 ? b : ab;
 }
 
-std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
-  std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
-  // Most neighbourhoods hold at most one region (inside a region, or a region next to
-  // unlabelled samples): one candidate. Found from summaries of the rows of three.
-  std::vector<int> row_summary(static_cast<std::size_t>(R) * C);
+// Element-wise, without the library call std::array's == makes of it (one per sample).
+inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
+  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
+}
+
+// A horizontal run of pixels of one image row whose samples share one candidate list.
+struct PixelRun {
+  int u0 = 0, u1 = 0;  // [u0, u1)
+  CandidateList list{};
+};
+
+// The candidate runs of every sample row, kept for the renumbering at the end.
+struct LabelRuns {
+  std::vector<PixelRun> runs;
+  std::vector<int> row_begin;   // runs of sample row r: [row_begin[r], row_begin[r + 1])
+  std::vector<int> row_sample;  // sample row of each image row
+};
+
+// The candidate runs of every sample row: horizontal runs of pixels whose samples share one
+// candidate list (the distinct regions of the sample's 3x3 neighbourhood, its own first, -1
+// terminated, at most 4); consecutive samples with equal lists merge, so a row crossing one
+// plane is a single run, and samples without a candidate make no run (their pixels stay 0).
+// sample_u0/u1: pixel range of each sample column. Most neighbourhoods hold at most one region
+// (inside a region, or a region next to unlabelled samples): found from summaries of the rows
+// of three, they extend the current run without building a list.
+void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
+                        const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
+                        std::vector<int>& row_summary, LabelRuns& lr) {
+  // Row summaries of rows -1 .. R (the two outside rows summarise nothing: -1), then the
+  // summary of each 3x3 neighbourhood of the current row; boundary-free loops that vectorise.
+  row_summary.assign(static_cast<std::size_t>(R + 3) * C, -1);
+  int* const one_row = &row_summary[static_cast<std::size_t>(R + 2) * C];
   for (int r = 0; r < R; ++r) {
     const int* reg = &region_of[static_cast<std::size_t>(r) * C];
-    int* sum = &row_summary[static_cast<std::size_t>(r) * C];
-    for (int c = 0; c < C; ++c)
-      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]),
-                                  c + 1 < C ? reg[c + 1] : -1);
+    int* sum = &row_summary[static_cast<std::size_t>(r + 1) * C];
+    if (C == 1) {
+      sum[0] = reg[0];
+      continue;
+    }
+    sum[0] = mergeRegionSummary(reg[0], reg[1]);  // merge(-1, a) == a
+    for (int c = 1; c + 1 < C; ++c)
+      sum[c] = mergeRegionSummary(mergeRegionSummary(reg[c - 1], reg[c]), reg[c + 1]);
+    sum[C - 1] = mergeRegionSummary(reg[C - 2], reg[C - 1]);  // merge(a, -1) == a
   }
-  for (int r = 0; r < R; ++r)
+  lr.runs.clear();
+  lr.row_begin.assign(R + 1, 0);
+  for (int r = 0; r < R; ++r) {
+    const std::size_t row_first = lr.runs.size();
+    const int* mid = &row_summary[static_cast<std::size_t>(r + 1) * C];
+    const int *above = mid - C, *below = mid + C;
+    for (int c = 0; c < C; ++c)
+      one_row[c] = mergeRegionSummary(mergeRegionSummary(above[c], mid[c]), below[c]);
     for (int c = 0; c < C; ++c) {
-      const int i = r * C + c;
-      auto& list = cand[i];
-      list.fill(-1);
-      const int one =
-          mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
-                             r + 1 < R ? row_summary[i + C] : -1);
+      const int u0 = sample_u0[c], u1 = sample_u1[c];
+      if (u0 >= u1) continue;
+      const int one = one_row[c];
       if (one != -2) {
-        list[0] = one;
+        // One candidate (or none): extends a single-candidate run of the same region.
+        if (lr.runs.size() > row_first) {
+          PixelRun& back = lr.runs.back();
+          if (back.list[0] == one && back.list[1] < 0 && back.u1 == u0) {
+            back.u1 = u1;
+            continue;
+          }
+        }
+        if (one < 0) continue;  // no candidate: the pixels stay 0
+        lr.runs.push_back({u0, u1, {one, -1, -1, -1}});
         continue;
       }
+      const int i = r * C + c;
+      CandidateList list;
+      list.fill(-1);
       const int own = region_of[i];
       list[0] = own;
       const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0),
@@ -90,35 +138,17 @@ std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, i
             continue;
           list[n++] = reg;
         }
+      if (lr.runs.size() > row_first) {
+        PixelRun& back = lr.runs.back();
+        if (sameCandidates(back.list, list) && back.u1 == u0) {
+          back.u1 = u1;
+          continue;
+        }
+      }
+      if (list[0] < 0) continue;
+      lr.runs.push_back({u0, u1, list});
     }
-  return cand;
-}
-
-// Element-wise, without the library call std::array's == makes of it (one per sample).
-inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
-  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
-}
-
-// A horizontal run of pixels of one image row whose samples share one candidate list.
-struct PixelRun {
-  int u0 = 0, u1 = 0;  // [u0, u1)
-  CandidateList list{};
-};
-
-// The runs of pixel rows that map to sample row r (consecutive samples with equal lists merge,
-// so a row crossing one plane is a single run). sample_u0/u1: pixel range of each sample column.
-void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0,
-                   const std::vector<int>& sample_u1, std::vector<PixelRun>& runs) {
-  runs.clear();
-  for (std::size_t c = 0; c < sample_u0.size(); ++c) {
-    if (sample_u0[c] >= sample_u1[c]) continue;
-    if (!runs.empty() && sameCandidates(runs.back().list, row_cand[c]) &&
-        runs.back().u1 == sample_u0[c]) {
-      runs.back().u1 = sample_u1[c];
-      continue;
-    }
-    if (row_cand[c][0] < 0) continue;  // no candidate: the pixels stay 0
-    runs.push_back({sample_u0[c], sample_u1[c], row_cand[c]});
+    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
   }
 }
 
@@ -319,13 +349,6 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   reg.colour[2] += r;
 }
 
-// The candidate runs of every sample row, kept for the renumbering at the end.
-struct LabelRuns {
-  std::vector<PixelRun> runs;
-  std::vector<int> row_begin;   // runs of sample row r: [row_begin[r], row_begin[r + 1])
-  std::vector<int> row_sample;  // sample row of each image row
-};
-
 // Every full-resolution pixel takes the closest candidate plane of its sample within the
 // tolerance. Moments and colour are accumulated on every second pixel of every second row: a
 // quarter of a region's pixels fit its plane as well as all of them (the fit error is dominated
@@ -333,7 +356,7 @@ struct LabelRuns {
 // Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
 // the common case is a tight single-plane loop.
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                      const PlaneSampleGrid& grid, const std::vector<CandidateList>& cand,
+                      const PlaneSampleGrid& grid, const std::vector<int>& region_of,
                       const std::vector<PlaneHypothesis>& planes,
                       const std::vector<float>& region_tol, float tol_floor,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
@@ -348,13 +371,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
   for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
   for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
   LabelRuns lr;
-  lr.row_begin.assign(R + 1, 0);
-  std::vector<PixelRun> row_runs;
-  for (int r = 0; r < R; ++r) {
-    candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, row_runs);
-    lr.runs.insert(lr.runs.end(), row_runs.begin(), row_runs.end());
-    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
-  }
+  std::vector<int> row_summary;
+  buildCandidateRuns(region_of, R, C, sample_u0, sample_u1, row_summary, lr);
   lr.row_sample.resize(depth_mm.rows);
   for (int v = 0; v < depth_mm.rows; ++v) lr.row_sample[v] = sampleOf(v, R);
   std::vector<double> xr(depth_mm.cols);
@@ -705,9 +723,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
-  const LabelRuns label_runs = labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid,
-                                           candidateRegions(region_of, R, C), planes, region_tol,
-                                           tol_floor, regions, out.labels);
+  const LabelRuns label_runs =
+      labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, planes, region_tol,
+                  tol_floor, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
