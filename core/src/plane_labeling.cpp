@@ -634,20 +634,38 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // farther along its ray than the plane.
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
-    std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
-    std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0),
-        sc(static_cast<std::size_t>(R) * C, 0.0);
+    // Sample count and row / column sums of each piece (exact in int: < R C^2).
+    const std::size_t samples = static_cast<std::size_t>(R) * C;
+    std::vector<int> cnt(samples, 0), sr(samples, 0), sc(samples, 0);
     // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
-    // pointing at its root (the roots stay the same: no find is needed below).
-    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
+    // pointing at its root (the roots stay the same: no find is needed below). Consecutive
+    // samples mostly share a root: its sums stay in registers until the root changes.
+    int cur = -1, cur_n = 0, cur_r = 0, cur_c = 0;
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
+        const int root = parent[parent[i]];
+        parent[i] = root;
         if (lab[i] < 0) continue;
-        const int root = parent[i];
-        ++cnt[root];
-        sr[root] += r;
-        sc[root] += c;
+        if (root != cur) {
+          if (cur >= 0) {
+            cnt[cur] = cur_n;
+            sr[cur] = cur_r;
+            sc[cur] = cur_c;
+          }
+          cur = root;
+          cur_n = cnt[root];
+          cur_r = sr[root];
+          cur_c = sc[root];
+        }
+        ++cur_n;
+        cur_r += r;
+        cur_c += c;
       }
+    if (cur >= 0) {
+      cnt[cur] = cur_n;
+      sr[cur] = cur_r;
+      sc[cur] = cur_c;
+    }
     std::vector<std::vector<int>> pieces(planes.size());
     for (int i = 0; i < R * C; ++i)
       if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
@@ -659,8 +677,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         for (std::size_t b = a + 1; b < list.size(); ++b) {
           const int ra = list[a], rb = list[b];
           if (findRoot(parent, ra) == findRoot(parent, rb)) continue;
-          const double r0 = sr[ra] / cnt[ra], c0 = sc[ra] / cnt[ra], r1 = sr[rb] / cnt[rb],
-                       c1 = sc[rb] / cnt[rb];
+          const double r0 = static_cast<double>(sr[ra]) / cnt[ra],
+                       c0 = static_cast<double>(sc[ra]) / cnt[ra],
+                       r1 = static_cast<double>(sr[rb]) / cnt[rb],
+                       c1 = static_cast<double>(sc[rb]) / cnt[rb];
           const int steps =
               static_cast<int>(std::ceil(std::max(std::fabs(r1 - r0), std::fabs(c1 - c0))));
           int behind = 0;
@@ -683,16 +703,28 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
   std::vector<RegionAccumulator> regions;
   {
-    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
-    // pointing at its root.
-    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
     std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
     std::vector<int> plane_region(planes.size(), -1);
     std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
+    // Consecutive samples mostly share a region: its count and column bounds stay in registers
+    // until the region changes.
+    int cur = -1, cur_samples = 0, cur_c0 = 0, cur_c1 = 0, cur_r1 = 0;
+    auto flush = [&]() {
+      if (cur < 0) return;
+      regions[cur].samples = cur_samples;
+      auto& b = bounds[cur];
+      b[0] = cur_c0;
+      b[2] = cur_c1;
+      b[3] = cur_r1;
+    };
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
+        // parent[i] <= i (unite keeps the smaller root), so flattening in raster order leaves
+        // every entry pointing at its root.
+        const int root = parent[parent[i]];
+        parent[i] = root;
         if (lab[i] < 0) continue;
-        int& slot = params.split_connected_regions ? root_region[parent[i]] : plane_region[lab[i]];
+        int& slot = params.split_connected_regions ? root_region[root] : plane_region[lab[i]];
         if (slot < 0) {
           slot = static_cast<int>(regions.size());
           regions.emplace_back();
@@ -700,12 +732,20 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
           bounds.push_back({c, r, c, r});
         }
         region_of[i] = slot;
-        ++regions[slot].samples;
-        auto& b = bounds[slot];
-        b[0] = std::min(b[0], c);
-        b[2] = std::max(b[2], c);
-        b[3] = r;  // rows ascend
+        if (slot != cur) {
+          flush();
+          cur = slot;
+          cur_samples = regions[slot].samples;
+          const auto& b = bounds[slot];
+          cur_c0 = b[0];
+          cur_c1 = b[2];
+        }
+        ++cur_samples;
+        cur_c0 = std::min(cur_c0, c);
+        cur_c1 = std::max(cur_c1, c);
+        cur_r1 = r;  // rows ascend
       }
+    flush();
     for (std::size_t k = 0; k < regions.size(); ++k) {
       const auto& b = bounds[k];
       regions[k].sample_box = cv::Rect(b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
@@ -747,16 +787,22 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   };
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
+    // Pairs with the right and the lower neighbour, in the same order as before; most samples
+    // have the same region on both sides, so the two neighbour tests are selects, not branches.
+    auto addPair = [&](int i, int j, int a) {
+      const int b = region_of[j];
+      if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) return;
+      adjacent.emplace_back(std::min(a, b), std::max(a, b));
+    };
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c, a = region_of[i];
         if (a < 0) continue;
-        for (const int j : {c + 1 < C ? i + 1 : -1, r + 1 < R ? i + C : -1}) {
-          if (j < 0) continue;
-          const int b = region_of[j];
-          if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) continue;
-          adjacent.emplace_back(std::min(a, b), std::max(a, b));
-        }
+        const int right = c + 1 < C ? region_of[i + 1] : a;
+        const int down = r + 1 < R ? region_of[i + C] : a;
+        if ((right == a) & (down == a)) continue;
+        if (c + 1 < C) addPair(i, i + 1, a);
+        if (r + 1 < R) addPair(i, i + C, a);
       }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
