@@ -142,6 +142,11 @@ struct HoughPlaneDetector::Impl {
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
   std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
   std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
+  // The candidates of one maximum, contiguous, and their membership flags (current / next set).
+  std::vector<float> cx, cy, cz, cnx, cny, cnz, ctol;
+  std::vector<std::uint8_t> calive, cin;
+  std::vector<float> vx, vy, vz, vd;  // a round's votes: normal and distance of each
+  std::vector<int> comp, seeds;       // leftover components: component of each sample, seeds
 
   explicit Impl(const HoughPlaneParams& p)
       : normals_est(p.normals), raw(p.space), smooth(p.space) {}
@@ -202,7 +207,9 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   const float wide = static_cast<float>(2.5 * P.sigma_d_m);
   std::vector<int>& cand = s.cand;
   std::vector<int>& next = s.next;
-  for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
+  for (auto* v :
+       {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate, &s.vx, &s.vy, &s.vz, &s.vd})
+    v->resize(N);
   s.free_idx.resize(N);
   s.fin.resize(N);
   // Each sample's inlier tolerance, once per frame (tol.at costs a division; the rounds would
@@ -226,10 +233,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
       ++F;
       if (!reliable[i]) continue;
-      const Eigen::Vector3d nd(n[0], n[1], n[2]);
-      s.raw.vote(nd, -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]));
+      s.vx[votes] = n[0], s.vy[votes] = n[1], s.vz[votes] = n[2];
+      s.vd[votes] = -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]);
       ++votes;
     }
+    s.raw.voteBatch(s.vx.data(), s.vy.data(), s.vz.data(), s.vd.data(), votes);
     if (votes < P.min_plane_samples) break;
     s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass, min_peak);
     const auto maxima = s.smooth.findMaxima(min_peak, P.maxima_window_a, P.maxima_window_d);
@@ -275,6 +283,25 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         cand.resize(kept);
       }
       if (cand.empty() || static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      // The candidates' data, contiguous (the shrinking passes test them in loops that
+      // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
+      // the moments, which leaves every sum exactly what the set alone gives.
+      const int K = static_cast<int>(cand.size());
+      for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(K);
+      s.calive.assign(K, 1);
+      s.cin.resize(K);
+      for (int k = 0; k < K; ++k) {
+        const int f = cand[k];
+        s.cx[k] = s.fx[f], s.cy[k] = s.fy[f], s.cz[k] = s.fz[f];
+        s.cnx[k] = s.fnx[f], s.cny[k] = s.fny[f], s.cnz[k] = s.fnz[f];
+        s.ctol[k] = s.ftol[f];
+      }
+      const float *cx = s.cx.data(), *cy = s.cy.data(), *cz = s.cz.data();
+      const float *cnx = s.cnx.data(), *cny = s.cny.data(), *cnz = s.cnz.data(),
+                  *ctol = s.ctol.data();
+      std::uint8_t* alive = s.calive.data();
+      std::uint8_t* cin = s.cin.data();
+      int first = 0;  // the first candidate of the current set
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
@@ -283,32 +310,31 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
         // Relative to a point of the candidate set (precision at metres of range).
-        PlaneMoments mom(Eigen::Vector3d(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]));
+        PlaneMoments mom(Eigen::Vector3d(cx[first], cy[first], cz[first]));
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int f : cand) mom.addIf(s.fx[f], s.fy[f], s.fz[f], true);
+          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
         } else {
           const float gate_mult = it == 1 ? 2.0f : 1.0f;
           const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
                       nz = static_cast<float>(n.z());
           const float df = static_cast<float>(d);
-          next.resize(cand.size());
           int kept = 0;
-          for (int f : cand) {
-            const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-            const bool in = (dist <= gate_mult * s.ftol[f]) &
-                            (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
-            next[kept] = f;
-            kept += in;
-            mom.addIf(s.fx[f], s.fy[f], s.fz[f], in);
+          for (int k = 0; k < K; ++k) {
+            const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
+            cin[k] =
+                static_cast<std::uint8_t>(alive[k] & (dist <= gate_mult * ctol[k]) &
+                                          (nx * cnx[k] + ny * cny[k] + nz * cnz[k] >= cos_inlier));
+            kept += cin[k];
           }
-          next.resize(kept);
           if (kept < P.min_plane_samples) {
             ok = false;
             break;
           }
-          cand.swap(next);
+          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
+          std::swap(alive, cin);
+          while (!alive[first]) ++first;
         }
         const PlaneFit fit = mom.fit();
         if (!fit.valid) {
@@ -324,11 +350,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                   nz = static_cast<float>(n.z());
       const float df = static_cast<float>(d);
       next.clear();
-      for (int f : cand) {
-        const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-        if (dist > s.ftol[f] || nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier)
+      for (int k = 0; k < K; ++k) {
+        const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
+        if (!alive[k] || dist > ctol[k] || nx * cnx[k] + ny * cny[k] + nz * cnz[k] < cos_inlier)
           continue;
-        next.push_back(f);
+        next.push_back(cand[k]);
       }
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
@@ -453,12 +479,23 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   if (P.fit_leftover_components) {
     growSampleLabels(s.grid, s.sample_labels, planes, P.labeling);
     const SampleContinuity continuous(s.grid, P.labeling);
-    std::vector<int> comp(N, -1);
+    std::vector<int>& comp = s.comp;
+    comp.assign(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
     std::vector<double> member_tol;
-    for (int seed = 0; seed < N; ++seed) {
-      if (lab[seed] >= 0 || comp[seed] >= 0 || !(pts[seed][2] > 0)) continue;
+    // The possible seeds (unassigned, valid) first, in a branch-free pass: a sample labelled
+    // by an earlier component below was one of its members, which the comp test skips.
+    std::vector<int>& seeds = s.seeds;
+    seeds.resize(N);
+    int seed_count = 0;
+    for (int i = 0; i < N; ++i) {
+      seeds[seed_count] = i;
+      seed_count += (lab[i] < 0) & (pts[i][2] > 0);
+    }
+    for (int q = 0; q < seed_count; ++q) {
+      const int seed = seeds[q];
+      if (comp[seed] >= 0) continue;
       members.clear();
       stack.assign(1, seed);
       comp[seed] = seed;
