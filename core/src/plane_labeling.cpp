@@ -535,29 +535,44 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
       std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
   const float tol_floor = static_cast<float>(tol.floor_m);
   const SampleContinuity continuous(grid, params);
-  std::vector<int> queue;
-  queue.reserve(static_cast<std::size_t>(R) * C);
+  // The queue holds (row, column) pairs (r << 16 | c): the index is r C + c, while recovering
+  // r and c from the index would cost two integer divisions per entry. Every sample enters it
+  // at most once.
+  std::vector<std::uint32_t> queue(static_cast<std::size_t>(R) * C);
+  std::size_t tail = 0;
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
-  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass; the seed
-  // test then ORs four flags instead of branching on each neighbour's label and depth.
-  std::vector<std::uint8_t> open(static_cast<std::size_t>(R) * C);
-  for (int i = 0; i < R * C; ++i)
-    open[i] = static_cast<std::uint8_t>((lab[i] == -1) & (point(i)[2] > 0));
-  for (int r = 0; r < R; ++r)
+  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass, on a
+  // grid with a closed one-sample border; the seed test then ORs four flags without bounds
+  // tests, and the seeds are appended without a branch.
+  const int W = C + 2;
+  std::vector<std::uint8_t> open(static_cast<std::size_t>(R + 2) * W, 0);
+  for (int r = 0; r < R; ++r) {
+    const int* lrow = lab + r * C;
+    const cv::Vec3f* prow = &point(r * C);
+    std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
+    for (int c = 0; c < C; ++c)
+      orow[c] = static_cast<std::uint8_t>((lrow[c] == -1) & (prow[c][2] > 0));
+  }
+  for (int r = 0; r < R; ++r) {
+    const int* lrow = lab + r * C;
+    const std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
     for (int c = 0; c < C; ++c) {
-      const int i = r * C + c;
-      if (lab[i] < 0) continue;
-      const int any = (c > 0 ? open[i - 1] : 0) | (c + 1 < C ? open[i + 1] : 0) |
-                      (r > 0 ? open[i - C] : 0) | (r + 1 < R ? open[i + C] : 0);
-      if (any) queue.push_back(i);
+      const int any = orow[c - 1] | orow[c + 1] | orow[c - W] | orow[c + W];
+      queue[tail] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
+      tail += static_cast<std::size_t>((lrow[c] >= 0) & (any != 0));
     }
-  for (std::size_t q = 0; q < queue.size(); ++q) {
-    const int i = queue[q], r = i / C, c = i % C, L = lab[i];
+  }
+  for (std::size_t q = 0; q < tail; ++q) {
+    const int r = static_cast<int>(queue[q] >> 16), c = static_cast<int>(queue[q] & 0xFFFF);
+    const int i = r * C + c, L = lab[i];
     const float z = point(i)[2];
     const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1,
                         r + 1 < R ? i + C : -1};
-    for (int j : nbr) {
+    const std::uint32_t nbr_rc[4] = {queue[q] - 1, queue[q] + 1, queue[q] - (1u << 16),
+                                     queue[q] + (1u << 16)};
+    for (int t = 0; t < 4; ++t) {
+      const int j = nbr[t];
       if (j < 0 || lab[j] != -1) continue;
       const cv::Vec3f& p = point(j);
       if (!(p[2] > 0) || !continuous(z, p[2])) continue;
@@ -569,7 +584,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
         if (h.x() * n[0] + h.y() * n[1] + h.z() * n[2] < c) continue;  // NaN normals pass
       }
       lab[j] = L;
-      queue.push_back(j);
+      queue[tail++] = nbr_rc[t];
     }
   }
 }
