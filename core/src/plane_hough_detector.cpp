@@ -42,12 +42,21 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
   std::vector<double> rest_tol(rest.size()), outlier_tol;
   for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
+  std::vector<double> sub_x, sub_y, sub_z, sub_tol;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples;
        ++extracted) {
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
     double best_d = 0.0;
     std::size_t best_count = 0;
     const std::size_t stride = std::max<std::size_t>(1, rest.size() / 128);
+    // The scoring subset, contiguous (every hypothesis tests the same members).
+    sub_x.clear(), sub_y.clear(), sub_z.clear(), sub_tol.clear();
+    for (std::size_t k = 0; k < rest.size(); k += stride) {
+      const cv::Vec3f& p = pts[rest[k]];
+      sub_x.push_back(p[0]), sub_y.push_back(p[1]), sub_z.push_back(p[2]);
+      sub_tol.push_back(rest_tol[k]);
+    }
+    const std::size_t sub_n = sub_x.size();
     for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
       const auto& a = pts[rest[next(rest.size())]];
       const auto& b = pts[rest[next(rest.size())]];
@@ -63,8 +72,9 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
       std::size_t count = 0;
-      for (std::size_t k = 0; k < rest.size(); k += stride)
-        count += dist(n, d, rest[k]) <= rest_tol[k];
+      const double nx = n.x(), ny = n.y(), nz = n.z();
+      for (std::size_t k = 0; k < sub_n; ++k)
+        count += std::fabs(nx * sub_x[k] + ny * sub_y[k] + nz * sub_z[k] + d) <= sub_tol[k];
       if (count > best_count) {
         best_count = count;
         best_n = n;
@@ -142,6 +152,7 @@ struct HoughPlaneDetector::Impl {
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
   std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
   std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
+  std::vector<std::uint8_t> agree_across, agree_down;  // normal agreement of neighbour pairs
   // The candidates of one maximum, contiguous, and their membership flags (current / next set).
   std::vector<float> cx, cy, cz, cnx, cny, cnz, ctol;
   std::vector<std::uint8_t> calive, cin;
@@ -184,12 +195,20 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
     return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
   };
+  // Each neighbour pair is tested once (the dot product is symmetric, bit for bit): across[i]
+  // = whether sample i agrees with i + 1, down = the same with i + C, for the rows of
+  // interior samples and the rows next to them.
+  s.agree_across.resize(N);
+  s.agree_down.resize(N);
+  std::uint8_t* across = s.agree_across.data();
+  std::uint8_t* down = s.agree_down.data();
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c + 1 < C; ++c) across[r * C + c] = agrees(nrm[r * C + c], nrm[r * C + c + 1]);
+  for (int i = 0; i + C < N; ++i) down[i] = agrees(nrm[i], nrm[i + C]);
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
-      const cv::Vec3f& n = nrm[i];
-      reliable[i] = agrees(n, nrm[i - 1]) & agrees(n, nrm[i + 1]) & agrees(n, nrm[i - C]) &
-                    agrees(n, nrm[i + C]);
+      reliable[i] = across[i - 1] & across[i] & down[i - C] & down[i];
     }
 
   s.sample_labels.create(R, C, CV_32SC1);
