@@ -267,6 +267,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
          ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
+      int K = 0;  // candidates: cand[0, K)
       {
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
@@ -283,7 +284,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           in[f] = static_cast<std::uint8_t>(
               (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
         }
-        cand.resize(F);
+        if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // once per frame size
         int kept = 0, f = 0;
         // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
         for (; f + 8 <= F; f += 8) {
@@ -299,13 +300,12 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           cand[kept] = f;
           kept += in[f];
         }
-        cand.resize(kept);
+        K = kept;
       }
-      if (cand.empty() || static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      if (K == 0 || K < P.min_plane_samples) continue;
       // The candidates' data, contiguous (the shrinking passes test them in loops that
       // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
       // the moments, which leaves every sum exactly what the set alone gives.
-      const int K = static_cast<int>(cand.size());
       for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(K);
       s.calive.assign(K, 1);
       s.cin.resize(K);
