@@ -623,22 +623,34 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // neighbour (the one above i), then i and the one above are already in one set and the
     // join (two finds) is skipped: the sets, and so the roots (their smallest index), are the
     // same; inside a region that is almost every sample.
+    // root: the root of the set of the sample just processed. Nothing changes between that
+    // sample and the next, so a join with the left neighbour takes it without a find (the roots,
+    // the smallest index of each set, are what a find would give).
     std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
+    int root = -1;
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
-        // i is still its own root here (raster order): unite(i, i - 1) is one find.
+        int own = i;  // i is still its own root here (raster order)
         if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
-          parent[i] = findRoot(parent, i - 1);
+          parent[i] = own = root;
           joined[i] = 1;
         }
         if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
           joined[i] |= 2;
           const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
-          if (!linked) unite(parent, i, i - C);
+          if (!linked) {
+            // unite(i, i - C), with the find of i known.
+            const int above = findRoot(parent, i - C);
+            if (above != own) {
+              parent[std::max(own, above)] = std::min(own, above);
+              own = std::min(own, above);
+            }
+          }
         }
+        root = own;
       }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
