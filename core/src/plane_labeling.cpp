@@ -97,6 +97,10 @@ void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
       sum[c] = mergeRegionSummary(mergeRegionSummary(reg[c - 1], reg[c]), reg[c + 1]);
     sum[C - 1] = mergeRegionSummary(reg[C - 2], reg[C - 1]);  // merge(a, -1) == a
   }
+  // Whether every sample column has pixels and each starts where the previous one ends.
+  bool tiled = true;
+  for (int c = 0; c < C; ++c)
+    tiled &= sample_u0[c] < sample_u1[c] && (c == 0 || sample_u0[c] == sample_u1[c - 1]);
   lr.runs.clear();
   lr.row_begin.assign(R + 1, 0);
   for (int r = 0; r < R; ++r) {
@@ -110,16 +114,23 @@ void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
       if (u0 >= u1) continue;
       const int one = one_row[c];
       if (one != -2) {
-        // One candidate (or none): extends a single-candidate run of the same region.
+        // One candidate (or none): extends a single-candidate run of the same region. When the
+        // samples tile the row, the following samples with the same summary would each extend
+        // it (or, without a candidate, be skipped): take them all at once.
+        int last = c;
+        if (tiled)
+          while (last + 1 < C && one_row[last + 1] == one) ++last;
+        const int u1_last = sample_u1[last];
+        c = last;
         if (lr.runs.size() > row_first) {
           PixelRun& back = lr.runs.back();
           if (back.list[0] == one && back.list[1] < 0 && back.u1 == u0) {
-            back.u1 = u1;
+            back.u1 = u1_last;
             continue;
           }
         }
         if (one < 0) continue;  // no candidate: the pixels stay 0
-        lr.runs.push_back({u0, u1, {one, -1, -1, -1}});
+        lr.runs.push_back({u0, u1_last, {one, -1, -1, -1}});
         continue;
       }
       const int i = r * C + c;
