@@ -511,15 +511,14 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
     auto* d = depth_mm.ptr<std::uint16_t>(r);
     auto* p = points.ptr<cv::Vec3f>(r);
     const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
+    // Selects, not a branch: holes make the test unpredictable.
     for (int c = 0; c < cols; ++c) {
       const int u = offset + c * step;
       d[c] = src[u];
-      if (src[u] == 0) {
-        p[c] = cv::Vec3f(kNaN, kNaN, kNaN);
-        continue;
-      }
+      const bool valid = src[u] != 0;
       const float z = static_cast<float>(src[u]) * 0.001f;
-      p[c] = cv::Vec3f((static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z, ry * z, z);
+      const float x = (static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z;
+      p[c] = cv::Vec3f(valid ? x : kNaN, valid ? ry * z : kNaN, valid ? z : kNaN);
     }
   }
 }
@@ -879,6 +878,31 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
+  auto keeps = [&](std::size_t k, std::size_t kept_so_far) {
+    return regions[k].count >= static_cast<std::size_t>(std::max(1, params.min_region_pixels)) &&
+           kept_so_far < 65535 && fitOf(static_cast<int>(k)).valid;
+  };
+  // The sample masks of the kept regions (1-cell margin), filled in one pass over the samples.
+  std::vector<cv::Mat> masks(params.compute_polygons ? nreg : 0);
+  if (params.compute_polygons) {
+    std::vector<std::uint8_t*> origin(nreg, nullptr);  // mask cell of sample (0, 0)
+    std::vector<std::size_t> mask_step(nreg, 0);
+    for (std::size_t k = 0, kept = 0; k < nreg; ++k) {
+      if (!keeps(k, kept)) continue;
+      ++kept;
+      const cv::Rect sb = regions[k].sample_box;
+      masks[k] = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);
+      mask_step[k] = masks[k].step[0];
+      origin[k] =
+          masks[k].data + (1 - sb.y) * static_cast<std::ptrdiff_t>(mask_step[k]) + (1 - sb.x);
+    }
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        const int k = region_of[i];
+        if (k < 0 || !origin[k]) continue;
+        origin[k][r * static_cast<std::ptrdiff_t>(mask_step[k]) + c] = 255;
+      }
+  }
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
   for (std::size_t k = 0; k < regions.size(); ++k) {
@@ -911,12 +935,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
     if (params.compute_polygons) {
       const cv::Rect sb = reg.sample_box;
-      cv::Mat mask = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);  // 1-cell margin
-      for (int r = sb.y; r < sb.y + sb.height; ++r)
-        for (int c = sb.x; c < sb.x + sb.width; ++c)
-          if (region_of[r * C + c] == static_cast<int>(k))
-            mask.at<std::uint8_t>(r - sb.y + 1, c - sb.x + 1) = 255;
-      regionPolygon(mask, cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K,
+      regionPolygon(masks[k], cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K,
                     params.polygon_epsilon_cells, p.polygon, p.triangles);
     }
     out.planes.push_back(std::move(p));
