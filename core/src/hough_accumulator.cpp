@@ -6,6 +6,10 @@
 #include <numeric>
 #include <tuple>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace shapesense {
 namespace {
 
@@ -112,6 +116,52 @@ void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
   float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
                               : blockOrCreate(key);
   b[cellInBlock(i & 3, j & 3, k & 3)] += w;
+}
+
+void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* nz, const float* d,
+                                 int count, float w) {
+  static_assert(kBlock == 4);
+  // One vote's cell, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
+  auto add = [&](double ci, double cj, double ck) {
+    if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return;
+    const int i = static_cast<int>(ci), j = static_cast<int>(cj), k = static_cast<int>(ck);
+    const int key = blockIndex(i >> 2, j >> 2, k >> 2);
+    float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
+                                : blockOrCreate(key);
+    b[cellInBlock(i & 3, j & 3, k & 3)] += w;
+  };
+  const double ext = params_.lambert_extent;
+  int v = 0;
+#if defined(__SSE2__)
+  // cellCoordinates, two votes per SSE2 register: the same IEEE operations in the same order
+  // (division and square root are correctly rounded either way), so the same cells. A normal at
+  // or beyond the pole (den <= 1e-9) has no cell.
+  const __m128d one = _mm_set1_pd(1.0), two = _mm_set1_pd(2.0), half = _mm_set1_pd(0.5),
+                eps = _mm_set1_pd(1e-9), ext2 = _mm_set1_pd(ext), inv_a = _mm_set1_pd(inv_a_cell_),
+                inv_d = _mm_set1_pd(inv_d_cell_);
+  for (; v + 2 <= count; v += 2) {
+    const __m128d vx = _mm_set_pd(nx[v + 1], nx[v]), vy = _mm_set_pd(ny[v + 1], ny[v]),
+                  vz = _mm_set_pd(nz[v + 1], nz[v]), vd = _mm_set_pd(d[v + 1], d[v]);
+    const __m128d den = _mm_sub_pd(one, vz);
+    const __m128d valid = _mm_cmpgt_pd(den, eps);
+    // Invalid lanes divide 2 by 1 instead (then fail the range test below).
+    const __m128d sc =
+        _mm_sqrt_pd(_mm_div_pd(two, _mm_or_pd(_mm_and_pd(valid, den), _mm_andnot_pd(valid, one))));
+    const __m128d ci =
+        _mm_add_pd(_mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(sc, vx), ext2), inv_a), half), half);
+    const __m128d cj =
+        _mm_add_pd(_mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(sc, vy), ext2), inv_a), half), half);
+    const __m128d ck = _mm_add_pd(_mm_sub_pd(_mm_mul_pd(vd, inv_d), half), half);
+    alignas(16) double a[2], b[2], c[2];
+    _mm_store_pd(a, ci);
+    _mm_store_pd(b, cj);
+    _mm_store_pd(c, ck);
+    const int ok = _mm_movemask_pd(valid);
+    if (ok & 1) add(a[0], b[0], c[0]);
+    if (ok & 2) add(a[1], b[1], c[1]);
+  }
+#endif
+  for (; v < count; ++v) vote(Eigen::Vector3d(nx[v], ny[v], nz[v]), d[v], w);
 }
 
 float HoughAccumulator::at(int i, int j, int k) const {

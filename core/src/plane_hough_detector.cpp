@@ -42,12 +42,21 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
   std::vector<double> rest_tol(rest.size()), outlier_tol;
   for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
+  std::vector<double> sub_x, sub_y, sub_z, sub_tol;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples;
        ++extracted) {
     Eigen::Vector3d best_n = Eigen::Vector3d::Zero();
     double best_d = 0.0;
     std::size_t best_count = 0;
     const std::size_t stride = std::max<std::size_t>(1, rest.size() / 128);
+    // The scoring subset, contiguous (every hypothesis tests the same members).
+    sub_x.clear(), sub_y.clear(), sub_z.clear(), sub_tol.clear();
+    for (std::size_t k = 0; k < rest.size(); k += stride) {
+      const cv::Vec3f& p = pts[rest[k]];
+      sub_x.push_back(p[0]), sub_y.push_back(p[1]), sub_z.push_back(p[2]);
+      sub_tol.push_back(rest_tol[k]);
+    }
+    const std::size_t sub_n = sub_x.size();
     for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
       const auto& a = pts[rest[next(rest.size())]];
       const auto& b = pts[rest[next(rest.size())]];
@@ -63,8 +72,9 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
       std::size_t count = 0;
-      for (std::size_t k = 0; k < rest.size(); k += stride)
-        count += dist(n, d, rest[k]) <= rest_tol[k];
+      const double nx = n.x(), ny = n.y(), nz = n.z();
+      for (std::size_t k = 0; k < sub_n; ++k)
+        count += std::fabs(nx * sub_x[k] + ny * sub_y[k] + nz * sub_z[k] + d) <= sub_tol[k];
       if (count > best_count) {
         best_count = count;
         best_n = n;
@@ -142,6 +152,12 @@ struct HoughPlaneDetector::Impl {
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
   std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
   std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
+  std::vector<std::uint8_t> agree_across, agree_down;  // normal agreement of neighbour pairs
+  // The candidates of one maximum, contiguous, and their membership flags (current / next set).
+  std::vector<float> cx, cy, cz, cnx, cny, cnz, ctol;
+  std::vector<std::uint8_t> calive, cin;
+  std::vector<float> vx, vy, vz, vd;  // a round's votes: normal and distance of each
+  std::vector<int> comp, seeds;       // leftover components: component of each sample, seeds
 
   explicit Impl(const HoughPlaneParams& p)
       : normals_est(p.normals), raw(p.space), smooth(p.space) {}
@@ -179,12 +195,20 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
     return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
   };
+  // Each neighbour pair is tested once (the dot product is symmetric, bit for bit): across[i]
+  // = whether sample i agrees with i + 1, down = the same with i + C, for the rows of
+  // interior samples and the rows next to them.
+  s.agree_across.resize(N);
+  s.agree_down.resize(N);
+  std::uint8_t* across = s.agree_across.data();
+  std::uint8_t* down = s.agree_down.data();
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c + 1 < C; ++c) across[r * C + c] = agrees(nrm[r * C + c], nrm[r * C + c + 1]);
+  for (int i = 0; i + C < N; ++i) down[i] = agrees(nrm[i], nrm[i + C]);
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
-      const cv::Vec3f& n = nrm[i];
-      reliable[i] = agrees(n, nrm[i - 1]) & agrees(n, nrm[i + 1]) & agrees(n, nrm[i - C]) &
-                    agrees(n, nrm[i + C]);
+      reliable[i] = across[i - 1] & across[i] & down[i - C] & down[i];
     }
 
   s.sample_labels.create(R, C, CV_32SC1);
@@ -202,7 +226,9 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   const float wide = static_cast<float>(2.5 * P.sigma_d_m);
   std::vector<int>& cand = s.cand;
   std::vector<int>& next = s.next;
-  for (auto* v : {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate}) v->resize(N);
+  for (auto* v :
+       {&s.fx, &s.fy, &s.fz, &s.fnx, &s.fny, &s.fnz, &s.ftol, &s.fgate, &s.vx, &s.vy, &s.vz, &s.vd})
+    v->resize(N);
   s.free_idx.resize(N);
   s.fin.resize(N);
   // Each sample's inlier tolerance, once per frame (tol.at costs a division; the rounds would
@@ -226,10 +252,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       s.fgate[F] = std::max(wide, 2.0f * s.ftol[F]);
       ++F;
       if (!reliable[i]) continue;
-      const Eigen::Vector3d nd(n[0], n[1], n[2]);
-      s.raw.vote(nd, -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]));
+      s.vx[votes] = n[0], s.vy[votes] = n[1], s.vz[votes] = n[2];
+      s.vd[votes] = -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]);
       ++votes;
     }
+    s.raw.voteBatch(s.vx.data(), s.vy.data(), s.vz.data(), s.vd.data(), votes);
     if (votes < P.min_plane_samples) break;
     s.raw.smoothInto(s.smooth, P.sigma_angle_deg, P.sigma_d_m, min_block_mass, min_peak);
     const auto maxima = s.smooth.findMaxima(min_peak, P.maxima_window_a, P.maxima_window_d);
@@ -240,6 +267,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
          ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
+      int K = 0;  // candidates: cand[0, K)
       {
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
@@ -256,7 +284,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           in[f] = static_cast<std::uint8_t>(
               (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
         }
-        cand.resize(F);
+        if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // once per frame size
         int kept = 0, f = 0;
         // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
         for (; f + 8 <= F; f += 8) {
@@ -272,9 +300,27 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           cand[kept] = f;
           kept += in[f];
         }
-        cand.resize(kept);
+        K = kept;
       }
-      if (cand.empty() || static_cast<int>(cand.size()) < P.min_plane_samples) continue;
+      if (K == 0 || K < P.min_plane_samples) continue;
+      // The candidates' data, contiguous (the shrinking passes test them in loops that
+      // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
+      // the moments, which leaves every sum exactly what the set alone gives.
+      for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(K);
+      s.calive.assign(K, 1);
+      s.cin.resize(K);
+      for (int k = 0; k < K; ++k) {
+        const int f = cand[k];
+        s.cx[k] = s.fx[f], s.cy[k] = s.fy[f], s.cz[k] = s.fz[f];
+        s.cnx[k] = s.fnx[f], s.cny[k] = s.fny[f], s.cnz[k] = s.fnz[f];
+        s.ctol[k] = s.ftol[f];
+      }
+      const float *cx = s.cx.data(), *cy = s.cy.data(), *cz = s.cz.data();
+      const float *cnx = s.cnx.data(), *cny = s.cny.data(), *cnz = s.cnz.data(),
+                  *ctol = s.ctol.data();
+      std::uint8_t* alive = s.calive.data();
+      std::uint8_t* cin = s.cin.data();
+      int first = 0;  // the first candidate of the current set
       bool ok = true;
       const int iters = std::max(1, P.refine_iterations);
       for (int it = 0; it < iters && ok; ++it) {
@@ -283,32 +329,31 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
         // Relative to a point of the candidate set (precision at metres of range).
-        PlaneMoments mom(Eigen::Vector3d(s.fx[cand[0]], s.fy[cand[0]], s.fz[cand[0]]));
+        PlaneMoments mom(Eigen::Vector3d(cx[first], cy[first], cz[first]));
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int f : cand) mom.addIf(s.fx[f], s.fy[f], s.fz[f], true);
+          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
         } else {
           const float gate_mult = it == 1 ? 2.0f : 1.0f;
           const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
                       nz = static_cast<float>(n.z());
           const float df = static_cast<float>(d);
-          next.resize(cand.size());
           int kept = 0;
-          for (int f : cand) {
-            const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-            const bool in = (dist <= gate_mult * s.ftol[f]) &
-                            (nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] >= cos_inlier);
-            next[kept] = f;
-            kept += in;
-            mom.addIf(s.fx[f], s.fy[f], s.fz[f], in);
+          for (int k = 0; k < K; ++k) {
+            const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
+            cin[k] =
+                static_cast<std::uint8_t>(alive[k] & (dist <= gate_mult * ctol[k]) &
+                                          (nx * cnx[k] + ny * cny[k] + nz * cnz[k] >= cos_inlier));
+            kept += cin[k];
           }
-          next.resize(kept);
           if (kept < P.min_plane_samples) {
             ok = false;
             break;
           }
-          cand.swap(next);
+          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
+          std::swap(alive, cin);
+          while (!alive[first]) ++first;
         }
         const PlaneFit fit = mom.fit();
         if (!fit.valid) {
@@ -324,11 +369,11 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                   nz = static_cast<float>(n.z());
       const float df = static_cast<float>(d);
       next.clear();
-      for (int f : cand) {
-        const float dist = std::fabs(nx * s.fx[f] + ny * s.fy[f] + nz * s.fz[f] + df);
-        if (dist > s.ftol[f] || nx * s.fnx[f] + ny * s.fny[f] + nz * s.fnz[f] < cos_inlier)
+      for (int k = 0; k < K; ++k) {
+        const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
+        if (!alive[k] || dist > ctol[k] || nx * cnx[k] + ny * cny[k] + nz * cnz[k] < cos_inlier)
           continue;
-        next.push_back(f);
+        next.push_back(cand[k]);
       }
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
@@ -453,12 +498,23 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   if (P.fit_leftover_components) {
     growSampleLabels(s.grid, s.sample_labels, planes, P.labeling);
     const SampleContinuity continuous(s.grid, P.labeling);
-    std::vector<int> comp(N, -1);
+    std::vector<int>& comp = s.comp;
+    comp.assign(N, -1);
     std::vector<int> stack;
     std::vector<int> members;
     std::vector<double> member_tol;
-    for (int seed = 0; seed < N; ++seed) {
-      if (lab[seed] >= 0 || comp[seed] >= 0 || !(pts[seed][2] > 0)) continue;
+    // The possible seeds (unassigned, valid) first, in a branch-free pass: a sample labelled
+    // by an earlier component below was one of its members, which the comp test skips.
+    std::vector<int>& seeds = s.seeds;
+    seeds.resize(N);
+    int seed_count = 0;
+    for (int i = 0; i < N; ++i) {
+      seeds[seed_count] = i;
+      seed_count += (lab[i] < 0) & (pts[i][2] > 0);
+    }
+    for (int q = 0; q < seed_count; ++q) {
+      const int seed = seeds[q];
+      if (comp[seed] >= 0) continue;
       members.clear();
       stack.assign(1, seed);
       comp[seed] = seed;

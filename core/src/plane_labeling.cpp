@@ -53,30 +53,89 @@ inline int mergeRegionSummary(int a, int b) {
   return a == -1 ? b : ab;
 }
 
-std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, int R, int C) {
-  std::vector<CandidateList> cand(static_cast<std::size_t>(R) * C);
-  // Most neighbourhoods hold at most one region (inside a region, or a region next to
-  // unlabelled samples): one candidate. Found from summaries of the rows of three.
-  std::vector<int> row_summary(static_cast<std::size_t>(R) * C);
+// Element-wise, without the library call std::array's == makes of it (one per sample).
+inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
+  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
+}
+
+// A horizontal run of pixels of one image row whose samples share one candidate list.
+struct PixelRun {
+  int u0 = 0, u1 = 0;  // [u0, u1)
+  CandidateList list{};
+};
+
+// The candidate runs of every sample row, kept for the renumbering at the end.
+struct LabelRuns {
+  std::vector<PixelRun> runs;
+  std::vector<int> row_begin;   // runs of sample row r: [row_begin[r], row_begin[r + 1])
+  std::vector<int> row_sample;  // sample row of each image row
+};
+
+// The candidate runs of every sample row: horizontal runs of pixels whose samples share one
+// candidate list (the distinct regions of the sample's 3x3 neighbourhood, its own first, -1
+// terminated, at most 4); consecutive samples with equal lists merge, so a row crossing one
+// plane is a single run, and samples without a candidate make no run (their pixels stay 0).
+// sample_u0/u1: pixel range of each sample column. Most neighbourhoods hold at most one region
+// (inside a region, or a region next to unlabelled samples): found from summaries of the rows
+// of three, they extend the current run without building a list.
+void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
+                        const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
+                        std::vector<int>& row_summary, LabelRuns& lr) {
+  // Row summaries of rows -1 .. R (the two outside rows summarise nothing: -1), then the
+  // summary of each 3x3 neighbourhood of the current row; boundary-free loops that vectorise.
+  row_summary.assign(static_cast<std::size_t>(R + 3) * C, -1);
+  int* const one_row = &row_summary[static_cast<std::size_t>(R + 2) * C];
   for (int r = 0; r < R; ++r) {
     const int* reg = &region_of[static_cast<std::size_t>(r) * C];
-    int* sum = &row_summary[static_cast<std::size_t>(r) * C];
-    for (int c = 0; c < C; ++c)
-      sum[c] = mergeRegionSummary(mergeRegionSummary(c > 0 ? reg[c - 1] : -1, reg[c]),
-                                  c + 1 < C ? reg[c + 1] : -1);
+    int* sum = &row_summary[static_cast<std::size_t>(r + 1) * C];
+    if (C == 1) {
+      sum[0] = reg[0];
+      continue;
+    }
+    sum[0] = mergeRegionSummary(reg[0], reg[1]);  // merge(-1, a) == a
+    for (int c = 1; c + 1 < C; ++c)
+      sum[c] = mergeRegionSummary(mergeRegionSummary(reg[c - 1], reg[c]), reg[c + 1]);
+    sum[C - 1] = mergeRegionSummary(reg[C - 2], reg[C - 1]);  // merge(a, -1) == a
   }
-  for (int r = 0; r < R; ++r)
+  // Whether every sample column has pixels and each starts where the previous one ends.
+  bool tiled = true;
+  for (int c = 0; c < C; ++c)
+    tiled &= sample_u0[c] < sample_u1[c] && (c == 0 || sample_u0[c] == sample_u1[c - 1]);
+  lr.runs.clear();
+  lr.row_begin.assign(R + 1, 0);
+  for (int r = 0; r < R; ++r) {
+    const std::size_t row_first = lr.runs.size();
+    const int* mid = &row_summary[static_cast<std::size_t>(r + 1) * C];
+    const int *above = mid - C, *below = mid + C;
+    for (int c = 0; c < C; ++c)
+      one_row[c] = mergeRegionSummary(mergeRegionSummary(above[c], mid[c]), below[c]);
     for (int c = 0; c < C; ++c) {
-      const int i = r * C + c;
-      auto& list = cand[i];
-      list.fill(-1);
-      const int one =
-          mergeRegionSummary(mergeRegionSummary(r > 0 ? row_summary[i - C] : -1, row_summary[i]),
-                             r + 1 < R ? row_summary[i + C] : -1);
+      const int u0 = sample_u0[c], u1 = sample_u1[c];
+      if (u0 >= u1) continue;
+      const int one = one_row[c];
       if (one != -2) {
-        list[0] = one;
+        // One candidate (or none): extends a single-candidate run of the same region. When the
+        // samples tile the row, the following samples with the same summary would each extend
+        // it (or, without a candidate, be skipped): take them all at once.
+        int last = c;
+        if (tiled)
+          while (last + 1 < C && one_row[last + 1] == one) ++last;
+        const int u1_last = sample_u1[last];
+        c = last;
+        if (lr.runs.size() > row_first) {
+          PixelRun& back = lr.runs.back();
+          if (back.list[0] == one && back.list[1] < 0 && back.u1 == u0) {
+            back.u1 = u1_last;
+            continue;
+          }
+        }
+        if (one < 0) continue;  // no candidate: the pixels stay 0
+        lr.runs.push_back({u0, u1_last, {one, -1, -1, -1}});
         continue;
       }
+      const int i = r * C + c;
+      CandidateList list;
+      list.fill(-1);
       const int own = region_of[i];
       list[0] = own;
       const int r0 = std::max(r - 1, 0), r1 = std::min(r + 1, R - 1), c0 = std::max(c - 1, 0),
@@ -90,35 +149,17 @@ std::vector<CandidateList> candidateRegions(const std::vector<int>& region_of, i
             continue;
           list[n++] = reg;
         }
+      if (lr.runs.size() > row_first) {
+        PixelRun& back = lr.runs.back();
+        if (sameCandidates(back.list, list) && back.u1 == u0) {
+          back.u1 = u1;
+          continue;
+        }
+      }
+      if (list[0] < 0) continue;
+      lr.runs.push_back({u0, u1, list});
     }
-  return cand;
-}
-
-// Element-wise, without the library call std::array's == makes of it (one per sample).
-inline bool sameCandidates(const CandidateList& a, const CandidateList& b) {
-  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
-}
-
-// A horizontal run of pixels of one image row whose samples share one candidate list.
-struct PixelRun {
-  int u0 = 0, u1 = 0;  // [u0, u1)
-  CandidateList list{};
-};
-
-// The runs of pixel rows that map to sample row r (consecutive samples with equal lists merge,
-// so a row crossing one plane is a single run). sample_u0/u1: pixel range of each sample column.
-void candidateRuns(const CandidateList* row_cand, const std::vector<int>& sample_u0,
-                   const std::vector<int>& sample_u1, std::vector<PixelRun>& runs) {
-  runs.clear();
-  for (std::size_t c = 0; c < sample_u0.size(); ++c) {
-    if (sample_u0[c] >= sample_u1[c]) continue;
-    if (!runs.empty() && sameCandidates(runs.back().list, row_cand[c]) &&
-        runs.back().u1 == sample_u0[c]) {
-      runs.back().u1 = sample_u1[c];
-      continue;
-    }
-    if (row_cand[c][0] < 0) continue;  // no candidate: the pixels stay 0
-    runs.push_back({sample_u0[c], sample_u1[c], row_cand[c]});
+    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
   }
 }
 
@@ -319,13 +360,6 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   reg.colour[2] += r;
 }
 
-// The candidate runs of every sample row, kept for the renumbering at the end.
-struct LabelRuns {
-  std::vector<PixelRun> runs;
-  std::vector<int> row_begin;   // runs of sample row r: [row_begin[r], row_begin[r + 1])
-  std::vector<int> row_sample;  // sample row of each image row
-};
-
 // Every full-resolution pixel takes the closest candidate plane of its sample within the
 // tolerance. Moments and colour are accumulated on every second pixel of every second row: a
 // quarter of a region's pixels fit its plane as well as all of them (the fit error is dominated
@@ -333,7 +367,7 @@ struct LabelRuns {
 // Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
 // the common case is a tight single-plane loop.
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                      const PlaneSampleGrid& grid, const std::vector<CandidateList>& cand,
+                      const PlaneSampleGrid& grid, const std::vector<int>& region_of,
                       const std::vector<PlaneHypothesis>& planes,
                       const std::vector<float>& region_tol, float tol_floor,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
@@ -348,13 +382,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
   for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
   for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
   LabelRuns lr;
-  lr.row_begin.assign(R + 1, 0);
-  std::vector<PixelRun> row_runs;
-  for (int r = 0; r < R; ++r) {
-    candidateRuns(&cand[static_cast<std::size_t>(r) * C], sample_u0, sample_u1, row_runs);
-    lr.runs.insert(lr.runs.end(), row_runs.begin(), row_runs.end());
-    lr.row_begin[r + 1] = static_cast<int>(lr.runs.size());
-  }
+  std::vector<int> row_summary;
+  buildCandidateRuns(region_of, R, C, sample_u0, sample_u1, row_summary, lr);
   lr.row_sample.resize(depth_mm.rows);
   for (int v = 0; v < depth_mm.rows; ++v) lr.row_sample[v] = sampleOf(v, R);
   std::vector<double> xr(depth_mm.cols);
@@ -482,15 +511,14 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
     auto* d = depth_mm.ptr<std::uint16_t>(r);
     auto* p = points.ptr<cv::Vec3f>(r);
     const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
+    // Selects, not a branch: holes make the test unpredictable.
     for (int c = 0; c < cols; ++c) {
       const int u = offset + c * step;
       d[c] = src[u];
-      if (src[u] == 0) {
-        p[c] = cv::Vec3f(kNaN, kNaN, kNaN);
-        continue;
-      }
+      const bool valid = src[u] != 0;
       const float z = static_cast<float>(src[u]) * 0.001f;
-      p[c] = cv::Vec3f((static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z, ry * z, z);
+      const float x = (static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z;
+      p[c] = cv::Vec3f(valid ? x : kNaN, valid ? ry * z : kNaN, valid ? z : kNaN);
     }
   }
 }
@@ -517,29 +545,44 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
       std::cos(params.grow_max_unreliable_normal_deg * 3.14159265358979323846 / 180.0);
   const float tol_floor = static_cast<float>(tol.floor_m);
   const SampleContinuity continuous(grid, params);
-  std::vector<int> queue;
-  queue.reserve(static_cast<std::size_t>(R) * C);
+  // The queue holds (row, column) pairs (r << 16 | c): the index is r C + c, while recovering
+  // r and c from the index would cost two integer divisions per entry. Every sample enters it
+  // at most once.
+  std::vector<std::uint32_t> queue(static_cast<std::size_t>(R) * C);
+  std::size_t tail = 0;
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
-  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass; the seed
-  // test then ORs four flags instead of branching on each neighbour's label and depth.
-  std::vector<std::uint8_t> open(static_cast<std::size_t>(R) * C);
-  for (int i = 0; i < R * C; ++i)
-    open[i] = static_cast<std::uint8_t>((lab[i] == -1) & (point(i)[2] > 0));
-  for (int r = 0; r < R; ++r)
+  // Whether each sample is open (unlabelled and valid) first, in one branch-free pass, on a
+  // grid with a closed one-sample border; the seed test then ORs four flags without bounds
+  // tests, and the seeds are appended without a branch.
+  const int W = C + 2;
+  std::vector<std::uint8_t> open(static_cast<std::size_t>(R + 2) * W, 0);
+  for (int r = 0; r < R; ++r) {
+    const int* lrow = lab + r * C;
+    const cv::Vec3f* prow = &point(r * C);
+    std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
+    for (int c = 0; c < C; ++c)
+      orow[c] = static_cast<std::uint8_t>((lrow[c] == -1) & (prow[c][2] > 0));
+  }
+  for (int r = 0; r < R; ++r) {
+    const int* lrow = lab + r * C;
+    const std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
     for (int c = 0; c < C; ++c) {
-      const int i = r * C + c;
-      if (lab[i] < 0) continue;
-      const int any = (c > 0 ? open[i - 1] : 0) | (c + 1 < C ? open[i + 1] : 0) |
-                      (r > 0 ? open[i - C] : 0) | (r + 1 < R ? open[i + C] : 0);
-      if (any) queue.push_back(i);
+      const int any = orow[c - 1] | orow[c + 1] | orow[c - W] | orow[c + W];
+      queue[tail] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
+      tail += static_cast<std::size_t>((lrow[c] >= 0) & (any != 0));
     }
-  for (std::size_t q = 0; q < queue.size(); ++q) {
-    const int i = queue[q], r = i / C, c = i % C, L = lab[i];
+  }
+  for (std::size_t q = 0; q < tail; ++q) {
+    const int r = static_cast<int>(queue[q] >> 16), c = static_cast<int>(queue[q] & 0xFFFF);
+    const int i = r * C + c, L = lab[i];
     const float z = point(i)[2];
     const int nbr[4] = {c > 0 ? i - 1 : -1, c + 1 < C ? i + 1 : -1, r > 0 ? i - C : -1,
                         r + 1 < R ? i + C : -1};
-    for (int j : nbr) {
+    const std::uint32_t nbr_rc[4] = {queue[q] - 1, queue[q] + 1, queue[q] - (1u << 16),
+                                     queue[q] + (1u << 16)};
+    for (int t = 0; t < 4; ++t) {
+      const int j = nbr[t];
       if (j < 0 || lab[j] != -1) continue;
       const cv::Vec3f& p = point(j);
       if (!(p[2] > 0) || !continuous(z, p[2])) continue;
@@ -551,7 +594,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
         if (h.x() * n[0] + h.y() * n[1] + h.z() * n[2] < c) continue;  // NaN normals pass
       }
       lab[j] = L;
-      queue.push_back(j);
+      queue[tail++] = nbr_rc[t];
     }
   }
 }
@@ -590,22 +633,34 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // neighbour (the one above i), then i and the one above are already in one set and the
     // join (two finds) is skipped: the sets, and so the roots (their smallest index), are the
     // same; inside a region that is almost every sample.
+    // root: the root of the set of the sample just processed. Nothing changes between that
+    // sample and the next, so a join with the left neighbour takes it without a find (the roots,
+    // the smallest index of each set, are what a find would give).
     std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
+    int root = -1;
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
-        // i is still its own root here (raster order): unite(i, i - 1) is one find.
+        int own = i;  // i is still its own root here (raster order)
         if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
-          parent[i] = findRoot(parent, i - 1);
+          parent[i] = own = root;
           joined[i] = 1;
         }
         if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
           joined[i] |= 2;
           const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
-          if (!linked) unite(parent, i, i - C);
+          if (!linked) {
+            // unite(i, i - C), with the find of i known.
+            const int above = findRoot(parent, i - C);
+            if (above != own) {
+              parent[std::max(own, above)] = std::min(own, above);
+              own = std::min(own, above);
+            }
+          }
         }
+        root = own;
       }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
@@ -616,20 +671,38 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // farther along its ray than the plane.
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
-    std::vector<int> cnt(static_cast<std::size_t>(R) * C, 0);
-    std::vector<double> sr(static_cast<std::size_t>(R) * C, 0.0),
-        sc(static_cast<std::size_t>(R) * C, 0.0);
+    // Sample count and row / column sums of each piece (exact in int: < R C^2).
+    const std::size_t samples = static_cast<std::size_t>(R) * C;
+    std::vector<int> cnt(samples, 0), sr(samples, 0), sc(samples, 0);
     // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
-    // pointing at its root (the roots stay the same: no find is needed below).
-    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
+    // pointing at its root (the roots stay the same: no find is needed below). Consecutive
+    // samples mostly share a root: its sums stay in registers until the root changes.
+    int cur = -1, cur_n = 0, cur_r = 0, cur_c = 0;
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
+        const int root = parent[parent[i]];
+        parent[i] = root;
         if (lab[i] < 0) continue;
-        const int root = parent[i];
-        ++cnt[root];
-        sr[root] += r;
-        sc[root] += c;
+        if (root != cur) {
+          if (cur >= 0) {
+            cnt[cur] = cur_n;
+            sr[cur] = cur_r;
+            sc[cur] = cur_c;
+          }
+          cur = root;
+          cur_n = cnt[root];
+          cur_r = sr[root];
+          cur_c = sc[root];
+        }
+        ++cur_n;
+        cur_r += r;
+        cur_c += c;
       }
+    if (cur >= 0) {
+      cnt[cur] = cur_n;
+      sr[cur] = cur_r;
+      sc[cur] = cur_c;
+    }
     std::vector<std::vector<int>> pieces(planes.size());
     for (int i = 0; i < R * C; ++i)
       if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
@@ -641,8 +714,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         for (std::size_t b = a + 1; b < list.size(); ++b) {
           const int ra = list[a], rb = list[b];
           if (findRoot(parent, ra) == findRoot(parent, rb)) continue;
-          const double r0 = sr[ra] / cnt[ra], c0 = sc[ra] / cnt[ra], r1 = sr[rb] / cnt[rb],
-                       c1 = sc[rb] / cnt[rb];
+          const double r0 = static_cast<double>(sr[ra]) / cnt[ra],
+                       c0 = static_cast<double>(sc[ra]) / cnt[ra],
+                       r1 = static_cast<double>(sr[rb]) / cnt[rb],
+                       c1 = static_cast<double>(sc[rb]) / cnt[rb];
           const int steps =
               static_cast<int>(std::ceil(std::max(std::fabs(r1 - r0), std::fabs(c1 - c0))));
           int behind = 0;
@@ -665,16 +740,28 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
   std::vector<RegionAccumulator> regions;
   {
-    // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
-    // pointing at its root.
-    for (int i = 0; i < R * C; ++i) parent[i] = parent[parent[i]];
     std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
     std::vector<int> plane_region(planes.size(), -1);
     std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
+    // Consecutive samples mostly share a region: its count and column bounds stay in registers
+    // until the region changes.
+    int cur = -1, cur_samples = 0, cur_c0 = 0, cur_c1 = 0, cur_r1 = 0;
+    auto flush = [&]() {
+      if (cur < 0) return;
+      regions[cur].samples = cur_samples;
+      auto& b = bounds[cur];
+      b[0] = cur_c0;
+      b[2] = cur_c1;
+      b[3] = cur_r1;
+    };
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
+        // parent[i] <= i (unite keeps the smaller root), so flattening in raster order leaves
+        // every entry pointing at its root.
+        const int root = parent[parent[i]];
+        parent[i] = root;
         if (lab[i] < 0) continue;
-        int& slot = params.split_connected_regions ? root_region[parent[i]] : plane_region[lab[i]];
+        int& slot = params.split_connected_regions ? root_region[root] : plane_region[lab[i]];
         if (slot < 0) {
           slot = static_cast<int>(regions.size());
           regions.emplace_back();
@@ -682,12 +769,20 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
           bounds.push_back({c, r, c, r});
         }
         region_of[i] = slot;
-        ++regions[slot].samples;
-        auto& b = bounds[slot];
-        b[0] = std::min(b[0], c);
-        b[2] = std::max(b[2], c);
-        b[3] = r;  // rows ascend
+        if (slot != cur) {
+          flush();
+          cur = slot;
+          cur_samples = regions[slot].samples;
+          const auto& b = bounds[slot];
+          cur_c0 = b[0];
+          cur_c1 = b[2];
+        }
+        ++cur_samples;
+        cur_c0 = std::min(cur_c0, c);
+        cur_c1 = std::max(cur_c1, c);
+        cur_r1 = r;  // rows ascend
       }
+    flush();
     for (std::size_t k = 0; k < regions.size(); ++k) {
       const auto& b = bounds[k];
       regions[k].sample_box = cv::Rect(b[0], b[1], b[2] - b[0] + 1, b[3] - b[1] + 1);
@@ -705,9 +800,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (std::size_t k = 0; k < nreg; ++k) region_tol[k] = tol_coef[regions[k].plane];
   const bool with_colour = !bgr.empty() && bgr.type() == CV_8UC3 && bgr.size() == depth_mm.size();
   PlaneDetection out;
-  const LabelRuns label_runs = labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid,
-                                           candidateRegions(region_of, R, C), planes, region_tol,
-                                           tol_floor, regions, out.labels);
+  const LabelRuns label_runs =
+      labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, planes, region_tol,
+                  tol_floor, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
@@ -729,16 +824,22 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   };
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
+    // Pairs with the right and the lower neighbour, in the same order as before; most samples
+    // have the same region on both sides, so the two neighbour tests are selects, not branches.
+    auto addPair = [&](int i, int j, int a) {
+      const int b = region_of[j];
+      if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) return;
+      adjacent.emplace_back(std::min(a, b), std::max(a, b));
+    };
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c, a = region_of[i];
         if (a < 0) continue;
-        for (const int j : {c + 1 < C ? i + 1 : -1, r + 1 < R ? i + C : -1}) {
-          if (j < 0) continue;
-          const int b = region_of[j];
-          if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) continue;
-          adjacent.emplace_back(std::min(a, b), std::max(a, b));
-        }
+        const int right = c + 1 < C ? region_of[i + 1] : a;
+        const int down = r + 1 < R ? region_of[i + C] : a;
+        if ((right == a) & (down == a)) continue;
+        if (c + 1 < C) addPair(i, i + 1, a);
+        if (r + 1 < R) addPair(i, i + C, a);
       }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
@@ -777,6 +878,31 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
+  auto keeps = [&](std::size_t k, std::size_t kept_so_far) {
+    return regions[k].count >= static_cast<std::size_t>(std::max(1, params.min_region_pixels)) &&
+           kept_so_far < 65535 && fitOf(static_cast<int>(k)).valid;
+  };
+  // The sample masks of the kept regions (1-cell margin), filled in one pass over the samples.
+  std::vector<cv::Mat> masks(params.compute_polygons ? nreg : 0);
+  if (params.compute_polygons) {
+    std::vector<std::uint8_t*> origin(nreg, nullptr);  // mask cell of sample (0, 0)
+    std::vector<std::size_t> mask_step(nreg, 0);
+    for (std::size_t k = 0, kept = 0; k < nreg; ++k) {
+      if (!keeps(k, kept)) continue;
+      ++kept;
+      const cv::Rect sb = regions[k].sample_box;
+      masks[k] = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);
+      mask_step[k] = masks[k].step[0];
+      origin[k] =
+          masks[k].data + (1 - sb.y) * static_cast<std::ptrdiff_t>(mask_step[k]) + (1 - sb.x);
+    }
+    for (int r = 0, i = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c, ++i) {
+        const int k = region_of[i];
+        if (k < 0 || !origin[k]) continue;
+        origin[k][r * static_cast<std::ptrdiff_t>(mask_step[k]) + c] = 255;
+      }
+  }
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
   for (std::size_t k = 0; k < regions.size(); ++k) {
@@ -809,12 +935,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
     if (params.compute_polygons) {
       const cv::Rect sb = reg.sample_box;
-      cv::Mat mask = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);  // 1-cell margin
-      for (int r = sb.y; r < sb.y + sb.height; ++r)
-        for (int c = sb.x; c < sb.x + sb.width; ++c)
-          if (region_of[r * C + c] == static_cast<int>(k))
-            mask.at<std::uint8_t>(r - sb.y + 1, c - sb.x + 1) = 255;
-      regionPolygon(mask, cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K,
+      regionPolygon(masks[k], cv::Point(sb.x - 1, sb.y - 1), step, off, p.normal, p.d, K,
                     params.polygon_epsilon_cells, p.polygon, p.triangles);
     }
     out.planes.push_back(std::move(p));

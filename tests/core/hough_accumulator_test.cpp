@@ -86,6 +86,44 @@ TEST(HoughAccumulator, VoteLandsInTheCellOfCellOf) {
   EXPECT_LT(inside, static_cast<int>(planes.size()) - 500);
 }
 
+TEST(HoughAccumulator, VoteBatchIsVoteInOrder) {
+  // Float normals and distances anywhere on the sphere (some outside the space, some at the
+  // pole), an odd count (the unpaired tail): the batch fills exactly the cells, with exactly
+  // the sums, of one vote() per plane.
+  std::uint32_t rng = 777u;
+  auto uniform = [&rng](double lo, double hi) {
+    rng = rng * 1664525u + 1013904223u;
+    return lo + (hi - lo) * static_cast<double>(rng >> 8) / static_cast<double>(1u << 24);
+  };
+  std::vector<float> nx, ny, nz, d;
+  for (int t = 0; t < 2001; ++t) {
+    // Clustered (many votes per cell, sums in order) and scattered.
+    const Eigen::Vector3d n =
+        t % 3 ? unit(uniform(-0.05, 0.05), uniform(-1, -0.9), uniform(-0.3, -0.2))
+              : unit(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
+    nx.push_back(static_cast<float>(n.x()));
+    ny.push_back(static_cast<float>(n.y()));
+    nz.push_back(static_cast<float>(n.z()));
+    d.push_back(static_cast<float>(t % 3 ? uniform(0.9, 1.0) : uniform(-1.0, 9.0)));
+  }
+  nx.push_back(0.0f), ny.push_back(0.0f), nz.push_back(1.0f), d.push_back(1.0f);  // the pole
+  HoughAccumulator one, batch;
+  for (std::size_t v = 0; v < nx.size(); ++v)
+    one.vote(Eigen::Vector3d(nx[v], ny[v], nz[v]), d[v], 0.7f);
+  batch.voteBatch(nx.data(), ny.data(), nz.data(), d.data(), static_cast<int>(nx.size()), 0.7f);
+  ASSERT_EQ(batch.allocatedBlocks(), one.allocatedBlocks());
+  EXPECT_EQ(batch.totalMass(), one.totalMass());
+  int cells = 0;
+  for (std::size_t v = 0; v < nx.size(); ++v) {
+    int i, j, k;
+    if (!one.cellOf(Eigen::Vector3d(nx[v], ny[v], nz[v]), d[v], i, j, k)) continue;
+    EXPECT_EQ(batch.at(i, j, k), one.at(i, j, k)) << v;
+    ++cells;
+  }
+  EXPECT_GT(cells, 1500);
+  EXPECT_GT(one.totalMass(), 1000.0);
+}
+
 TEST(HoughAccumulator, AllocatesOnlyWhereVotesLandAndRecyclesBlocks) {
   HoughAccumulator acc;
   const std::size_t dense = static_cast<std::size_t>(acc.cellsA()) * acc.cellsA() * acc.cellsD();

@@ -73,6 +73,11 @@ class HoughAccumulator {
 
   /// One vote of weight w for plane (n, d) (counted, not smoothed: the seed's "caching").
   void vote(const Eigen::Vector3d& n, double d, float w = 1.0f);
+  /// vote(n_i, d_i, w) for i = 0 .. count-1, in that order (the same cells, the same sums):
+  /// unit normals and distances as floats, structure of arrays. Computes the cells two at a
+  /// time.
+  void voteBatch(const float* nx, const float* ny, const float* nz, const float* d, int count,
+                 float w = 1.0f);
   void addToCell(int i, int j, int k, float w);
   float at(int i, int j, int k) const;
 
