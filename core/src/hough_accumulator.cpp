@@ -70,17 +70,32 @@ Eigen::Vector3d HoughAccumulator::cellCoordinates(const Eigen::Vector3d& n, doub
           (s * n.y() + params_.lambert_extent) * inv_a_cell_ - 0.5, d * inv_d_cell_ - 0.5};
 }
 
-bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
-  // Rounds to the nearest cell centre. The range test comes first (NaN fails it too), so the
-  // rounding is a truncation of a non-negative value: without SSE4.1, floor is a library call,
-  // and this runs three times per vote.
-  const Eigen::Vector3d c = cellCoordinates(n, d);
-  const double ci = c.x() + 0.5, cj = c.y() + 0.5, ck = c.z() + 0.5;
+[[gnu::always_inline]] inline bool HoughAccumulator::roundedCell(double ci, double cj, double ck,
+                                                                 int& i, int& j, int& k) const {
+  // The range test comes first (NaN fails it too), so the rounding is a truncation of a
+  // non-negative value: without SSE4.1, floor is a library call, and this runs three times per
+  // vote.
   if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return false;
   i = static_cast<int>(ci);
   j = static_cast<int>(cj);
   k = static_cast<int>(ck);
   return true;
+}
+
+bool HoughAccumulator::cellOf(const Eigen::Vector3d& n, double d, int& i, int& j, int& k) const {
+  const Eigen::Vector3d c = cellCoordinates(n, d);  // rounded to the nearest cell centre:
+  return roundedCell(c.x() + 0.5, c.y() + 0.5, c.z() + 0.5, i, j, k);
+}
+
+[[gnu::always_inline]] inline void HoughAccumulator::addToCellInRange(int i, int j, int k,
+                                                                      float w) {
+  // Non-negative indices: shifts and masks instead of signed division by the block edge.
+  static_assert(kBlock == 4);
+  // Most votes land in an existing block: look it up inline, call out only to create one.
+  const int key = blockIndex(i >> 2, j >> 2, k >> 2);
+  float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
+                              : blockOrCreate(key);
+  b[cellInBlock(i & 3, j & 3, k & 3)] += w;
 }
 
 Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
@@ -102,33 +117,20 @@ float* HoughAccumulator::blockOrCreate(int key) {
 
 void HoughAccumulator::addToCell(int i, int j, int k, float w) {
   if (i < 0 || j < 0 || k < 0 || i >= na_ || j >= na_ || k >= nd_) return;
-  float* b = blockOrCreate(blockIndex(i / kBlock, j / kBlock, k / kBlock));
-  b[cellInBlock(i % kBlock, j % kBlock, k % kBlock)] += w;
+  addToCellInRange(i, j, k, w);
 }
 
 void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
   int i, j, k;
-  if (!cellOf(n, d, i, j, k)) return;
-  // Non-negative indices: shifts and masks instead of signed division by the block edge.
-  static_assert(kBlock == 4);
-  // Most votes land in an existing block: look it up inline, call out only to create one.
-  const int key = blockIndex(i >> 2, j >> 2, k >> 2);
-  float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
-                              : blockOrCreate(key);
-  b[cellInBlock(i & 3, j & 3, k & 3)] += w;
+  if (cellOf(n, d, i, j, k)) addToCellInRange(i, j, k, w);
 }
 
 void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* nz, const float* d,
                                  int count, float w) {
-  static_assert(kBlock == 4);
-  // One vote's cell, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
+  // One vote, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
   auto add = [&](double ci, double cj, double ck) {
-    if (!(ci >= 0.0 && cj >= 0.0 && ck >= 0.0 && ci < na_ && cj < na_ && ck < nd_)) return;
-    const int i = static_cast<int>(ci), j = static_cast<int>(cj), k = static_cast<int>(ck);
-    const int key = blockIndex(i >> 2, j >> 2, k >> 2);
-    float* b = index_[key] >= 0 ? &cells_[static_cast<std::size_t>(index_[key]) * kBlockCells]
-                                : blockOrCreate(key);
-    b[cellInBlock(i & 3, j & 3, k & 3)] += w;
+    int i, j, k;
+    if (roundedCell(ci, cj, ck, i, j, k)) addToCellInRange(i, j, k, w);
   };
   const double ext = params_.lambert_extent;
   int v = 0;

@@ -151,7 +151,8 @@ struct HoughPlaneDetector::Impl {
   std::vector<float> fx, fy, fz, fnx, fny, fnz, ftol, fgate;
   std::vector<std::uint8_t> fin;  // candidate scan: whether a free sample passes the gates
   std::vector<float> sample_tol;  // tolerance of each sample with a normal (by sample index)
-  std::vector<int> cand, next;    // refinement inlier sets (indices into the free arrays)
+  std::vector<int> cand;          // candidates of one maximum (indices into the free arrays)
+  std::vector<int> next;  // the accepted plane's final inliers (indices into the free arrays)
   std::vector<std::uint8_t> agree_across, agree_down;  // normal agreement of neighbour pairs
   // The candidates of one maximum, contiguous, and their membership flags (current / next set).
   std::vector<float> cx, cy, cz, cnx, cny, cnz, ctol;
@@ -180,6 +181,10 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
 
   // 1. Samples and their normals.
   s.grid.build(depth_mm, K, P.labeling.sample_step);
+  if (s.grid.points.empty()) {  // a frame narrower than the sample offset: no sample, no plane
+    s.sample_labels.create(s.grid.points.size(), CV_32SC1);
+    return labelPlanes(depth_mm, K, bgr, s.grid, s.sample_labels, {}, P.labeling);
+  }
   s.normals_est.compute(s.grid.depth_mm, s.grid.intrinsics, s.grid.normals);
   const int R = s.grid.points.rows, C = s.grid.points.cols, N = R * C;
   const auto* pts = s.grid.points.ptr<cv::Vec3f>(0);
@@ -196,13 +201,13 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
   };
   // Each neighbour pair is tested once (the dot product is symmetric, bit for bit): across[i]
-  // = whether sample i agrees with i + 1, down = the same with i + C, for the rows of
-  // interior samples and the rows next to them.
+  // = whether sample i agrees with i + 1 (interior rows: the only ones tested below), down[i]
+  // = whether it agrees with i + C (every row but the last).
   s.agree_across.resize(N);
   s.agree_down.resize(N);
   std::uint8_t* across = s.agree_across.data();
   std::uint8_t* down = s.agree_down.data();
-  for (int r = 0; r < R; ++r)
+  for (int r = 1; r + 1 < R; ++r)
     for (int c = 0; c + 1 < C; ++c) across[r * C + c] = agrees(nrm[r * C + c], nrm[r * C + c + 1]);
   for (int i = 0; i + C < N; ++i) down[i] = agrees(nrm[i], nrm[i + C]);
   for (int r = 1; r + 1 < R; ++r)
@@ -267,7 +272,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
          ++m) {
       Eigen::Vector3d n = maxima[m].normal;
       double d = maxima[m].d;
-      int K = 0;  // candidates: cand[0, K)
+      int num_cand = 0;  // candidates: cand[0, num_cand)
       {
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
@@ -284,7 +289,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           in[f] = static_cast<std::uint8_t>(
               (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
         }
-        if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // once per frame size
+        if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // grows to the largest N
         int kept = 0, f = 0;
         // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
         for (; f + 8 <= F; f += 8) {
@@ -300,16 +305,16 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           cand[kept] = f;
           kept += in[f];
         }
-        K = kept;
+        num_cand = kept;
       }
-      if (K == 0 || K < P.min_plane_samples) continue;
+      if (num_cand == 0 || num_cand < P.min_plane_samples) continue;
       // The candidates' data, contiguous (the shrinking passes test them in loops that
       // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
       // the moments, which leaves every sum exactly what the set alone gives.
-      for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(K);
-      s.calive.assign(K, 1);
-      s.cin.resize(K);
-      for (int k = 0; k < K; ++k) {
+      for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(num_cand);
+      s.calive.assign(num_cand, 1);
+      s.cin.resize(num_cand);
+      for (int k = 0; k < num_cand; ++k) {
         const int f = cand[k];
         s.cx[k] = s.fx[f], s.cy[k] = s.fy[f], s.cz[k] = s.fz[f];
         s.cnx[k] = s.fnx[f], s.cny[k] = s.fny[f], s.cnz[k] = s.fnz[f];
@@ -333,25 +338,25 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
+          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
         } else {
           const float gate_mult = it == 1 ? 2.0f : 1.0f;
           const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
                       nz = static_cast<float>(n.z());
           const float df = static_cast<float>(d);
           int kept = 0;
-          for (int k = 0; k < K; ++k) {
+          for (int k = 0; k < num_cand; ++k) {
             const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
             cin[k] =
                 static_cast<std::uint8_t>(alive[k] & (dist <= gate_mult * ctol[k]) &
                                           (nx * cnx[k] + ny * cny[k] + nz * cnz[k] >= cos_inlier));
             kept += cin[k];
           }
-          if (kept < P.min_plane_samples) {
+          if (kept == 0 || kept < P.min_plane_samples) {
             ok = false;
             break;
           }
-          for (int k = 0; k < K; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
+          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
           std::swap(alive, cin);
           while (!alive[first]) ++first;
         }
@@ -369,7 +374,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
                   nz = static_cast<float>(n.z());
       const float df = static_cast<float>(d);
       next.clear();
-      for (int k = 0; k < K; ++k) {
+      for (int k = 0; k < num_cand; ++k) {
         const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
         if (!alive[k] || dist > ctol[k] || nx * cnx[k] + ny * cny[k] + nz * cnz[k] < cos_inlier)
           continue;

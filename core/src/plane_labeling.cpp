@@ -80,10 +80,10 @@ struct LabelRuns {
 // of three, they extend the current run without building a list.
 void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
                         const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
-                        std::vector<int>& row_summary, LabelRuns& lr) {
+                        LabelRuns& lr) {
   // Row summaries of rows -1 .. R (the two outside rows summarise nothing: -1), then the
   // summary of each 3x3 neighbourhood of the current row; boundary-free loops that vectorise.
-  row_summary.assign(static_cast<std::size_t>(R + 3) * C, -1);
+  std::vector<int> row_summary(static_cast<std::size_t>(R + 3) * C, -1);
   int* const one_row = &row_summary[static_cast<std::size_t>(R + 2) * C];
   for (int r = 0; r < R; ++r) {
     const int* reg = &region_of[static_cast<std::size_t>(r) * C];
@@ -382,8 +382,7 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
   for (int u = depth_mm.cols - 1; u >= 0; --u) sample_u0[sampleOf(u, C)] = u;
   for (int u = 0; u < depth_mm.cols; ++u) sample_u1[sampleOf(u, C)] = u + 1;
   LabelRuns lr;
-  std::vector<int> row_summary;
-  buildCandidateRuns(region_of, R, C, sample_u0, sample_u1, row_summary, lr);
+  buildCandidateRuns(region_of, R, C, sample_u0, sample_u1, lr);
   lr.row_sample.resize(depth_mm.rows);
   for (int v = 0; v < depth_mm.rows; ++v) lr.row_sample[v] = sampleOf(v, R);
   std::vector<double> xr(depth_mm.cols);
@@ -548,6 +547,7 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   // The queue holds (row, column) pairs (r << 16 | c): the index is r C + c, while recovering
   // r and c from the index would cost two integer divisions per entry. Every sample enters it
   // at most once.
+  CV_Assert(R <= 0xFFFF && C <= 0xFFFF);
   std::vector<std::uint32_t> queue(static_cast<std::size_t>(R) * C);
   std::size_t tail = 0;
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
@@ -615,6 +615,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   CV_Assert(depth_mm.type() == CV_16UC1 && sample_labels.type() == CV_32SC1 &&
             sample_labels.size() == grid.points.size());
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
+  if (R == 0 || C == 0) {  // a frame narrower than the sample offset holds no sample
+    PlaneDetection none;
+    none.labels = cv::Mat::zeros(depth_mm.size(), CV_16UC1);
+    return none;
+  }
   const PlaneTolerance& tol = params.tolerance;
   const float tol_floor = static_cast<float>(tol.floor_m);
   const SampleContinuity continuous(grid, params);
@@ -630,12 +635,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   if (params.split_connected_regions) {
     // Which joins were made (bit 0: with the left neighbour, bit 1: with the one above). When
     // i joined its left neighbour, which joined the sample above it, which joined its own left
-    // neighbour (the one above i), then i and the one above are already in one set and the
-    // join (two finds) is skipped: the sets, and so the roots (their smallest index), are the
-    // same; inside a region that is almost every sample.
-    // root: the root of the set of the sample just processed. Nothing changes between that
-    // sample and the next, so a join with the left neighbour takes it without a find (the roots,
-    // the smallest index of each set, are what a find would give).
+    // neighbour (the one above i), then i and the one above are already in one set and that
+    // join is skipped; inside a region that is almost every sample.
+    // root: the root (smallest index) of the set of the sample just processed. No set changes
+    // between that sample and the next, so a join with the left neighbour takes it without a
+    // find.
     std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
     int root = -1;
     for (int r = 0; r < R; ++r)
@@ -671,13 +675,15 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // farther along its ray than the plane.
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
-    // Sample count and row / column sums of each piece (exact in int: < R C^2).
+    // Sample count and row / column sums of each piece (a sum reaches R C max(R, C): 64 bits).
     const std::size_t samples = static_cast<std::size_t>(R) * C;
-    std::vector<int> cnt(samples, 0), sr(samples, 0), sc(samples, 0);
+    std::vector<int> cnt(samples, 0);
+    std::vector<std::int64_t> sr(samples, 0), sc(samples, 0);
     // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
     // pointing at its root (the roots stay the same: no find is needed below). Consecutive
     // samples mostly share a root: its sums stay in registers until the root changes.
-    int cur = -1, cur_n = 0, cur_r = 0, cur_c = 0;
+    int cur = -1, cur_n = 0;
+    std::int64_t cur_r = 0, cur_c = 0;
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
         const int root = parent[parent[i]];
@@ -824,8 +830,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   };
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
-    // Pairs with the right and the lower neighbour, in the same order as before; most samples
-    // have the same region on both sides, so the two neighbour tests are selects, not branches.
+    // Pairs with the right and the lower neighbour, sample by sample; most samples have the
+    // same region on both sides, so the two neighbour tests are selects, not branches.
     auto addPair = [&](int i, int j, int a) {
       const int b = region_of[j];
       if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) return;
@@ -885,38 +891,36 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // The sample masks of the kept regions (1-cell margin), filled in one pass over the samples.
   std::vector<cv::Mat> masks(params.compute_polygons ? nreg : 0);
   if (params.compute_polygons) {
-    std::vector<std::uint8_t*> origin(nreg, nullptr);  // mask cell of sample (0, 0)
-    std::vector<std::size_t> mask_step(nreg, 0);
+    // Offset from the mask's data of sample (0, 0), which may lie outside the mask (only the
+    // samples of the box are written): kept as an integer, not as a pointer out of bounds.
+    std::vector<std::uint8_t*> mask_data(nreg, nullptr);  // null: region not kept
+    std::vector<std::ptrdiff_t> origin(nreg, 0);
+    std::vector<std::ptrdiff_t> mask_step(nreg, 0);
     for (std::size_t k = 0, kept = 0; k < nreg; ++k) {
       if (!keeps(k, kept)) continue;
       ++kept;
       const cv::Rect sb = regions[k].sample_box;
       masks[k] = cv::Mat::zeros(sb.height + 2, sb.width + 2, CV_8UC1);
-      mask_step[k] = masks[k].step[0];
-      origin[k] =
-          masks[k].data + (1 - sb.y) * static_cast<std::ptrdiff_t>(mask_step[k]) + (1 - sb.x);
+      mask_data[k] = masks[k].data;
+      mask_step[k] = static_cast<std::ptrdiff_t>(masks[k].step[0]);
+      origin[k] = (1 - sb.y) * mask_step[k] + (1 - sb.x);
     }
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
         const int k = region_of[i];
-        if (k < 0 || !origin[k]) continue;
-        origin[k][r * static_cast<std::ptrdiff_t>(mask_step[k]) + c] = 255;
+        if (k < 0 || !mask_data[k]) continue;
+        mask_data[k][origin[k] + r * mask_step[k] + c] = 255;
       }
   }
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
   for (std::size_t k = 0; k < regions.size(); ++k) {
     auto& reg = regions[k];
-    if (reg.count < static_cast<std::size_t>(std::max(1, params.min_region_pixels)) ||
-        out.planes.size() >= 65535) {
+    if (!keeps(k, out.planes.size())) {
       renumber = true;
       continue;
     }
     const PlaneFit& fit = fitOf(static_cast<int>(k));
-    if (!fit.valid) {
-      renumber = true;
-      continue;
-    }
     DetectedPlane p;
     p.id = static_cast<std::uint16_t>(out.planes.size() + 1);
     if (p.id != k + 1) renumber = true;

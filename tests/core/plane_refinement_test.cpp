@@ -101,6 +101,48 @@ cv::Mat renderPlanes(const std::vector<std::pair<Eigen::Vector3d, double>>& plan
   return depth;
 }
 
+// Frames of any size, including a few pixels, one row or one column, give a label image of the
+// frame's size and no crash (the sample grid may have no row or column); one detector object
+// serves frames of alternating sizes, each with the result a fresh detector gives.
+TEST(PlaneRefinement, AnySizeAndAlternatingSizesAndOtherSampleSteps) {
+  const CameraIntrinsics K;
+  const std::vector<std::pair<Eigen::Vector3d, double>> truth = {
+      {Eigen::Vector3d(0, -1, -0.3).normalized(), 1.0},
+      {Eigen::Vector3d(0.1, 0.1, -1).normalized(), 3.0},
+  };
+  const cv::Mat full = renderPlanes(truth, K, nullptr);
+  const std::vector<cv::Size> sizes = {{1, 1},     {2, 3},     {3, 3},     {1, 480},
+                                       {640, 1},   {5, 7},     {9, 2},     {17, 13},
+                                       {640, 480}, {321, 241}, {640, 480}, {3, 3}};
+  for (const int step : {1, 2, 3, 4, 6}) {
+    HoughPlaneParams hp;
+    hp.labeling.sample_step = step;
+    hp.normals = HoughPlaneParams::defaultSampleNormalParams(step);
+    HoughPlaneDetector reused(hp);
+    RansacPlaneParams rp;
+    rp.labeling.sample_step = step;
+    for (const cv::Size& size : sizes) {
+      if (step < 3 && size.area() == 640 * 480) continue;  // time: the small steps on crops only
+      const cv::Mat depth = full(cv::Rect(0, 0, size.width, size.height)).clone();
+      CameraIntrinsics crop = K;
+      crop.width = size.width;
+      crop.height = size.height;
+      const PlaneDetection a = reused.detect(depth, crop);
+      EXPECT_EQ(a.labels.size(), size) << "step " << step << " " << size;
+      const PlaneDetection b = HoughPlaneDetector(hp).detect(depth, crop);
+      ASSERT_EQ(a.planes.size(), b.planes.size()) << "step " << step << " " << size;
+      for (std::size_t i = 0; i < a.planes.size(); ++i) {
+        EXPECT_EQ(a.planes[i].normal, b.planes[i].normal);
+        EXPECT_EQ(a.planes[i].d, b.planes[i].d);
+        EXPECT_EQ(a.planes[i].inliers, b.planes[i].inliers);
+      }
+      EXPECT_EQ(cv::countNonZero(a.labels != b.labels), 0) << "step " << step << " " << size;
+      const PlaneDetection r = detectPlanesRansac(depth, crop, {}, rp);
+      EXPECT_EQ(r.labels.size(), size) << "ransac step " << step << " " << size;
+    }
+  }
+}
+
 TEST(PlaneRefinement, AnalyticPlanesRecoveredWithinNoise) {
   // A floor and a slanted wall meeting in a crease: each must come out as one region with
   // angle < 0.5 deg and distance < 5 mm, covering >= 95% of its pixels. (A plane crossing a far

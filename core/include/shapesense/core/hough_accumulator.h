@@ -123,6 +123,11 @@ class HoughAccumulator {
     return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells];
   }
   float* blockOrCreate(int key);
+  /// Cell (i, j, k) of continuous coordinates already offset by half a cell (truncation is then
+  /// rounding to the nearest centre); false when outside the space.
+  bool roundedCell(double ci, double cj, double ck, int& i, int& j, int& k) const;
+  /// addToCell for a cell known to lie in the space.
+  void addToCellInRange(int i, int j, int k, float w);
   void prepareLike(const HoughAccumulator& other);
   // Passes of smoothInto a block of the output needs: none, x, x and y, all three.
   static constexpr std::uint8_t kNeedX = 1, kNeedY = 2, kNeedZ = 3;
