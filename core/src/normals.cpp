@@ -117,7 +117,7 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
 // square window holding pixels of both sides holds a 4-adjacent pair across the step, hence a
 // mark, so "no mark in the window" is exactly "the window does not straddle a step".
 void NormalEstimator::markSteps() {
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
   // No clearing: the horizontal pass assigns every pixel of a row before the vertical pass of
   // later rows marks any of them.
   steps_.create(rows, cols, CV_8UC1);
@@ -340,7 +340,8 @@ void NormalEstimator::stepDistance(int cap) {
 // the valid count, evaluated at every pixel.
 void NormalEstimator::runCovariance(cv::Mat& normals) {
   constexpr int K = 9;
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
+  buildPoints();  // the moments need x and y too
   const std::size_t mstride = static_cast<std::size_t>(cols + 1);
   const std::size_t stride = mstride * K;
   mask_.resize(static_cast<std::size_t>(rows + 1) * mstride);
@@ -463,7 +464,7 @@ void NormalEstimator::runCovariance(cv::Mat& normals) {
 // because no field of a window sum overflows. Depth steps bound the radius through stepDistance().
 template <int M>
 void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals) {
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
   constexpr int K = M == kGrad ? 4 : 2;  // floats per cached window: means, then the count
@@ -486,7 +487,23 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     std::uint32_t* row = irow[v + 1];
     const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
-      const float* pf = points_.ptr<float>(v);
+      // Point-cloud input: the points' row; depth input: none (the points are z times the rays,
+      // rebuilt here from the z plane with the products buildPoints() uses, so the same values).
+      const float* pf = points_from_depth_ ? nullptr : points_.ptr<float>(v);
+      const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
+      const float* rx = ray_x_.data();
+      const float ry_v = points_from_depth_ ? ray_y_[v] : 0.0f;
+      // (x, y, z, -) of pixel `col` of this row.
+      auto point = [&](int col) {
+        v4f xyz = {0.0f, 0.0f, 0.0f, 0.0f};
+        if (points_from_depth_) {
+          const float z = zrow[col];
+          xyz = v4f{rx[col] * z, ry_v * z, z, 0.0f};
+        } else {
+          std::memcpy(&xyz, pf + 3 * col, 3 * sizeof(float));
+        }
+        return xyz;
+      };
       int u = 0;
 #if defined(__SSE2__)
       // Branch-free (holes are frequent and irregular): the validity mask of z zeroes the
@@ -499,9 +516,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // The points are z times the pixel rays: rebuilt from the z plane and the rays (the same
         // products as in compute(), so the same values), four pixels at a time, reading 4 bytes
         // per pixel from memory instead of 12.
-        const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
-        const float* rx = ray_x_.data();
-        const __m128 ry = _mm_set1_ps(ray_y_[v]);
+        const __m128 ry = _mm_set1_ps(ry_v);
         const __m128i one = _mm_set1_epi32(1);
         for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
           const __m128 z = _mm_loadu_ps(zrow + u);
@@ -526,7 +541,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         }
       }
       // A 16-byte load per pixel reads the next pixel's x too: stop one pixel short of the end.
-      for (; u + 1 < cols; ++u) {
+      for (; !points_from_depth_ && u + 1 < cols; ++u) {
         const __m128 xyz = _mm_loadu_ps(pf + 3 * u);
         const __m128i ok =
             _mm_castps_si128(_mm_cmpgt_ps(_mm_shuffle_ps(xyz, xyz, _MM_SHUFFLE(2, 2, 2, 2)), zero));
@@ -544,8 +559,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       v4u acc_v = {0, 0, 0, 0};
       store4(row, acc_v);
 #endif
-      // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
-      // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
+      // One pixel's element from its (x, y, z, -).
       auto element = [&](int col, v4f xyz) {
         const bool ok = validZ(xyz[2]);
         const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
@@ -554,14 +568,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         acc_v += e;
         store4(row + (col + 1) * 4, load4(above + (col + 1) * 4) + acc_v);
       };
-      for (; u + 1 < cols; ++u) {
-        v4f xyz;
-        std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
-        element(u, xyz);
-      }
-      v4f last = {0.0f, 0.0f, 0.0f, 0.0f};
-      std::memcpy(&last, pf + 3 * (cols - 1), 3 * sizeof(float));
-      element(cols - 1, last);
+      for (; u < cols; ++u) element(u, point(u));
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
@@ -879,52 +886,76 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   }
 }
 
+void NormalEstimator::buildPoints() const {
+  if (!points_from_depth_ || points_built_) return;
+  points_built_ = true;
+  const int rows = rows_, cols = cols_;
+  points_.create(rows, cols, CV_32FC3);
+  const float* rx = ray_x_.data();
+  for (int v = 0; v < rows; ++v) {
+    float* p = points_.ptr<float>(v);
+    const float ry = ray_y_[v];
+    const float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
+    int u = 0;
+#if defined(__SSE2__)
+    // Same arithmetic as the loop below, four pixels at a time: the compiler vectorises that
+    // loop's arithmetic but not its interleaved stores.
+    const __m128 vry = _mm_set1_ps(ry);
+    for (; u + 4 <= cols; u += 4) {
+      const __m128 z = _mm_loadu_ps(zr + u);
+      storeInterleaved(_mm_mul_ps(_mm_loadu_ps(rx + u), z), _mm_mul_ps(vry, z), z, p + 3 * u);
+    }
+#endif
+    for (; u < cols; ++u) {
+      const float z = zr[u];
+      p[3 * u] = rx[u] * z;
+      p[3 * u + 1] = ry * z;
+      p[3 * u + 2] = z;
+    }
+  }
+}
+
 void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr,
                               cv::Mat& normals) {
   CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
   const int rows = input.rows, cols = input.cols;
+  rows_ = rows;
+  cols_ = cols;
   zplane_.resize(static_cast<std::size_t>(rows) * cols);
   if (input.type() == CV_16UC1) {
-    points_.create(rows, cols, CV_32FC3);
+    // The points are z times the pixel rays: only the z plane and the rays are stored (the
+    // gradient modes rebuild the points from them; buildPoints() makes the point image for the
+    // covariance mode and points()).
     const float inv_fx = static_cast<float>(1.0 / intr.fx),
                 inv_fy = static_cast<float>(1.0 / intr.fy);
     const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-    // Per-column ray x, so that the row loop is a plain vectorisable multiply.
     ray_x_.resize(static_cast<std::size_t>(cols));
     for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
     ray_y_.resize(static_cast<std::size_t>(rows));
     for (int v = 0; v < rows; ++v) ray_y_[v] = (static_cast<float>(v) - cy) * inv_fy;
     points_from_depth_ = true;
-    const float* rx = ray_x_.data();
+    points_built_ = false;
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
-      float* p = points_.ptr<float>(v);
-      const float ry = ray_y_[v];
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       int u = 0;
 #if defined(__SSE2__)
-      // Same arithmetic as the loop below, four pixels at a time: the compiler vectorises that
-      // loop's arithmetic but not its interleaved stores.
-      const __m128 vry = _mm_set1_ps(ry), to_metres = _mm_set1_ps(0.001f);
+      const __m128 to_metres = _mm_set1_ps(0.001f);
       const __m128 zero = _mm_setzero_ps(), nan = _mm_set1_ps(kNaN);
-      for (; u + 4 <= cols; u += 4) {
-        const __m128i mm32 = _mm_unpacklo_epi16(
-            _mm_loadl_epi64(reinterpret_cast<const __m128i*>(d + u)), _mm_setzero_si128());
-        const __m128 metres = _mm_mul_ps(_mm_cvtepi32_ps(mm32), to_metres);
-        const __m128 ok = _mm_cmpgt_ps(metres, zero);
-        const __m128 z = _mm_or_ps(_mm_and_ps(ok, metres), _mm_andnot_ps(ok, nan));
-        _mm_storeu_ps(zr + u, z);
-        storeInterleaved(_mm_mul_ps(_mm_loadu_ps(rx + u), z), _mm_mul_ps(vry, z), z, p + 3 * u);
+      for (; u + 8 <= cols; u += 8) {
+        const __m128i raw = _mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u));
+        auto toZ = [&](__m128i mm32) {
+          const __m128 metres = _mm_mul_ps(_mm_cvtepi32_ps(mm32), to_metres);
+          const __m128 ok = _mm_cmpgt_ps(metres, zero);
+          return _mm_or_ps(_mm_and_ps(ok, metres), _mm_andnot_ps(ok, nan));
+        };
+        _mm_storeu_ps(zr + u, toZ(_mm_unpacklo_epi16(raw, _mm_setzero_si128())));
+        _mm_storeu_ps(zr + u + 4, toZ(_mm_unpackhi_epi16(raw, _mm_setzero_si128())));
       }
 #endif
       for (; u < cols; ++u) {
         const float metres = static_cast<float>(d[u]) * 0.001f;
-        const float z =
-            metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
-        zr[u] = z;
-        p[3 * u] = rx[u] * z;
-        p[3 * u + 1] = ry * z;
-        p[3 * u + 2] = z;
+        zr[u] = metres > 0.0f ? metres : kNaN;
       }
     }
   } else {

@@ -67,8 +67,12 @@ class NormalEstimator {
   /// camera (n . X < 0), NaN where invalid, into `normals` (reallocated only on size change).
   void compute(const cv::Mat& input, const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
-  /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call.
-  const cv::Mat& points() const { return points_; }
+  /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call (for depth
+  /// input built on the first call after compute(): the gradient modes do not need them).
+  const cv::Mat& points() const {
+    buildPoints();
+    return points_;
+  }
 
   /// Tests only: false runs the depth-step detection and the gradient modes' windows one pixel
   /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
@@ -76,6 +80,7 @@ class NormalEstimator {
   void setSimd(bool on) { simd_ = on; }
 
  private:
+  void buildPoints() const;
   void markSteps();
   void stepDistance(int cap);
   void runCovariance(cv::Mat& normals);
@@ -83,7 +88,9 @@ class NormalEstimator {
   void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   NormalParams params_;
-  cv::Mat points_;                       // CV_32FC3
+  int rows_ = 0, cols_ = 0;              // size of the last input
+  mutable cv::Mat points_;               // CV_32FC3 (depth input: built by buildPoints())
+  mutable bool points_built_ = false;    // depth input: points_ holds this frame's points
   cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
   std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
   std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
