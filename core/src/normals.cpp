@@ -9,6 +9,10 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define SHAPESENSE_NORMALS_AVX2 1  // AVX2 functions compiled in, used where the CPU has AVX2
+#endif
 
 namespace shapesense {
 namespace {
@@ -108,6 +112,229 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
     o[2] = z * k;
   }
 }
+
+#if defined(__SSE2__)
+// The window cache and the row's inputs of the gradient modes' row loop (see runGradient).
+struct RowWindows {
+  float* row_above;  // window-mean cache (planar: X, Y, Z means, count) of the rows of centres
+  float* row_here;   // v - 1, v, v + 1
+  float* row_below;
+  int* rad_above;  // the radius each cached centre holds, 0 = none
+  int* rad_here;
+  int* rad_below;
+  const std::uint32_t* const* irow;  // integral rows (4 uint32 per element: X, Y, Z, count)
+  const int* rr;                     // this row's window radii, 0 = invalid pixel
+  const int* min_count;              // fewest valid pixels per radius
+  int cols, v;
+  float fx, fy, cx, cy;  // intrinsics
+  float ifx, ry;         // normalisation: ray x = (u - cx) * ifx, ray y of this row
+  float* out;            // the CV_32FC3 output row
+};
+
+// quad() of runGradient with a radius per lane: lane k holds the window of radius rl[k] of
+// centre x + k (L uint32 per integral element, K floats per cached window).
+template <int M>
+void quadLanes(const RowWindows& g, float* means, int* radii, int x, int y, __m128i rl) {
+  constexpr int L = M == kGrad ? 4 : 2, K = M == kGrad ? 4 : 2;
+  const int cols = g.cols;
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(radii + x), rl);
+  alignas(16) int r4[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(r4), rl);
+  auto ld = [](const std::uint32_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  __m128i s[4];  // lane k's window sum in the low L uint32
+  for (int k = 0; k < 4; ++k) {
+    const int r = r4[k];
+    const std::ptrdiff_t dh = (2 * r + 1) * L;
+    const std::uint32_t* a = g.irow[y - r] + (x + k - r) * L;
+    const std::uint32_t* c = g.irow[y + r + 1] + (x + k - r) * L;
+    s[k] = _mm_add_epi32(_mm_sub_epi32(_mm_sub_epi32(ld(c + dh), ld(a + dh)), ld(c)), ld(a));
+  }
+  __m128i count;
+  __m128 chan[3];
+  if constexpr (M == kGrad) {  // as quad()
+    const __m128i t0 = _mm_unpacklo_epi32(s[0], s[1]), t1 = _mm_unpacklo_epi32(s[2], s[3]);
+    const __m128i t2 = _mm_unpackhi_epi32(s[0], s[1]), t3 = _mm_unpackhi_epi32(s[2], s[3]);
+    chan[0] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t0, t1));
+    chan[1] = _mm_cvtepi32_ps(_mm_unpackhi_epi64(t0, t1));
+    chan[2] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t2, t3));
+    count = _mm_unpackhi_epi64(t2, t3);
+  } else {
+    const __m128 s01 = _mm_castsi128_ps(_mm_unpacklo_epi64(s[0], s[1]));
+    const __m128 s23 = _mm_castsi128_ps(_mm_unpacklo_epi64(s[2], s[3]));
+    chan[0] = _mm_cvtepi32_ps(_mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1))));
+    count = _mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)));
+  }
+  const __m128 nf = _mm_cvtepi32_ps(count);
+  const __m128 inv_n =
+      _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), nf), _mm_cmpgt_ps(nf, _mm_setzero_ps()));
+  for (int k = 0; k < K - 1; ++k) _mm_storeu_ps(means + k * cols + x, _mm_mul_ps(chan[k], inv_n));
+  _mm_storeu_ps(means + (K - 1) * cols + x, nf);
+}
+
+// four() of runGradient where lane k's radius is rl[k] (lanes: the valid lanes), with the same
+// operations. The left windows are read before the right ones are ensured: the right windows of
+// lanes k can evict the left windows of lanes k + 2 (same centres, other radii). Out of line:
+// rare, and runGradient's loop stays small enough to be inlined whole.
+template <int M>
+__attribute__((noinline)) void fourLanes(const RowWindows& g, int u, __m128i rl, __m128i lanes,
+                                         __m128& nx, __m128& ny, __m128& nz) {
+  constexpr int K = M == kGrad ? 4 : 2;
+  const int cols = g.cols, v = g.v;
+  auto ensure = [&](float* means, int* radii, int x, int y) {
+    const __m128i have = _mm_loadu_si128(reinterpret_cast<const __m128i*>(radii + x));
+    if (_mm_movemask_epi8(_mm_cmpeq_epi32(have, rl)) != 0xFFFF)
+      quadLanes<M>(g, means, radii, x, y, rl);
+  };
+  __m128 lw[K], rw[K], uw[K], dw[K];
+  ensure(g.row_here, g.rad_here, u - 1, v);
+  for (int k = 0; k < K; ++k) lw[k] = _mm_loadu_ps(g.row_here + k * cols + u - 1);
+  ensure(g.row_here, g.rad_here, u + 1, v);
+  for (int k = 0; k < K; ++k) rw[k] = _mm_loadu_ps(g.row_here + k * cols + u + 1);
+  ensure(g.row_above, g.rad_above, u, v - 1);
+  ensure(g.row_below, g.rad_below, u, v + 1);
+  for (int k = 0; k < K; ++k) {
+    uw[k] = _mm_loadu_ps(g.row_above + k * cols + u);
+    dw[k] = _mm_loadu_ps(g.row_below + k * cols + u);
+  }
+  alignas(16) int r4[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(r4), rl);
+  const __m128 min_n =
+      _mm_setr_ps(static_cast<float>(g.min_count[r4[0]]), static_cast<float>(g.min_count[r4[1]]),
+                  static_cast<float>(g.min_count[r4[2]]), static_cast<float>(g.min_count[r4[3]]));
+  const __m128 nmin =
+      _mm_min_ps(_mm_min_ps(lw[K - 1], rw[K - 1]), _mm_min_ps(uw[K - 1], dw[K - 1]));
+  const __m128 ok = _mm_and_ps(_mm_castsi128_ps(lanes), _mm_cmpge_ps(nmin, min_n));
+  if constexpr (M == kGrad) {
+    const __m128 hx = _mm_sub_ps(rw[0], lw[0]), hy = _mm_sub_ps(rw[1], lw[1]),
+                 hz = _mm_sub_ps(rw[2], lw[2]);
+    const __m128 tx = _mm_sub_ps(dw[0], uw[0]), ty = _mm_sub_ps(dw[1], uw[1]),
+                 tz = _mm_sub_ps(dw[2], uw[2]);
+    nx = _mm_sub_ps(_mm_mul_ps(hy, tz), _mm_mul_ps(hz, ty));
+    ny = _mm_sub_ps(_mm_mul_ps(hz, tx), _mm_mul_ps(hx, tz));
+    nz = _mm_sub_ps(_mm_mul_ps(hx, ty), _mm_mul_ps(hy, tx));
+  } else {
+    const __m128 half = _mm_set1_ps(0.5f), quarter = _mm_set1_ps(0.25f);
+    const __m128 zl = lw[0], zr = rw[0], zu_ = uw[0], zd = dw[0];
+    const __m128 du = _mm_mul_ps(half, _mm_sub_ps(zr, zl));
+    const __m128 dv = _mm_mul_ps(half, _mm_sub_ps(zd, zu_));
+    const __m128 zm = _mm_mul_ps(quarter, _mm_add_ps(_mm_add_ps(_mm_add_ps(zl, zr), zu_), zd));
+    const __m128 dx = _mm_sub_ps(
+        _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f)),
+        _mm_set1_ps(g.cx));
+    const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - g.cy);
+    nx = _mm_mul_ps(_mm_set1_ps(g.fx), du);
+    ny = _mm_mul_ps(_mm_set1_ps(g.fy), dv);
+    nz = _mm_xor_ps(_mm_set1_ps(-0.0f),
+                    _mm_add_ps(_mm_add_ps(zm, _mm_mul_ps(dx, du)), _mm_mul_ps(vdy, dv)));
+  }
+  nx = _mm_and_ps(ok, nx);
+  ny = _mm_and_ps(ok, ny);
+  nz = _mm_and_ps(ok, nz);
+}
+
+#endif
+
+#if defined(SHAPESENSE_NORMALS_AVX2)
+// The 3D-gradient mode's eight-pixel step (AVX2: pixels u..u+7 whose valid lanes share the radius
+// r), with the operations of the four-pixel SSE2 step in the same order, lane for lane: the same
+// bits. AVX2 only, never FMA (a fused multiply-add would round differently). Compiled for AVX2
+// (lambdas included) whatever the build flags; called only where the CPU has it.
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+// The windows of radius r of centres x..x+7 of the row of centres y, into the cache.
+inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y, int r) {
+  const int cols = g.cols;
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(radii + x), _mm256_set1_epi32(r));
+  const std::ptrdiff_t dh = (2 * r + 1) * 4;
+  const std::uint32_t* a = g.irow[y - r] + (x - r) * 4;
+  const std::uint32_t* c = g.irow[y + r + 1] + (x - r) * 4;
+  auto ld = [&](const std::uint32_t* p) {  // (capturing: no static invoker outside AVX2)
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  auto sum = [&](int off) {  // the window sums of two consecutive centres
+    return _mm256_add_epi32(
+        _mm256_sub_epi32(_mm256_sub_epi32(ld(c + dh + off), ld(a + dh + off)), ld(c + off)),
+        ld(a + off));
+  };
+  const __m256i e01 = sum(0), e23 = sum(8), e45 = sum(16), e67 = sum(24);
+  // Centres k (low half) and k + 4 (high half), then the SSE2 step's 4x4 transpose in each half.
+  const __m256i s0 = _mm256_permute2x128_si256(e01, e45, 0x20);
+  const __m256i s1 = _mm256_permute2x128_si256(e01, e45, 0x31);
+  const __m256i s2 = _mm256_permute2x128_si256(e23, e67, 0x20);
+  const __m256i s3 = _mm256_permute2x128_si256(e23, e67, 0x31);
+  const __m256i t0 = _mm256_unpacklo_epi32(s0, s1), t1 = _mm256_unpacklo_epi32(s2, s3);
+  const __m256i t2 = _mm256_unpackhi_epi32(s0, s1), t3 = _mm256_unpackhi_epi32(s2, s3);
+  const __m256 nf = _mm256_cvtepi32_ps(_mm256_unpackhi_epi64(t2, t3));
+  const __m256 inv_n = _mm256_and_ps(_mm256_div_ps(_mm256_set1_ps(1.0f), nf),
+                                     _mm256_cmp_ps(nf, _mm256_setzero_ps(), _CMP_GT_OQ));
+  _mm256_storeu_ps(means + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpacklo_epi64(t0, t1)), inv_n));
+  _mm256_storeu_ps(means + cols + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpackhi_epi64(t0, t1)), inv_n));
+  _mm256_storeu_ps(means + 2 * cols + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpacklo_epi64(t2, t3)), inv_n));
+  _mm256_storeu_ps(means + 3 * cols + x, nf);
+}
+
+void gradEight(const RowWindows& g, int u, int r) {
+  const int cols = g.cols, v = g.v;
+  const __m256i rv = _mm256_set1_epi32(r);
+  auto ensure = [&](float* means, int* radii, int x, int y) {
+    const __m256i have = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(radii + x));
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(have, rv)) != -1) gradOct(g, means, radii, x, y, r);
+  };
+  ensure(g.row_here, g.rad_here, u - 1, v);
+  ensure(g.row_here, g.rad_here, u + 1, v);
+  ensure(g.row_above, g.rad_above, u, v - 1);
+  ensure(g.row_below, g.rad_below, u, v + 1);
+  auto l = [&](int k) { return _mm256_loadu_ps(g.row_here + k * cols + u - 1); };
+  auto rt = [&](int k) { return _mm256_loadu_ps(g.row_here + k * cols + u + 1); };
+  auto up = [&](int k) { return _mm256_loadu_ps(g.row_above + k * cols + u); };
+  auto dn = [&](int k) { return _mm256_loadu_ps(g.row_below + k * cols + u); };
+  const __m256 lanes = _mm256_castsi256_ps(
+      _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(g.rr + u)), rv));
+  const __m256 nmin = _mm256_min_ps(_mm256_min_ps(l(3), rt(3)), _mm256_min_ps(up(3), dn(3)));
+  const __m256 ok = _mm256_and_ps(
+      lanes, _mm256_cmp_ps(nmin, _mm256_set1_ps(static_cast<float>(g.min_count[r])), _CMP_GE_OQ));
+  const __m256 hx = _mm256_sub_ps(rt(0), l(0)), hy = _mm256_sub_ps(rt(1), l(1)),
+               hz = _mm256_sub_ps(rt(2), l(2));
+  const __m256 tx = _mm256_sub_ps(dn(0), up(0)), ty = _mm256_sub_ps(dn(1), up(1)),
+               tz = _mm256_sub_ps(dn(2), up(2));
+  const __m256 nx = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hy, tz), _mm256_mul_ps(hz, ty)));
+  const __m256 ny = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hz, tx), _mm256_mul_ps(hx, tz)));
+  const __m256 nz = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hx, ty), _mm256_mul_ps(hy, tx)));
+  // normalize4() on eight lanes.
+  const __m256 sign = _mm256_set1_ps(-0.0f), zero = _mm256_setzero_ps();
+  const __m256 nan = _mm256_set1_ps(kNaN), eps = _mm256_set1_ps(1e-20f);
+  const __m256 uf = _mm256_add_ps(_mm256_set1_ps(static_cast<float>(u)),
+                                  _mm256_setr_ps(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f));
+  const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, nx), _mm256_mul_ps(ny, ny)),
+                                    _mm256_mul_ps(nz, nz));
+  const __m256 valid = _mm256_cmp_ps(len2, eps, _CMP_GT_OQ);
+  const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(uf, _mm256_set1_ps(g.cx)), _mm256_set1_ps(g.ifx));
+  const __m256 dot = _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(nx, rx), _mm256_mul_ps(ny, _mm256_set1_ps(g.ry))), nz);
+  __m256 k = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(_mm256_max_ps(len2, eps)));
+  k = _mm256_xor_ps(k, _mm256_and_ps(sign, _mm256_cmp_ps(dot, zero, _CMP_GT_OQ)));
+  k = _mm256_or_ps(_mm256_and_ps(valid, k), _mm256_andnot_ps(valid, nan));
+  const __m256 ox = _mm256_mul_ps(nx, k), oy = _mm256_mul_ps(ny, k), oz = _mm256_mul_ps(nz, k);
+  float* o = g.out + 3 * u;
+  storeInterleaved(_mm256_castps256_ps128(ox), _mm256_castps256_ps128(oy),
+                   _mm256_castps256_ps128(oz), o);
+  storeInterleaved(_mm256_extractf128_ps(ox, 1), _mm256_extractf128_ps(oy, 1),
+                   _mm256_extractf128_ps(oz, 1), o + 12);
+}
+
+#pragma GCC pop_options
+
+bool cpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+#endif
 
 }  // namespace
 
@@ -851,31 +1078,73 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         ny = _mm_and_ps(ok, ny);
         nz = _mm_and_ps(ok, nz);
       };
-      for (; u + 4 <= cols; u += 4) {
+      const RowWindows g{row_above, row_here, row_below, rad_above, rad_here, rad_below,
+                         irow,      rr,       min_count, cols,      v,        fx,
+                         fy,        cx,       cy,        ifx,       ry,       out};
+      // Pixels u..u+3.
+      auto group4 = [&](int u) __attribute__((always_inline)) {
         const __m128i rv4 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
         const __m128i invalid = _mm_cmpeq_epi32(rv4, _mm_setzero_si128());
         const int valid_lanes = ~_mm_movemask_ps(_mm_castsi128_ps(invalid)) & 15;
         if (valid_lanes == 0) {
           for (int k = 0; k < 3; ++k) _mm_storeu_ps(out + 3 * u + 4 * k, _mm_set1_ps(kNaN));
-          continue;
+          return;
         }
         const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
         const __m128i rv = _mm_set1_epi32(r);
         const __m128i lanes = _mm_cmpeq_epi32(rv4, rv);
-        // The valid lanes must share r (else one pass per radius would recompute the cached
-        // windows of each: one pixel at a time is cheaper), and the windows of centres
-        // u - 1 .. u + 4 must lie inside the image (rows: r is a valid pixel's radius, so it fits
-        // this row).
-        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) != 0 || u - 1 - r < 0 ||
-            u + 5 + r > cols) {
+        // The windows of centres u - 1 .. u + 4 must lie inside the image: a valid pixel's windows
+        // do (its radius is bounded by the border), invalid lanes ride along with radius r (rows:
+        // r is a valid pixel's radius, so it fits this row).
+        if (u - 1 - r < 0 || u + 5 + r > cols) {
           for (int k = 0; k < 4; ++k) pixel(u + k);
           normalize4(_mm_loadu_ps(rnx + u), _mm_loadu_ps(rny + u), _mm_loadu_ps(rnz + u), u, cx,
                      ifx, ry, out);
-          continue;
+          return;
         }
         __m128 nx, ny, nz;
-        four(u, r, rv, lanes, nx, ny, nz);
+        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) == 0) {
+          four(u, r, rv, lanes, nx, ny, nz);
+        } else {
+          // The valid lanes' radii differ: each lane its own radius (invalid lanes r).
+          const __m128i rl =
+              _mm_or_si128(_mm_andnot_si128(invalid, rv4), _mm_and_si128(invalid, rv));
+          fourLanes<M>(g, u, rl, _mm_xor_si128(invalid, _mm_set1_epi32(-1)), nx, ny, nz);
+        }
         normalize4(nx, ny, nz, u, cx, ifx, ry, out);  // (c), fused: no round trip through rnx
+      };
+      // Eight pixels per AVX2 step (3D gradient, where the CPU has AVX2) where their valid lanes
+      // share one radius and the windows of centres u - 1 .. u + 8 lie inside the image; four
+      // pixels per step elsewhere.
+      bool eight = false;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+      eight = M == kGrad && avx2_ && cpuHasAvx2();
+#endif
+      while (u + 4 <= cols) {
+#if defined(SHAPESENSE_NORMALS_AVX2)
+        if (eight && u + 8 <= cols) {
+          const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
+          const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u + 4));
+          const int valid_lanes =
+              ~(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, _mm_setzero_si128()))) |
+                (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, _mm_setzero_si128())))
+                 << 4)) &
+              255;
+          if (valid_lanes != 0) {
+            const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
+            const __m128i rv = _mm_set1_epi32(r);
+            const int same = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, rv))) |
+                             (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, rv))) << 4);
+            if ((valid_lanes & ~same) == 0 && u - 1 - r >= 0 && u + 9 + r <= cols) {
+              gradEight(g, u, r);
+              u += 8;
+              continue;
+            }
+          }
+        }
+#endif
+        group4(u);
+        u += 4;
       }
     }
 #endif

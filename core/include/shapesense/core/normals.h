@@ -78,6 +78,9 @@ class NormalEstimator {
   /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
   /// check that).
   void setSimd(bool on) { simd_ = on; }
+  /// Tests only: false keeps the SIMD paths to SSE2 (four pixels per step) on CPUs with AVX2,
+  /// where the 3D-gradient mode otherwise runs eight pixels per AVX2 step (same bits).
+  void setAvx2(bool on) { avx2_ = on; }
 
  private:
   void buildPoints() const;
@@ -112,6 +115,7 @@ class NormalEstimator {
   std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
   bool simd_ = true;  // see setSimd()
+  bool avx2_ = true;  // see setAvx2()
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
