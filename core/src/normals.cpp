@@ -328,6 +328,51 @@ void gradEight(const RowWindows& g, int u, int r) {
                    _mm256_extractf128_ps(oz, 1), o + 12);
 }
 
+// The 3D-gradient integral row of depth input, eight pixels per step while u + 8 < cols (the
+// SSE2 loop's operations on eight lanes; the running sums are uint32, so any order of the
+// additions gives the same bits). `acc` (X, Y, Z, count) is the running sum of the row so far.
+// Returns the first pixel not done.
+int gradIntegralRowAvx2(const float* zrow, const float* rx, float ry, const std::uint32_t* above,
+                        std::uint32_t* row, int cols, __m128i& acc) {
+  const __m256 scale = _mm256_set1_ps(1e4f), zero = _mm256_setzero_ps(), vry = _mm256_set1_ps(ry);
+  const __m256i one = _mm256_set1_epi32(1);
+  __m256i run = _mm256_broadcastsi128_si256(acc);  // the running sum in both halves
+  int u = 0;
+  for (; u + 8 < cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u);
+    const __m256i ok = _mm256_castps_si256(_mm256_cmp_ps(z, zero, _CMP_GT_OQ));
+    auto toFixed = [&](__m256 c) {
+      return _mm256_and_si256(_mm256_cvttps_epi32(_mm256_mul_ps(c, scale)), ok);
+    };
+    const __m256i fx = toFixed(_mm256_mul_ps(_mm256_loadu_ps(rx + u), z));
+    const __m256i fy = toFixed(_mm256_mul_ps(vry, z)), fz = toFixed(z);
+    const __m256i count = _mm256_and_si256(ok, one);
+    // Elements (x, y, z, count) of pixels k (low half) and k + 4 (high half).
+    const __m256i xy01 = _mm256_unpacklo_epi32(fx, fy), zc01 = _mm256_unpacklo_epi32(fz, count);
+    const __m256i xy23 = _mm256_unpackhi_epi32(fx, fy), zc23 = _mm256_unpackhi_epi32(fz, count);
+    const __m256i p0 = _mm256_unpacklo_epi64(xy01, zc01), p1 = _mm256_unpackhi_epi64(xy01, zc01);
+    const __m256i p2 = _mm256_unpacklo_epi64(xy23, zc23), p3 = _mm256_unpackhi_epi64(xy23, zc23);
+    // Prefix sums within each half, then the low half's total into the high half, then the row's.
+    const __m256i q1 = _mm256_add_epi32(p0, p1), q2 = _mm256_add_epi32(q1, p2);
+    const __m256i q3 = _mm256_add_epi32(q2, p3);
+    const __m256i carry = _mm256_add_epi32(run, _mm256_permute2x128_si256(q3, q3, 0x08));
+    const __m256i c0 = _mm256_add_epi32(p0, carry), c1 = _mm256_add_epi32(q1, carry);
+    const __m256i c2 = _mm256_add_epi32(q2, carry), c3 = _mm256_add_epi32(q3, carry);
+    run = _mm256_permute2x128_si256(c3, c3, 0x11);
+    auto put = [&](int k, __m256i e) {  // pixels u + k, u + k + 1
+      const auto* up = reinterpret_cast<const __m256i*>(above + (u + k + 1) * 4);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + (u + k + 1) * 4),
+                          _mm256_add_epi32(_mm256_loadu_si256(up), e));
+    };
+    put(0, _mm256_permute2x128_si256(c0, c1, 0x20));
+    put(2, _mm256_permute2x128_si256(c2, c3, 0x20));
+    put(4, _mm256_permute2x128_si256(c0, c1, 0x31));
+    put(6, _mm256_permute2x128_si256(c2, c3, 0x31));
+  }
+  acc = _mm256_castsi256_si128(run);
+  return u;
+}
+
 #pragma GCC pop_options
 
 bool cpuHasAvx2() {
@@ -708,9 +753,14 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     integral_rows_[y] = packed_.data() + static_cast<std::size_t>(y % ring_rows) * rstride;
   std::uint32_t* const* irow = integral_rows_.data();
   std::fill(irow[0], irow[0] + rstride, 0u);
+  [[maybe_unused]] bool use_avx2 =
+      false;  // AVX2 steps where the CPU has them (tests: setAvx2(false))
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = avx2_ && cpuHasAvx2();
+#endif
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
-  auto buildRow = [&](int v) {
+  auto buildRow = [&](int v) __attribute__((always_inline)) {
     std::uint32_t* row = irow[v + 1];
     const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
@@ -745,6 +795,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // per pixel from memory instead of 12.
         const __m128 ry = _mm_set1_ps(ry_v);
         const __m128i one = _mm_set1_epi32(1);
+#if defined(SHAPESENSE_NORMALS_AVX2)
+        if (use_avx2) u = gradIntegralRowAvx2(zrow, rx, ry_v, above, row, cols, acc);
+#endif
         for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
           const __m128 z = _mm_loadu_ps(zrow + u);
           const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
@@ -1118,7 +1171,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       // pixels per step elsewhere.
       bool eight = false;
 #if defined(SHAPESENSE_NORMALS_AVX2)
-      eight = M == kGrad && avx2_ && cpuHasAvx2();
+      eight = M == kGrad && use_avx2;
 #endif
       while (u + 4 <= cols) {
 #if defined(SHAPESENSE_NORMALS_AVX2)
