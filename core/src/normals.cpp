@@ -373,6 +373,68 @@ int gradIntegralRowAvx2(const float* zrow, const float* rx, float ry, const std:
   return u;
 }
 
+// markSteps() on eight pixels per step, the SSE2 steps' operations on eight lanes (the same
+// flags): the vertical steps of row v (up to the returned *u_vertical), then the horizontal ones
+// between neighbours from pixel 1 (up to *u_horizontal); the pixels that follow a hole are listed
+// in after_hole (their steps across the gap are the caller's).
+void markStepsRowAvx2(const float* zrow, float* last_z, int* last_v, int v, int cols, int max_gap,
+                      float factor, float noise_k, std::uint8_t* steps, std::size_t step_stride,
+                      int* u_vertical, int* u_horizontal, int* after_hole, int* n_after_hole) {
+  const __m256 vfactor = _mm256_set1_ps(factor), vnoise = _mm256_set1_ps(noise_k);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256i vv = _mm256_set1_epi32(v), gap_limit = _mm256_set1_epi32(max_gap + 2);
+  int u = 0;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u), za = _mm256_loadu_ps(last_z + u);
+    const __m256i lv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(last_v + u));
+    const __m256 ok = _mm256_cmp_ps(z, zero, _CMP_GT_OQ);
+    const __m256i gap1 = _mm256_sub_epi32(vv, lv);
+    const __m256 zmin = _mm256_min_ps(za, z);
+    const __m256 by_factor = _mm256_mul_ps(_mm256_mul_ps(vfactor, zmin), _mm256_cvtepi32_ps(gap1));
+    const __m256 by_noise = _mm256_mul_ps(_mm256_mul_ps(vnoise, zmin), zmin);
+    const __m256 threshold = _mm256_max_ps(by_noise, by_factor);
+    const __m256 step =
+        _mm256_cmp_ps(_mm256_and_ps(_mm256_sub_ps(z, za), abs_mask), threshold, _CMP_GT_OQ);
+    const __m256 near = _mm256_castsi256_ps(_mm256_cmpgt_epi32(gap_limit, gap1));
+    const int marks = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(ok, near), step));
+    _mm256_storeu_ps(last_z + u, _mm256_blendv_ps(za, z, ok));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(last_v + u),
+                        _mm256_blendv_epi8(lv, vv, _mm256_castps_si256(ok)));
+    if (marks == 0) continue;
+    alignas(32) int rows_above[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(rows_above), lv);
+    for (int k = 0; k < 8; ++k)
+      if (marks & (1 << k))
+        steps[static_cast<std::size_t>(rows_above[k]) * step_stride + u + k] = 1;
+  }
+  *u_vertical = u;
+  std::uint8_t* s = steps + static_cast<std::size_t>(v) * step_stride;
+  int n = 0;
+  for (u = 1; u + 8 <= cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u), zl = _mm256_loadu_ps(zrow + u - 1);
+    const __m256 zmin = _mm256_min_ps(zl, z);
+    const __m256 by_factor = _mm256_mul_ps(vfactor, zmin);
+    const __m256 by_noise = _mm256_mul_ps(_mm256_mul_ps(vnoise, zmin), zmin);
+    const __m256 threshold = _mm256_max_ps(by_noise, by_factor);
+    const __m256 ok = _mm256_cmp_ps(z, zero, _CMP_GT_OQ), okl = _mm256_cmp_ps(zl, zero, _CMP_GT_OQ);
+    const __m256 step = _mm256_and_ps(
+        _mm256_and_ps(ok, okl),
+        _mm256_cmp_ps(_mm256_and_ps(_mm256_sub_ps(z, zl), abs_mask), threshold, _CMP_GT_OQ));
+    const __m256i si = _mm256_castps_si256(step);
+    __m128i b = _mm_packs_epi32(_mm256_castsi256_si128(si), _mm256_extracti128_si256(si, 1));
+    b = _mm_and_si128(_mm_packs_epi16(b, b), _mm_set1_epi8(1));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(s + u - 1), b);
+    int holes = _mm256_movemask_ps(_mm256_andnot_ps(okl, ok));
+    while (holes != 0) {
+      after_hole[n++] = u + __builtin_ctz(static_cast<unsigned>(holes));
+      holes &= holes - 1;
+    }
+  }
+  *u_horizontal = u;
+  *n_after_hole = n;
+}
+
 #pragma GCC pop_options
 
 bool cpuHasAvx2() {
@@ -404,6 +466,11 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
+  [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+  after_hole_.resize(static_cast<std::size_t>(cols));
+#endif
   float* last_z = last_z_.data();
   int* last_v = last_v_.data();
   for (int v = 0; v < rows; ++v) {
@@ -414,6 +481,13 @@ void NormalEstimator::markSteps() {
     // (rare) marks are written at once, as they go to the row of that pixel. No mark of this
     // pass lands in row v, which the horizontal pass below assigns.
     int u = 0;
+    int u_horizontal = 1, n_after_hole = 0;  // AVX2: horizontal steps done, holes to follow up
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      markStepsRowAvx2(zrow, last_z, last_v, v, cols, max_gap, factor, noise_k, steps_.data,
+                       steps_.step, &u, &u_horizontal, after_hole_.data(), &n_after_hole);
+    }
+#endif
 #if defined(__SSE2__)
     if (simd_) {
       const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
@@ -470,7 +544,8 @@ void NormalEstimator::markSteps() {
       if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
         s[prev_u] = 1;
     };
-    u = 1;
+    for (int i = 0; i < n_after_hole; ++i) acrossGap(after_hole_[i]);  // (marks left of them)
+    u = u_horizontal;
 #if defined(__SSE2__)
     if (simd_) {
       const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);

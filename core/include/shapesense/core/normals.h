@@ -114,8 +114,9 @@ class NormalEstimator {
   std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
   std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  bool simd_ = true;  // see setSimd()
-  bool avx2_ = true;  // see setAvx2()
+  std::vector<int> after_hole_;  // markSteps(), AVX2: the pixels of a row that follow a hole
+  bool simd_ = true;             // see setSimd()
+  bool avx2_ = true;             // see setAvx2()
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
