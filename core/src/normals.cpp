@@ -435,6 +435,90 @@ void markStepsRowAvx2(const float* zrow, float* last_z, int* last_v, int v, int 
   *n_after_hole = n;
 }
 
+// stepDistance() pieces, sixteen pixels per step: d = far except 0 on step marks (returns the
+// first pixel not done); the fold of the row o before / after in the pass into d[1 .. cols - 2]
+// (returns the first pixel not done); the running-minimum scan (dir > 0: forward from pixel 0,
+// else backward from cols - 1; returns the first pixel not scanned, for the serial tail). The
+// minima are exact, so these give the values of the SSE2 and scalar loops.
+int stepInitAvx2(const std::uint8_t* st, std::int16_t* d, int cols, std::int16_t far) {
+  const __m256i vfar = _mm256_set1_epi16(far);
+  int u = 0;
+  for (; u + 16 <= cols; u += 16) {
+    const __m256i marks =
+        _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(st + u)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(d + u),
+                        _mm256_and_si256(_mm256_cmpeq_epi16(marks, _mm256_setzero_si256()), vfar));
+  }
+  return u;
+}
+
+int stepFoldAvx2(std::int16_t* d, const std::int16_t* o, int cols) {
+  auto ld = [&](const std::int16_t* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  const __m256i one = _mm256_set1_epi16(1);
+  int u = 1;
+  for (; u + 17 <= cols; u += 16) {
+    const __m256i m = _mm256_add_epi16(
+        _mm256_min_epi16(_mm256_min_epi16(ld(o + u - 1), ld(o + u)), ld(o + u + 1)), one);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(d + u), _mm256_min_epi16(m, ld(d + u)));
+  }
+  return u;
+}
+
+int stepScanAvx2(std::int16_t* d, int cols, int dir) {
+  const __m256i big = _mm256_set1_epi16(0x7fff);  // "no value": saturates when incremented
+  // Lane i takes lane i - n (up) or i + n (down) across the halves; `big` shifts in.
+  auto up = [&](__m256i x, auto n) {
+    return _mm256_alignr_epi8(x, _mm256_permute2x128_si256(x, big, 0x02),
+                              16 - 2 * decltype(n)::value);
+  };
+  auto down = [&](__m256i x, auto n) {
+    return _mm256_alignr_epi8(_mm256_permute2x128_si256(x, big, 0x31), x, 2 * decltype(n)::value);
+  };
+  using one = std::integral_constant<int, 1>;
+  using two = std::integral_constant<int, 2>;
+  using four = std::integral_constant<int, 4>;
+  using eight = std::integral_constant<int, 8>;
+  auto k = [&](int n) { return _mm256_set1_epi16(static_cast<short>(n)); };
+  __m256i carry = big;  // the value before the block, in every lane
+  if (dir > 0) {
+    const __m256i ramp = _mm256_setr_epi16(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16);
+    int u = 0;
+    for (; u + 16 <= cols; u += 16) {
+      auto* p = reinterpret_cast<__m256i*>(d + u);
+      __m256i x = _mm256_loadu_si256(p);
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, one{}), k(1)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, two{}), k(2)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, four{}), k(4)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, eight{}), k(8)));
+      const __m256i next =
+          _mm256_min_epi16(_mm256_set1_epi16(static_cast<short>(_mm256_extract_epi16(x, 15))),
+                           _mm256_adds_epi16(carry, k(16)));
+      _mm256_storeu_si256(p, _mm256_min_epi16(x, _mm256_adds_epi16(carry, ramp)));
+      carry = next;
+    }
+    return u;
+  }
+  const __m256i ramp_back =
+      _mm256_setr_epi16(16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1);
+  int u = cols - 1;
+  for (; u - 15 >= 0; u -= 16) {
+    auto* p = reinterpret_cast<__m256i*>(d + u - 15);
+    __m256i x = _mm256_loadu_si256(p);
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, one{}), k(1)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, two{}), k(2)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, four{}), k(4)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, eight{}), k(8)));
+    const __m256i next =
+        _mm256_min_epi16(_mm256_set1_epi16(static_cast<short>(_mm256_extract_epi16(x, 0))),
+                         _mm256_adds_epi16(carry, k(16)));
+    _mm256_storeu_si256(p, _mm256_min_epi16(x, _mm256_adds_epi16(carry, ramp_back)));
+    carry = next;
+  }
+  return u;
+}
+
 #pragma GCC pop_options
 
 bool cpuHasAvx2() {
@@ -597,8 +681,15 @@ void NormalEstimator::stepDistance(int cap) {
   // (d[u - k dir] + k). The serial recurrence costs a dependent min per pixel; with SSE2 eight
   // pixels at a time take three shift-add-min steps (k < 8 within the block) and the block before
   // enters as its edge value + 1..8. Same minima, so same values.
-  auto scan = [cols](std::int16_t* d, int dir) {
+  [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+#endif
+  auto scan = [cols, use_avx2](std::int16_t* d, int dir) {
     int u = dir > 0 ? 0 : cols - 1;  // first pixel not yet scanned
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) u = stepScanAvx2(d, cols, dir);
+#endif
 #if defined(__SSE2__)
     const __m128i ramp = _mm_setr_epi16(1, 2, 3, 4, 5, 6, 7, 8);
     const __m128i ramp_back = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
@@ -616,7 +707,9 @@ void NormalEstimator::stepDistance(int cap) {
     using one = std::integral_constant<int, 1>;
     using two = std::integral_constant<int, 2>;
     using four = std::integral_constant<int, 4>;
-    if (dir > 0) {
+    if (use_avx2) {
+      // done above
+    } else if (dir > 0) {
       __m128i carry = big;  // d[u - 1] in every lane
       for (; u + 8 <= cols; u += 8) {
         auto* p = reinterpret_cast<__m128i*>(d + u);
@@ -658,10 +751,14 @@ void NormalEstimator::stepDistance(int cap) {
     }
   };
   // Folds in the row before (forward) or after (backward) in the pass: neighbours u - 1, u, u + 1.
-  auto fold = [cols](std::int16_t* d, const std::int16_t* o) {
+  auto fold = [cols, use_avx2](std::int16_t* d, const std::int16_t* o) {
     d[0] =
         std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
-    for (int u = 1; u + 1 < cols; ++u) {
+    int u = 1;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) u = stepFoldAvx2(d, o, cols);
+#endif
+    for (; u + 1 < cols; ++u) {
       const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
       const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
       d[u] = m < d[u] ? m : d[u];
@@ -672,7 +769,11 @@ void NormalEstimator::stepDistance(int cap) {
   for (int v = 0; v < rows; ++v) {
     const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
     std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    int u = 0;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) u = stepInitAvx2(st, d, cols, far);
+#endif
+    for (; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
     if (v > 0 && cols > 1) fold(d, d - cols);
     scan(d, 1);
   }
