@@ -519,6 +519,35 @@ int stepScanAvx2(std::int16_t* d, int cols, int dir) {
   return u;
 }
 
+// The gradient modes' window radii of a row (step (a) of runGradient), eight pixels per step with
+// the scalar loop's operations (the selects as min / max: no NaN reaches them). Returns the first
+// pixel not done.
+int radiusRowAvx2(const float* zrow, const std::int16_t* dist, const float* colb, int cols,
+                  float base_r, float const_r, float min_rf, float max_rf, float bv, int* rr) {
+  const __m256 vbase = _mm256_set1_ps(base_r), vconst = _mm256_set1_ps(const_r);
+  const __m256 half = _mm256_set1_ps(0.5f), vmin = _mm256_set1_ps(min_rf);
+  const __m256 vmax = _mm256_set1_ps(max_rf), vbv = _mm256_set1_ps(bv);
+  const __m256i two = _mm256_set1_epi32(2);
+  int u = 0;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256 zp = _mm256_loadu_ps(zrow + u);
+    const __m256 ok = _mm256_cmp_ps(zp, _mm256_setzero_ps(), _CMP_GT_OQ);
+    __m256 r =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vbase, _mm256_and_ps(ok, zp)), vconst), half);
+    r = _mm256_max_ps(r, vmin);
+    r = _mm256_min_ps(r, vmax);
+    r = _mm256_min_ps(r, _mm256_loadu_ps(colb + u));
+    r = _mm256_min_ps(r, vbv);
+    const __m256i d32 =
+        _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(dist + u)));
+    r = _mm256_min_ps(r, _mm256_cvtepi32_ps(_mm256_sub_epi32(d32, two)));
+    const __m256 keep = _mm256_and_ps(ok, _mm256_cmp_ps(r, vmin, _CMP_GE_OQ));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(rr + u),
+                        _mm256_and_si256(_mm256_cvttps_epi32(r), _mm256_castps_si256(keep)));
+  }
+  return u;
+}
+
 #pragma GCC pop_options
 
 bool cpuHasAvx2() {
@@ -1120,7 +1149,12 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     // step mark: r + 1 < distance.
     const float bv = static_cast<float>(border_v);
     const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    for (int u = 0; u < cols; ++u) {
+    int u0 = 0;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2)
+      u0 = radiusRowAvx2(zrow, dist, colb, cols, base_r, const_r, min_rf, max_rf, bv, rr);
+#endif
+    for (int u = u0; u < cols; ++u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
       float r = base_r * (ok ? zp : 0.0f) + const_r + 0.5f;
