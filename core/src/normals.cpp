@@ -783,14 +783,19 @@ void NormalEstimator::stepDistance(int cap) {
   auto fold = [cols, use_avx2](std::int16_t* d, const std::int16_t* o) {
     d[0] =
         std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
-    int u = 1;
-#if defined(SHAPESENSE_NORMALS_AVX2)
-    if (use_avx2) u = stepFoldAvx2(d, o, cols);
-#endif
-    for (; u + 1 < cols; ++u) {
+    auto at = [&](int u) {
       const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
       const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
       d[u] = m < d[u] ? m : d[u];
+    };
+    // (Separate loops: a loop from a computed start does not vectorise.)
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      for (int u = stepFoldAvx2(d, o, cols); u + 1 < cols; ++u) at(u);
+    } else
+#endif
+    {
+      for (int u = 1; u + 1 < cols; ++u) at(u);
     }
     d[cols - 1] = std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1),
                             static_cast<std::int16_t>(o[cols - 2] + 1)});
@@ -798,11 +803,15 @@ void NormalEstimator::stepDistance(int cap) {
   for (int v = 0; v < rows; ++v) {
     const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
     std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    int u = 0;
 #if defined(SHAPESENSE_NORMALS_AVX2)
-    if (use_avx2) u = stepInitAvx2(st, d, cols, far);
+    if (use_avx2) {
+      for (int u = stepInitAvx2(st, d, cols, far); u < cols; ++u)
+        d[u] = st[u] ? std::int16_t{0} : far;
+    } else
 #endif
-    for (; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    {
+      for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    }
     if (v > 0 && cols > 1) fold(d, d - cols);
     scan(d, 1);
   }
@@ -1149,12 +1158,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     // step mark: r + 1 < distance.
     const float bv = static_cast<float>(border_v);
     const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    int u0 = 0;
-#if defined(SHAPESENSE_NORMALS_AVX2)
-    if (use_avx2)
-      u0 = radiusRowAvx2(zrow, dist, colb, cols, base_r, const_r, min_rf, max_rf, bv, rr);
-#endif
-    for (int u = u0; u < cols; ++u) {
+    auto radius = [&](int u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
       float r = base_r * (ok ? zp : 0.0f) + const_r + 0.5f;
@@ -1165,6 +1169,16 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const float by_step = static_cast<float>(dist[u] - 2);
       r = r < by_step ? r : by_step;
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
+    };
+    // (Separate loops: a loop from a computed start does not vectorise.)
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      const int u0 = radiusRowAvx2(zrow, dist, colb, cols, base_r, const_r, min_rf, max_rf, bv, rr);
+      for (int u = u0; u < cols; ++u) radius(u);
+    } else
+#endif
+    {
+      for (int u = 0; u < cols; ++u) radius(u);
     }
     // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
     // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
