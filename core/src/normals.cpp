@@ -548,6 +548,23 @@ int radiusRowAvx2(const float* zrow, const std::int16_t* dist, const float* colb
   return u;
 }
 
+// compute()'s z of a depth row (mm -> m, NaN without depth), sixteen pixels per step with the
+// SSE2 loop's operations. Returns the first pixel not done.
+int depthRowAvx2(const std::uint16_t* d, float* zr, int cols) {
+  const __m256 to_metres = _mm256_set1_ps(0.001f), zero = _mm256_setzero_ps();
+  const __m256 nan = _mm256_set1_ps(kNaN);
+  auto toZ = [&](__m128i mm16) {
+    const __m256 metres = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(mm16)), to_metres);
+    return _mm256_blendv_ps(nan, metres, _mm256_cmp_ps(metres, zero, _CMP_GT_OQ));
+  };
+  int u = 0;
+  for (; u + 16 <= cols; u += 16) {
+    _mm256_storeu_ps(zr + u, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u))));
+    _mm256_storeu_ps(zr + u + 8, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u + 8))));
+  }
+  return u;
+}
+
 #pragma GCC pop_options
 
 bool cpuHasAvx2() {
@@ -1481,10 +1498,17 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     for (int v = 0; v < rows; ++v) ray_y_[v] = (static_cast<float>(v) - cy) * inv_fy;
     points_from_depth_ = true;
     points_built_ = false;
+    [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+#endif
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       int u = 0;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+      if (use_avx2) u = depthRowAvx2(d, zr, cols);
+#endif
 #if defined(__SSE2__)
       const __m128 to_metres = _mm_set1_ps(0.001f);
       const __m128 zero = _mm_setzero_ps(), nan = _mm_set1_ps(kNaN);
