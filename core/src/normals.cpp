@@ -1334,7 +1334,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - cy);
       // The normals of the lanes of pixels u..u+3 whose radius is r (rv: r in every lane; the
       // other lanes come out 0).
-      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz) {
+      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz)
+          __attribute__((always_inline)) {
         ensure(row_here, rad_here, u - 1, v, rv, r);
         ensure(row_here, rad_here, u + 1, v, rv, r);
         ensure(row_above, rad_above, u, v - 1, rv, r);
