@@ -1411,7 +1411,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       // Eight pixels per AVX2 step (3D gradient, where the CPU has AVX2) where their valid lanes
       // share one radius and the windows of centres u - 1 .. u + 8 lie inside the image; four
       // pixels per step elsewhere.
-      bool eight = false;
+      [[maybe_unused]] bool eight = false;
 #if defined(SHAPESENSE_NORMALS_AVX2)
       eight = M == kGrad && use_avx2;
 #endif
