@@ -279,7 +279,7 @@ inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y,
   _mm256_storeu_ps(means + 3 * cols + x, nf);
 }
 
-void gradEight(const RowWindows& g, int u, int r) {
+inline void gradEight(const RowWindows& g, int u, int r) {
   const int cols = g.cols, v = g.v;
   const __m256i rv = _mm256_set1_epi32(r);
   auto ensure = [&](float* means, int* radii, int x, int y) {
@@ -561,6 +561,29 @@ int depthRowAvx2(const std::uint16_t* d, float* zr, int cols) {
   for (; u + 16 <= cols; u += 16) {
     _mm256_storeu_ps(zr + u, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u))));
     _mm256_storeu_ps(zr + u + 8, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u + 8))));
+  }
+  return u;
+}
+
+// gradEight() on the eight-pixel groups from pixel u on while their valid lanes share one radius
+// and their windows lie inside the image (groups without valid pixels: NaN). Returns the first
+// pixel not done (a group for the four-pixel steps, or the row's last pixels).
+int gradRun(const RowWindows& g, int u) {
+  const int cols = g.cols;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256i rv8 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(g.rr + u));
+    const int valid =
+        ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv8, _mm256_setzero_si256()))) &
+        255;
+    if (valid == 0) {
+      for (int k = 0; k < 3; ++k) _mm256_storeu_ps(g.out + 3 * u + 8 * k, _mm256_set1_ps(kNaN));
+      continue;
+    }
+    const int r = g.rr[u + __builtin_ctz(static_cast<unsigned>(valid))];
+    const int same =
+        _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv8, _mm256_set1_epi32(r))));
+    if ((valid & ~same) != 0 || u - 1 - r < 0 || u + 9 + r > cols) break;
+    gradEight(g, u, r);
   }
   return u;
 }
@@ -1417,25 +1440,9 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
 #endif
       while (u + 4 <= cols) {
 #if defined(SHAPESENSE_NORMALS_AVX2)
-        if (eight && u + 8 <= cols) {
-          const __m128i lo = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
-          const __m128i hi = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u + 4));
-          const int valid_lanes =
-              ~(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, _mm_setzero_si128()))) |
-                (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, _mm_setzero_si128())))
-                 << 4)) &
-              255;
-          if (valid_lanes != 0) {
-            const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
-            const __m128i rv = _mm_set1_epi32(r);
-            const int same = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, rv))) |
-                             (_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, rv))) << 4);
-            if ((valid_lanes & ~same) == 0 && u - 1 - r >= 0 && u + 9 + r <= cols) {
-              gradEight(g, u, r);
-              u += 8;
-              continue;
-            }
-          }
+        if (eight) {
+          u = gradRun(g, u);
+          if (u + 4 > cols) break;
         }
 #endif
         group4(u);
