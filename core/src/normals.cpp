@@ -9,6 +9,10 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define SHAPESENSE_NORMALS_AVX2 1  // AVX2 functions compiled in, used where the CPU has AVX2
+#endif
 
 namespace shapesense {
 namespace {
@@ -109,6 +113,489 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
   }
 }
 
+#if defined(__SSE2__)
+// The window cache and the row's inputs of the gradient modes' row loop (see runGradient).
+struct RowWindows {
+  float* row_above;  // window-mean cache (planar: X, Y, Z means, count) of the rows of centres
+  float* row_here;   // v - 1, v, v + 1
+  float* row_below;
+  int* rad_above;  // the radius each cached centre holds, 0 = none
+  int* rad_here;
+  int* rad_below;
+  const std::uint32_t* const* irow;  // integral rows (4 uint32 per element: X, Y, Z, count)
+  const int* rr;                     // this row's window radii, 0 = invalid pixel
+  const int* min_count;              // fewest valid pixels per radius
+  int cols, v;
+  float fx, fy, cx, cy;  // intrinsics
+  float ifx, ry;         // normalisation: ray x = (u - cx) * ifx, ray y of this row
+  float* out;            // the CV_32FC3 output row
+};
+
+// quad() of runGradient with a radius per lane: lane k holds the window of radius rl[k] of
+// centre x + k (L uint32 per integral element, K floats per cached window).
+template <int M>
+void quadLanes(const RowWindows& g, float* means, int* radii, int x, int y, __m128i rl) {
+  constexpr int L = M == kGrad ? 4 : 2, K = M == kGrad ? 4 : 2;
+  const int cols = g.cols;
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(radii + x), rl);
+  alignas(16) int r4[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(r4), rl);
+  auto ld = [](const std::uint32_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  __m128i s[4];  // lane k's window sum in the low L uint32
+  for (int k = 0; k < 4; ++k) {
+    const int r = r4[k];
+    const std::ptrdiff_t dh = (2 * r + 1) * L;
+    const std::uint32_t* a = g.irow[y - r] + (x + k - r) * L;
+    const std::uint32_t* c = g.irow[y + r + 1] + (x + k - r) * L;
+    s[k] = _mm_add_epi32(_mm_sub_epi32(_mm_sub_epi32(ld(c + dh), ld(a + dh)), ld(c)), ld(a));
+  }
+  __m128i count;
+  __m128 chan[3];
+  if constexpr (M == kGrad) {  // as quad()
+    const __m128i t0 = _mm_unpacklo_epi32(s[0], s[1]), t1 = _mm_unpacklo_epi32(s[2], s[3]);
+    const __m128i t2 = _mm_unpackhi_epi32(s[0], s[1]), t3 = _mm_unpackhi_epi32(s[2], s[3]);
+    chan[0] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t0, t1));
+    chan[1] = _mm_cvtepi32_ps(_mm_unpackhi_epi64(t0, t1));
+    chan[2] = _mm_cvtepi32_ps(_mm_unpacklo_epi64(t2, t3));
+    count = _mm_unpackhi_epi64(t2, t3);
+  } else {
+    const __m128 s01 = _mm_castsi128_ps(_mm_unpacklo_epi64(s[0], s[1]));
+    const __m128 s23 = _mm_castsi128_ps(_mm_unpacklo_epi64(s[2], s[3]));
+    chan[0] = _mm_cvtepi32_ps(_mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1))));
+    count = _mm_castps_si128(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)));
+  }
+  const __m128 nf = _mm_cvtepi32_ps(count);
+  const __m128 inv_n =
+      _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), nf), _mm_cmpgt_ps(nf, _mm_setzero_ps()));
+  for (int k = 0; k < K - 1; ++k) _mm_storeu_ps(means + k * cols + x, _mm_mul_ps(chan[k], inv_n));
+  _mm_storeu_ps(means + (K - 1) * cols + x, nf);
+}
+
+// four() of runGradient where lane k's radius is rl[k] (lanes: the valid lanes), with the same
+// operations. The left windows are read before the right ones are ensured: the right windows of
+// lanes k can evict the left windows of lanes k + 2 (same centres, other radii). Out of line:
+// rare, and runGradient's loop stays small enough to be inlined whole.
+template <int M>
+__attribute__((noinline)) void fourLanes(const RowWindows& g, int u, __m128i rl, __m128i lanes,
+                                         __m128& nx, __m128& ny, __m128& nz) {
+  constexpr int K = M == kGrad ? 4 : 2;
+  const int cols = g.cols, v = g.v;
+  auto ensure = [&](float* means, int* radii, int x, int y) {
+    const __m128i have = _mm_loadu_si128(reinterpret_cast<const __m128i*>(radii + x));
+    if (_mm_movemask_epi8(_mm_cmpeq_epi32(have, rl)) != 0xFFFF)
+      quadLanes<M>(g, means, radii, x, y, rl);
+  };
+  __m128 lw[K], rw[K], uw[K], dw[K];
+  ensure(g.row_here, g.rad_here, u - 1, v);
+  for (int k = 0; k < K; ++k) lw[k] = _mm_loadu_ps(g.row_here + k * cols + u - 1);
+  ensure(g.row_here, g.rad_here, u + 1, v);
+  for (int k = 0; k < K; ++k) rw[k] = _mm_loadu_ps(g.row_here + k * cols + u + 1);
+  ensure(g.row_above, g.rad_above, u, v - 1);
+  ensure(g.row_below, g.rad_below, u, v + 1);
+  for (int k = 0; k < K; ++k) {
+    uw[k] = _mm_loadu_ps(g.row_above + k * cols + u);
+    dw[k] = _mm_loadu_ps(g.row_below + k * cols + u);
+  }
+  alignas(16) int r4[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(r4), rl);
+  const __m128 min_n =
+      _mm_setr_ps(static_cast<float>(g.min_count[r4[0]]), static_cast<float>(g.min_count[r4[1]]),
+                  static_cast<float>(g.min_count[r4[2]]), static_cast<float>(g.min_count[r4[3]]));
+  const __m128 nmin =
+      _mm_min_ps(_mm_min_ps(lw[K - 1], rw[K - 1]), _mm_min_ps(uw[K - 1], dw[K - 1]));
+  const __m128 ok = _mm_and_ps(_mm_castsi128_ps(lanes), _mm_cmpge_ps(nmin, min_n));
+  if constexpr (M == kGrad) {
+    const __m128 hx = _mm_sub_ps(rw[0], lw[0]), hy = _mm_sub_ps(rw[1], lw[1]),
+                 hz = _mm_sub_ps(rw[2], lw[2]);
+    const __m128 tx = _mm_sub_ps(dw[0], uw[0]), ty = _mm_sub_ps(dw[1], uw[1]),
+                 tz = _mm_sub_ps(dw[2], uw[2]);
+    nx = _mm_sub_ps(_mm_mul_ps(hy, tz), _mm_mul_ps(hz, ty));
+    ny = _mm_sub_ps(_mm_mul_ps(hz, tx), _mm_mul_ps(hx, tz));
+    nz = _mm_sub_ps(_mm_mul_ps(hx, ty), _mm_mul_ps(hy, tx));
+  } else {
+    const __m128 half = _mm_set1_ps(0.5f), quarter = _mm_set1_ps(0.25f);
+    const __m128 zl = lw[0], zr = rw[0], zu_ = uw[0], zd = dw[0];
+    const __m128 du = _mm_mul_ps(half, _mm_sub_ps(zr, zl));
+    const __m128 dv = _mm_mul_ps(half, _mm_sub_ps(zd, zu_));
+    const __m128 zm = _mm_mul_ps(quarter, _mm_add_ps(_mm_add_ps(_mm_add_ps(zl, zr), zu_), zd));
+    const __m128 dx = _mm_sub_ps(
+        _mm_add_ps(_mm_set1_ps(static_cast<float>(u)), _mm_set_ps(3.0f, 2.0f, 1.0f, 0.0f)),
+        _mm_set1_ps(g.cx));
+    const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - g.cy);
+    nx = _mm_mul_ps(_mm_set1_ps(g.fx), du);
+    ny = _mm_mul_ps(_mm_set1_ps(g.fy), dv);
+    nz = _mm_xor_ps(_mm_set1_ps(-0.0f),
+                    _mm_add_ps(_mm_add_ps(zm, _mm_mul_ps(dx, du)), _mm_mul_ps(vdy, dv)));
+  }
+  nx = _mm_and_ps(ok, nx);
+  ny = _mm_and_ps(ok, ny);
+  nz = _mm_and_ps(ok, nz);
+}
+
+#endif
+
+#if defined(SHAPESENSE_NORMALS_AVX2)
+// The 3D-gradient mode's eight-pixel step (AVX2: pixels u..u+7 whose valid lanes share the radius
+// r), with the operations of the four-pixel SSE2 step in the same order, lane for lane: the same
+// bits. AVX2 only, never FMA (a fused multiply-add would round differently). Compiled for AVX2
+// (lambdas included) whatever the build flags; called only where the CPU has it.
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+// The windows of radius r of centres x..x+7 of the row of centres y, into the cache.
+inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y, int r) {
+  const int cols = g.cols;
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(radii + x), _mm256_set1_epi32(r));
+  const std::ptrdiff_t dh = (2 * r + 1) * 4;
+  const std::uint32_t* a = g.irow[y - r] + (x - r) * 4;
+  const std::uint32_t* c = g.irow[y + r + 1] + (x - r) * 4;
+  auto ld = [&](const std::uint32_t* p) {  // (capturing: no static invoker outside AVX2)
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  auto sum = [&](int off) {  // the window sums of two consecutive centres
+    return _mm256_add_epi32(
+        _mm256_sub_epi32(_mm256_sub_epi32(ld(c + dh + off), ld(a + dh + off)), ld(c + off)),
+        ld(a + off));
+  };
+  const __m256i e01 = sum(0), e23 = sum(8), e45 = sum(16), e67 = sum(24);
+  // Centres k (low half) and k + 4 (high half), then the SSE2 step's 4x4 transpose in each half.
+  const __m256i s0 = _mm256_permute2x128_si256(e01, e45, 0x20);
+  const __m256i s1 = _mm256_permute2x128_si256(e01, e45, 0x31);
+  const __m256i s2 = _mm256_permute2x128_si256(e23, e67, 0x20);
+  const __m256i s3 = _mm256_permute2x128_si256(e23, e67, 0x31);
+  const __m256i t0 = _mm256_unpacklo_epi32(s0, s1), t1 = _mm256_unpacklo_epi32(s2, s3);
+  const __m256i t2 = _mm256_unpackhi_epi32(s0, s1), t3 = _mm256_unpackhi_epi32(s2, s3);
+  const __m256 nf = _mm256_cvtepi32_ps(_mm256_unpackhi_epi64(t2, t3));
+  const __m256 inv_n = _mm256_and_ps(_mm256_div_ps(_mm256_set1_ps(1.0f), nf),
+                                     _mm256_cmp_ps(nf, _mm256_setzero_ps(), _CMP_GT_OQ));
+  _mm256_storeu_ps(means + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpacklo_epi64(t0, t1)), inv_n));
+  _mm256_storeu_ps(means + cols + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpackhi_epi64(t0, t1)), inv_n));
+  _mm256_storeu_ps(means + 2 * cols + x,
+                   _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_unpacklo_epi64(t2, t3)), inv_n));
+  _mm256_storeu_ps(means + 3 * cols + x, nf);
+}
+
+inline void gradEight(const RowWindows& g, int u, int r) {
+  const int cols = g.cols, v = g.v;
+  const __m256i rv = _mm256_set1_epi32(r);
+  auto ensure = [&](float* means, int* radii, int x, int y) {
+    const __m256i have = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(radii + x));
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(have, rv)) != -1) gradOct(g, means, radii, x, y, r);
+  };
+  ensure(g.row_here, g.rad_here, u - 1, v);
+  ensure(g.row_here, g.rad_here, u + 1, v);
+  ensure(g.row_above, g.rad_above, u, v - 1);
+  ensure(g.row_below, g.rad_below, u, v + 1);
+  auto l = [&](int k) { return _mm256_loadu_ps(g.row_here + k * cols + u - 1); };
+  auto rt = [&](int k) { return _mm256_loadu_ps(g.row_here + k * cols + u + 1); };
+  auto up = [&](int k) { return _mm256_loadu_ps(g.row_above + k * cols + u); };
+  auto dn = [&](int k) { return _mm256_loadu_ps(g.row_below + k * cols + u); };
+  const __m256 lanes = _mm256_castsi256_ps(
+      _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(g.rr + u)), rv));
+  const __m256 nmin = _mm256_min_ps(_mm256_min_ps(l(3), rt(3)), _mm256_min_ps(up(3), dn(3)));
+  const __m256 ok = _mm256_and_ps(
+      lanes, _mm256_cmp_ps(nmin, _mm256_set1_ps(static_cast<float>(g.min_count[r])), _CMP_GE_OQ));
+  const __m256 hx = _mm256_sub_ps(rt(0), l(0)), hy = _mm256_sub_ps(rt(1), l(1)),
+               hz = _mm256_sub_ps(rt(2), l(2));
+  const __m256 tx = _mm256_sub_ps(dn(0), up(0)), ty = _mm256_sub_ps(dn(1), up(1)),
+               tz = _mm256_sub_ps(dn(2), up(2));
+  const __m256 nx = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hy, tz), _mm256_mul_ps(hz, ty)));
+  const __m256 ny = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hz, tx), _mm256_mul_ps(hx, tz)));
+  const __m256 nz = _mm256_and_ps(ok, _mm256_sub_ps(_mm256_mul_ps(hx, ty), _mm256_mul_ps(hy, tx)));
+  // normalize4() on eight lanes.
+  const __m256 sign = _mm256_set1_ps(-0.0f), zero = _mm256_setzero_ps();
+  const __m256 nan = _mm256_set1_ps(kNaN), eps = _mm256_set1_ps(1e-20f);
+  const __m256 uf = _mm256_add_ps(_mm256_set1_ps(static_cast<float>(u)),
+                                  _mm256_setr_ps(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f));
+  const __m256 len2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, nx), _mm256_mul_ps(ny, ny)),
+                                    _mm256_mul_ps(nz, nz));
+  const __m256 valid = _mm256_cmp_ps(len2, eps, _CMP_GT_OQ);
+  const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(uf, _mm256_set1_ps(g.cx)), _mm256_set1_ps(g.ifx));
+  const __m256 dot = _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(nx, rx), _mm256_mul_ps(ny, _mm256_set1_ps(g.ry))), nz);
+  __m256 k = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(_mm256_max_ps(len2, eps)));
+  k = _mm256_xor_ps(k, _mm256_and_ps(sign, _mm256_cmp_ps(dot, zero, _CMP_GT_OQ)));
+  k = _mm256_or_ps(_mm256_and_ps(valid, k), _mm256_andnot_ps(valid, nan));
+  const __m256 ox = _mm256_mul_ps(nx, k), oy = _mm256_mul_ps(ny, k), oz = _mm256_mul_ps(nz, k);
+  float* o = g.out + 3 * u;
+  storeInterleaved(_mm256_castps256_ps128(ox), _mm256_castps256_ps128(oy),
+                   _mm256_castps256_ps128(oz), o);
+  storeInterleaved(_mm256_extractf128_ps(ox, 1), _mm256_extractf128_ps(oy, 1),
+                   _mm256_extractf128_ps(oz, 1), o + 12);
+}
+
+// The 3D-gradient integral row of depth input, eight pixels per step while u + 8 < cols (the
+// SSE2 loop's operations on eight lanes; the running sums are uint32, so any order of the
+// additions gives the same bits). `acc` (X, Y, Z, count) is the running sum of the row so far.
+// Returns the first pixel not done.
+int gradIntegralRowAvx2(const float* zrow, const float* rx, float ry, const std::uint32_t* above,
+                        std::uint32_t* row, int cols, __m128i& acc) {
+  const __m256 scale = _mm256_set1_ps(1e4f), zero = _mm256_setzero_ps(), vry = _mm256_set1_ps(ry);
+  const __m256i one = _mm256_set1_epi32(1);
+  __m256i run = _mm256_broadcastsi128_si256(acc);  // the running sum in both halves
+  int u = 0;
+  for (; u + 8 < cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u);
+    const __m256i ok = _mm256_castps_si256(_mm256_cmp_ps(z, zero, _CMP_GT_OQ));
+    auto toFixed = [&](__m256 c) {
+      return _mm256_and_si256(_mm256_cvttps_epi32(_mm256_mul_ps(c, scale)), ok);
+    };
+    const __m256i fx = toFixed(_mm256_mul_ps(_mm256_loadu_ps(rx + u), z));
+    const __m256i fy = toFixed(_mm256_mul_ps(vry, z)), fz = toFixed(z);
+    const __m256i count = _mm256_and_si256(ok, one);
+    // Elements (x, y, z, count) of pixels k (low half) and k + 4 (high half).
+    const __m256i xy01 = _mm256_unpacklo_epi32(fx, fy), zc01 = _mm256_unpacklo_epi32(fz, count);
+    const __m256i xy23 = _mm256_unpackhi_epi32(fx, fy), zc23 = _mm256_unpackhi_epi32(fz, count);
+    const __m256i p0 = _mm256_unpacklo_epi64(xy01, zc01), p1 = _mm256_unpackhi_epi64(xy01, zc01);
+    const __m256i p2 = _mm256_unpacklo_epi64(xy23, zc23), p3 = _mm256_unpackhi_epi64(xy23, zc23);
+    // Prefix sums within each half, then the low half's total into the high half, then the row's.
+    const __m256i q1 = _mm256_add_epi32(p0, p1), q2 = _mm256_add_epi32(q1, p2);
+    const __m256i q3 = _mm256_add_epi32(q2, p3);
+    const __m256i carry = _mm256_add_epi32(run, _mm256_permute2x128_si256(q3, q3, 0x08));
+    const __m256i c0 = _mm256_add_epi32(p0, carry), c1 = _mm256_add_epi32(q1, carry);
+    const __m256i c2 = _mm256_add_epi32(q2, carry), c3 = _mm256_add_epi32(q3, carry);
+    run = _mm256_permute2x128_si256(c3, c3, 0x11);
+    auto put = [&](int k, __m256i e) {  // pixels u + k, u + k + 1
+      const auto* up = reinterpret_cast<const __m256i*>(above + (u + k + 1) * 4);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + (u + k + 1) * 4),
+                          _mm256_add_epi32(_mm256_loadu_si256(up), e));
+    };
+    put(0, _mm256_permute2x128_si256(c0, c1, 0x20));
+    put(2, _mm256_permute2x128_si256(c2, c3, 0x20));
+    put(4, _mm256_permute2x128_si256(c0, c1, 0x31));
+    put(6, _mm256_permute2x128_si256(c2, c3, 0x31));
+  }
+  acc = _mm256_castsi256_si128(run);
+  return u;
+}
+
+// markSteps() on eight pixels per step, the SSE2 steps' operations on eight lanes (the same
+// flags): the vertical steps of row v (up to the returned *u_vertical), then the horizontal ones
+// between neighbours from pixel 1 (up to *u_horizontal); the pixels that follow a hole are listed
+// in after_hole (their steps across the gap are the caller's).
+void markStepsRowAvx2(const float* zrow, float* last_z, int* last_v, int v, int cols, int max_gap,
+                      float factor, float noise_k, std::uint8_t* steps, std::size_t step_stride,
+                      int* u_vertical, int* u_horizontal, int* after_hole, int* n_after_hole) {
+  const __m256 vfactor = _mm256_set1_ps(factor), vnoise = _mm256_set1_ps(noise_k);
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256i vv = _mm256_set1_epi32(v), gap_limit = _mm256_set1_epi32(max_gap + 2);
+  int u = 0;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u), za = _mm256_loadu_ps(last_z + u);
+    const __m256i lv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(last_v + u));
+    const __m256 ok = _mm256_cmp_ps(z, zero, _CMP_GT_OQ);
+    const __m256i gap1 = _mm256_sub_epi32(vv, lv);
+    const __m256 zmin = _mm256_min_ps(za, z);
+    const __m256 by_factor = _mm256_mul_ps(_mm256_mul_ps(vfactor, zmin), _mm256_cvtepi32_ps(gap1));
+    const __m256 by_noise = _mm256_mul_ps(_mm256_mul_ps(vnoise, zmin), zmin);
+    const __m256 threshold = _mm256_max_ps(by_noise, by_factor);
+    const __m256 step =
+        _mm256_cmp_ps(_mm256_and_ps(_mm256_sub_ps(z, za), abs_mask), threshold, _CMP_GT_OQ);
+    const __m256 near = _mm256_castsi256_ps(_mm256_cmpgt_epi32(gap_limit, gap1));
+    const int marks = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(ok, near), step));
+    _mm256_storeu_ps(last_z + u, _mm256_blendv_ps(za, z, ok));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(last_v + u),
+                        _mm256_blendv_epi8(lv, vv, _mm256_castps_si256(ok)));
+    if (marks == 0) continue;
+    alignas(32) int rows_above[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(rows_above), lv);
+    for (int k = 0; k < 8; ++k)
+      if (marks & (1 << k))
+        steps[static_cast<std::size_t>(rows_above[k]) * step_stride + u + k] = 1;
+  }
+  *u_vertical = u;
+  std::uint8_t* s = steps + static_cast<std::size_t>(v) * step_stride;
+  int n = 0;
+  for (u = 1; u + 8 <= cols; u += 8) {
+    const __m256 z = _mm256_loadu_ps(zrow + u), zl = _mm256_loadu_ps(zrow + u - 1);
+    const __m256 zmin = _mm256_min_ps(zl, z);
+    const __m256 by_factor = _mm256_mul_ps(vfactor, zmin);
+    const __m256 by_noise = _mm256_mul_ps(_mm256_mul_ps(vnoise, zmin), zmin);
+    const __m256 threshold = _mm256_max_ps(by_noise, by_factor);
+    const __m256 ok = _mm256_cmp_ps(z, zero, _CMP_GT_OQ), okl = _mm256_cmp_ps(zl, zero, _CMP_GT_OQ);
+    const __m256 step = _mm256_and_ps(
+        _mm256_and_ps(ok, okl),
+        _mm256_cmp_ps(_mm256_and_ps(_mm256_sub_ps(z, zl), abs_mask), threshold, _CMP_GT_OQ));
+    const __m256i si = _mm256_castps_si256(step);
+    __m128i b = _mm_packs_epi32(_mm256_castsi256_si128(si), _mm256_extracti128_si256(si, 1));
+    b = _mm_and_si128(_mm_packs_epi16(b, b), _mm_set1_epi8(1));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(s + u - 1), b);
+    int holes = _mm256_movemask_ps(_mm256_andnot_ps(okl, ok));
+    while (holes != 0) {
+      after_hole[n++] = u + __builtin_ctz(static_cast<unsigned>(holes));
+      holes &= holes - 1;
+    }
+  }
+  *u_horizontal = u;
+  *n_after_hole = n;
+}
+
+// stepDistance() pieces, sixteen pixels per step: d = far except 0 on step marks (returns the
+// first pixel not done); the fold of the row o before / after in the pass into d[1 .. cols - 2]
+// (returns the first pixel not done); the running-minimum scan (dir > 0: forward from pixel 0,
+// else backward from cols - 1; returns the first pixel not scanned, for the serial tail). The
+// minima are exact, so these give the values of the SSE2 and scalar loops.
+int stepInitAvx2(const std::uint8_t* st, std::int16_t* d, int cols, std::int16_t far) {
+  const __m256i vfar = _mm256_set1_epi16(far);
+  int u = 0;
+  for (; u + 16 <= cols; u += 16) {
+    const __m256i marks =
+        _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(st + u)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(d + u),
+                        _mm256_and_si256(_mm256_cmpeq_epi16(marks, _mm256_setzero_si256()), vfar));
+  }
+  return u;
+}
+
+int stepFoldAvx2(std::int16_t* d, const std::int16_t* o, int cols) {
+  auto ld = [&](const std::int16_t* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  const __m256i one = _mm256_set1_epi16(1);
+  int u = 1;
+  for (; u + 17 <= cols; u += 16) {
+    const __m256i m = _mm256_add_epi16(
+        _mm256_min_epi16(_mm256_min_epi16(ld(o + u - 1), ld(o + u)), ld(o + u + 1)), one);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(d + u), _mm256_min_epi16(m, ld(d + u)));
+  }
+  return u;
+}
+
+int stepScanAvx2(std::int16_t* d, int cols, int dir) {
+  const __m256i big = _mm256_set1_epi16(0x7fff);  // "no value": saturates when incremented
+  // Lane i takes lane i - n (up) or i + n (down) across the halves; `big` shifts in.
+  auto up = [&](__m256i x, auto n) {
+    return _mm256_alignr_epi8(x, _mm256_permute2x128_si256(x, big, 0x02),
+                              16 - 2 * decltype(n)::value);
+  };
+  auto down = [&](__m256i x, auto n) {
+    return _mm256_alignr_epi8(_mm256_permute2x128_si256(x, big, 0x31), x, 2 * decltype(n)::value);
+  };
+  using one = std::integral_constant<int, 1>;
+  using two = std::integral_constant<int, 2>;
+  using four = std::integral_constant<int, 4>;
+  using eight = std::integral_constant<int, 8>;
+  auto k = [&](int n) { return _mm256_set1_epi16(static_cast<short>(n)); };
+  __m256i carry = big;  // the value before the block, in every lane
+  if (dir > 0) {
+    const __m256i ramp = _mm256_setr_epi16(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16);
+    int u = 0;
+    for (; u + 16 <= cols; u += 16) {
+      auto* p = reinterpret_cast<__m256i*>(d + u);
+      __m256i x = _mm256_loadu_si256(p);
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, one{}), k(1)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, two{}), k(2)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, four{}), k(4)));
+      x = _mm256_min_epi16(x, _mm256_adds_epi16(up(x, eight{}), k(8)));
+      const __m256i next =
+          _mm256_min_epi16(_mm256_set1_epi16(static_cast<short>(_mm256_extract_epi16(x, 15))),
+                           _mm256_adds_epi16(carry, k(16)));
+      _mm256_storeu_si256(p, _mm256_min_epi16(x, _mm256_adds_epi16(carry, ramp)));
+      carry = next;
+    }
+    return u;
+  }
+  const __m256i ramp_back =
+      _mm256_setr_epi16(16, 15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1);
+  int u = cols - 1;
+  for (; u - 15 >= 0; u -= 16) {
+    auto* p = reinterpret_cast<__m256i*>(d + u - 15);
+    __m256i x = _mm256_loadu_si256(p);
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, one{}), k(1)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, two{}), k(2)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, four{}), k(4)));
+    x = _mm256_min_epi16(x, _mm256_adds_epi16(down(x, eight{}), k(8)));
+    const __m256i next =
+        _mm256_min_epi16(_mm256_set1_epi16(static_cast<short>(_mm256_extract_epi16(x, 0))),
+                         _mm256_adds_epi16(carry, k(16)));
+    _mm256_storeu_si256(p, _mm256_min_epi16(x, _mm256_adds_epi16(carry, ramp_back)));
+    carry = next;
+  }
+  return u;
+}
+
+// The gradient modes' window radii of a row (step (a) of runGradient), eight pixels per step with
+// the scalar loop's operations (the selects as min / max: no NaN reaches them). Returns the first
+// pixel not done.
+int radiusRowAvx2(const float* zrow, const std::int16_t* dist, const float* colb, int cols,
+                  float base_r, float const_r, float min_rf, float max_rf, float bv, int* rr) {
+  const __m256 vbase = _mm256_set1_ps(base_r), vconst = _mm256_set1_ps(const_r);
+  const __m256 half = _mm256_set1_ps(0.5f), vmin = _mm256_set1_ps(min_rf);
+  const __m256 vmax = _mm256_set1_ps(max_rf), vbv = _mm256_set1_ps(bv);
+  const __m256i two = _mm256_set1_epi32(2);
+  int u = 0;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256 zp = _mm256_loadu_ps(zrow + u);
+    const __m256 ok = _mm256_cmp_ps(zp, _mm256_setzero_ps(), _CMP_GT_OQ);
+    __m256 r =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(vbase, _mm256_and_ps(ok, zp)), vconst), half);
+    r = _mm256_max_ps(r, vmin);
+    r = _mm256_min_ps(r, vmax);
+    r = _mm256_min_ps(r, _mm256_loadu_ps(colb + u));
+    r = _mm256_min_ps(r, vbv);
+    const __m256i d32 =
+        _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(dist + u)));
+    r = _mm256_min_ps(r, _mm256_cvtepi32_ps(_mm256_sub_epi32(d32, two)));
+    const __m256 keep = _mm256_and_ps(ok, _mm256_cmp_ps(r, vmin, _CMP_GE_OQ));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(rr + u),
+                        _mm256_and_si256(_mm256_cvttps_epi32(r), _mm256_castps_si256(keep)));
+  }
+  return u;
+}
+
+// compute()'s z of a depth row (mm -> m, NaN without depth), sixteen pixels per step with the
+// SSE2 loop's operations. Returns the first pixel not done.
+int depthRowAvx2(const std::uint16_t* d, float* zr, int cols) {
+  const __m256 to_metres = _mm256_set1_ps(0.001f), zero = _mm256_setzero_ps();
+  const __m256 nan = _mm256_set1_ps(kNaN);
+  auto toZ = [&](__m128i mm16) {
+    const __m256 metres = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(mm16)), to_metres);
+    return _mm256_blendv_ps(nan, metres, _mm256_cmp_ps(metres, zero, _CMP_GT_OQ));
+  };
+  int u = 0;
+  for (; u + 16 <= cols; u += 16) {
+    _mm256_storeu_ps(zr + u, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u))));
+    _mm256_storeu_ps(zr + u + 8, toZ(_mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u + 8))));
+  }
+  return u;
+}
+
+// gradEight() on the eight-pixel groups from pixel u on while their valid lanes share one radius
+// and their windows lie inside the image (groups without valid pixels: NaN). Returns the first
+// pixel not done (a group for the four-pixel steps, or the row's last pixels).
+int gradRun(const RowWindows& g, int u) {
+  const int cols = g.cols;
+  for (; u + 8 <= cols; u += 8) {
+    const __m256i rv8 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(g.rr + u));
+    const int valid =
+        ~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv8, _mm256_setzero_si256()))) &
+        255;
+    if (valid == 0) {
+      for (int k = 0; k < 3; ++k) _mm256_storeu_ps(g.out + 3 * u + 8 * k, _mm256_set1_ps(kNaN));
+      continue;
+    }
+    const int r = g.rr[u + __builtin_ctz(static_cast<unsigned>(valid))];
+    const int same =
+        _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(rv8, _mm256_set1_epi32(r))));
+    if ((valid & ~same) != 0 || u - 1 - r < 0 || u + 9 + r > cols) break;
+    gradEight(g, u, r);
+  }
+  return u;
+}
+
+#pragma GCC pop_options
+
+bool cpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+#endif
+
 }  // namespace
 
 // Marks depth steps: between neighbouring valid pixels, and across runs of up to max_gap_px
@@ -117,7 +604,7 @@ void normalizeRow(const float* nx_row, const float* ny_row, const float* nz_row,
 // square window holding pixels of both sides holds a 4-adjacent pair across the step, hence a
 // mark, so "no mark in the window" is exactly "the window does not straddle a step".
 void NormalEstimator::markSteps() {
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
   // No clearing: the horizontal pass assigns every pixel of a row before the vertical pass of
   // later rows marks any of them.
   steps_.create(rows, cols, CV_8UC1);
@@ -132,6 +619,11 @@ void NormalEstimator::markSteps() {
   };
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
+  [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+  after_hole_.resize(static_cast<std::size_t>(cols));
+#endif
   float* last_z = last_z_.data();
   int* last_v = last_v_.data();
   for (int v = 0; v < rows; ++v) {
@@ -142,6 +634,13 @@ void NormalEstimator::markSteps() {
     // (rare) marks are written at once, as they go to the row of that pixel. No mark of this
     // pass lands in row v, which the horizontal pass below assigns.
     int u = 0;
+    int u_horizontal = 1, n_after_hole = 0;  // AVX2: horizontal steps done, holes to follow up
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      markStepsRowAvx2(zrow, last_z, last_v, v, cols, max_gap, factor, noise_k, steps_.data,
+                       steps_.step, &u, &u_horizontal, after_hole_.data(), &n_after_hole);
+    }
+#endif
 #if defined(__SSE2__)
     if (simd_) {
       const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
@@ -198,7 +697,8 @@ void NormalEstimator::markSteps() {
       if (prev_u >= 0 && u - prev_u - 1 <= max_gap && isStep(zrow[u], zrow[prev_u], u - prev_u - 1))
         s[prev_u] = 1;
     };
-    u = 1;
+    for (int i = 0; i < n_after_hole; ++i) acrossGap(after_hole_[i]);  // (marks left of them)
+    u = u_horizontal;
 #if defined(__SSE2__)
     if (simd_) {
       const __m128 vfactor = _mm_set1_ps(factor), vnoise = _mm_set1_ps(noise_k);
@@ -250,8 +750,15 @@ void NormalEstimator::stepDistance(int cap) {
   // (d[u - k dir] + k). The serial recurrence costs a dependent min per pixel; with SSE2 eight
   // pixels at a time take three shift-add-min steps (k < 8 within the block) and the block before
   // enters as its edge value + 1..8. Same minima, so same values.
-  auto scan = [cols](std::int16_t* d, int dir) {
+  [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+#endif
+  auto scan = [cols, use_avx2](std::int16_t* d, int dir) {
     int u = dir > 0 ? 0 : cols - 1;  // first pixel not yet scanned
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) u = stepScanAvx2(d, cols, dir);
+#endif
 #if defined(__SSE2__)
     const __m128i ramp = _mm_setr_epi16(1, 2, 3, 4, 5, 6, 7, 8);
     const __m128i ramp_back = _mm_setr_epi16(8, 7, 6, 5, 4, 3, 2, 1);
@@ -269,7 +776,9 @@ void NormalEstimator::stepDistance(int cap) {
     using one = std::integral_constant<int, 1>;
     using two = std::integral_constant<int, 2>;
     using four = std::integral_constant<int, 4>;
-    if (dir > 0) {
+    if (use_avx2) {
+      // done above
+    } else if (dir > 0) {
       __m128i carry = big;  // d[u - 1] in every lane
       for (; u + 8 <= cols; u += 8) {
         auto* p = reinterpret_cast<__m128i*>(d + u);
@@ -311,13 +820,22 @@ void NormalEstimator::stepDistance(int cap) {
     }
   };
   // Folds in the row before (forward) or after (backward) in the pass: neighbours u - 1, u, u + 1.
-  auto fold = [cols](std::int16_t* d, const std::int16_t* o) {
+  auto fold = [cols, use_avx2](std::int16_t* d, const std::int16_t* o) {
     d[0] =
         std::min({d[0], static_cast<std::int16_t>(o[0] + 1), static_cast<std::int16_t>(o[1] + 1)});
-    for (int u = 1; u + 1 < cols; ++u) {
+    auto at = [&](int u) {
       const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
       const std::int16_t m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
       d[u] = m < d[u] ? m : d[u];
+    };
+    // (Separate loops: a loop from a computed start does not vectorise.)
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      for (int u = stepFoldAvx2(d, o, cols); u + 1 < cols; ++u) at(u);
+    } else
+#endif
+    {
+      for (int u = 1; u + 1 < cols; ++u) at(u);
     }
     d[cols - 1] = std::min({d[cols - 1], static_cast<std::int16_t>(o[cols - 1] + 1),
                             static_cast<std::int16_t>(o[cols - 2] + 1)});
@@ -325,7 +843,15 @@ void NormalEstimator::stepDistance(int cap) {
   for (int v = 0; v < rows; ++v) {
     const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
     std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      for (int u = stepInitAvx2(st, d, cols, far); u < cols; ++u)
+        d[u] = st[u] ? std::int16_t{0} : far;
+    } else
+#endif
+    {
+      for (int u = 0; u < cols; ++u) d[u] = st[u] ? std::int16_t{0} : far;
+    }
     if (v > 0 && cols > 1) fold(d, d - cols);
     scan(d, 1);
   }
@@ -340,7 +866,8 @@ void NormalEstimator::stepDistance(int cap) {
 // the valid count, evaluated at every pixel.
 void NormalEstimator::runCovariance(cv::Mat& normals) {
   constexpr int K = 9;
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
+  buildPoints();  // the moments need x and y too
   const std::size_t mstride = static_cast<std::size_t>(cols + 1);
   const std::size_t stride = mstride * K;
   mask_.resize(static_cast<std::size_t>(rows + 1) * mstride);
@@ -463,7 +990,7 @@ void NormalEstimator::runCovariance(cv::Mat& normals) {
 // because no field of a window sum overflows. Depth steps bound the radius through stepDistance().
 template <int M>
 void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals) {
-  const int rows = points_.rows, cols = points_.cols;
+  const int rows = rows_, cols = cols_;
   const std::size_t estride = static_cast<std::size_t>(cols + 1);
   constexpr int L = M == kGrad ? 4 : 2;  // uint32 per element
   constexpr int K = M == kGrad ? 4 : 2;  // floats per cached window: means, then the count
@@ -480,13 +1007,34 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     integral_rows_[y] = packed_.data() + static_cast<std::size_t>(y % ring_rows) * rstride;
   std::uint32_t* const* irow = integral_rows_.data();
   std::fill(irow[0], irow[0] + rstride, 0u);
+  [[maybe_unused]] bool use_avx2 =
+      false;  // AVX2 steps where the CPU has them (tests: setAvx2(false))
+#if defined(SHAPESENSE_NORMALS_AVX2)
+  use_avx2 = avx2_ && cpuHasAvx2();
+#endif
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
-  auto buildRow = [&](int v) {
+  auto buildRow = [&](int v) __attribute__((always_inline)) {
     std::uint32_t* row = irow[v + 1];
     const std::uint32_t* above = irow[v];
     if constexpr (M == kGrad) {
-      const float* pf = points_.ptr<float>(v);
+      // Point-cloud input: the points' row; depth input: none (the points are z times the rays,
+      // rebuilt here from the z plane with the products buildPoints() uses, so the same values).
+      const float* pf = points_from_depth_ ? nullptr : points_.ptr<float>(v);
+      const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
+      const float* rx = ray_x_.data();
+      const float ry_v = points_from_depth_ ? ray_y_[v] : 0.0f;
+      // (x, y, z, -) of pixel `col` of this row.
+      auto point = [&](int col) {
+        v4f xyz = {0.0f, 0.0f, 0.0f, 0.0f};
+        if (points_from_depth_) {
+          const float z = zrow[col];
+          xyz = v4f{rx[col] * z, ry_v * z, z, 0.0f};
+        } else {
+          std::memcpy(&xyz, pf + 3 * col, 3 * sizeof(float));
+        }
+        return xyz;
+      };
       int u = 0;
 #if defined(__SSE2__)
       // Branch-free (holes are frequent and irregular): the validity mask of z zeroes the
@@ -499,10 +1047,11 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // The points are z times the pixel rays: rebuilt from the z plane and the rays (the same
         // products as in compute(), so the same values), four pixels at a time, reading 4 bytes
         // per pixel from memory instead of 12.
-        const float* zrow = zplane_.data() + static_cast<std::size_t>(v) * cols;
-        const float* rx = ray_x_.data();
-        const __m128 ry = _mm_set1_ps(ray_y_[v]);
+        const __m128 ry = _mm_set1_ps(ry_v);
         const __m128i one = _mm_set1_epi32(1);
+#if defined(SHAPESENSE_NORMALS_AVX2)
+        if (use_avx2) u = gradIntegralRowAvx2(zrow, rx, ry_v, above, row, cols, acc);
+#endif
         for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
           const __m128 z = _mm_loadu_ps(zrow + u);
           const __m128i ok = _mm_castps_si128(_mm_cmpgt_ps(z, zero));
@@ -526,7 +1075,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         }
       }
       // A 16-byte load per pixel reads the next pixel's x too: stop one pixel short of the end.
-      for (; u + 1 < cols; ++u) {
+      for (; !points_from_depth_ && u + 1 < cols; ++u) {
         const __m128 xyz = _mm_loadu_ps(pf + 3 * u);
         const __m128i ok =
             _mm_castps_si128(_mm_cmpgt_ps(_mm_shuffle_ps(xyz, xyz, _MM_SHUFFLE(2, 2, 2, 2)), zero));
@@ -544,8 +1093,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       v4u acc_v = {0, 0, 0, 0};
       store4(row, acc_v);
 #endif
-      // (x, y, z) of a pixel in one vector: a 16-byte load (its fourth lane, the next pixel's x, is
-      // overwritten by the count), 12 bytes for the row's last pixel, which may end the buffer.
+      // One pixel's element from its (x, y, z, -).
       auto element = [&](int col, v4f xyz) {
         const bool ok = validZ(xyz[2]);
         const v4f kept = ok ? xyz * 1e4f : v4f{0.0f, 0.0f, 0.0f, 0.0f};
@@ -554,14 +1102,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         acc_v += e;
         store4(row + (col + 1) * 4, load4(above + (col + 1) * 4) + acc_v);
       };
-      for (; u + 1 < cols; ++u) {
-        v4f xyz;
-        std::memcpy(&xyz, pf + 3 * u, sizeof xyz);
-        element(u, xyz);
-      }
-      v4f last = {0.0f, 0.0f, 0.0f, 0.0f};
-      std::memcpy(&last, pf + 3 * (cols - 1), 3 * sizeof(float));
-      element(cols - 1, last);
+      for (; u < cols; ++u) element(u, point(u));
     } else {
       auto* row64 = reinterpret_cast<std::uint64_t*>(row);
       const auto* above64 = reinterpret_cast<const std::uint64_t*>(above);
@@ -657,7 +1198,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
     // step mark: r + 1 < distance.
     const float bv = static_cast<float>(border_v);
     const std::int16_t* dist = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-    for (int u = 0; u < cols; ++u) {
+    auto radius = [&](int u) {
       const float zp = zrow[u];
       const bool ok = zp > 0.0f;
       float r = base_r * (ok ? zp : 0.0f) + const_r + 0.5f;
@@ -668,6 +1209,16 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const float by_step = static_cast<float>(dist[u] - 2);
       r = r < by_step ? r : by_step;
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
+    };
+    // (Separate loops: a loop from a computed start does not vectorise.)
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    if (use_avx2) {
+      const int u0 = radiusRowAvx2(zrow, dist, colb, cols, base_r, const_r, min_rf, max_rf, bv, rr);
+      for (int u = u0; u < cols; ++u) radius(u);
+    } else
+#endif
+    {
+      for (int u = 0; u < cols; ++u) radius(u);
     }
     // (b) Every window is centred on a pixel (x, y) and is read by up to four pixels: as the
     // left/right window of (x +- 1, y), the down window of (x, y - 1) and the up window of
@@ -806,7 +1357,8 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       const __m128 vdy = _mm_set1_ps(static_cast<float>(v) - cy);
       // The normals of the lanes of pixels u..u+3 whose radius is r (rv: r in every lane; the
       // other lanes come out 0).
-      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz) {
+      auto four = [&](int u, int r, __m128i rv, __m128i lanes, __m128& nx, __m128& ny, __m128& nz)
+          __attribute__((always_inline)) {
         ensure(row_here, rad_here, u - 1, v, rv, r);
         ensure(row_here, rad_here, u + 1, v, rv, r);
         ensure(row_above, rad_above, u, v - 1, rv, r);
@@ -844,31 +1396,57 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         ny = _mm_and_ps(ok, ny);
         nz = _mm_and_ps(ok, nz);
       };
-      for (; u + 4 <= cols; u += 4) {
+      const RowWindows g{row_above, row_here, row_below, rad_above, rad_here, rad_below,
+                         irow,      rr,       min_count, cols,      v,        fx,
+                         fy,        cx,       cy,        ifx,       ry,       out};
+      // Pixels u..u+3.
+      auto group4 = [&](int u) __attribute__((always_inline)) {
         const __m128i rv4 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rr + u));
         const __m128i invalid = _mm_cmpeq_epi32(rv4, _mm_setzero_si128());
         const int valid_lanes = ~_mm_movemask_ps(_mm_castsi128_ps(invalid)) & 15;
         if (valid_lanes == 0) {
           for (int k = 0; k < 3; ++k) _mm_storeu_ps(out + 3 * u + 4 * k, _mm_set1_ps(kNaN));
-          continue;
+          return;
         }
         const int r = rr[u + __builtin_ctz(static_cast<unsigned>(valid_lanes))];
         const __m128i rv = _mm_set1_epi32(r);
         const __m128i lanes = _mm_cmpeq_epi32(rv4, rv);
-        // The valid lanes must share r (else one pass per radius would recompute the cached
-        // windows of each: one pixel at a time is cheaper), and the windows of centres
-        // u - 1 .. u + 4 must lie inside the image (rows: r is a valid pixel's radius, so it fits
-        // this row).
-        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) != 0 || u - 1 - r < 0 ||
-            u + 5 + r > cols) {
+        // The windows of centres u - 1 .. u + 4 must lie inside the image: a valid pixel's windows
+        // do (its radius is bounded by the border), invalid lanes ride along with radius r (rows:
+        // r is a valid pixel's radius, so it fits this row).
+        if (u - 1 - r < 0 || u + 5 + r > cols) {
           for (int k = 0; k < 4; ++k) pixel(u + k);
           normalize4(_mm_loadu_ps(rnx + u), _mm_loadu_ps(rny + u), _mm_loadu_ps(rnz + u), u, cx,
                      ifx, ry, out);
-          continue;
+          return;
         }
         __m128 nx, ny, nz;
-        four(u, r, rv, lanes, nx, ny, nz);
+        if ((valid_lanes & ~_mm_movemask_ps(_mm_castsi128_ps(lanes))) == 0) {
+          four(u, r, rv, lanes, nx, ny, nz);
+        } else {
+          // The valid lanes' radii differ: each lane its own radius (invalid lanes r).
+          const __m128i rl =
+              _mm_or_si128(_mm_andnot_si128(invalid, rv4), _mm_and_si128(invalid, rv));
+          fourLanes<M>(g, u, rl, _mm_xor_si128(invalid, _mm_set1_epi32(-1)), nx, ny, nz);
+        }
         normalize4(nx, ny, nz, u, cx, ifx, ry, out);  // (c), fused: no round trip through rnx
+      };
+      // Eight pixels per AVX2 step (3D gradient, where the CPU has AVX2) where their valid lanes
+      // share one radius and the windows of centres u - 1 .. u + 8 lie inside the image; four
+      // pixels per step elsewhere.
+      [[maybe_unused]] bool eight = false;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+      eight = M == kGrad && use_avx2;
+#endif
+      while (u + 4 <= cols) {
+#if defined(SHAPESENSE_NORMALS_AVX2)
+        if (eight) {
+          u = gradRun(g, u);
+          if (u + 4 > cols) break;
+        }
+#endif
+        group4(u);
+        u += 4;
       }
     }
 #endif
@@ -879,52 +1457,83 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   }
 }
 
+void NormalEstimator::buildPoints() const {
+  if (!points_from_depth_ || points_built_) return;
+  points_built_ = true;
+  const int rows = rows_, cols = cols_;
+  points_.create(rows, cols, CV_32FC3);
+  const float* rx = ray_x_.data();
+  for (int v = 0; v < rows; ++v) {
+    float* p = points_.ptr<float>(v);
+    const float ry = ray_y_[v];
+    const float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
+    int u = 0;
+#if defined(__SSE2__)
+    // Same arithmetic as the loop below, four pixels at a time: the compiler vectorises that
+    // loop's arithmetic but not its interleaved stores.
+    const __m128 vry = _mm_set1_ps(ry);
+    for (; u + 4 <= cols; u += 4) {
+      const __m128 z = _mm_loadu_ps(zr + u);
+      storeInterleaved(_mm_mul_ps(_mm_loadu_ps(rx + u), z), _mm_mul_ps(vry, z), z, p + 3 * u);
+    }
+#endif
+    for (; u < cols; ++u) {
+      const float z = zr[u];
+      p[3 * u] = rx[u] * z;
+      p[3 * u + 1] = ry * z;
+      p[3 * u + 2] = z;
+    }
+  }
+}
+
 void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr,
                               cv::Mat& normals) {
   CV_Assert(input.type() == CV_16UC1 || input.type() == CV_32FC3);
   const int rows = input.rows, cols = input.cols;
+  rows_ = rows;
+  cols_ = cols;
   zplane_.resize(static_cast<std::size_t>(rows) * cols);
   if (input.type() == CV_16UC1) {
-    points_.create(rows, cols, CV_32FC3);
+    // The points are z times the pixel rays: only the z plane and the rays are stored (the
+    // gradient modes rebuild the points from them; buildPoints() makes the point image for the
+    // covariance mode and points()).
     const float inv_fx = static_cast<float>(1.0 / intr.fx),
                 inv_fy = static_cast<float>(1.0 / intr.fy);
     const float cx = static_cast<float>(intr.cx), cy = static_cast<float>(intr.cy);
-    // Per-column ray x, so that the row loop is a plain vectorisable multiply.
     ray_x_.resize(static_cast<std::size_t>(cols));
     for (int u = 0; u < cols; ++u) ray_x_[u] = (static_cast<float>(u) - cx) * inv_fx;
     ray_y_.resize(static_cast<std::size_t>(rows));
     for (int v = 0; v < rows; ++v) ray_y_[v] = (static_cast<float>(v) - cy) * inv_fy;
     points_from_depth_ = true;
-    const float* rx = ray_x_.data();
+    points_built_ = false;
+    [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
+#if defined(SHAPESENSE_NORMALS_AVX2)
+    use_avx2 = simd_ && avx2_ && cpuHasAvx2();
+#endif
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
-      float* p = points_.ptr<float>(v);
-      const float ry = ray_y_[v];
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       int u = 0;
+#if defined(SHAPESENSE_NORMALS_AVX2)
+      if (use_avx2) u = depthRowAvx2(d, zr, cols);
+#endif
 #if defined(__SSE2__)
-      // Same arithmetic as the loop below, four pixels at a time: the compiler vectorises that
-      // loop's arithmetic but not its interleaved stores.
-      const __m128 vry = _mm_set1_ps(ry), to_metres = _mm_set1_ps(0.001f);
+      const __m128 to_metres = _mm_set1_ps(0.001f);
       const __m128 zero = _mm_setzero_ps(), nan = _mm_set1_ps(kNaN);
-      for (; u + 4 <= cols; u += 4) {
-        const __m128i mm32 = _mm_unpacklo_epi16(
-            _mm_loadl_epi64(reinterpret_cast<const __m128i*>(d + u)), _mm_setzero_si128());
-        const __m128 metres = _mm_mul_ps(_mm_cvtepi32_ps(mm32), to_metres);
-        const __m128 ok = _mm_cmpgt_ps(metres, zero);
-        const __m128 z = _mm_or_ps(_mm_and_ps(ok, metres), _mm_andnot_ps(ok, nan));
-        _mm_storeu_ps(zr + u, z);
-        storeInterleaved(_mm_mul_ps(_mm_loadu_ps(rx + u), z), _mm_mul_ps(vry, z), z, p + 3 * u);
+      for (; u + 8 <= cols; u += 8) {
+        const __m128i raw = _mm_loadu_si128(reinterpret_cast<const __m128i*>(d + u));
+        auto toZ = [&](__m128i mm32) {
+          const __m128 metres = _mm_mul_ps(_mm_cvtepi32_ps(mm32), to_metres);
+          const __m128 ok = _mm_cmpgt_ps(metres, zero);
+          return _mm_or_ps(_mm_and_ps(ok, metres), _mm_andnot_ps(ok, nan));
+        };
+        _mm_storeu_ps(zr + u, toZ(_mm_unpacklo_epi16(raw, _mm_setzero_si128())));
+        _mm_storeu_ps(zr + u + 4, toZ(_mm_unpackhi_epi16(raw, _mm_setzero_si128())));
       }
 #endif
       for (; u < cols; ++u) {
         const float metres = static_cast<float>(d[u]) * 0.001f;
-        const float z =
-            metres > 0.0f ? metres : kNaN;  // (not d[u] == 0: that select does not vectorise)
-        zr[u] = z;
-        p[3 * u] = rx[u] * z;
-        p[3 * u + 1] = ry * z;
-        p[3 * u + 2] = z;
+        zr[u] = metres > 0.0f ? metres : kNaN;
       }
     }
   } else {

@@ -138,6 +138,38 @@ TEST(Normals, PointsInputMatchesDepthInput) {
   }
 }
 
+// For depth input the point image is built on demand (the gradient modes do not use it): points()
+// still returns z times the pixel rays, NaN without depth, after any mode.
+TEST(Normals, PointsOfDepthInputOnDemand) {
+  const CameraIntrinsics K;
+  const Eigen::Vector3d n = tiltedNormal(10.0, 30.0);
+  cv::Mat depth = renderPlane(n, -n.dot(Eigen::Vector3d(0, 0, 1.5)), K, 0.3);
+  depth(cv::Rect(10, 20, 5, 5)).setTo(0);
+  for (auto m : {NormalMethod::kAverage3dGradient, NormalMethod::kCovariance}) {
+    NormalParams p;
+    p.method = m;
+    NormalEstimator est(p);
+    cv::Mat normals;
+    est.compute(depth, K, normals);
+    const cv::Mat& pts = est.points();
+    ASSERT_EQ(pts.type(), CV_32FC3);
+    ASSERT_EQ(pts.size(), depth.size());
+    for (int v = 0; v < depth.rows; v += 7)
+      for (int u = 0; u < depth.cols; u += 5) {
+        const cv::Vec3f x = pts.at<cv::Vec3f>(v, u);
+        const std::uint16_t d = depth.at<std::uint16_t>(v, u);
+        if (d == 0) {
+          EXPECT_TRUE(std::isnan(x[2])) << u << ", " << v;
+          continue;
+        }
+        const float z = static_cast<float>(d) * 0.001f;
+        EXPECT_EQ(x[2], z) << u << ", " << v;
+        EXPECT_NEAR(x[0], (u - K.cx) / K.fx * z, 1e-5) << u << ", " << v;
+        EXPECT_NEAR(x[1], (v - K.cy) / K.fy * z, 1e-5) << u << ", " << v;
+      }
+  }
+}
+
 // A square 30 cm in front of a fronto-parallel wall: normals must never straddle the step (a
 // window over both surfaces tilts the normal by tens of degrees; small windows next to the step
 // are merely noisy, so the bound is 35 deg) and the pixels at the step are invalid.
@@ -184,8 +216,10 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
 }
 
 // The depth-step detection runs four pixels per SIMD step, and the gradient modes evaluate four
-// pixels per SIMD step where they share a window radius and one pixel at a time elsewhere; the
-// SIMD and the one-pixel-at-a-time paths must give the same bits at every pixel. The frames make
+// pixels per SIMD step (eight per AVX2 step in the 3D-gradient mode where the CPU has AVX2) with
+// one radius or a radius per lane, and one pixel at a time at the image border; the SIMD paths
+// (the one the CPU selects, and SSE2 forced) and the one-pixel-at-a-time path must give the same
+// bits at every pixel. The frames make
 // the radius vary (range-scaled radius, clipped by depth steps, holes and the image border):
 // synthetic scenes, a steep ramp (the radius changes every few pixels) with steps and holes, and
 // the same ramp with a fixed radius.
@@ -232,27 +266,33 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
       NormalParams p;
       p.method = m;
       p.depth_dependent_smoothing = depth_dependent;
-      NormalEstimator simd(p), scalar(p);
+      NormalEstimator simd(p), sse2(p), scalar(p);
+      sse2.setAvx2(false);
       scalar.setSimd(false);
       for (std::size_t f = 0; f < frames.size(); ++f) {
         const CameraIntrinsics k = intrinsicsOf(frames[f]);
-        cv::Mat a, b;
-        simd.compute(frames[f], k, a);
+        cv::Mat b;
         scalar.compute(frames[f], k, b);
-        ASSERT_EQ(a.size(), frames[f].size());
-        int valid = 0, differ = 0;
-        for (int v = 0; v < frames[f].rows; ++v)
-          for (int u = 0; u < frames[f].cols; ++u) {
-            const auto* x = &a.at<cv::Vec3f>(v, u);
-            const auto* y = &b.at<cv::Vec3f>(v, u);
-            valid += !std::isnan((*y)[0]);
-            if (std::memcmp(x, y, sizeof *x) != 0) {
-              if (differ++ < 5)
-                ADD_FAILURE() << name(m) << " frame " << f << " (" << u << ", " << v << ")";
+        for (NormalEstimator* est : {&simd, &sse2}) {
+          const char* path = est == &simd ? "selected SIMD" : "SSE2";
+          cv::Mat a;
+          est->compute(frames[f], k, a);
+          ASSERT_EQ(a.size(), frames[f].size());
+          int valid = 0, differ = 0;
+          for (int v = 0; v < frames[f].rows; ++v)
+            for (int u = 0; u < frames[f].cols; ++u) {
+              const auto* x = &a.at<cv::Vec3f>(v, u);
+              const auto* y = &b.at<cv::Vec3f>(v, u);
+              valid += !std::isnan((*y)[0]);
+              if (std::memcmp(x, y, sizeof *x) != 0) {
+                if (differ++ < 5)
+                  ADD_FAILURE() << name(m) << " " << path << " frame " << f << " (" << u << ", "
+                                << v << ")";
+              }
             }
-          }
-        EXPECT_EQ(differ, 0) << name(m) << " frame " << f;
-        EXPECT_GT(valid, frames[f].cols * frames[f].rows / 4) << name(m) << " frame " << f;
+          EXPECT_EQ(differ, 0) << name(m) << " " << path << " frame " << f;
+          EXPECT_GT(valid, frames[f].cols * frames[f].rows / 4) << name(m) << " frame " << f;
+        }
       }
     }
   }

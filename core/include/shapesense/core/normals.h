@@ -67,15 +67,23 @@ class NormalEstimator {
   /// camera (n . X < 0), NaN where invalid, into `normals` (reallocated only on size change).
   void compute(const cv::Mat& input, const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
-  /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call.
-  const cv::Mat& points() const { return points_; }
+  /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call (for depth
+  /// input built on the first call after compute(): the gradient modes do not need them).
+  const cv::Mat& points() const {
+    buildPoints();
+    return points_;
+  }
 
   /// Tests only: false runs the depth-step detection and the gradient modes' windows one pixel
   /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
   /// check that).
   void setSimd(bool on) { simd_ = on; }
+  /// Tests only: false keeps the SIMD paths to SSE2 (four pixels per step) on CPUs with AVX2,
+  /// where the 3D-gradient mode otherwise runs eight pixels per AVX2 step (same bits).
+  void setAvx2(bool on) { avx2_ = on; }
 
  private:
+  void buildPoints() const;
   void markSteps();
   void stepDistance(int cap);
   void runCovariance(cv::Mat& normals);
@@ -83,7 +91,9 @@ class NormalEstimator {
   void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   NormalParams params_;
-  cv::Mat points_;                       // CV_32FC3
+  int rows_ = 0, cols_ = 0;              // size of the last input
+  mutable cv::Mat points_;               // CV_32FC3 (depth input: built by buildPoints())
+  mutable bool points_built_ = false;    // depth input: points_ holds this frame's points
   cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
   std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
   std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
@@ -104,7 +114,9 @@ class NormalEstimator {
   std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
   std::vector<float> last_z_;     // per-column scratch for the vertical step scan
   std::vector<int> last_v_;
-  bool simd_ = true;  // see setSimd()
+  std::vector<int> after_hole_;  // markSteps(), AVX2: the pixels of a row that follow a hole
+  bool simd_ = true;             // see setSimd()
+  bool avx2_ = true;             // see setAvx2()
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
