@@ -1546,6 +1546,7 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     }
   }
   normals.create(rows, cols, CV_32FC3);
+  if (rows == 0 || cols == 0) return;  // no pixel (the row scans assume one)
   markSteps();
   switch (params_.method) {
     case NormalMethod::kCovariance:

@@ -298,5 +298,65 @@ TEST(Normals, SimdPathMatchesOnePixelAtATime) {
   }
 }
 
+// Any frame size, down to empty, one row or one column, with every path and mode: an output
+// of the input's size, NaN where no window fits, and the SIMD paths equal to the scalar one.
+// One estimator serves frames of alternating sizes and both input types.
+TEST(Normals, AnySizeAndAlternatingSizesAndInputTypes) {
+  const CameraIntrinsics K;
+  std::mt19937 rng(11);
+  cv::Mat full(K.height, K.width, CV_16UC1);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u)
+      full.at<std::uint16_t>(v, u) = kinectQuantise(0.8 + 2.0 * u / K.width, 0.5, rng);
+  const std::vector<cv::Size> sizes = {{0, 0},   {0, 240},   {240, 0}, {1, 1},    {1, 480},
+                                       {640, 1}, {2, 2},     {3, 3},   {7, 5},    {8, 9},
+                                       {9, 8},   {15, 17},   {16, 16}, {17, 15},  {33, 2},
+                                       {2, 33},  {640, 480}, {31, 29}, {640, 480}};
+  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
+                 NormalMethod::kAverageDepthChange}) {
+    NormalParams p;
+    p.method = m;
+    NormalEstimator simd(p), sse2(p), scalar(p);
+    sse2.setAvx2(false);
+    scalar.setSimd(false);
+    for (const cv::Size& size : sizes) {
+      const cv::Mat depth = full(cv::Rect(0, 0, size.width, size.height));
+      CameraIntrinsics k = K;
+      k.width = size.width;
+      k.height = size.height;
+      for (const bool as_points : {false, true}) {
+        cv::Mat input = depth;
+        if (as_points) {
+          scalar.compute(depth, k, input);
+          input = size.empty() ? cv::Mat(size, CV_32FC3) : scalar.points().clone();
+        }
+        cv::Mat want;
+        scalar.compute(input, k, want);
+        if (size.empty()) {  // OpenCV may store an empty size as 0 x 0
+          EXPECT_TRUE(want.empty()) << name(m) << " " << size;
+          continue;
+        }
+        ASSERT_EQ(want.size(), size) << name(m) << " " << size;
+        ASSERT_EQ(want.type(), CV_32FC3);
+        for (NormalEstimator* est : {&simd, &sse2}) {
+          cv::Mat got;
+          est->compute(input, k, got);
+          ASSERT_EQ(got.size(), size) << name(m) << " " << size;
+          EXPECT_EQ(std::memcmp(got.data, want.data, want.total() * want.elemSize()), 0)
+              << name(m) << " " << size << (as_points ? " points" : " depth");
+        }
+        // Smallest frame side a window fits in: the covariance window is centred on the pixel
+        // (2r + 1), the gradient modes' four windows reach one pixel further (2r + 3).
+        const int fits = 2 * p.min_radius_px + (m == NormalMethod::kCovariance ? 1 : 3);
+        if (size.width < fits || size.height < fits) {
+          int valid = 0;
+          for (int i = 0; i < size.area(); ++i) valid += !std::isnan(want.at<cv::Vec3f>(i)[0]);
+          EXPECT_EQ(valid, 0) << name(m) << " " << size << ": no window fits";
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace shapesense
