@@ -9,7 +9,8 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__)
+// GCC only: the AVX2 functions are compiled with #pragma GCC target, which clang ignores.
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #include <immintrin.h>
 #define SHAPESENSE_NORMALS_AVX2 1  // AVX2 functions compiled in, used where the CPU has AVX2
 #endif
@@ -242,7 +243,7 @@ __attribute__((noinline)) void fourLanes(const RowWindows& g, int u, __m128i rl,
 // bits. AVX2 only, never FMA (a fused multiply-add would round differently). Compiled for AVX2
 // (lambdas included) whatever the build flags; called only where the CPU has it.
 #pragma GCC push_options
-#pragma GCC target("avx2")
+#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
 
 // The windows of radius r of centres x..x+7 of the row of centres y, into the cache.
 inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y, int r) {
@@ -1001,16 +1002,18 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   const int min_r = std::max(1, params_.min_radius_px);
   const int max_r = std::max(min_r, params_.max_radius_px);
   const int ring_rows = std::min(rows + 1, 2 * max_r + 4);
+  // + 4: the depth-change mode reads a 16-byte pair of 8-byte elements for the last one of the
+  // last ring row (the second half is discarded).
   packed_.resize(static_cast<std::size_t>(ring_rows) * rstride + 4);
   integral_rows_.resize(static_cast<std::size_t>(rows) + 1);
   for (int y = 0; y <= rows; ++y)
     integral_rows_[y] = packed_.data() + static_cast<std::size_t>(y % ring_rows) * rstride;
   std::uint32_t* const* irow = integral_rows_.data();
   std::fill(irow[0], irow[0] + rstride, 0u);
-  [[maybe_unused]] bool use_avx2 =
-      false;  // AVX2 steps where the CPU has them (tests: setAvx2(false))
+  // AVX2 steps where the CPU has them (tests: setAvx2(false), setSimd(false)).
+  [[maybe_unused]] bool use_avx2 = false;
 #if defined(SHAPESENSE_NORMALS_AVX2)
-  use_avx2 = avx2_ && cpuHasAvx2();
+  use_avx2 = simd_ && avx2_ && cpuHasAvx2();
 #endif
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
   // the rows it reads are still in cache.
@@ -1457,7 +1460,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   }
 }
 
-void NormalEstimator::buildPoints() const {
+void NormalEstimator::buildPoints() {
   if (!points_from_depth_ || points_built_) return;
   points_built_ = true;
   const int rows = rows_, cols = cols_;

@@ -68,22 +68,23 @@ class NormalEstimator {
   void compute(const cv::Mat& input, const CameraIntrinsics& intrinsics, cv::Mat& normals);
 
   /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call (for depth
-  /// input built on the first call after compute(): the gradient modes do not need them).
-  const cv::Mat& points() const {
+  /// input built on the first call after compute(): the gradient modes do not need them). The
+  /// image is reused by the next compute(): copy it to keep it.
+  const cv::Mat& points() {
     buildPoints();
     return points_;
   }
 
-  /// Tests only: false runs the depth-step detection and the gradient modes' windows one pixel
-  /// at a time instead of four pixels per SIMD step (the results are bit-identical; the tests
-  /// check that).
+  /// Tests only: false runs the depth-step marking and the gradient modes' windows one pixel at
+  /// a time instead of four or eight per SIMD step, and no AVX2 step anywhere (the results are
+  /// bit-identical; the tests check that).
   void setSimd(bool on) { simd_ = on; }
-  /// Tests only: false keeps the SIMD paths to SSE2 (four pixels per step) on CPUs with AVX2,
-  /// where the 3D-gradient mode otherwise runs eight pixels per AVX2 step (same bits).
+  /// Tests only: false keeps the SIMD paths to SSE2 on CPUs with AVX2, where those steps
+  /// otherwise run eight (step distance: sixteen) pixels per AVX2 step (same bits).
   void setAvx2(bool on) { avx2_ = on; }
 
  private:
-  void buildPoints() const;
+  void buildPoints();
   void markSteps();
   void stepDistance(int cap);
   void runCovariance(cv::Mat& normals);
@@ -92,8 +93,8 @@ class NormalEstimator {
 
   NormalParams params_;
   int rows_ = 0, cols_ = 0;              // size of the last input
-  mutable cv::Mat points_;               // CV_32FC3 (depth input: built by buildPoints())
-  mutable bool points_built_ = false;    // depth input: points_ holds this frame's points
+  cv::Mat points_;                       // CV_32FC3 (depth input: built by buildPoints())
+  bool points_built_ = false;            // depth input: points_ holds this frame's points
   cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
   std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
   std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
