@@ -59,6 +59,33 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
   EXPECT_GE(res.ap, kApFloor);
 }
 
+// Frames of any size, down to one pixel, one row or one column (a wrong camera.json, a cropped
+// recording): no crash, and every box inside the frame.
+TEST(BowlDetection, AnyFrameSize) {
+  synthetic::SceneParams p;
+  p.seed = 424242ULL * 1000003ULL + 97;
+  p.render_colour = false;
+  const auto r = synthetic::SyntheticScene(p).render(0, 0);
+  BowlDetectorParams params;
+  params.score_threshold = 0.0;  // many windows
+  const auto detector = BowlDetector::load(shippedModels(), params);
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(2, 3), cv::Size(23, 12), cv::Size(24, 13), cv::Size(24, 22),
+        cv::Size(30, 30), cv::Size(1, 480), cv::Size(640, 1), cv::Size(97, 41)}) {
+    const cv::Point at(std::min(200, r.frame.depth.cols - size.width),
+                       std::min(150, r.frame.depth.rows - size.height));
+    const cv::Mat depth = r.frame.depth(cv::Rect(at, size)).clone();
+    CameraIntrinsics k = r.frame.intrinsics;
+    k.cx -= at.x;
+    k.cy -= at.y;
+    k.width = size.width;
+    k.height = size.height;
+    for (const auto& d : detector.detectRaw(depth, k))
+      EXPECT_EQ(d.box & cv::Rect(cv::Point(0, 0), size), d.box) << size;
+    EXPECT_NO_THROW(detector.detect(depth, k)) << size;
+  }
+}
+
 TEST(BowlDetection, ParallelLevelsGiveTheSameDetections) {
   synthetic::SceneParams p;
   p.seed = 424242ULL * 1000003ULL + 99;

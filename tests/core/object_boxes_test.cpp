@@ -78,5 +78,37 @@ TEST(ObjectBoxes, NoPlanesMeansNoBoxes) {
                   .empty());
 }
 
+// The daemon's whole default chain (segmentation, statistics, planes, boxes) on frames of any
+// size, down to one pixel, one row or one column: no crash, results inside the frame.
+TEST(ObjectBoxes, WholeChainOnAnyFrameSize) {
+  synthetic::SceneParams params;
+  params.seed = 3;
+  params.render_colour = false;
+  const auto rendered = synthetic::SyntheticScene(params).render(0, 1);
+  const Frame& frame = rendered.frame;
+  HoughPlaneDetector planes_detector;
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(2, 3), cv::Size(3, 3), cv::Size(1, 480), cv::Size(640, 1),
+        cv::Size(7, 5), cv::Size(33, 17), cv::Size(640, 480), cv::Size(101, 77)}) {
+    const cv::Point at(std::min(180, frame.depth.cols - size.width),
+                       std::min(140, frame.depth.rows - size.height));
+    const cv::Mat depth = frame.depth(cv::Rect(at, size)).clone();
+    CameraIntrinsics k = frame.intrinsics;
+    k.cx -= at.x;
+    k.cy -= at.y;
+    k.width = size.width;
+    k.height = size.height;
+    for (const auto method : {SegmentationMethod::kDepthStep, SegmentationMethod::kFused}) {
+      const cv::Mat segments = segmentDepth(depth, k, method);
+      ASSERT_EQ(segments.size(), size);
+      const auto statistics = computeSegmentStatistics(segments, depth, k);
+      const auto planes = planes_detector.detect(depth, k);
+      ASSERT_EQ(planes.labels.size(), size);
+      for (const auto& box : boxesOfObjectsOnPlanes(depth, k, segments, statistics, planes))
+        EXPECT_EQ(box.roi & cv::Rect(cv::Point(0, 0), size), box.roi) << size;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace shapesense
