@@ -240,10 +240,11 @@ __attribute__((noinline)) void fourLanes(const RowWindows& g, int u, __m128i rl,
 #if defined(SHAPESENSE_NORMALS_AVX2)
 // The 3D-gradient mode's eight-pixel step (AVX2: pixels u..u+7 whose valid lanes share the radius
 // r), with the operations of the four-pixel SSE2 step in the same order, lane for lane: the same
-// bits. AVX2 only, never FMA (a fused multiply-add would round differently). Compiled for AVX2
-// (lambdas included) whatever the build flags; called only where the CPU has it.
+// bits. AVX2 only, never FMA (a fused multiply-add would round differently: the build has
+// -ffp-contract=off, and no FMA intrinsic is used). Compiled for AVX2 (lambdas included) whatever
+// the build flags; called only where the CPU has it.
 #pragma GCC push_options
-#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+#pragma GCC target("avx2")
 
 // The windows of radius r of centres x..x+7 of the row of centres y, into the cache.
 inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y, int r) {
