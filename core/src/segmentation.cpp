@@ -10,6 +10,10 @@
 
 #include <opencv2/imgproc.hpp>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace shapesense {
 
 std::string_view formatSegmentationMethod(SegmentationMethod method) {
@@ -53,6 +57,52 @@ struct Working {
   int ds = 1;
 };
 
+#if defined(__SSE2__)
+// makeWorking's 2x2 reduction of output pixels u..u+3 (input columns 2u..2u+7 of rows a and b),
+// with the same values as its scalar loop: 32-bit lanes (SSE2 has no unsigned 16-bit min or
+// compare), the same float products for the limit, and the rounded mean (sum + n/2) / n as a
+// float division, which is exact here (sum < 2^19 and n <= 4: the quotient never rounds to the
+// next integer).
+void reduceBlocks4(const std::uint16_t* a, const std::uint16_t* b, int u, float k,
+                   std::uint16_t* o) {
+  const __m128i low16 = _mm_set1_epi32(0xFFFF), zero = _mm_setzero_si128();
+  const __m128i ra = _mm_loadu_si128(reinterpret_cast<const __m128i*>(a + 2 * u));
+  const __m128i rb = _mm_loadu_si128(reinterpret_cast<const __m128i*>(b + 2 * u));
+  const __m128i q[4] = {_mm_and_si128(ra, low16), _mm_srli_epi32(ra, 16), _mm_and_si128(rb, low16),
+                        _mm_srli_epi32(rb, 16)};
+  __m128i none[4];  // no reading
+  auto min32 = [](__m128i x, __m128i y) {
+    const __m128i x_greater = _mm_cmpgt_epi32(x, y);
+    return _mm_or_si128(_mm_and_si128(x_greater, y), _mm_andnot_si128(x_greater, x));
+  };
+  __m128i mn = low16;  // as the scalar loop: 0xFFFF means no reading below it
+  for (int i = 0; i < 4; ++i) {
+    none[i] = _mm_cmpeq_epi32(q[i], zero);
+    mn = min32(mn, _mm_or_si128(q[i], _mm_and_si128(none[i], low16)));
+  }
+  const __m128 mnf = _mm_cvtepi32_ps(mn);
+  const __m128i lim = _mm_add_epi32(
+      _mm_add_epi32(mn, _mm_cvttps_epi32(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(k), mnf), mnf))),
+      _mm_set1_epi32(1));
+  __m128i sum = zero, minus_n = zero;
+  for (int i = 0; i < 4; ++i) {
+    const __m128i out = _mm_or_si128(none[i], _mm_cmpgt_epi32(q[i], lim));
+    sum = _mm_add_epi32(sum, _mm_andnot_si128(out, q[i]));
+    minus_n = _mm_add_epi32(minus_n, _mm_andnot_si128(out, _mm_set1_epi32(-1)));
+  }
+  const __m128i n = _mm_sub_epi32(zero, minus_n);
+  const __m128 mean =
+      _mm_div_ps(_mm_cvtepi32_ps(_mm_add_epi32(sum, _mm_srli_epi32(n, 1))), _mm_cvtepi32_ps(n));
+  // 0 where no reading (there n = 0 and the quotient is NaN).
+  const __m128i value = _mm_andnot_si128(_mm_cmpeq_epi32(mn, low16), _mm_cvttps_epi32(mean));
+  // uint16 from int32 <= 0xFFFF: shifted into the signed range for the saturating pack, and back.
+  const __m128i bias = _mm_set1_epi32(0x8000);
+  const __m128i packed = _mm_packs_epi32(_mm_sub_epi32(value, bias), zero);
+  _mm_storel_epi64(reinterpret_cast<__m128i*>(o + u),
+                   _mm_add_epi16(packed, _mm_set1_epi16(static_cast<short>(0x8000))));
+}
+#endif
+
 // Reduces the depth image by `ds` (1 or 2). A 2x2 block keeps the mean of its valid pixels that
 // are within 3 quantisation steps of the nearest one, so that blocks on a depth step take the
 // foreground instead of a mixed depth that belongs to neither surface.
@@ -75,7 +125,11 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
     const auto* a = depth.ptr<std::uint16_t>(2 * v);
     const auto* b = depth.ptr<std::uint16_t>(2 * v + 1);
     auto* o = w.depth.ptr<std::uint16_t>(v);
-    for (int u = 0; u < cols; ++u) {
+    int u = 0;
+#if defined(__SSE2__)
+    for (; u + 4 <= cols; u += 4) reduceBlocks4(a, b, u, k, o);
+#endif
+    for (; u < cols; ++u) {
       const std::uint16_t q[4] = {a[2 * u], a[2 * u + 1], b[2 * u], b[2 * u + 1]};
       unsigned mn = 0xFFFF;
       for (auto x : q)
@@ -106,6 +160,45 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
   return w;
 }
 
+#if defined(__SSE2__)
+// depthStepEdges for pixels u..u+7 of row v, whose windows lie inside the row (u - r >= 0,
+// u + 7 + r < cols): the same counts, all offsets accumulated in one register. SSE2 has no
+// unsigned 16-bit compare, so with saturating subtraction: |x - y| = (x -sat y) | (y -sat x), and
+// |x - y| > t iff |x - y| -sat t != 0. The register counts the misses (-1 per offset where the
+// neighbour has no depth or does not differ), subtracted from the offsets inside the image.
+template <int R>
+void stepCount8(const std::uint16_t* dp, const std::uint16_t* const* window_rows,
+                const std::vector<cv::Mat>& thr, int v, int u, int offsets, std::uint8_t* e) {
+  constexpr int r = R;  // a template argument: the offset loops unroll
+  auto load = [](const std::uint16_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i x = load(dp + u);
+  __m128i t[R];
+  for (int k = 0; k < R; ++k) t[k] = load(thr[k].ptr<std::uint16_t>(v) + u);
+  __m128i minus_misses = zero;
+  for (int dv = -r; dv <= r; ++dv) {
+    const std::uint16_t* dq = window_rows[dv + r];
+    if (dq == nullptr) continue;
+    for (int du = -r; du <= r; ++du) {
+      if (du == 0 && dv == 0) continue;
+      const __m128i tr = t[std::max(std::abs(du), std::abs(dv)) - 1];
+      const __m128i y = load(dq + u + du);
+      const __m128i diff = _mm_or_si128(_mm_subs_epu16(x, y), _mm_subs_epu16(y, x));
+      const __m128i miss =
+          _mm_or_si128(_mm_cmpeq_epi16(_mm_subs_epu16(diff, tr), zero), _mm_cmpeq_epi16(y, zero));
+      minus_misses = _mm_add_epi16(minus_misses, miss);
+    }
+  }
+  const __m128i count = _mm_add_epi16(_mm_set1_epi16(static_cast<short>(offsets)), minus_misses);
+  // kNoDepth (255) where the centre has no depth: or with the all-ones byte mask.
+  const __m128i no_depth = _mm_cmpeq_epi16(x, zero);
+  const __m128i out = _mm_or_si128(_mm_packus_epi16(count, zero), _mm_packs_epi16(no_depth, zero));
+  _mm_storel_epi64(reinterpret_cast<__m128i*>(e + u), out);
+}
+#endif
+
 // Depth-step edge strength: per pixel, the number of valid neighbours in the window whose depth
 // differs by more than the ring's threshold. CV_8UC1, kNoDepth where there is no depth.
 cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectNoiseModel& noise) {
@@ -113,8 +206,8 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
   const int rows = d.rows, cols = d.cols;
   const int r = std::clamp(p.window_radius, 1, 7);
   cv::Mat edges(rows, cols, CV_8UC1);
-  // Per-pixel threshold of each ring (Chebyshev distance 1..r), uint16 mm, so the inner loops
-  // below are branch-free uint16 compares the compiler vectorises.
+  // Per-pixel threshold of each ring (Chebyshev distance 1..r), uint16 mm, so that the counts
+  // below are uint16 compares, eight pixels per SSE2 step (stepCount8).
   std::vector<cv::Mat> thr(r);
   for (auto& t : thr) t.create(rows, cols, CV_16UC1);
   const float step_k = static_cast<float>(p.noise_steps * noise.disparity_step_px /
@@ -133,29 +226,77 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
       }
     }
   }
-  std::vector<std::uint8_t> acc(cols);
+  std::vector<const std::uint16_t*> window_rows(2 * r + 1);  // nullptr: outside the image
   for (int v = 0; v < rows; ++v) {
     const auto* dp = d.ptr<std::uint16_t>(v);
-    std::fill(acc.begin(), acc.end(), 0);
+    int offsets = 0;  // window offsets whose row is inside the image
     for (int dv = -r; dv <= r; ++dv) {
       const int vq = v + dv;
-      if (vq < 0 || vq >= rows) continue;
-      const auto* dq = d.ptr<std::uint16_t>(vq);
-      for (int du = -r; du <= r; ++du) {
-        if (du == 0 && dv == 0) continue;
-        const int ring = std::max(std::abs(du), std::abs(dv));
-        const auto* t = thr[ring - 1].ptr<std::uint16_t>(v);
-        const int u0 = std::max(0, -du), u1 = std::min(cols, cols - du);
-        std::uint8_t* a = acc.data();
-        for (int u = u0; u < u1; ++u) {
-          const std::uint16_t x = dp[u], y = dq[u + du];
-          const std::uint16_t diff = x > y ? x - y : y - x;
-          a[u] += static_cast<std::uint8_t>((y != 0) & (diff > t[u]));
-        }
-      }
+      const bool inside = vq >= 0 && vq < rows;
+      window_rows[dv + r] = inside ? d.ptr<std::uint16_t>(vq) : nullptr;
+      offsets += inside ? (dv == 0 ? 2 * r : 2 * r + 1) : 0;
     }
     auto* e = edges.ptr<std::uint8_t>(v);
-    for (int u = 0; u < cols; ++u) e[u] = dp[u] == 0 ? kNoDepth : acc[u];
+    // One pixel, any column.
+    auto pixel = [&](int u) {
+      const std::uint16_t x = dp[u];
+      int count = 0;
+      for (int dv = -r; dv <= r; ++dv) {
+        const std::uint16_t* dq = window_rows[dv + r];
+        if (dq == nullptr) continue;
+        for (int du = -r; du <= r; ++du) {
+          const int uq = u + du;
+          if ((du == 0 && dv == 0) || uq < 0 || uq >= cols) continue;
+          const std::uint16_t y = dq[uq];
+          const std::uint16_t diff = x > y ? x - y : y - x;
+          const int ring = std::max(std::abs(du), std::abs(dv));
+          count += (y != 0) & (diff > thr[ring - 1].ptr<std::uint16_t>(v)[u]);
+        }
+      }
+      e[u] = x == 0 ? kNoDepth : static_cast<std::uint8_t>(count);
+    };
+    // Columns whose window row lies inside the image go eight at a time (the last block
+    // overlapping the one before: the same values are written twice), the first and last r one
+    // at a time.
+    int simd_begin = 0, simd_end = 0;
+#if defined(__SSE2__)
+    if (cols - 2 * r >= 8) {
+      simd_begin = r;
+      simd_end = cols - r;
+      auto blocks = [&]<int R>() {
+        for (int u = simd_begin;; u += 8) {
+          u = std::min(u, simd_end - 8);
+          stepCount8<R>(dp, window_rows.data(), thr, v, u, offsets, e);
+          if (u == simd_end - 8) break;
+        }
+      };
+      switch (r) {  // r <= 7
+        case 1:
+          blocks.template operator()<1>();
+          break;
+        case 2:
+          blocks.template operator()<2>();
+          break;
+        case 3:
+          blocks.template operator()<3>();
+          break;
+        case 4:
+          blocks.template operator()<4>();
+          break;
+        case 5:
+          blocks.template operator()<5>();
+          break;
+        case 6:
+          blocks.template operator()<6>();
+          break;
+        default:
+          blocks.template operator()<7>();
+          break;
+      }
+    }
+#endif
+    for (int u = 0; u < simd_begin; ++u) pixel(u);
+    for (int u = std::max(simd_end, simd_begin); u < cols; ++u) pixel(u);
   }
   return edges;
 }
