@@ -588,15 +588,39 @@ void flood(const cv::Mat& edges, cv::Mat& markers) {
   const std::uint8_t* E = edges.ptr<std::uint8_t>(0);
   const int n = rows * cols;
   std::array<std::vector<int>, 256> bucket;
-  // Seeds: marker pixels with an unlabelled 4-neighbour (interior marker pixels cannot spread).
+  // Seeds, in raster order: marker pixels with an unlabelled 4-neighbour (interior marker pixels
+  // cannot spread).
+  auto seed = [&](int v, int u) {
+    const int i = v * cols + u;
+    if (L[i] <= 0) return;
+    const bool border = (u > 0 && L[i - 1] <= 0) || (u + 1 < cols && L[i + 1] <= 0) ||
+                        (v > 0 && L[i - cols] <= 0) || (v + 1 < rows && L[i + cols] <= 0);
+    if (border) bucket[E[i]].push_back(i);
+  };
   for (int v = 0; v < rows; ++v) {
-    for (int u = 0; u < cols; ++u) {
-      const int i = v * cols + u;
-      if (L[i] <= 0) continue;
-      const bool border = (u > 0 && L[i - 1] <= 0) || (u + 1 < cols && L[i + 1] <= 0) ||
-                          (v > 0 && L[i - cols] <= 0) || (v + 1 < rows && L[i + cols] <= 0);
-      if (border) bucket[E[i]].push_back(i);
+    int u = 0;
+#if defined(__SSE2__)
+    // Inside the image's border, four pixels per step: most are interior marker pixels or
+    // unlabelled, so the set bits are few.
+    if (v > 0 && v + 1 < rows && cols > 2) {
+      seed(v, 0);
+      auto load = [&](int i) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(L + i)); };
+      const __m128i one = _mm_set1_epi32(1), zero = _mm_setzero_si128();
+      for (u = 1; u + 5 <= cols; u += 4) {  // pixels u..u+3 and their right neighbours
+        const int i = v * cols + u;
+        const __m128i unlabelled_nb = _mm_or_si128(
+            _mm_or_si128(_mm_cmpgt_epi32(one, load(i - 1)), _mm_cmpgt_epi32(one, load(i + 1))),
+            _mm_or_si128(_mm_cmpgt_epi32(one, load(i - cols)),
+                         _mm_cmpgt_epi32(one, load(i + cols))));
+        const __m128i border = _mm_and_si128(_mm_cmpgt_epi32(load(i), zero), unlabelled_nb);
+        for (int bits = _mm_movemask_ps(_mm_castsi128_ps(border)); bits != 0; bits &= bits - 1) {
+          const int j = i + __builtin_ctz(static_cast<unsigned>(bits));
+          bucket[E[j]].push_back(j);
+        }
+      }
     }
+#endif
+    for (; u < cols; ++u) seed(v, u);
   }
   for (int level = 0; level < 256; ++level) {
     std::vector<int>& q = bucket[level];
@@ -615,14 +639,12 @@ void flood(const cv::Mat& edges, cv::Mat& markers) {
   }
 }
 
-// Working-resolution labels (CV_32SC1, any positive ids) renumbered 1..K in raster order of
+// Working-resolution labels (CV_32SC1, ids up to max_label) renumbered 1..K in raster order of
 // first appearance, so that the full-resolution passes below run on uint16. K is at most the
 // number of pixels / min marker size, far below 65535 for any sane parameters; ids past 65535
 // become 0 (unassigned) rather than wrapping.
-cv::Mat denseLabels(const cv::Mat& labels, int& count) {
-  double mx = 0;
-  cv::minMaxLoc(labels, nullptr, &mx);
-  std::vector<std::uint16_t> remap(static_cast<std::size_t>(std::max(mx, 0.0)) + 1, 0);
+cv::Mat denseLabels(const cv::Mat& labels, int max_label, int& count) {
+  std::vector<std::uint16_t> remap(static_cast<std::size_t>(std::max(max_label, 0)) + 1, 0);
   std::vector<char> assigned(remap.size(), 0);
   int next = 0;
   cv::Mat out(labels.size(), CV_16UC1);
@@ -719,10 +741,24 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth,
   return out;
 }
 
+// The end of the run of equal labels that starts at u in a row of `cols` labels.
+int runEnd(const std::uint16_t* l, int u, int cols) {
+  const std::uint16_t x = l[u];
+  int end = u + 1;
+  // Four labels per compare while the run lasts (runs are long: regions are large).
+  const std::uint64_t four = x * 0x0001000100010001ull;
+  for (std::uint64_t chunk; end + 4 <= cols; end += 4) {
+    std::memcpy(&chunk, l + end, sizeof chunk);
+    if (chunk != four) break;
+  }
+  while (end < cols && l[end] == x) ++end;
+  return end;
+}
+
 // Drops regions below min_px and renumbers the rest 1..N in raster order of first appearance,
 // in place (CV_16UC1 with labels <= max_label).
 void compact(cv::Mat& labels, int max_label, int min_px) {
-  // Sizes by runs of equal labels: consecutive pixels mostly share a label, and a per-pixel
+  // By runs of equal labels: consecutive pixels mostly share a label, and a per-pixel
   // ++size[label] is a serial memory dependency that costs more than the upsampling.
   std::vector<int> size(static_cast<std::size_t>(max_label) + 1, 0);
   std::vector<std::uint16_t> order;  // labels in raster order of first appearance
@@ -731,14 +767,7 @@ void compact(cv::Mat& labels, int max_label, int min_px) {
     int u = 0;
     while (u < labels.cols) {
       const std::uint16_t x = l[u];
-      int end = u + 1;
-      // Four labels per compare while the run lasts (runs are long: regions are large).
-      const std::uint64_t four = x * 0x0001000100010001ull;
-      for (std::uint64_t chunk; end + 4 <= labels.cols; end += 4) {
-        std::memcpy(&chunk, l + end, sizeof chunk);
-        if (chunk != four) break;
-      }
-      while (end < labels.cols && l[end] == x) ++end;
+      const int end = runEnd(l, u, labels.cols);
       if (x != 0 && size[x] == 0) order.push_back(x);
       size[x] += end - u;
       u = end;
@@ -754,18 +783,21 @@ void compact(cv::Mat& labels, int max_label, int min_px) {
   if (identity && static_cast<int>(order.size()) == max_label) return;
   for (int v = 0; v < labels.rows; ++v) {
     auto* l = labels.ptr<std::uint16_t>(v);
-    for (int u = 0; u < labels.cols; ++u) l[u] = remap[l[u]];
+    for (int u = 0; u < labels.cols;) {
+      const int end = runEnd(l, u, labels.cols);
+      std::fill(l + u, l + end, remap[l[u]]);
+      u = end;
+    }
   }
 }
 
-// Greedy merge of coplanar regions (see RegionParams::merge_coplanar). Moments of
-// (u, v, w = 1/z) are additive, so the plane fit of any union is O(1) from its parts' sums.
-void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w,
+// Greedy merge of coplanar regions (see RegionParams::merge_coplanar) of labels (CV_32SC1, ids
+// up to max_label). Moments of (u, v, w = 1/z) are additive, so the plane fit of any union is
+// O(1) from its parts' sums.
+void mergeCoplanar(cv::Mat& labels, int max_label, const cv::Mat& edges, const Working& w,
                    const RegionParams& rp) {
   if (!rp.merge_coplanar) return;
-  double mx = 0;
-  cv::minMaxLoc(labels, nullptr, &mx);
-  const int n = static_cast<int>(mx) + 1;
+  const int n = max_label + 1;
   if (n <= 2) return;
   using Moments = std::array<double, 10>;  // n u v w uu uv vv uw vw ww
   std::vector<Moments> m(n, Moments{});
@@ -822,7 +854,7 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w,
   const double min_n = static_cast<double>(rp.coplanar_min_px) / (w.ds * w.ds);
   std::vector<int> cand;
   for (int i = 1; i < n; ++i) {
-    if (m[i][0] >= min_n && rms(m[i]) <= t) cand.push_back(i);
+    if (m[i][0] > 0 && m[i][0] >= min_n && rms(m[i]) <= t) cand.push_back(i);
   }
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -859,11 +891,12 @@ void mergeCoplanar(cv::Mat& labels, const cv::Mat& edges, const Working& w,
   }
 }
 
-cv::Mat finish(cv::Mat& markers, const cv::Mat& edges, const Working& w, const cv::Mat& depth,
-               const RegionParams& rp) {
-  mergeCoplanar(markers, edges, w, rp);
+// The full-resolution regions from flooded working-resolution markers (ids up to max_label).
+cv::Mat finish(cv::Mat& markers, int max_label, const cv::Mat& edges, const Working& w,
+               const cv::Mat& depth, const RegionParams& rp) {
+  mergeCoplanar(markers, max_label, edges, w, rp);
   int count = 0;
-  cv::Mat full = upsample(denseLabels(markers, count), w, depth, rp.noise);
+  cv::Mat full = upsample(denseLabels(markers, max_label, count), w, depth, rp.noise);
   compact(full, count, rp.min_region_px);
   return full;
 }
@@ -1105,7 +1138,7 @@ cv::Mat tiledRansac(const cv::Mat& depth, const CameraIntrinsics& intr,
     }
   }
   flood(edges, labels);
-  return finish(labels, edges, w, depth, rp);
+  return finish(labels, nt + nc, edges, w, depth, rp);
 }
 
 }  // namespace
@@ -1135,11 +1168,13 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
   }
   cv::Mat markers;
   const int min_marker = std::max(1, rp.min_marker_px / (w.ds * w.ds));
-  if (markersFromEdges(edges, rp.marker_max_edge, min_marker, markers, fallback) == 0) {
+  const int marker_count =
+      markersFromEdges(edges, rp.marker_max_edge, min_marker, markers, fallback);
+  if (marker_count == 0) {
     return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
   }
   flood(edges, markers);
-  return finish(markers, edges, w, depth_mm, rp);
+  return finish(markers, marker_count, edges, w, depth_mm, rp);
 }
 
 }  // namespace shapesense

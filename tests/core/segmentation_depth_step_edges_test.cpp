@@ -114,8 +114,8 @@ TEST(DepthStepEdges, EqualTheReferenceOnEveryPathAndWindowRadius) {
           params.depth_step.window_radius = r;
           params.depth_step.region.downsample = ds;
           const KinectNoiseModel& noise = params.depth_step.region.noise;
-          const cv::Mat edges = segmentationEdgeStrength(depth, intrinsics,
-                                                         SegmentationMethod::kDepthStep, params);
+          const cv::Mat edges =
+              segmentationEdgeStrength(depth, intrinsics, SegmentationMethod::kDepthStep, params);
           const bool reduced = ds == 2 && rows >= 2 && cols >= 2;
           const cv::Mat working = reduced ? referenceReduction(depth, noise) : depth;
           const cv::Mat expected =
