@@ -664,6 +664,56 @@ cv::Mat denseLabels(const cv::Mat& labels, int max_label, int& count) {
   return out;
 }
 
+#if defined(__SSE2__)
+// upsample's expansion of working columns uc..uc+3 (uc = u / 2) to full-resolution columns
+// u..u+7: each block's label, depth and depth tolerance twice, the tolerance with the same float
+// operations as the scalar loop.
+void expandBlocks4(const std::uint16_t* l, const std::uint16_t* dc, int u, float k,
+                   std::uint16_t* lab2, std::uint16_t* dep2, std::uint16_t* tol2) {
+  const int uc = u >> 1;
+  auto load4 = [](const std::uint16_t* p) {
+    return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p));
+  };
+  auto twice = [](__m128i x4) { return _mm_unpacklo_epi16(x4, x4); };  // a a b b c c d d
+  auto store = [](std::uint16_t* p, __m128i x) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(p), x);
+  };
+  const __m128i z4 = load4(dc + uc);
+  const __m128 z = _mm_cvtepi32_ps(_mm_unpacklo_epi16(z4, _mm_setzero_si128()));
+  const __m128 t =
+      _mm_min_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(_mm_set1_ps(k), z), z), _mm_set1_ps(2.0f)),
+                 _mm_set1_ps(65535.0f));
+  // uint16 from int32 <= 0xFFFF: shifted into the signed range for the saturating pack, and back.
+  const __m128i t4 =
+      _mm_add_epi16(_mm_packs_epi32(_mm_sub_epi32(_mm_cvttps_epi32(t), _mm_set1_epi32(0x8000)),
+                                    _mm_setzero_si128()),
+                    _mm_set1_epi16(static_cast<short>(0x8000)));
+  store(lab2 + u, twice(load4(l + uc)));
+  store(dep2 + u, twice(z4));
+  store(tol2 + u, twice(t4));
+}
+
+// upsample's per-pixel pass over pixels u..u+7: the block label where there is depth (else 0),
+// and bad = 1 where the depth is off the block's by more than its tolerance. Returns whether any
+// is bad. |z - c| > t with saturating subtraction (SSE2 has no unsigned 16-bit compare).
+unsigned labelPixels8(const std::uint16_t* d, const std::uint16_t* lab2, const std::uint16_t* dep2,
+                      const std::uint16_t* tol2, int u, std::uint16_t* o, std::uint8_t* bad) {
+  auto load = [](const std::uint16_t* p) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+  };
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i z = load(d + u), c = load(dep2 + u);
+  const __m128i no_depth = _mm_cmpeq_epi16(z, zero);
+  const __m128i diff = _mm_or_si128(_mm_subs_epu16(z, c), _mm_subs_epu16(c, z));
+  const __m128i within = _mm_cmpeq_epi16(_mm_subs_epu16(diff, load(tol2 + u)), zero);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(o + u), _mm_andnot_si128(no_depth, load(lab2 + u)));
+  const __m128i is_bad = _mm_andnot_si128(_mm_or_si128(no_depth, within), _mm_set1_epi16(-1));
+  _mm_storel_epi64(reinterpret_cast<__m128i*>(bad + u),
+                   _mm_packs_epi16(_mm_and_si128(is_bad, _mm_set1_epi16(1)), zero));
+  return static_cast<unsigned>(_mm_movemask_epi8(is_bad));
+}
+#endif
+
 // Upsamples working-resolution labels (dense uint16, see denseLabels) to the full image. A
 // full-resolution pixel whose depth does not match its block's depth (a block on a step took the
 // foreground) takes the label of the neighbouring block with the closest depth. Pixels without
@@ -695,7 +745,12 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth,
     const auto* l = labels.ptr<std::uint16_t>(vc);
     const auto* dc = w.depth.ptr<std::uint16_t>(vc);
     if (v % 2 == 0) {
-      for (int u = 0; u < cols; u += 2) {
+      int u = 0;
+#if defined(__SSE2__)
+      for (; u + 8 <= cols && (u >> 1) + 4 <= labels.cols; u += 8)
+        expandBlocks4(l, dc, u, k, lab2.data(), dep2.data(), tol2.data());
+#endif
+      for (; u < cols; u += 2) {
         const int uc = std::min(u >> 1, labels.cols - 1);
         const float z = dc[uc];
         const auto t = static_cast<std::uint16_t>(std::min(k * z * z + 2.0f, 65535.0f));
@@ -708,7 +763,12 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth,
       }
     }
     unsigned any_bad = 0;
-    for (int u = 0; u < cols; ++u) {
+    int u = 0;
+#if defined(__SSE2__)
+    for (; u + 8 <= cols; u += 8)
+      any_bad |= labelPixels8(d, lab2.data(), dep2.data(), tol2.data(), u, o, bad.data());
+#endif
+    for (; u < cols; ++u) {
       const std::uint16_t z = d[u], c = dep2[u];
       const std::uint16_t diff = static_cast<std::uint16_t>(z > c ? z - c : c - z);
       const std::uint16_t valid = z != 0 ? 0xFFFF : 0;
@@ -718,6 +778,10 @@ cv::Mat upsample(const cv::Mat& labels, const Working& w, const cv::Mat& depth,
     }
     if (!any_bad) continue;
     for (int u = 0; u < cols; ++u) {
+      if (std::uint64_t eight; u + 8 <= cols && (std::memcpy(&eight, &bad[u], 8), eight == 0)) {
+        u += 7;  // none of the eight
+        continue;
+      }
       if (!bad[u]) continue;
       const int uc = std::min(u >> 1, labels.cols - 1);
       int best = 1 << 30;
