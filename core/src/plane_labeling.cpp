@@ -9,6 +9,12 @@
 
 #include "shapesense/core/plane_polygon.h"
 
+// GCC only: the AVX2 copies of the pixel loops are compiled with a target attribute, which clang
+// would not inline into.
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define SHAPESENSE_LABELING_AVX2 1  // AVX2 copies compiled in, used where the CPU has AVX2
+#endif
+
 namespace shapesense {
 namespace {
 
@@ -183,9 +189,10 @@ std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& 
 // Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
 // the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
 // number of pixels labelled.
-int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
-                            const float* q, float qv, float tol_coef, float tol_floor,
-                            std::uint16_t label) {
+[[gnu::always_inline]] inline int labelSingleCandidateRun(const std::uint16_t* drow,
+                                                          std::uint16_t* lrow, int u0, int u1,
+                                                          const float* q, float qv, float tol_coef,
+                                                          float tol_floor, std::uint16_t label) {
   const float qa = q[0], qc = q[2], qd = q[3];
   int n = 0;
   for (int u = u0; u < u1; ++u) {
@@ -219,9 +226,11 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
 // because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
 // Adds the number of pixels labelled with each candidate to counts[0..K).
 template <int K>
-void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                        const std::vector<float>& coef, float fv,
-                        const std::vector<float>& region_tol, float tol_floor, int* counts) {
+[[gnu::always_inline]] inline void labelCandidatesRun(const std::uint16_t* drow,
+                                                      std::uint16_t* lrow, const PixelRun& run,
+                                                      const std::vector<float>& coef, float fv,
+                                                      const std::vector<float>& region_tol,
+                                                      float tol_floor, int* counts) {
   int n[K] = {};
   float qa[K], qv[K], qc[K], qd[K], tk[K];
   std::uint16_t label[K];
@@ -253,19 +262,68 @@ void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const Pi
   for (int k = 0; k < K; ++k) counts[k] += n[k];
 }
 
+#if defined(SHAPESENSE_LABELING_AVX2)
+// The same loops compiled for AVX2: eight lanes instead of four, the same operations in the same
+// order lane for lane (never FMA: a fused multiply-add would round differently), so the same
+// labels. Called only where the CPU has AVX2.
+__attribute__((target("avx2,no-fma"))) int labelSingleCandidateRunAvx2(
+    const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
+    float tol_coef, float tol_floor, std::uint16_t label) {
+  return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+}
+
+template <int K>
+__attribute__((target("avx2,no-fma"))) void labelCandidatesRunAvx2(
+    const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+    const std::vector<float>& coef, float fv, const std::vector<float>& region_tol, float tol_floor,
+    int* counts) {
+  labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+}
+
+bool cpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+#endif
+
+// Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2`.
+int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
+                   const float* q, float qv, float tol_coef, float tol_floor, std::uint16_t label) {
+#if defined(SHAPESENSE_LABELING_AVX2)
+  if (avx2)
+    return labelSingleCandidateRunAvx2(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+#else
+  (void)avx2;
+#endif
+  return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+}
+
+template <int K>
+void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+               const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
+               float tol_floor, int* counts) {
+#if defined(SHAPESENSE_LABELING_AVX2)
+  if (avx2)
+    return labelCandidatesRunAvx2<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+#else
+  (void)avx2;
+#endif
+  labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+}
+
 // Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
 // counts[k]: pixels labelled with candidate k (the runs' spans need them).
-void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv,
+void labelMultiCandidateRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow,
+                            const PixelRun& run, const std::vector<float>& coef, float fv,
                             const std::vector<float>& region_tol, float tol_floor,
                             std::array<int, 4>& counts) {
   counts.fill(0);
   if (run.list[2] < 0)
-    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<2>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
   else if (run.list[3] < 0)
-    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<3>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
   else
-    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<4>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -373,6 +431,11 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
+#if defined(SHAPESENSE_LABELING_AVX2)
+  const bool avx2 = cpuHasAvx2();
+#else
+  const bool avx2 = false;
+#endif
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
   auto sampleOf = [&](int x, int n) {
     return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
@@ -403,11 +466,11 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       std::array<int, 4> counts{};  // pixels labelled with each candidate
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        counts[0] = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
-                                            region_tol[run.list[0]], tol_floor,
-                                            static_cast<std::uint16_t>(run.list[0] + 1));
+        counts[0] =
+            labelSingleRun(avx2, drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]],
+                           tol_floor, static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
-        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+        labelMultiCandidateRun(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
