@@ -374,37 +374,43 @@ struct RunSums {
   }
 };
 
+// Colour sums of a run (locals: stores through a uchar row could alias the region).
+struct RunColour {
+  std::uint64_t b = 0, g = 0, r = 0;
+  void add(const cv::Vec3b& c) {
+    b += c[0];
+    g += c[1];
+    r += c[2];
+  }
+};
+
 // Adds the pixels labelled `label` in lrow[u0, u1) on the moment lattice to the moments and colour
 // of their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
 // sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
 // the same pass (one test of the label per pixel). Alternate lattice pixels go to two sets of
-// sums: each sum is a chain of dependent additions, and two chains run in parallel.
+// sums: each sum is a chain of dependent additions, and two chains run in parallel. kColour:
+// whether there is a colour row (a template parameter: no test of it per pixel).
+template <bool kColour>
 void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
                    int u0, int u1, std::uint16_t label, const double* xr, double yr,
                    RegionAccumulator& reg) {
   RunSums even, odd;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  auto addColour = [&](int u) {
-    if (!crow) return;
-    b += crow[u][0];
-    g += crow[u][1];
-    r += crow[u][2];
-  };
+  RunColour colour;
   int u = firstMomentPixel(u0);
   for (; u + kMomentStride < u1; u += 2 * kMomentStride) {
     const int u2 = u + kMomentStride;
     if (lrow[u] == label) {
       even.add(drow[u] * 0.001, xr[u]);
-      addColour(u);
+      if constexpr (kColour) colour.add(crow[u]);
     }
     if (lrow[u2] == label) {
       odd.add(drow[u2] * 0.001, xr[u2]);
-      addColour(u2);
+      if constexpr (kColour) colour.add(crow[u2]);
     }
   }
   if (u < u1 && lrow[u] == label) {
     even.add(drow[u] * 0.001, xr[u]);
-    addColour(u);
+    if constexpr (kColour) colour.add(crow[u]);
   }
   even.add(odd);
   const double n = even.n, sz = even.sz, szz = even.szz, sxz = even.sxz, sxzz = even.sxzz,
@@ -413,9 +419,9 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   Eigen::Matrix3d sum_sq;  // upper triangle
   sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
   reg.moments.addSums(n, Eigen::Vector3d(sxz, yr * sz, sz), sum_sq);
-  reg.colour[0] += b;
-  reg.colour[1] += g;
-  reg.colour[2] += r;
+  reg.colour[0] += colour.b;
+  reg.colour[1] += colour.g;
+  reg.colour[2] += colour.r;
 }
 
 // Every full-resolution pixel takes the closest candidate plane of its sample within the
@@ -476,8 +482,12 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
         addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, counts[slot]), v);
-        if (v % kMomentStride == 0)
-          addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        if (v % kMomentStride == 0) {
+          if (crow)
+            addRunMoments<true>(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+          else
+            addRunMoments<false>(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        }
       }
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
