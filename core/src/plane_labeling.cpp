@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 
 #include "shapesense/core/plane_polygon.h"
@@ -621,13 +623,16 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   // r and c from the index would cost two integer divisions per entry. Every sample enters it
   // at most once.
   CV_Assert(R <= 0xFFFF && C <= 0xFFFF);
-  std::vector<std::uint32_t> queue(static_cast<std::size_t>(R) * C);
+  // Not zeroed: only the entries below tail are read, each written first.
+  const auto queue =
+      std::make_unique_for_overwrite<std::uint32_t[]>(static_cast<std::size_t>(R) * C);
   std::size_t tail = 0;
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
   // Whether each sample is open (unlabelled and valid) first, in one branch-free pass, on a
   // grid with a closed one-sample border; the seed test then ORs four flags without bounds
-  // tests, and the seeds are appended without a branch.
+  // tests, into a row of seed flags (a branch-free pass that vectorises). Seeds are few (they
+  // line the borders of the labelled areas): the flags are scanned eight at a time.
   const int W = C + 2;
   std::vector<std::uint8_t> open(static_cast<std::size_t>(R + 2) * W, 0);
   for (int r = 0; r < R; ++r) {
@@ -637,13 +642,21 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
     for (int c = 0; c < C; ++c)
       orow[c] = static_cast<std::uint8_t>((lrow[c] == -1) & (prow[c][2] > 0));
   }
+  std::vector<std::uint8_t> seed(static_cast<std::size_t>(C) + 8, 0);  // one row, whole words
   for (int r = 0; r < R; ++r) {
     const int* lrow = lab + r * C;
     const std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
     for (int c = 0; c < C; ++c) {
       const int any = orow[c - 1] | orow[c + 1] | orow[c - W] | orow[c + W];
-      queue[tail] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
-      tail += static_cast<std::size_t>((lrow[c] >= 0) & (any != 0));
+      seed[c] = static_cast<std::uint8_t>((lrow[c] >= 0) & (any != 0));
+    }
+    for (int c0 = 0; c0 < C; c0 += 8) {
+      std::uint64_t word;
+      std::memcpy(&word, &seed[c0], sizeof word);
+      if (word == 0) continue;
+      for (int c = c0; c < std::min(c0 + 8, C); ++c)
+        if (seed[c])
+          queue[tail++] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
     }
   }
   for (std::size_t q = 0; q < tail; ++q) {
