@@ -22,7 +22,7 @@ namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-int findRoot(std::vector<int>& parent, int i) {
+int findRoot(int* parent, int i) {
   while (parent[i] != i) {
     parent[i] = parent[parent[i]];
     i = parent[i];
@@ -30,7 +30,7 @@ int findRoot(std::vector<int>& parent, int i) {
   return i;
 }
 
-void unite(std::vector<int>& parent, int a, int b) {
+void unite(int* parent, int a, int b) {
   a = findRoot(parent, a);
   b = findRoot(parent, b);
   if (a != b) parent[std::max(a, b)] = std::min(a, b);
@@ -86,9 +86,8 @@ struct LabelRuns {
 // sample_u0/u1: pixel range of each sample column. Most neighbourhoods hold at most one region
 // (inside a region, or a region next to unlabelled samples): found from summaries of the rows
 // of three, they extend the current run without building a list.
-void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
-                        const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
-                        LabelRuns& lr) {
+void buildCandidateRuns(const int* region_of, int R, int C, const std::vector<int>& sample_u0,
+                        const std::vector<int>& sample_u1, LabelRuns& lr) {
   // Row summaries of rows -1 .. R (the two outside rows summarise nothing: -1), then the
   // summary of each 3x3 neighbourhood of the current row; boundary-free loops that vectorise.
   std::vector<int> row_summary(static_cast<std::size_t>(R + 3) * C, -1);
@@ -433,7 +432,7 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
 // Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
 // the common case is a tight single-plane loop.
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                      const PlaneSampleGrid& grid, const std::vector<int>& region_of,
+                      const PlaneSampleGrid& grid, const int* region_of,
                       const std::vector<PlaneHypothesis>& planes,
                       const std::vector<float>& region_tol, float tol_floor,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
@@ -716,8 +715,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       planeToleranceCoefficients(grid, sample_labels, planes, params);
   growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
-  std::vector<int> parent(static_cast<std::size_t>(R) * C);
-  std::iota(parent.begin(), parent.end(), 0);
+  // The per-sample arrays below are not zeroed where every entry read is written first (zeroing
+  // them cost as much as some of the passes over them).
+  const std::size_t samples = static_cast<std::size_t>(R) * C;
+  const auto parent_storage = std::make_unique_for_overwrite<int[]>(samples);
+  int* const parent = parent_storage.get();
+  std::iota(parent, parent + samples, 0);
   if (params.split_connected_regions) {
     // Which joins were made (bit 0: with the left neighbour, bit 1: with the one above). When
     // i joined its left neighbour, which joined the sample above it, which joined its own left
@@ -726,7 +729,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // root: the root (smallest index) of the set of the sample just processed. No set changes
     // between that sample and the next, so a join with the left neighbour takes it without a
     // find.
-    std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
+    // Written for every labelled sample; read only for labelled ones.
+    const auto joined = std::make_unique_for_overwrite<std::uint8_t[]>(samples);
     int root = -1;
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
@@ -734,6 +738,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         if (lab[i] < 0) continue;
         const float z = point(i)[2];
         int own = i;  // i is still its own root here (raster order)
+        joined[i] = 0;
         if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
           parent[i] = own = root;
           joined[i] = 1;
@@ -761,10 +766,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // farther along its ray than the plane.
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
-    // Sample count and row / column sums of each piece (a sum reaches R C max(R, C): 64 bits).
-    const std::size_t samples = static_cast<std::size_t>(R) * C;
-    std::vector<int> cnt(samples, 0);
-    std::vector<std::int64_t> sr(samples, 0), sc(samples, 0);
+    // Sample count and row / column sums of each piece (a sum reaches R C max(R, C): 64 bits),
+    // at its root: the root is the piece's smallest index, so its first sample in raster order,
+    // where the sums start (only roots are read).
+    const auto cnt = std::make_unique_for_overwrite<int[]>(samples);
+    const auto sr = std::make_unique_for_overwrite<std::int64_t[]>(samples);
+    const auto sc = std::make_unique_for_overwrite<std::int64_t[]>(samples);
     // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
     // pointing at its root (the roots stay the same: no find is needed below). Consecutive
     // samples mostly share a root: its sums stay in registers until the root changes.
@@ -782,9 +789,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
             sc[cur] = cur_c;
           }
           cur = root;
-          cur_n = cnt[root];
-          cur_r = sr[root];
-          cur_c = sc[root];
+          const bool first = root == i;
+          cur_n = first ? 0 : cnt[root];
+          cur_r = first ? 0 : sr[root];
+          cur_c = first ? 0 : sc[root];
         }
         ++cur_n;
         cur_r += r;
@@ -829,10 +837,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         }
     }
   }
-  std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
+  const auto region_storage = std::make_unique_for_overwrite<int[]>(samples);
+  int* const region_of = region_storage.get();  // every entry written below
   std::vector<RegionAccumulator> regions;
   {
-    std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
+    // The region of each root, written at the root: the first sample of its set in raster order.
+    const auto root_region = std::make_unique_for_overwrite<int[]>(samples);
     std::vector<int> plane_region(planes.size(), -1);
     std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
     // Consecutive samples mostly share a region: its count and column bounds stay in registers
@@ -852,7 +862,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         // every entry pointing at its root.
         const int root = parent[parent[i]];
         parent[i] = root;
-        if (lab[i] < 0) continue;
+        if (lab[i] < 0) {
+          region_of[i] = -1;
+          continue;
+        }
+        if (root == i) root_region[i] = -1;
         int& slot = params.split_connected_regions ? root_region[root] : plane_region[lab[i]];
         if (slot < 0) {
           slot = static_cast<int>(regions.size());
@@ -938,7 +952,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     const double cos_merge =
         std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
     for (const auto& [a0, b0] : adjacent) {
-      const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
+      const int a = findRoot(merged_into.data(), a0), b = findRoot(merged_into.data(), b0);
       if (a == b) continue;
       const PlaneFit &fa = fitOf(a), &fb = fitOf(b);
       if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
@@ -966,7 +980,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       merged_into[std::max(a, b)] = std::min(a, b);
     }
     for (int i = 0; i < R * C; ++i)
-      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into, region_of[i]);
+      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into.data(), region_of[i]);
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
@@ -1031,7 +1045,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     out.planes.push_back(std::move(p));
   }
   for (std::size_t k = 0; k < nreg; ++k) {
-    const int root = findRoot(merged_into, static_cast<int>(k));
+    const int root = findRoot(merged_into.data(), static_cast<int>(k));
     if (root != static_cast<int>(k)) {
       lut[k + 1] = lut[root + 1];
       renumber = true;
