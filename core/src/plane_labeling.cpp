@@ -11,10 +11,10 @@
 
 #include "shapesense/core/plane_polygon.h"
 
-// GCC only: the AVX2 copies of the pixel loops are compiled with a target attribute, which clang
-// would not inline into.
+// GCC only: the AVX2 pixel loops are compiled with #pragma GCC target, which clang ignores.
 #if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define SHAPESENSE_LABELING_AVX2 1  // AVX2 copies compiled in, used where the CPU has AVX2
+#include <immintrin.h>
+#define SHAPESENSE_LABELING_AVX2 1  // AVX2 pixel loops compiled in, used where the CPU has AVX2
 #endif
 
 namespace shapesense {
@@ -264,22 +264,138 @@ template <int K>
 }
 
 #if defined(SHAPESENSE_LABELING_AVX2)
-// The same loops compiled for AVX2: eight lanes instead of four, the same operations in the same
-// order lane for lane (never FMA: a fused multiply-add would round differently), so the same
-// labels. Called only where the CPU has AVX2.
-__attribute__((target("avx2,no-fma"))) int labelSingleCandidateRunAvx2(
-    const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1, const float* q, float qv,
-    float tol_coef, float tol_floor, std::uint16_t label) {
-  return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+// The pixel loops in AVX2, eight pixels per step, with the operations of the scalar loops in the
+// same order lane for lane (never FMA: a fused multiply-add would round differently), so the same
+// labels and counts. A run's last partial step is redone as the eight pixels ending at u1 (those
+// already labelled get the same labels again; only the new ones are counted), so no pixel is
+// read or written outside the run; runs shorter than eight pixels take the scalar loops. Compiled
+// for AVX2 whatever the build flags; called only where the CPU has it.
+#pragma GCC push_options
+#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+
+// Depths (m) of pixels u..u+7, as static_cast<float>(d) * 0.001f.
+inline __m256 depthOctet(const std::uint16_t* drow, int u) {
+  const __m128i d = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + u));
+  return _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(d)), _mm256_set1_ps(0.001f));
 }
 
-template <int K>
-__attribute__((target("avx2,no-fma"))) void labelCandidatesRunAvx2(
-    const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-    const std::vector<float>& coef, float fv, const std::vector<float>& region_tol, float tol_floor,
-    int* counts) {
-  labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+// Pixel columns u..u+7 as floats.
+inline __m256 columnOctet(int u) {
+  return _mm256_cvtepi32_ps(
+      _mm256_add_epi32(_mm256_set1_epi32(u), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
 }
+
+// |z (qa u + qv + qc) + qd|, rounded as in the scalar loops.
+inline __m256 planeDistanceOctet(__m256 z, __m256 fu, __m256 qa, __m256 qv, __m256 qc, __m256 qd) {
+  const __m256 bracket = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(qa, fu), qv), qc);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  return _mm256_and_ps(abs_mask, _mm256_add_ps(_mm256_mul_ps(z, bracket), qd));
+}
+
+// Lanes u0 + k with u0 + k >= first (the lanes a step counts), as 32-bit masks.
+inline __m256i newLanes(int u0, int first) {
+  return _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                            _mm256_set1_epi32(first - u0 - 1));
+}
+
+// Eight 32-bit labels (each <= 65535) stored as uint16 at lrow + u.
+inline void storeLabels(std::uint16_t* lrow, int u, __m256i labels) {
+  const __m128i packed =
+      _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packed);
+}
+
+inline int laneSum(__m256i v) {
+  __m128i s = _mm_add_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(1, 0, 3, 2)));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(2, 3, 0, 1)));
+  return _mm_cvtsi128_si32(s);
+}
+
+// labelSingleCandidateRun in AVX2.
+int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
+                                const float* q, float qv, float tol_coef, float tol_floor,
+                                std::uint16_t label) {
+  if (u1 - u0 < 8)
+    return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+  const __m256 qa = _mm256_set1_ps(q[0]), vqv = _mm256_set1_ps(qv), qc = _mm256_set1_ps(q[2]),
+               qd = _mm256_set1_ps(q[3]), coef = _mm256_set1_ps(tol_coef),
+               floor = _mm256_set1_ps(tol_floor);
+  const __m256i vlabel = _mm256_set1_epi32(label);
+  __m256i count = _mm256_setzero_si256();
+  // Labels pixels u..u+7; counts those in `counted`.
+  auto step = [&](int u, __m256 fu, __m256i counted) {
+    const __m256 z = depthOctet(drow, u);
+    const __m256 dd = planeDistanceOctet(z, fu, qa, vqv, qc, qd);
+    const __m256 tol = _mm256_max_ps(_mm256_mul_ps(coef, _mm256_mul_ps(z, z)), floor);
+    const __m256i inside = _mm256_castps_si256(_mm256_and_ps(
+        _mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ)));
+    storeLabels(lrow, u, _mm256_and_si256(inside, vlabel));
+    count = _mm256_sub_epi32(count, _mm256_and_si256(inside, counted));
+  };
+  const __m256i all = _mm256_set1_epi32(-1);
+  __m256 fu = columnOctet(u0);
+  int u = u0;
+  for (; u + 8 <= u1; u += 8) {
+    step(u, fu, all);
+    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
+  }
+  if (u < u1) step(u1 - 8, columnOctet(u1 - 8), newLanes(u1 - 8, u));
+  return laneSum(count);
+}
+
+// labelCandidatesRun<K> in AVX2.
+template <int K>
+void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                            const std::vector<float>& coef, float fv,
+                            const std::vector<float>& region_tol, float tol_floor, int* counts) {
+  if (run.u1 - run.u0 < 8)
+    return labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+  __m256 qa[K], qv[K], qc[K], qd[K], tk[K];
+  __m256i label[K], n[K];
+  for (int k = 0; k < K; ++k) {
+    const int reg = run.list[k];
+    const float* q = &coef[4 * reg];
+    qa[k] = _mm256_set1_ps(q[0]);
+    qv[k] = _mm256_set1_ps(q[1] * fv);
+    qc[k] = _mm256_set1_ps(q[2]);
+    qd[k] = _mm256_set1_ps(q[3]);
+    tk[k] = _mm256_set1_ps(region_tol[reg]);
+    label[k] = _mm256_set1_epi32(static_cast<std::uint16_t>(reg + 1));
+    n[k] = _mm256_setzero_si256();
+  }
+  const __m256 floor = _mm256_set1_ps(tol_floor);
+  auto step = [&](int u, __m256 fu, __m256i counted) {
+    const __m256 z = depthOctet(drow, u);
+    const __m256 z2 = _mm256_mul_ps(z, z);
+    __m256 best = _mm256_set1_ps(std::numeric_limits<float>::max());
+    __m256i best_label = _mm256_setzero_si256();
+    for (int k = 0; k < K; ++k) {
+      const __m256 dd = planeDistanceOctet(z, fu, qa[k], qv[k], qc[k], qd[k]);
+      const __m256 tol = _mm256_max_ps(_mm256_mul_ps(tk[k], z2), floor);
+      const __m256 take =
+          _mm256_and_ps(_mm256_cmp_ps(dd, best, _CMP_LE_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ));
+      best = _mm256_blendv_ps(best, dd, take);
+      best_label = _mm256_blendv_epi8(best_label, label[k], _mm256_castps_si256(take));
+    }
+    const __m256i valid = _mm256_castps_si256(_mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ));
+    const __m256i out = _mm256_and_si256(best_label, valid);
+    storeLabels(lrow, u, out);
+    for (int k = 0; k < K; ++k)
+      n[k] = _mm256_sub_epi32(n[k], _mm256_and_si256(_mm256_cmpeq_epi32(out, label[k]), counted));
+  };
+  const __m256i all = _mm256_set1_epi32(-1);
+  __m256 fu = columnOctet(run.u0);
+  int u = run.u0;
+  for (; u + 8 <= run.u1; u += 8) {
+    step(u, fu, all);
+    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));
+  }
+  if (u < run.u1) step(run.u1 - 8, columnOctet(run.u1 - 8), newLanes(run.u1 - 8, u));
+  for (int k = 0; k < K; ++k) counts[k] += laneSum(n[k]);
+}
+
+#pragma GCC pop_options
 
 bool cpuHasAvx2() {
   static const bool has = __builtin_cpu_supports("avx2");
