@@ -646,27 +646,37 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   std::vector<int> count(planes_count, 0);
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const int* lab = sample_labels.ptr<int>(0);
-  // Consecutive samples mostly share a plane: its sum stays in a register until the plane
-  // changes (the same additions in the same order as sum[L] += ..., without a store-to-load
-  // round trip per sample).
-  int cur = -1;
-  double cur_sum = 0.0;
+  // Consecutive samples mostly share a plane: its sum, count and coefficients stay in registers
+  // until the plane changes (the same additions in the same order as sum[L] += ..., without a
+  // store-to-load round trip per sample).
+  int cur = -1, cur_count = 0;
+  double cur_sum = 0.0, nx = 0.0, ny = 0.0, nz = 0.0, d = 0.0;
   for (int i = 0; i < grid.points.rows * grid.points.cols; ++i) {
     const int L = lab[i];
     if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
     if (L != cur) {
-      if (cur >= 0) sum[cur] = cur_sum;
+      if (cur >= 0) {
+        sum[cur] = cur_sum;
+        count[cur] = cur_count;
+      }
       cur = L;
       cur_sum = sum[L];
+      cur_count = count[L];
+      const auto& h = planes[L];
+      nx = h.normal.x();
+      ny = h.normal.y();
+      nz = h.normal.z();
+      d = h.d;
     }
-    const auto& h = planes[L];
     const cv::Vec3f& p = pts[i];
-    const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) /
-                     (step1 * p[2] * p[2]);
+    const double r = (nx * p[0] + ny * p[1] + nz * p[2] + d) / (step1 * p[2] * p[2]);
     cur_sum += r * r;
-    ++count[L];
+    ++cur_count;
   }
-  if (cur >= 0) sum[cur] = cur_sum;
+  if (cur >= 0) {
+    sum[cur] = cur_sum;
+    count[cur] = cur_count;
+  }
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
   for (std::size_t L = 0; L < planes_count; ++L) {
     if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
