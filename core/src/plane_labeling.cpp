@@ -266,10 +266,10 @@ template <int K>
 #if defined(SHAPESENSE_LABELING_AVX2)
 // The pixel loops in AVX2, eight pixels per step, with the operations of the scalar loops in the
 // same order lane for lane (never FMA: a fused multiply-add would round differently), so the same
-// labels and counts. A run's last partial step is redone as the eight pixels ending at u1 (those
-// already labelled get the same labels again; only the new ones are counted), so no pixel is
-// read or written outside the run; runs shorter than eight pixels take the scalar loops. Compiled
-// for AVX2 whatever the build flags; called only where the CPU has it.
+// labels and counts. A run's last partial step (or all of a run shorter than eight pixels) is a
+// window of eight pixels of the row that holds the rest: the run's pixels take their labels, the
+// others keep theirs (they belong to other runs or gaps, written before or after). Compiled for
+// AVX2 whatever the build flags; called only where the CPU has it, on rows of >= 8 pixels.
 #pragma GCC push_options
 #pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
 
@@ -292,17 +292,28 @@ inline __m256 planeDistanceOctet(__m256 z, __m256 fu, __m256 qa, __m256 qv, __m2
   return _mm256_and_ps(abs_mask, _mm256_add_ps(_mm256_mul_ps(z, bracket), qd));
 }
 
-// Lanes u0 + k with u0 + k >= first (the lanes a step counts), as 32-bit masks.
-inline __m256i newLanes(int u0, int first) {
-  return _mm256_cmpgt_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-                            _mm256_set1_epi32(first - u0 - 1));
+// The first pixel of the eight-pixel window of a partial step starting at u: u, or the row's
+// last eight pixels.
+inline int windowStart(int u, int cols) { return std::min(u, cols - 8); }
+
+// Lanes w + k with lo <= w + k < hi, as 32-bit masks.
+inline __m256i laneRange(int w, int lo, int hi) {
+  const __m256i k = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  return _mm256_and_si256(_mm256_cmpgt_epi32(k, _mm256_set1_epi32(lo - w - 1)),
+                          _mm256_cmpgt_epi32(_mm256_set1_epi32(hi - w), k));
 }
 
-// Eight 32-bit labels (each <= 65535) stored as uint16 at lrow + u.
-inline void storeLabels(std::uint16_t* lrow, int u, __m256i labels) {
-  const __m128i packed =
-      _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
-  _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packed);
+// Eight 32-bit values (each <= 65535) packed to uint16.
+inline __m128i packLabels(__m256i labels) {
+  return _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
+}
+
+// Stores the labels of the lanes in `lanes` (32-bit masks) at lrow + w, keeps the others.
+inline void storeLabels(std::uint16_t* lrow, int w, __m256i labels, __m256i lanes) {
+  auto* p = reinterpret_cast<__m128i*>(lrow + w);
+  const __m128i keep = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
+                                       _mm256_extracti128_si256(lanes, 1));  // 16-bit masks
+  _mm_storeu_si128(p, _mm_blendv_epi8(_mm_loadu_si128(p), packLabels(labels), keep));
 }
 
 inline int laneSum(__m256i v) {
@@ -313,44 +324,44 @@ inline int laneSum(__m256i v) {
 }
 
 // labelSingleCandidateRun in AVX2.
-int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
-                                const float* q, float qv, float tol_coef, float tol_floor,
+int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
+                                int u1, const float* q, float qv, float tol_coef, float tol_floor,
                                 std::uint16_t label) {
-  if (u1 - u0 < 8)
-    return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
   const __m256 qa = _mm256_set1_ps(q[0]), vqv = _mm256_set1_ps(qv), qc = _mm256_set1_ps(q[2]),
                qd = _mm256_set1_ps(q[3]), coef = _mm256_set1_ps(tol_coef),
                floor = _mm256_set1_ps(tol_floor);
   const __m256i vlabel = _mm256_set1_epi32(label);
   __m256i count = _mm256_setzero_si256();
-  // Labels pixels u..u+7; counts those in `counted`.
+  // The labels of pixels u..u+7 (32-bit lanes); counts those in `counted`.
   auto step = [&](int u, __m256 fu, __m256i counted) {
     const __m256 z = depthOctet(drow, u);
     const __m256 dd = planeDistanceOctet(z, fu, qa, vqv, qc, qd);
     const __m256 tol = _mm256_max_ps(_mm256_mul_ps(coef, _mm256_mul_ps(z, z)), floor);
     const __m256i inside = _mm256_castps_si256(_mm256_and_ps(
         _mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ)));
-    storeLabels(lrow, u, _mm256_and_si256(inside, vlabel));
     count = _mm256_sub_epi32(count, _mm256_and_si256(inside, counted));
+    return _mm256_and_si256(inside, vlabel);
   };
   const __m256i all = _mm256_set1_epi32(-1);
   __m256 fu = columnOctet(u0);
   int u = u0;
   for (; u + 8 <= u1; u += 8) {
-    step(u, fu, all);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
     fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
   }
-  if (u < u1) step(u1 - 8, columnOctet(u1 - 8), newLanes(u1 - 8, u));
+  if (u < u1) {
+    const int w = windowStart(u, cols);
+    const __m256i lanes = laneRange(w, u, u1);
+    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
+  }
   return laneSum(count);
 }
 
 // labelCandidatesRun<K> in AVX2.
 template <int K>
-void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv,
+void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols,
+                            const PixelRun& run, const std::vector<float>& coef, float fv,
                             const std::vector<float>& region_tol, float tol_floor, int* counts) {
-  if (run.u1 - run.u0 < 8)
-    return labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
   __m256 qa[K], qv[K], qc[K], qd[K], tk[K];
   __m256i label[K], n[K];
   for (int k = 0; k < K; ++k) {
@@ -380,18 +391,22 @@ void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, cons
     }
     const __m256i valid = _mm256_castps_si256(_mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ));
     const __m256i out = _mm256_and_si256(best_label, valid);
-    storeLabels(lrow, u, out);
     for (int k = 0; k < K; ++k)
       n[k] = _mm256_sub_epi32(n[k], _mm256_and_si256(_mm256_cmpeq_epi32(out, label[k]), counted));
+    return out;
   };
   const __m256i all = _mm256_set1_epi32(-1);
   __m256 fu = columnOctet(run.u0);
   int u = run.u0;
   for (; u + 8 <= run.u1; u += 8) {
-    step(u, fu, all);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
     fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));
   }
-  if (u < run.u1) step(run.u1 - 8, columnOctet(run.u1 - 8), newLanes(run.u1 - 8, u));
+  if (u < run.u1) {
+    const int w = windowStart(u, cols);
+    const __m256i lanes = laneRange(w, u, run.u1);
+    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
+  }
   for (int k = 0; k < K; ++k) counts[k] += laneSum(n[k]);
 }
 
@@ -403,44 +418,49 @@ bool cpuHasAvx2() {
 }
 #endif
 
-// Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2`.
-int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
-                   const float* q, float qv, float tol_coef, float tol_floor, std::uint16_t label) {
+// Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2` (which
+// needs rows of >= 8 pixels; `cols` pixels here).
+int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
+                   int u1, const float* q, float qv, float tol_coef, float tol_floor,
+                   std::uint16_t label) {
 #if defined(SHAPESENSE_LABELING_AVX2)
   if (avx2)
-    return labelSingleCandidateRunAvx2(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+    return labelSingleCandidateRunAvx2(drow, lrow, cols, u0, u1, q, qv, tol_coef, tol_floor, label);
 #else
   (void)avx2;
+  (void)cols;
 #endif
   return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
 }
 
 template <int K>
-void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-               const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
-               float tol_floor, int* counts) {
+void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
+               const PixelRun& run, const std::vector<float>& coef, float fv,
+               const std::vector<float>& region_tol, float tol_floor, int* counts) {
 #if defined(SHAPESENSE_LABELING_AVX2)
   if (avx2)
-    return labelCandidatesRunAvx2<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+    return labelCandidatesRunAvx2<K>(drow, lrow, cols, run, coef, fv, region_tol, tol_floor,
+                                     counts);
 #else
   (void)avx2;
+  (void)cols;
 #endif
   labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
 }
 
 // Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
 // counts[k]: pixels labelled with candidate k (the runs' spans need them).
-void labelMultiCandidateRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow,
+void labelMultiCandidateRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
                             const PixelRun& run, const std::vector<float>& coef, float fv,
                             const std::vector<float>& region_tol, float tol_floor,
                             std::array<int, 4>& counts) {
   counts.fill(0);
   if (run.list[2] < 0)
-    labelKRun<2>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<2>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
   else if (run.list[3] < 0)
-    labelKRun<3>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<3>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
   else
-    labelKRun<4>(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<4>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -555,7 +575,7 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
 #if defined(SHAPESENSE_LABELING_AVX2)
-  const bool avx2 = cpuHasAvx2();
+  const bool avx2 = cpuHasAvx2() && depth_mm.cols >= 8;
 #else
   const bool avx2 = false;
 #endif
@@ -589,11 +609,12 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       std::array<int, 4> counts{};  // pixels labelled with each candidate
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        counts[0] =
-            labelSingleRun(avx2, drow, lrow, run.u0, run.u1, q, q[1] * fv, region_tol[run.list[0]],
-                           tol_floor, static_cast<std::uint16_t>(run.list[0] + 1));
+        counts[0] = labelSingleRun(avx2, drow, lrow, depth_mm.cols, run.u0, run.u1, q, q[1] * fv,
+                                   region_tol[run.list[0]], tol_floor,
+                                   static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
-        labelMultiCandidateRun(avx2, drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+        labelMultiCandidateRun(avx2, drow, lrow, depth_mm.cols, run, coef, fv, region_tol,
+                               tol_floor, counts);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
