@@ -1042,9 +1042,26 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
   }
   // Pre-filter on sample counts (half the pixel threshold: edges add pixels at full resolution).
+  // A region's samples lie in its sample box: the boxes of the small regions are searched, unless
+  // together they cover more than the grid.
   const int min_samples = std::max(1, params.min_region_pixels / (2 * step * step));
-  for (int i = 0; i < R * C; ++i)
-    if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
+  std::size_t small_area = 0;
+  for (const auto& reg : regions)
+    if (reg.samples < min_samples) small_area += static_cast<std::size_t>(reg.sample_box.area());
+  if (small_area > samples) {
+    for (std::size_t i = 0; i < samples; ++i)
+      if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
+  } else {
+    for (std::size_t k = 0; k < regions.size(); ++k) {
+      if (regions[k].samples >= min_samples) continue;
+      const cv::Rect& b = regions[k].sample_box;
+      for (int r = b.y; r < b.y + b.height; ++r) {
+        int* row = region_of + static_cast<std::ptrdiff_t>(r) * C;
+        for (int c = b.x; c < b.x + b.width; ++c)
+          if (row[c] == static_cast<int>(k)) row[c] = -1;
+      }
+    }
+  }
 
   // 3-4. Every pixel takes the closest candidate plane (the regions of its 3x3 sample
   //      neighbourhood) within the tolerance; see labelPixels.
@@ -1075,6 +1092,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
     return region_fit[k];
   };
+  bool any_merged = false;
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
     // Pairs with the right and the lower neighbour, sample by sample; most samples have the
@@ -1125,9 +1143,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       for (int ch = 0; ch < 3; ++ch) ra.colour[ch] += rb.colour[ch];
       rb.count = 0;  // dropped below; its pixels are renumbered to the merged region
       merged_into[std::max(a, b)] = std::min(a, b);
+      any_merged = true;
     }
-    for (int i = 0; i < R * C; ++i)
-      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into.data(), region_of[i]);
+    if (any_merged)
+      for (int i = 0; i < R * C; ++i)
+        if (region_of[i] >= 0) region_of[i] = findRoot(merged_into.data(), region_of[i]);
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
