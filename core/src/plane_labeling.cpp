@@ -932,21 +932,38 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // find.
     // Written for every labelled sample; read only for labelled ones.
     const auto joined = std::make_unique_for_overwrite<std::uint8_t[]>(samples);
+    // The joins of each sample of a row (same bits), found first in branch-free passes over the
+    // row's depths copied to a contiguous array (they vectorise); the union-find pass only
+    // reads them. A sample with another label than its neighbour does not join it (two
+    // unlabelled neighbours may get a bit: they are never read).
+    std::vector<float> z_row(C), z_above(C);
+    std::vector<std::uint8_t> can_join(C);
     int root = -1;
-    for (int r = 0; r < R; ++r)
+    for (int r = 0; r < R; ++r) {
+      const int* lrow = lab + static_cast<std::ptrdiff_t>(r) * C;
+      for (int c = 0; c < C; ++c) z_row[c] = point(r * C + c)[2];
+      can_join[0] = 0;
+      for (int c = 1; c < C; ++c)
+        can_join[c] =
+            static_cast<std::uint8_t>(static_cast<int>(lrow[c] == lrow[c - 1]) &
+                                      static_cast<int>(continuous(z_row[c], z_row[c - 1])));
+      if (r > 0) {
+        const int* above = lrow - C;
+        for (int c = 0; c < C; ++c)
+          can_join[c] |=
+              static_cast<std::uint8_t>((static_cast<int>(lrow[c] == above[c]) &
+                                         static_cast<int>(continuous(z_row[c], z_above[c])))
+                                        << 1);
+      }
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
-        const float z = point(i)[2];
+        const int can = can_join[c];
         int own = i;  // i is still its own root here (raster order)
-        joined[i] = 0;
-        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
-          parent[i] = own = root;
-          joined[i] = 1;
-        }
-        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
-          joined[i] |= 2;
-          const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
+        joined[i] = static_cast<std::uint8_t>(can);
+        if (can & 1) parent[i] = own = root;
+        if (can & 2) {
+          const bool linked = (can & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
           if (!linked) {
             // unite(i, i - C), with the find of i known.
             const int above = findRoot(parent, i - C);
@@ -958,6 +975,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         }
         root = own;
       }
+      std::swap(z_row, z_above);
+    }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
   // legs, a wall behind a box) are one surface: SegComp truth and users both see one floor.
