@@ -1168,23 +1168,36 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   bool any_merged = false;
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
-    // Pairs with the right and the lower neighbour, sample by sample; most samples have the
-    // same region on both sides, so the two neighbour tests are selects, not branches.
+    // Pairs with the right and the lower neighbour. Most samples have the same region on both
+    // sides: the others (region borders) are flagged a row at a time in a branch-free pass that
+    // vectorises, and the flags are scanned eight at a time.
     auto addPair = [&](int i, int j, int a) {
       const int b = region_of[j];
       if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) return;
       adjacent.emplace_back(std::min(a, b), std::max(a, b));
     };
-    for (int r = 0; r < R; ++r)
-      for (int c = 0; c < C; ++c) {
-        const int i = r * C + c, a = region_of[i];
-        if (a < 0) continue;
-        const int right = c + 1 < C ? region_of[i + 1] : a;
-        const int down = r + 1 < R ? region_of[i + C] : a;
-        if ((right == a) & (down == a)) continue;
-        if (c + 1 < C) addPair(i, i + 1, a);
-        if (r + 1 < R) addPair(i, i + C, a);
+    std::vector<std::uint8_t> border(static_cast<std::size_t>(C) + 8, 0);  // whole words
+    for (int r = 0; r < R; ++r) {
+      const int* row = region_of + static_cast<std::ptrdiff_t>(r) * C;
+      const int* below = r + 1 < R ? row + C : row;  // the last row has none
+      for (int c = 0; c + 1 < C; ++c)
+        border[c] = static_cast<std::uint8_t>(
+            static_cast<int>(row[c] >= 0) &
+            (static_cast<int>(row[c + 1] != row[c]) | static_cast<int>(below[c] != row[c])));
+      border[C - 1] = static_cast<std::uint8_t>(static_cast<int>(row[C - 1] >= 0) &
+                                                (below[C - 1] != row[C - 1]));
+      for (int c0 = 0; c0 < C; c0 += 8) {
+        std::uint64_t word;
+        std::memcpy(&word, &border[c0], sizeof word);
+        if (word == 0) continue;
+        for (int c = c0; c < std::min(c0 + 8, C); ++c) {
+          if (!border[c]) continue;
+          const int i = r * C + c;
+          if (c + 1 < C) addPair(i, i + 1, row[c]);
+          if (r + 1 < R) addPair(i, i + C, row[c]);
+        }
       }
+    }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
     const double cos_merge =
