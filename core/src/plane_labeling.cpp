@@ -997,6 +997,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // samples mostly share a root: its sums stay in registers until the root changes.
     int cur = -1, cur_n = 0;
     std::int64_t cur_r = 0, cur_c = 0;
+    std::vector<int> roots;  // of the labelled pieces, in index order
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
         const int root = parent[parent[i]];
@@ -1010,6 +1011,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
           }
           cur = root;
           const bool first = root == i;
+          if (first) roots.push_back(i);
           cur_n = first ? 0 : cnt[root];
           cur_r = first ? 0 : sr[root];
           cur_c = first ? 0 : sc[root];
@@ -1024,8 +1026,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       sc[cur] = cur_c;
     }
     std::vector<std::vector<int>> pieces(planes.size());
-    for (int i = 0; i < R * C; ++i)
-      if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
+    for (const int i : roots)
+      if (cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
     for (std::size_t L = 0; L < planes.size(); ++L) {
       const auto& list = pieces[L];
       if (list.size() < 2 || list.size() > 64) continue;
