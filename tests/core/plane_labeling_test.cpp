@@ -1,0 +1,141 @@
+// Sample grids and full-resolution labelling (plane_labeling.h) on small analytic frames of every
+// width from 1 to 41 pixels, so the vectorised loops meet runs that end at the row's end, runs
+// shorter than their step and rows shorter than one step.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "shapesense/core/plane_labeling.h"
+
+namespace shapesense {
+namespace {
+
+CameraIntrinsics smallCamera(int cols, int rows) {
+  CameraIntrinsics K;
+  K.fx = K.fy = 60.0;
+  K.cx = 0.5 * (cols - 1);
+  K.cy = 0.5 * (rows - 1);
+  K.width = cols;
+  K.height = rows;
+  return K;
+}
+
+bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(PlaneSampleGrid, PointsAreThoseOfTheScalarFormulaBitForBit) {
+  for (int step = 1; step <= 5; ++step)
+    for (int cols = 1; cols <= 41; cols += 4 + step) {
+      const int rows = 9;
+      cv::Mat depth(rows, cols, CV_16UC1);
+      for (int v = 0; v < rows; ++v)
+        for (int u = 0; u < cols; ++u)
+          depth.at<std::uint16_t>(v, u) =
+              (u * 7 + v * 3) % 5 == 0 ? 0 : static_cast<std::uint16_t>(600 + 37 * u + 11 * v);
+      const CameraIntrinsics K = smallCamera(cols, rows);
+      PlaneSampleGrid grid;
+      grid.build(depth, K, step);
+      ASSERT_EQ(grid.points.rows, (rows - grid.offset + step - 1) / step);
+      ASSERT_EQ(grid.points.cols, (cols - grid.offset + step - 1) / step);
+      const float ifx = static_cast<float>(1.0 / K.fx), ify = static_cast<float>(1.0 / K.fy);
+      for (int r = 0; r < grid.points.rows; ++r)
+        for (int c = 0; c < grid.points.cols; ++c) {
+          const int u = grid.offset + c * step, v = grid.offset + r * step;
+          const std::uint16_t d = depth.at<std::uint16_t>(v, u);
+          ASSERT_EQ(grid.depth_mm.at<std::uint16_t>(r, c), d);
+          const cv::Vec3f p = grid.points.at<cv::Vec3f>(r, c);
+          if (d == 0) {
+            EXPECT_TRUE(std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2]));
+            continue;
+          }
+          const float z = static_cast<float>(d) * 0.001f;
+          const float x = (static_cast<float>(u) - static_cast<float>(K.cx)) * ifx * z;
+          const float y = (static_cast<float>(v) - static_cast<float>(K.cy)) * ify * z;
+          EXPECT_TRUE(sameBits(p[0], x) && sameBits(p[1], y) && sameBits(p[2], z))
+              << "step " << step << " cols " << cols << " sample " << r << "," << c;
+        }
+    }
+}
+
+// Vertical stripes of 10 pixels, alternately on a tilted plane and on another 0.5 m behind it, in
+// whole millimetres, with holes: the runs of candidates are short (single-candidate runs of a
+// sample or two between two-candidate runs), and some end at the row's end. Every labelled
+// pixel lies on the plane its region was grown from, every hole stays 0, and (almost) every valid
+// pixel is labelled.
+TEST(PlaneLabeling, EveryPixelTakesItsOwnPlaneAtAnyWidth) {
+  const int rows = 14, stripe = 10;
+  for (int cols = 1; cols <= 41; ++cols) {
+    const CameraIntrinsics K = smallCamera(cols, rows);
+    PlaneHypothesis near, far;
+    near.normal = Eigen::Vector3d(0.25, -0.15, 1.0).normalized();
+    near.d = -1.0;
+    far.normal = Eigen::Vector3d(-0.1, 0.2, 1.0).normalized();
+    far.d = -1.5;
+    auto onNear = [&](int u) { return (u / stripe) % 2 == 0; };
+    cv::Mat depth(rows, cols, CV_16UC1);
+    for (int v = 0; v < rows; ++v)
+      for (int u = 0; u < cols; ++u) {
+        const PlaneHypothesis& h = onNear(u) ? near : far;
+        const double z = -h.d / h.normal.dot(K.ray(u, v));
+        const bool hole = (u * 5 + v * 3) % 11 == 0;
+        depth.at<std::uint16_t>(v, u) = hole ? 0 : static_cast<std::uint16_t>(std::round(1e3 * z));
+      }
+    PlaneLabelingParams params;
+    params.min_region_pixels = 1;
+    params.compute_polygons = false;
+    PlaneSampleGrid grid;
+    grid.build(depth, K, params.sample_step);
+    if (grid.points.empty()) continue;
+    cv::Mat sample_labels(grid.points.size(), CV_32SC1);
+    for (int r = 0; r < grid.points.rows; ++r)
+      for (int c = 0; c < grid.points.cols; ++c) {
+        const int u = grid.offset + c * grid.step;
+        sample_labels.at<int>(r, c) =
+            grid.depth_mm.at<std::uint16_t>(r, c) == 0 ? -1 : (onNear(u) ? 0 : 1);
+      }
+    const PlaneDetection out =
+        labelPlanes(depth, K, cv::Mat(), grid, sample_labels, {near, far}, params);
+    ASSERT_EQ(out.labels.size(), depth.size());
+    auto sampleOf = [&](int x, int n) {  // the sample of pixel coordinate x (as the labelling)
+      return std::clamp(
+          static_cast<int>(std::lround(static_cast<double>(x - grid.offset) / grid.step)), 0,
+          n - 1);
+    };
+    int valid = 0, labelled = 0;
+    for (int v = 0; v < rows; ++v)
+      for (int u = 0; u < cols; ++u) {
+        const int l = out.labels.at<std::uint16_t>(v, u);
+        const double z = 1e-3 * depth.at<std::uint16_t>(v, u);
+        if (z == 0.0) {
+          EXPECT_EQ(l, 0) << "cols " << cols << " hole " << u << "," << v;
+          continue;
+        }
+        ++valid;
+        // A pixel whose own sample is valid and on its stripe, a whole one, has its own plane
+        // among its candidates: it is labelled.
+        const int s = u / stripe, us = grid.offset + sampleOf(u, grid.points.cols) * grid.step,
+                  vs = grid.offset + sampleOf(v, grid.points.rows) * grid.step;
+        if ((s + 1) * stripe <= cols && us / stripe == s && depth.at<std::uint16_t>(vs, us) != 0) {
+          EXPECT_NE(l, 0) << "cols " << cols << " pixel " << u << "," << v;
+        }
+        if (l == 0) continue;  // no candidate plane fits (next to a small or dropped region)
+        ++labelled;
+        ASSERT_LE(l, static_cast<int>(out.planes.size()));
+        // The hypothesis of the pixel's region (its fit may rest on too few pixels to tell).
+        const int group = out.planes[l - 1].group;
+        ASSERT_TRUE(group == 0 || group == 1);
+        const PlaneHypothesis& h = group == 0 ? near : far;
+        EXPECT_LT(std::fabs(h.normal.dot(K.backproject(u, v, z)) + h.d), 0.005)
+            << "cols " << cols << " pixel " << u << "," << v << " label " << l;
+      }
+    if (cols >= 20) {
+      EXPECT_GE(labelled, valid * 9 / 10) << "cols " << cols;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace shapesense
