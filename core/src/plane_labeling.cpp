@@ -1260,12 +1260,23 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       mask_step[k] = static_cast<std::ptrdiff_t>(masks[k].step[0]);
       origin[k] = (1 - sb.y) * mask_step[k] + (1 - sb.x);
     }
-    for (int r = 0, i = 0; r < R; ++r)
+    // Consecutive samples mostly share a region: its mask and row offset are looked up when the
+    // region changes.
+    for (int r = 0, i = 0; r < R; ++r) {
+      int cur = -1;
+      std::uint8_t* data = nullptr;
+      std::ptrdiff_t row_offset = 0;
       for (int c = 0; c < C; ++c, ++i) {
         const int k = region_of[i];
-        if (k < 0 || !mask_data[k]) continue;
-        mask_data[k][origin[k] + r * mask_step[k] + c] = 255;
+        if (k < 0) continue;
+        if (k != cur) {
+          cur = k;
+          data = mask_data[k];
+          row_offset = origin[k] + r * mask_step[k];
+        }
+        if (data) data[row_offset + c] = 255;
       }
+    }
   }
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
