@@ -584,8 +584,11 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
   const bool avx2 = false;
 #endif
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
+  // The nearest sample, halves rounded up (lround((x - off) / step), clamped; integer arithmetic:
+  // below the first sample both give 0 after the clamp).
   auto sampleOf = [&](int x, int n) {
-    return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
+    const int xo = x - off;
+    return std::clamp(xo < 0 ? 0 : (2 * xo + step) / (2 * step), 0, n - 1);
   };
   // Pixel columns of each sample column (contiguous: the mapping is monotonic).
   std::vector<int> sample_u0(C, 0), sample_u1(C, 0);
