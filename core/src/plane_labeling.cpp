@@ -194,10 +194,9 @@ std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& 
 // Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
 // the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
 // number of pixels labelled.
-[[gnu::always_inline]] inline int labelSingleCandidateRun(const std::uint16_t* drow,
-                                                          std::uint16_t* lrow, int u0, int u1,
-                                                          const float* q, float qv, float tol_coef,
-                                                          float tol_floor, std::uint16_t label) {
+int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
+                            const float* q, float qv, float tol_coef, float tol_floor,
+                            std::uint16_t label) {
   const float qa = q[0], qc = q[2], qd = q[3];
   int n = 0;
   for (int u = u0; u < u1; ++u) {
@@ -231,11 +230,9 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
 // because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
 // Adds the number of pixels labelled with each candidate to counts[0..K).
 template <int K>
-[[gnu::always_inline]] inline void labelCandidatesRun(const std::uint16_t* drow,
-                                                      std::uint16_t* lrow, const PixelRun& run,
-                                                      const std::vector<float>& coef, float fv,
-                                                      const std::vector<float>& region_tol,
-                                                      float tol_floor, int* counts) {
+void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+                        const std::vector<float>& coef, float fv,
+                        const std::vector<float>& region_tol, float tol_floor, int* counts) {
   int n[K] = {};
   float qa[K], qv[K], qc[K], qd[K], tk[K];
   std::uint16_t label[K];
