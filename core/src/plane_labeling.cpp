@@ -15,11 +15,7 @@
 #include <emmintrin.h>
 #endif
 
-// GCC only: the AVX2 pixel loops are compiled with #pragma GCC target, which clang ignores.
-#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#include <immintrin.h>
-#define SHAPESENSE_LABELING_AVX2 1  // AVX2 pixel loops compiled in, used where the CPU has AVX2
-#endif
+#include "cpu_dispatch.h"
 
 namespace shapesense {
 namespace {
@@ -264,15 +260,16 @@ void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const Pi
   for (int k = 0; k < K; ++k) counts[k] += n[k];
 }
 
-#if defined(SHAPESENSE_LABELING_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
 // The pixel loops in AVX2, eight pixels per step, with the operations of the scalar loops in the
-// same order lane for lane (never FMA: a fused multiply-add would round differently), so the same
-// labels and counts. A run's last partial step (or all of a run shorter than eight pixels) is a
-// window of eight pixels of the row that holds the rest: the run's pixels take their labels, the
-// others keep theirs (they belong to other runs or gaps, written before or after). Compiled for
-// AVX2 whatever the build flags; called only where the CPU has it, on rows of >= 8 pixels.
+// same order lane for lane (never FMA: a fused multiply-add would round differently; the build has
+// -ffp-contract=off and no FMA intrinsic is used), so the same labels and counts. A run's last
+// partial step (or all of a run shorter than eight pixels) is a window of eight pixels of the row
+// that holds the rest: the run's pixels take their labels, the others keep theirs (they belong to
+// other runs or gaps, written before or after). Compiled for AVX2 whatever the build flags; called
+// only where the CPU has it, on rows of >= 8 pixels.
 #pragma GCC push_options
-#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+#pragma GCC target("avx2")
 
 // Depths (m) of pixels u..u+7, as static_cast<float>(d) * 0.001f.
 inline __m256 depthOctet(const std::uint16_t* drow, int u) {
@@ -413,10 +410,7 @@ void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int 
 
 #pragma GCC pop_options
 
-bool cpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
+using detail::cpuHasAvx2;
 #endif
 
 // Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2` (which
@@ -424,7 +418,7 @@ bool cpuHasAvx2() {
 int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
                    int u1, const float* q, float qv, float tol_coef, float tol_floor,
                    std::uint16_t label) {
-#if defined(SHAPESENSE_LABELING_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   if (avx2)
     return labelSingleCandidateRunAvx2(drow, lrow, cols, u0, u1, q, qv, tol_coef, tol_floor, label);
 #else
@@ -438,7 +432,7 @@ template <int K>
 void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
                const PixelRun& run, const std::vector<float>& coef, float fv,
                const std::vector<float>& region_tol, float tol_floor, int* counts) {
-#if defined(SHAPESENSE_LABELING_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   if (avx2)
     return labelCandidatesRunAvx2<K>(drow, lrow, cols, run, coef, fv, region_tol, tol_floor,
                                      counts);
@@ -575,7 +569,7 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
-#if defined(SHAPESENSE_LABELING_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   const bool avx2 = cpuHasAvx2() && depth_mm.cols >= 8;
 #else
   const bool avx2 = false;
