@@ -565,14 +565,16 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const int* region_of,
                       const std::vector<PlaneHypothesis>& planes,
-                      const std::vector<float>& region_tol, float tol_floor,
+                      const std::vector<float>& region_tol, float tol_floor, bool allow_avx2,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
+  // AVX2 loops where the CPU has them (tests: PlaneLabelingParams::labeling_avx2 = false).
 #if defined(SHAPESENSE_AVX2_PATHS)
-  const bool avx2 = cpuHasAvx2() && depth_mm.cols >= 8;
+  const bool avx2 = allow_avx2 && cpuHasAvx2() && depth_mm.cols >= 8;
 #else
   const bool avx2 = false;
+  (void)allow_avx2;
 #endif
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
   // The nearest sample, halves rounded up (lround((x - off) / step), clamped; integer arithmetic:
@@ -1141,7 +1143,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   PlaneDetection out;
   const LabelRuns label_runs =
       labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, planes, region_tol,
-                  tol_floor, regions, out.labels);
+                  tol_floor, params.labeling_avx2, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the

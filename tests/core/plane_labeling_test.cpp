@@ -1,13 +1,16 @@
 // Sample grids and full-resolution labelling (plane_labeling.h) on small analytic frames of every
 // width from 1 to 41 pixels, so the vectorised loops meet runs that end at the row's end, runs
-// shorter than their step and rows shorter than one step.
+// shorter than their step and rows shorter than one step; the AVX2 pixel loops against the
+// SSE2 / scalar ones (PlaneLabelingParams::labeling_avx2) on those widths and on VGA frames.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "shapesense/core/plane_labeling.h"
 
@@ -135,6 +138,120 @@ TEST(PlaneLabeling, EveryPixelTakesItsOwnPlaneAtAnyWidth) {
       EXPECT_GE(labelled, valid * 9 / 10) << "cols " << cols;
     }
   }
+}
+
+// Blocks of bw x bh pixels on four planes that cross one another inside the frame (a few mm
+// apart at 1 m, tilted differently), so that each corner of four blocks gives pixels four
+// candidates and many pixels lie within the tolerance of several of them; whole-millimetre
+// depths with +-2 mm of noise, holes, random colours. Sample labels: each valid sample's block
+// plane, some left unlabelled (the growth takes them or not).
+struct BlockFrame {
+  cv::Mat depth, bgr, sample_labels;
+  CameraIntrinsics K;
+  PlaneSampleGrid grid;
+  std::vector<PlaneHypothesis> planes;
+};
+
+BlockFrame blockFrame(int cols, int rows, double f, int bw, int bh, int step, unsigned seed) {
+  BlockFrame fr;
+  fr.K.fx = fr.K.fy = f;
+  fr.K.cx = 0.5 * (cols - 1);
+  fr.K.cy = 0.5 * (rows - 1);
+  fr.K.width = cols;
+  fr.K.height = rows;
+  const double n[4][3] = {
+      {0.05, 0.0, 1.0}, {-0.05, 0.02, 1.0}, {0.0, 0.06, 1.0}, {0.02, -0.04, 1.0}};
+  const double d[4] = {-1.0, -1.004, -0.998, -1.006};
+  for (int k = 0; k < 4; ++k) {
+    PlaneHypothesis h;
+    h.normal = Eigen::Vector3d(n[k][0], n[k][1], n[k][2]).normalized();
+    h.d = d[k];
+    fr.planes.push_back(h);
+  }
+  auto planeOf = [&](int u, int v) { return ((u / bw) + 2 * (v / bh)) % 4; };
+  unsigned state = seed;
+  auto next = [&state]() {
+    state = state * 1664525u + 1013904223u;
+    return state >> 8;
+  };
+  fr.depth.create(rows, cols, CV_16UC1);
+  fr.bgr.create(rows, cols, CV_8UC3);
+  for (int v = 0; v < rows; ++v)
+    for (int u = 0; u < cols; ++u) {
+      const PlaneHypothesis& h = fr.planes[planeOf(u, v)];
+      const double z = -h.d / h.normal.dot(fr.K.ray(u, v));
+      const int noise = static_cast<int>(next() % 5) - 2;
+      const bool hole = next() % 13 == 0;
+      fr.depth.at<std::uint16_t>(v, u) =
+          hole ? 0 : static_cast<std::uint16_t>(std::lround(1e3 * z) + noise);
+      const unsigned c = next();
+      fr.bgr.at<cv::Vec3b>(v, u) = cv::Vec3b(c & 255, (c >> 8) & 255, (c >> 16) & 255);
+    }
+  fr.grid.build(fr.depth, fr.K, step);
+  fr.sample_labels.create(fr.grid.points.size(), CV_32SC1);
+  for (int r = 0; r < fr.grid.points.rows; ++r)
+    for (int c = 0; c < fr.grid.points.cols; ++c) {
+      const int u = fr.grid.offset + c * step, v = fr.grid.offset + r * step;
+      const bool valid = fr.grid.depth_mm.at<std::uint16_t>(r, c) != 0;
+      fr.sample_labels.at<int>(r, c) = valid && next() % 17 != 0 ? planeOf(u, v) : -1;
+    }
+  return fr;
+}
+
+// Labels the frame with and without the AVX2 pixel loops (on a copy of its sample labels each):
+// the same label image and the same planes, field for field.
+void expectSameWithAndWithoutAvx2(const BlockFrame& fr, PlaneLabelingParams params,
+                                  const std::string& what) {
+  params.labeling_avx2 = true;
+  cv::Mat lab_a = fr.sample_labels.clone();
+  const PlaneDetection a = labelPlanes(fr.depth, fr.K, fr.bgr, fr.grid, lab_a, fr.planes, params);
+  params.labeling_avx2 = false;
+  cv::Mat lab_b = fr.sample_labels.clone();
+  const PlaneDetection b = labelPlanes(fr.depth, fr.K, fr.bgr, fr.grid, lab_b, fr.planes, params);
+  ASSERT_EQ(a.labels.size(), fr.depth.size()) << what;
+  ASSERT_EQ(b.labels.size(), fr.depth.size()) << what;
+  ASSERT_EQ(a.labels.type(), CV_16UC1) << what;
+  ASSERT_EQ(b.labels.type(), CV_16UC1) << what;
+  EXPECT_EQ(cv::countNonZero(a.labels != b.labels), 0) << what;
+  ASSERT_EQ(a.planes.size(), b.planes.size()) << what;
+  for (std::size_t k = 0; k < a.planes.size(); ++k) {
+    const DetectedPlane &p = a.planes[k], &q = b.planes[k];
+    EXPECT_EQ(p.id, q.id) << what << " plane " << k;
+    EXPECT_EQ(p.group, q.group) << what << " plane " << k;
+    EXPECT_EQ(p.normal, q.normal) << what << " plane " << k;
+    EXPECT_EQ(p.d, q.d) << what << " plane " << k;
+    EXPECT_EQ(p.inliers, q.inliers) << what << " plane " << k;
+    EXPECT_EQ(p.rms_m, q.rms_m) << what << " plane " << k;
+    EXPECT_EQ(p.box, q.box) << what << " plane " << k;
+    EXPECT_EQ(p.polygon, q.polygon) << what << " plane " << k;
+    EXPECT_EQ(p.triangles, q.triangles) << what << " plane " << k;
+    EXPECT_EQ(p.mean_bgr, q.mean_bgr) << what << " plane " << k;
+  }
+}
+
+TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersAtAnyWidth) {
+  for (int step = 1; step <= 6; ++step)
+    for (int cols = 1; cols <= 41; ++cols) {
+      const BlockFrame fr = blockFrame(cols, 23, 60.0, 3 + cols % 7, 4 + step, step, 7u * cols);
+      if (fr.grid.points.empty()) continue;
+      PlaneLabelingParams params;
+      params.sample_step = step;
+      params.min_region_pixels = 1;
+      expectSameWithAndWithoutAvx2(
+          fr, params, "step " + std::to_string(step) + " cols " + std::to_string(cols));
+    }
+}
+
+TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersOnVga) {
+  for (int step = 1; step <= 6; ++step)
+    for (const int block : {5, 37}) {
+      const BlockFrame fr = blockFrame(640, 480, 570.0, block, block + 2, step, 11u * step + block);
+      PlaneLabelingParams params;
+      params.sample_step = step;
+      params.min_region_pixels = block < 10 ? 10 : 300;
+      expectSameWithAndWithoutAvx2(
+          fr, params, "step " + std::to_string(step) + " block " + std::to_string(block));
+    }
 }
 
 }  // namespace
