@@ -265,9 +265,11 @@ void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const Pi
 // same order lane for lane (never FMA: a fused multiply-add would round differently; the build has
 // -ffp-contract=off and no FMA intrinsic is used), so the same labels and counts. A run's last
 // partial step (or all of a run shorter than eight pixels) is a window of eight pixels of the row
-// that holds the rest: the run's pixels take their labels, the others keep theirs (they belong to
-// other runs or gaps, written before or after). Compiled for AVX2 whatever the build flags; called
-// only where the CPU has it, on rows of >= 8 pixels.
+// that holds the rest (see storeLabels): the run's pixels take their labels, the other lanes are
+// stored back as they were read. Lanes before the run's pixels were written earlier in the row;
+// lanes past u1 are read before being written and are overwritten later in the row; runs of a
+// row must be processed left to right. Compiled for AVX2 whatever the build flags; called only
+// where the CPU has it, on rows of >= 8 pixels.
 #pragma GCC push_options
 #pragma GCC target("avx2")
 
@@ -306,7 +308,9 @@ inline __m128i packLabels(__m256i labels) {
   return _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
 }
 
-// Stores the labels of the lanes in `lanes` (32-bit masks) at lrow + w, keeps the others.
+// Stores the labels of the lanes in `lanes` (32-bit masks) at lrow + w and stores the other
+// lanes back as they were read: lanes past the run are read before being written and are
+// overwritten later in the row (runs of a row must be processed left to right).
 inline void storeLabels(std::uint16_t* lrow, int w, __m256i labels, __m256i lanes) {
   auto* p = reinterpret_cast<__m128i*>(lrow + w);
   const __m128i keep = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
@@ -602,6 +606,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
         !bgr.empty() && v % kMomentStride == 0 ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
     int gap_u0 = 0;
+    // Runs left to right: an AVX2 partial window reads and stores back pixels past its run
+    // before they are written (see storeLabels); the later run or gap overwrites them.
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
       const PixelRun& run = lr.runs[k];
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
