@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -293,8 +294,11 @@ inline __m256 planeDistanceOctet(__m256 z, __m256 fu, __m256 qa, __m256 qv, __m2
 }
 
 // The first pixel of the eight-pixel window of a partial step starting at u: u, or the row's
-// last eight pixels.
-inline int windowStart(int u, int cols) { return std::min(u, cols - 8); }
+// last eight pixels (rows of >= 8 pixels only: labelPixels uses the AVX2 loops on those alone).
+inline int windowStart(int u, int cols) {
+  assert(cols >= 8);
+  return std::min(u, cols - 8);
+}
 
 // Lanes w + k with lo <= w + k < hi, as 32-bit masks.
 inline __m256i laneRange(int w, int lo, int hi) {
