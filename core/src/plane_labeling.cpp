@@ -329,6 +329,25 @@ inline int laneSum(__m256i v) {
   return _mm_cvtsi128_si32(s);
 }
 
+// The loop of both AVX2 runs over pixels [u0, u1): step(u, fu, counted) returns the labels of
+// pixels u..u+7 (32-bit lanes; fu: their columns as floats) and counts those of the lanes in
+// `counted`. Whole steps of eight, then the partial step as a window (see storeLabels).
+template <typename Step>
+inline void labelRunOctets(std::uint16_t* lrow, int cols, int u0, int u1, Step&& step) {
+  const __m256i all = _mm256_set1_epi32(-1);
+  __m256 fu = columnOctet(u0);
+  int u = u0;
+  for (; u + 8 <= u1; u += 8) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
+    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
+  }
+  if (u < u1) {
+    const int w = windowStart(u, cols);
+    const __m256i lanes = laneRange(w, u, u1);
+    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
+  }
+}
+
 // labelSingleCandidateRun in AVX2.
 int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
                                 int u1, const float* q, float qv, float tol_coef, float tol_floor,
@@ -348,18 +367,7 @@ int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, 
     count = _mm256_sub_epi32(count, _mm256_and_si256(inside, counted));
     return _mm256_and_si256(inside, vlabel);
   };
-  const __m256i all = _mm256_set1_epi32(-1);
-  __m256 fu = columnOctet(u0);
-  int u = u0;
-  for (; u + 8 <= u1; u += 8) {
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
-    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
-  }
-  if (u < u1) {
-    const int w = windowStart(u, cols);
-    const __m256i lanes = laneRange(w, u, u1);
-    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
-  }
+  labelRunOctets(lrow, cols, u0, u1, step);
   return laneSum(count);
 }
 
@@ -401,18 +409,7 @@ void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int 
       n[k] = _mm256_sub_epi32(n[k], _mm256_and_si256(_mm256_cmpeq_epi32(out, label[k]), counted));
     return out;
   };
-  const __m256i all = _mm256_set1_epi32(-1);
-  __m256 fu = columnOctet(run.u0);
-  int u = run.u0;
-  for (; u + 8 <= run.u1; u += 8) {
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
-    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));
-  }
-  if (u < run.u1) {
-    const int w = windowStart(u, cols);
-    const __m256i lanes = laneRange(w, u, run.u1);
-    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
-  }
+  labelRunOctets(lrow, cols, run.u0, run.u1, step);
   for (int k = 0; k < K; ++k) counts[k] += laneSum(n[k]);
 }
 
