@@ -37,6 +37,19 @@ void unite(int* parent, int a, int b) {
   if (a != b) parent[std::max(a, b)] = std::min(a, b);
 }
 
+// Calls f(c) for each c in [0, n) with flags[c] != 0, in order. Set flags are expected to be
+// few: they are scanned eight at a time (flags must hold n rounded up to whole words of eight).
+template <typename F>
+inline void forEachSetFlag(const std::uint8_t* flags, int n, F&& f) {
+  for (int c0 = 0; c0 < n; c0 += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flags + c0, sizeof word);
+    if (word == 0) continue;
+    for (int c = c0; c < std::min(c0 + 8, n); ++c)
+      if (flags[c]) f(c);
+  }
+}
+
 struct RegionAccumulator {
   int plane = -1;  // index into the hypotheses
   int samples = 0;
@@ -853,14 +866,9 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
       const int any = orow[c - 1] | orow[c + 1] | orow[c - W] | orow[c + W];
       seed[c] = static_cast<std::uint8_t>((lrow[c] >= 0) & (any != 0));
     }
-    for (int c0 = 0; c0 < C; c0 += 8) {
-      std::uint64_t word;
-      std::memcpy(&word, &seed[c0], sizeof word);
-      if (word == 0) continue;
-      for (int c = c0; c < std::min(c0 + 8, C); ++c)
-        if (seed[c])
-          queue[tail++] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
-    }
+    forEachSetFlag(seed.data(), C, [&](int c) {
+      queue[tail++] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
+    });
   }
   for (std::size_t q = 0; q < tail; ++q) {
     const int r = static_cast<int>(queue[q] >> 16), c = static_cast<int>(queue[q] & 0xFFFF);
@@ -1191,17 +1199,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
             (static_cast<int>(row[c + 1] != row[c]) | static_cast<int>(below[c] != row[c])));
       border[C - 1] = static_cast<std::uint8_t>(static_cast<int>(row[C - 1] >= 0) &
                                                 (below[C - 1] != row[C - 1]));
-      for (int c0 = 0; c0 < C; c0 += 8) {
-        std::uint64_t word;
-        std::memcpy(&word, &border[c0], sizeof word);
-        if (word == 0) continue;
-        for (int c = c0; c < std::min(c0 + 8, C); ++c) {
-          if (!border[c]) continue;
-          const int i = r * C + c;
-          if (c + 1 < C) addPair(i, i + 1, row[c]);
-          if (r + 1 < R) addPair(i, i + C, row[c]);
-        }
-      }
+      forEachSetFlag(border.data(), C, [&](int c) {
+        const int i = r * C + c;
+        if (c + 1 < C) addPair(i, i + 1, row[c]);
+        if (r + 1 < R) addPair(i, i + C, row[c]);
+      });
     }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
