@@ -330,9 +330,9 @@ inline __m128i packLabels(__m256i labels) {
 // overwritten later in the row (runs of a row must be processed left to right).
 inline void storeLabels(std::uint16_t* lrow, int w, __m256i labels, __m256i lanes) {
   auto* p = reinterpret_cast<__m128i*>(lrow + w);
-  const __m128i keep = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
+  const __m128i take = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
                                        _mm256_extracti128_si256(lanes, 1));  // 16-bit masks
-  _mm_storeu_si128(p, _mm_blendv_epi8(_mm_loadu_si128(p), packLabels(labels), keep));
+  _mm_storeu_si128(p, _mm_blendv_epi8(_mm_loadu_si128(p), packLabels(labels), take));
 }
 
 inline int laneSum(__m256i v) {
@@ -732,8 +732,9 @@ namespace {
 
 #if defined(__SSE2__)
 // Four samples per step of a row of PlaneSampleGrid::build, with the operations of its scalar loop
-// lane for lane (the same points); returns the first column not done.
-int buildGridRowSse2(const std::uint16_t* src, std::uint16_t* d, cv::Vec3f* p, const float* rx,
+// lane for lane (the same points); returns the first column not done. prow: the row of points as
+// floats (x, y, z of each sample).
+int buildGridRowSse2(const std::uint16_t* src, std::uint16_t* d, float* prow, const float* rx,
                      float ry, int offset, int step, int cols) {
   const __m128 k001 = _mm_set1_ps(0.001f), vry = _mm_set1_ps(ry), nan = _mm_set1_ps(kNaN);
   int c = 0;
@@ -759,7 +760,7 @@ int buildGridRowSse2(const std::uint16_t* src, std::uint16_t* d, cv::Vec3f* p, c
     const __m128 y1z1 = _mm_shuffle_ps(xy_lo, zs, _MM_SHUFFLE(1, 1, 3, 3));
     const __m128 z2x3 = _mm_shuffle_ps(zs, xy_hi, _MM_SHUFFLE(2, 2, 2, 2));
     const __m128 y3z3 = _mm_shuffle_ps(xy_hi, zs, _MM_SHUFFLE(3, 3, 3, 3));
-    float* out = &p[c][0];
+    float* out = prow + 3 * c;
     _mm_storeu_ps(out, _mm_shuffle_ps(xy_lo, z0x1, _MM_SHUFFLE(2, 0, 1, 0)));
     _mm_storeu_ps(out + 4, _mm_shuffle_ps(y1z1, xy_hi, _MM_SHUFFLE(1, 0, 2, 0)));
     _mm_storeu_ps(out + 8, _mm_shuffle_ps(z2x3, y3z3, _MM_SHUFFLE(2, 0, 2, 0)));
@@ -799,7 +800,7 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
     const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
     int c = 0;
 #if defined(__SSE2__)
-    c = buildGridRowSse2(src, d, p, rx.data(), ry, offset, step, cols);
+    c = buildGridRowSse2(src, d, points.ptr<float>(r), rx.data(), ry, offset, step, cols);
 #endif
     // Selects, not a branch: holes make the test unpredictable.
     for (; c < cols; ++c) {
