@@ -1149,6 +1149,23 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       }
     }
   }
+  // Pixels are labelled with region index + 1 in 16 bits. Past 65535 regions (small sample steps
+  // on fragmented labels: a checkerboard of two planes makes every sample a region), the regions
+  // kept above are renumbered in order and those still past the range are left unlabelled (their
+  // samples leave the regions, as the small ones did).
+  constexpr std::size_t kMaxRegions = 65535;
+  if (regions.size() > kMaxRegions) {
+    std::vector<int> new_index(regions.size(), -1);
+    std::vector<RegionAccumulator> kept;
+    for (std::size_t k = 0; k < regions.size() && kept.size() < kMaxRegions; ++k) {
+      if (regions[k].samples < min_samples) continue;
+      new_index[k] = static_cast<int>(kept.size());
+      kept.push_back(regions[k]);
+    }
+    for (std::size_t i = 0; i < samples; ++i)
+      if (region_of[i] >= 0) region_of[i] = new_index[region_of[i]];
+    regions = std::move(kept);
+  }
 
   // 3-4. Every pixel takes the closest candidate plane (the regions of its 3x3 sample
   //      neighbourhood) within the tolerance; see labelPixels.

@@ -254,5 +254,65 @@ TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersOnVga) {
     }
 }
 
+// Labels are 16-bit (region index + 1). At step 1 the top rows of a VGA frame alternate between two
+// planes pixel by pixel (every sample its own region: 70 400 of them, more than 65 535), and a
+// third plane fills the rows below: its region comes after all of them. With the default minimum
+// size the tiny regions are dropped and the large one is labelled; with a minimum of one pixel
+// the regions past 65 535 are left unlabelled. Either way every plane's pixels carry its id, as
+// many as its inliers.
+TEST(PlaneLabeling, MoreRegionsThanSixteenBitLabelsHold) {
+  const int cols = 640, rows = 480, top_rows = 110;
+  CameraIntrinsics K;
+  K.fx = K.fy = 570.0;
+  K.cx = 319.5;
+  K.cy = 239.5;
+  K.width = cols;
+  K.height = rows;
+  std::vector<PlaneHypothesis> planes(3);
+  for (int k = 0; k < 3; ++k) {
+    planes[k].normal = Eigen::Vector3d(0.0, 0.0, 1.0);
+    planes[k].d = -(1.0 + 0.2 * k);
+  }
+  auto planeOf = [&](int u, int v) { return v < top_rows ? (u + v) % 2 : 2; };
+  cv::Mat depth(rows, cols, CV_16UC1);
+  for (int v = 0; v < rows; ++v)
+    for (int u = 0; u < cols; ++u)
+      depth.at<std::uint16_t>(v, u) =
+          static_cast<std::uint16_t>(std::lround(-1e3 * planes[planeOf(u, v)].d));
+  for (const int min_pixels : {300, 1}) {
+    PlaneLabelingParams params;
+    params.sample_step = 1;
+    params.min_region_pixels = min_pixels;
+    params.compute_polygons = false;
+    PlaneSampleGrid grid;
+    grid.build(depth, K, 1);
+    cv::Mat sample_labels(grid.points.size(), CV_32SC1);
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c) sample_labels.at<int>(r, c) = planeOf(c, r);
+    const PlaneDetection out =
+        labelPlanes(depth, K, cv::Mat(), grid, sample_labels, planes, params);
+    ASSERT_EQ(out.labels.size(), depth.size());
+    std::vector<std::size_t> pixels(out.planes.size() + 1, 0);
+    for (int v = 0; v < rows; ++v)
+      for (int u = 0; u < cols; ++u) {
+        const int l = out.labels.at<std::uint16_t>(v, u);
+        ASSERT_LE(l, static_cast<int>(out.planes.size())) << "min " << min_pixels;
+        ++pixels[l];
+      }
+    for (const DetectedPlane& p : out.planes)
+      EXPECT_EQ(pixels[p.id], p.inliers) << "min " << min_pixels << " plane " << p.id;
+    const int bottom = out.labels.at<std::uint16_t>(rows - 1, cols / 2);
+    if (min_pixels == 300) {
+      // The large region is the one plane, and all of its pixels carry it.
+      ASSERT_EQ(out.planes.size(), 1u);
+      EXPECT_EQ(out.planes[0].group, 2);
+      EXPECT_EQ(bottom, 1);
+      EXPECT_EQ(out.planes[0].inliers, static_cast<std::size_t>(cols) * (rows - top_rows));
+    } else {
+      EXPECT_EQ(bottom, 0);  // region 70 400: past the 16-bit labels
+    }
+  }
+}
+
 }  // namespace
 }  // namespace shapesense
