@@ -2,19 +2,28 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 
 #include "shapesense/core/plane_polygon.h"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "cpu_dispatch.h"
 
 namespace shapesense {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-int findRoot(std::vector<int>& parent, int i) {
+int findRoot(int* parent, int i) {
   while (parent[i] != i) {
     parent[i] = parent[parent[i]];
     i = parent[i];
@@ -22,10 +31,23 @@ int findRoot(std::vector<int>& parent, int i) {
   return i;
 }
 
-void unite(std::vector<int>& parent, int a, int b) {
+void unite(int* parent, int a, int b) {
   a = findRoot(parent, a);
   b = findRoot(parent, b);
   if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+// Calls f(c) for each c in [0, n) with flags[c] != 0, in order. Set flags are expected to be
+// few: they are scanned eight at a time (flags must hold n rounded up to whole words of eight).
+template <typename F>
+inline void forEachSetFlag(const std::uint8_t* flags, int n, F&& f) {
+  for (int c0 = 0; c0 < n; c0 += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flags + c0, sizeof word);
+    if (word == 0) continue;
+    for (int c = c0; c < std::min(c0 + 8, n); ++c)
+      if (flags[c]) f(c);
+  }
 }
 
 struct RegionAccumulator {
@@ -78,9 +100,8 @@ struct LabelRuns {
 // sample_u0/u1: pixel range of each sample column. Most neighbourhoods hold at most one region
 // (inside a region, or a region next to unlabelled samples): found from summaries of the rows
 // of three, they extend the current run without building a list.
-void buildCandidateRuns(const std::vector<int>& region_of, int R, int C,
-                        const std::vector<int>& sample_u0, const std::vector<int>& sample_u1,
-                        LabelRuns& lr) {
+void buildCandidateRuns(const int* region_of, int R, int C, const std::vector<int>& sample_u0,
+                        const std::vector<int>& sample_u1, LabelRuns& lr) {
   // Row summaries of rows -1 .. R (the two outside rows summarise nothing: -1), then the
   // summary of each 3x3 neighbourhood of the current row; boundary-free loops that vectorise.
   std::vector<int> row_summary(static_cast<std::size_t>(R + 3) * C, -1);
@@ -253,19 +274,206 @@ void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const Pi
   for (int k = 0; k < K; ++k) counts[k] += n[k];
 }
 
+#if defined(SHAPESENSE_AVX2_PATHS)
+// The pixel loops in AVX2, eight pixels per step, with the operations of the scalar loops in the
+// same order lane for lane (never FMA: a fused multiply-add would round differently; the build has
+// -ffp-contract=off and no FMA intrinsic is used), so the same labels and counts. A run's last
+// partial step (or all of a run shorter than eight pixels) is a window of eight pixels of the row
+// that holds the rest (see storeLabels): the run's pixels take their labels, the other lanes are
+// stored back as they were read. Lanes before the run's pixels were written earlier in the row;
+// lanes past u1 are read before being written and are overwritten later in the row; runs of a
+// row must be processed left to right. Compiled for AVX2 whatever the build flags; called only
+// where the CPU has it, on rows of >= 8 pixels.
+#pragma GCC push_options
+#pragma GCC target("avx2")
+
+// Depths (m) of pixels u..u+7, as static_cast<float>(d) * 0.001f.
+inline __m256 depthOctet(const std::uint16_t* drow, int u) {
+  const __m128i d = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + u));
+  return _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(d)), _mm256_set1_ps(0.001f));
+}
+
+// Pixel columns u..u+7 as floats.
+inline __m256 columnOctet(int u) {
+  return _mm256_cvtepi32_ps(
+      _mm256_add_epi32(_mm256_set1_epi32(u), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+}
+
+// |z (qa u + qv + qc) + qd|, rounded as in the scalar loops.
+inline __m256 planeDistanceOctet(__m256 z, __m256 fu, __m256 qa, __m256 qv, __m256 qc, __m256 qd) {
+  const __m256 bracket = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(qa, fu), qv), qc);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+  return _mm256_and_ps(abs_mask, _mm256_add_ps(_mm256_mul_ps(z, bracket), qd));
+}
+
+// The first pixel of the eight-pixel window of a partial step starting at u: u, or the row's
+// last eight pixels (rows of >= 8 pixels only: labelPixels uses the AVX2 loops on those alone).
+inline int windowStart(int u, int cols) {
+  assert(cols >= 8);
+  return std::min(u, cols - 8);
+}
+
+// Lanes w + k with lo <= w + k < hi, as 32-bit masks.
+inline __m256i laneRange(int w, int lo, int hi) {
+  const __m256i k = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  return _mm256_and_si256(_mm256_cmpgt_epi32(k, _mm256_set1_epi32(lo - w - 1)),
+                          _mm256_cmpgt_epi32(_mm256_set1_epi32(hi - w), k));
+}
+
+// Eight 32-bit values (each <= 65535) packed to uint16.
+inline __m128i packLabels(__m256i labels) {
+  return _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
+}
+
+// Stores the labels of the lanes in `lanes` (32-bit masks) at lrow + w and stores the other
+// lanes back as they were read: lanes past the run are read before being written and are
+// overwritten later in the row (runs of a row must be processed left to right).
+inline void storeLabels(std::uint16_t* lrow, int w, __m256i labels, __m256i lanes) {
+  auto* p = reinterpret_cast<__m128i*>(lrow + w);
+  const __m128i take = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
+                                       _mm256_extracti128_si256(lanes, 1));  // 16-bit masks
+  _mm_storeu_si128(p, _mm_blendv_epi8(_mm_loadu_si128(p), packLabels(labels), take));
+}
+
+inline int laneSum(__m256i v) {
+  __m128i s = _mm_add_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(1, 0, 3, 2)));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(2, 3, 0, 1)));
+  return _mm_cvtsi128_si32(s);
+}
+
+// The loop of both AVX2 runs over pixels [u0, u1): step(u, fu, counted) returns the labels of
+// pixels u..u+7 (32-bit lanes; fu: their columns as floats) and counts those of the lanes in
+// `counted`. Whole steps of eight, then the partial step as a window (see storeLabels).
+template <typename Step>
+inline void labelRunOctets(std::uint16_t* lrow, int cols, int u0, int u1, Step&& step) {
+  const __m256i all = _mm256_set1_epi32(-1);
+  __m256 fu = columnOctet(u0);
+  int u = u0;
+  for (; u + 8 <= u1; u += 8) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
+    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
+  }
+  if (u < u1) {
+    const int w = windowStart(u, cols);
+    const __m256i lanes = laneRange(w, u, u1);
+    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
+  }
+}
+
+// labelSingleCandidateRun in AVX2.
+int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
+                                int u1, const float* q, float qv, float tol_coef, float tol_floor,
+                                std::uint16_t label) {
+  const __m256 qa = _mm256_set1_ps(q[0]), vqv = _mm256_set1_ps(qv), qc = _mm256_set1_ps(q[2]),
+               qd = _mm256_set1_ps(q[3]), coef = _mm256_set1_ps(tol_coef),
+               floor = _mm256_set1_ps(tol_floor);
+  const __m256i vlabel = _mm256_set1_epi32(label);
+  __m256i count = _mm256_setzero_si256();
+  // The labels of pixels u..u+7 (32-bit lanes); counts those in `counted`.
+  auto step = [&](int u, __m256 fu, __m256i counted) {
+    const __m256 z = depthOctet(drow, u);
+    const __m256 dd = planeDistanceOctet(z, fu, qa, vqv, qc, qd);
+    const __m256 tol = _mm256_max_ps(_mm256_mul_ps(coef, _mm256_mul_ps(z, z)), floor);
+    const __m256i inside = _mm256_castps_si256(_mm256_and_ps(
+        _mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ)));
+    count = _mm256_sub_epi32(count, _mm256_and_si256(inside, counted));
+    return _mm256_and_si256(inside, vlabel);
+  };
+  labelRunOctets(lrow, cols, u0, u1, step);
+  return laneSum(count);
+}
+
+// labelCandidatesRun<K> in AVX2.
+template <int K>
+void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols,
+                            const PixelRun& run, const std::vector<float>& coef, float fv,
+                            const std::vector<float>& region_tol, float tol_floor, int* counts) {
+  __m256 qa[K], qv[K], qc[K], qd[K], tk[K];
+  __m256i label[K], n[K];
+  for (int k = 0; k < K; ++k) {
+    const int reg = run.list[k];
+    const float* q = &coef[4 * reg];
+    qa[k] = _mm256_set1_ps(q[0]);
+    qv[k] = _mm256_set1_ps(q[1] * fv);
+    qc[k] = _mm256_set1_ps(q[2]);
+    qd[k] = _mm256_set1_ps(q[3]);
+    tk[k] = _mm256_set1_ps(region_tol[reg]);
+    label[k] = _mm256_set1_epi32(static_cast<std::uint16_t>(reg + 1));
+    n[k] = _mm256_setzero_si256();
+  }
+  const __m256 floor = _mm256_set1_ps(tol_floor);
+  auto step = [&](int u, __m256 fu, __m256i counted) {
+    const __m256 z = depthOctet(drow, u);
+    const __m256 z2 = _mm256_mul_ps(z, z);
+    __m256 best = _mm256_set1_ps(std::numeric_limits<float>::max());
+    __m256i best_label = _mm256_setzero_si256();
+    for (int k = 0; k < K; ++k) {
+      const __m256 dd = planeDistanceOctet(z, fu, qa[k], qv[k], qc[k], qd[k]);
+      const __m256 tol = _mm256_max_ps(_mm256_mul_ps(tk[k], z2), floor);
+      const __m256 take =
+          _mm256_and_ps(_mm256_cmp_ps(dd, best, _CMP_LE_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ));
+      best = _mm256_blendv_ps(best, dd, take);
+      best_label = _mm256_blendv_epi8(best_label, label[k], _mm256_castps_si256(take));
+    }
+    const __m256i valid = _mm256_castps_si256(_mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ));
+    const __m256i out = _mm256_and_si256(best_label, valid);
+    for (int k = 0; k < K; ++k)
+      n[k] = _mm256_sub_epi32(n[k], _mm256_and_si256(_mm256_cmpeq_epi32(out, label[k]), counted));
+    return out;
+  };
+  labelRunOctets(lrow, cols, run.u0, run.u1, step);
+  for (int k = 0; k < K; ++k) counts[k] += laneSum(n[k]);
+}
+
+#pragma GCC pop_options
+
+using detail::cpuHasAvx2;
+#endif
+
+// Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2` (which
+// needs rows of >= 8 pixels; `cols` pixels here).
+int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
+                   int u1, const float* q, float qv, float tol_coef, float tol_floor,
+                   std::uint16_t label) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (avx2)
+    return labelSingleCandidateRunAvx2(drow, lrow, cols, u0, u1, q, qv, tol_coef, tol_floor, label);
+#else
+  (void)avx2;
+  (void)cols;
+#endif
+  return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
+}
+
+template <int K>
+void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
+               const PixelRun& run, const std::vector<float>& coef, float fv,
+               const std::vector<float>& region_tol, float tol_floor, int* counts) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (avx2)
+    return labelCandidatesRunAvx2<K>(drow, lrow, cols, run, coef, fv, region_tol, tol_floor,
+                                     counts);
+#else
+  (void)avx2;
+  (void)cols;
+#endif
+  labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+}
+
 // Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
 // counts[k]: pixels labelled with candidate k (the runs' spans need them).
-void labelMultiCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                            const std::vector<float>& coef, float fv,
+void labelMultiCandidateRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
+                            const PixelRun& run, const std::vector<float>& coef, float fv,
                             const std::vector<float>& region_tol, float tol_floor,
                             std::array<int, 4>& counts) {
   counts.fill(0);
   if (run.list[2] < 0)
-    labelCandidatesRun<2>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<2>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
   else if (run.list[3] < 0)
-    labelCandidatesRun<3>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<3>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
   else
-    labelCandidatesRun<4>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts.data());
+    labelKRun<4>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -316,37 +524,43 @@ struct RunSums {
   }
 };
 
+// Colour sums of a run (locals: stores through a uchar row could alias the region).
+struct RunColour {
+  std::uint64_t b = 0, g = 0, r = 0;
+  void add(const cv::Vec3b& c) {
+    b += c[0];
+    g += c[1];
+    r += c[2];
+  }
+};
+
 // Adds the pixels labelled `label` in lrow[u0, u1) on the moment lattice to the moments and colour
 // of their region. In the pixel's own terms x = xr(u) z and y = yr z, so the run needs only six
 // sums (yr is constant along it) and the loop keeps them in registers. The colour is summed in
 // the same pass (one test of the label per pixel). Alternate lattice pixels go to two sets of
-// sums: each sum is a chain of dependent additions, and two chains run in parallel.
+// sums: each sum is a chain of dependent additions, and two chains run in parallel. kColour:
+// whether there is a colour row (a template parameter: no test of it per pixel).
+template <bool kColour>
 void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
                    int u0, int u1, std::uint16_t label, const double* xr, double yr,
                    RegionAccumulator& reg) {
   RunSums even, odd;
-  std::uint64_t b = 0, g = 0, r = 0;  // locals: stores through a uchar row could alias reg
-  auto addColour = [&](int u) {
-    if (!crow) return;
-    b += crow[u][0];
-    g += crow[u][1];
-    r += crow[u][2];
-  };
+  RunColour colour;
   int u = firstMomentPixel(u0);
   for (; u + kMomentStride < u1; u += 2 * kMomentStride) {
     const int u2 = u + kMomentStride;
     if (lrow[u] == label) {
       even.add(drow[u] * 0.001, xr[u]);
-      addColour(u);
+      if constexpr (kColour) colour.add(crow[u]);
     }
     if (lrow[u2] == label) {
       odd.add(drow[u2] * 0.001, xr[u2]);
-      addColour(u2);
+      if constexpr (kColour) colour.add(crow[u2]);
     }
   }
   if (u < u1 && lrow[u] == label) {
     even.add(drow[u] * 0.001, xr[u]);
-    addColour(u);
+    if constexpr (kColour) colour.add(crow[u]);
   }
   even.add(odd);
   const double n = even.n, sz = even.sz, szz = even.szz, sxz = even.sxz, sxzz = even.sxzz,
@@ -355,9 +569,9 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
   Eigen::Matrix3d sum_sq;  // upper triangle
   sum_sq << sxxzz, yr * sxzz, sxzz, 0.0, yr * yr * szz, yr * szz, 0.0, 0.0, szz;
   reg.moments.addSums(n, Eigen::Vector3d(sxz, yr * sz, sz), sum_sq);
-  reg.colour[0] += b;
-  reg.colour[1] += g;
-  reg.colour[2] += r;
+  reg.colour[0] += colour.b;
+  reg.colour[1] += colour.g;
+  reg.colour[2] += colour.r;
 }
 
 // Every full-resolution pixel takes the closest candidate plane of its sample within the
@@ -367,15 +581,25 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
 // Work goes by runs of pixels sharing one candidate list; inside a region that is one plane, so
 // the common case is a tight single-plane loop.
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                      const PlaneSampleGrid& grid, const std::vector<int>& region_of,
+                      const PlaneSampleGrid& grid, const int* region_of,
                       const std::vector<PlaneHypothesis>& planes,
-                      const std::vector<float>& region_tol, float tol_floor,
+                      const std::vector<float>& region_tol, float tol_floor, bool allow_avx2,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
+  // AVX2 loops where the CPU has them (tests: PlaneLabelingParams::labeling_avx2 = false).
+#if defined(SHAPESENSE_AVX2_PATHS)
+  const bool avx2 = allow_avx2 && cpuHasAvx2() && depth_mm.cols >= 8;
+#else
+  const bool avx2 = false;
+  (void)allow_avx2;
+#endif
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
+  // The nearest sample, halves rounded up (lround((x - off) / step), clamped; integer arithmetic:
+  // below the first sample both give 0 after the clamp).
   auto sampleOf = [&](int x, int n) {
-    return std::clamp(static_cast<int>(std::lround(static_cast<double>(x - off) / step)), 0, n - 1);
+    const int xo = x - off;
+    return std::clamp(xo < 0 ? 0 : (2 * xo + step) / (2 * step), 0, n - 1);
   };
   // Pixel columns of each sample column (contiguous: the mapping is monotonic).
   std::vector<int> sample_u0(C, 0), sample_u1(C, 0);
@@ -396,6 +620,8 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
         !bgr.empty() && v % kMomentStride == 0 ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
     int gap_u0 = 0;
+    // Runs left to right: an AVX2 partial window reads and stores back pixels past its run
+    // before they are written (see storeLabels); the later run or gap overwrites them.
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
       const PixelRun& run = lr.runs[k];
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
@@ -403,18 +629,23 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       std::array<int, 4> counts{};  // pixels labelled with each candidate
       if (run.list[1] < 0) {
         const float* q = &coef[4 * run.list[0]];
-        counts[0] = labelSingleCandidateRun(drow, lrow, run.u0, run.u1, q, q[1] * fv,
-                                            region_tol[run.list[0]], tol_floor,
-                                            static_cast<std::uint16_t>(run.list[0] + 1));
+        counts[0] = labelSingleRun(avx2, drow, lrow, depth_mm.cols, run.u0, run.u1, q, q[1] * fv,
+                                   region_tol[run.list[0]], tol_floor,
+                                   static_cast<std::uint16_t>(run.list[0] + 1));
       } else {
-        labelMultiCandidateRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+        labelMultiCandidateRun(avx2, drow, lrow, depth_mm.cols, run, coef, fv, region_tol,
+                               tol_floor, counts);
       }
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
         addRowSpan(reg, runSpan(lrow, run.u0, run.u1, label, counts[slot]), v);
-        if (v % kMomentStride == 0)
-          addRunMoments(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        if (v % kMomentStride == 0) {
+          if (crow)
+            addRunMoments<true>(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+          else
+            addRunMoments<false>(drow, lrow, crow, run.u0, run.u1, label, xr.data(), yr, reg);
+        }
       }
     }
     std::fill(lrow + gap_u0, lrow + depth_mm.cols, std::uint16_t{0});
@@ -456,27 +687,37 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   std::vector<int> count(planes_count, 0);
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const int* lab = sample_labels.ptr<int>(0);
-  // Consecutive samples mostly share a plane: its sum stays in a register until the plane
-  // changes (the same additions in the same order as sum[L] += ..., without a store-to-load
-  // round trip per sample).
-  int cur = -1;
-  double cur_sum = 0.0;
+  // Consecutive samples mostly share a plane: its sum, count and coefficients stay in registers
+  // until the plane changes (the same additions in the same order as sum[L] += ..., without a
+  // store-to-load round trip per sample).
+  int cur = -1, cur_count = 0;
+  double cur_sum = 0.0, nx = 0.0, ny = 0.0, nz = 0.0, d = 0.0;
   for (int i = 0; i < grid.points.rows * grid.points.cols; ++i) {
     const int L = lab[i];
     if (L < 0 || static_cast<std::size_t>(L) >= planes_count) continue;
     if (L != cur) {
-      if (cur >= 0) sum[cur] = cur_sum;
+      if (cur >= 0) {
+        sum[cur] = cur_sum;
+        count[cur] = cur_count;
+      }
       cur = L;
       cur_sum = sum[L];
+      cur_count = count[L];
+      const auto& h = planes[L];
+      nx = h.normal.x();
+      ny = h.normal.y();
+      nz = h.normal.z();
+      d = h.d;
     }
-    const auto& h = planes[L];
     const cv::Vec3f& p = pts[i];
-    const double r = (h.normal.x() * p[0] + h.normal.y() * p[1] + h.normal.z() * p[2] + h.d) /
-                     (step1 * p[2] * p[2]);
+    const double r = (nx * p[0] + ny * p[1] + nz * p[2] + d) / (step1 * p[2] * p[2]);
     cur_sum += r * r;
-    ++count[L];
+    ++cur_count;
   }
-  if (cur >= 0) sum[cur] = cur_sum;
+  if (cur >= 0) {
+    sum[cur] = cur_sum;
+    count[cur] = cur_count;
+  }
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
   for (std::size_t L = 0; L < planes_count; ++L) {
     if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
@@ -486,6 +727,49 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   }
   return coef;
 }
+
+namespace {
+
+#if defined(__SSE2__)
+// Four samples per step of a row of PlaneSampleGrid::build, with the operations of its scalar loop
+// lane for lane (the same points); returns the first column not done. prow: the row of points as
+// floats (x, y, z of each sample).
+int buildGridRowSse2(const std::uint16_t* src, std::uint16_t* d, float* prow, const float* rx,
+                     float ry, int offset, int step, int cols) {
+  const __m128 k001 = _mm_set1_ps(0.001f), vry = _mm_set1_ps(ry), nan = _mm_set1_ps(kNaN);
+  int c = 0;
+  for (; c + 4 <= cols; c += 4) {
+    const std::uint16_t* s = src + offset + c * step;
+    const std::uint16_t d0 = s[0], d1 = s[step], d2 = s[2 * step], d3 = s[3 * step];
+    d[c] = d0;
+    d[c + 1] = d1;
+    d[c + 2] = d2;
+    d[c + 3] = d3;
+    const __m128i di = _mm_setr_epi32(d0, d1, d2, d3);
+    const __m128 z = _mm_mul_ps(_mm_cvtepi32_ps(di), k001);
+    const __m128 valid = _mm_castsi128_ps(_mm_cmpgt_epi32(di, _mm_setzero_si128()));
+    auto select = [&](__m128 v) {  // valid ? v : NaN
+      return _mm_or_ps(_mm_and_ps(valid, v), _mm_andnot_ps(valid, nan));
+    };
+    const __m128 x = select(_mm_mul_ps(_mm_loadu_ps(rx + c), z));
+    const __m128 y = select(_mm_mul_ps(vry, z));
+    const __m128 zs = select(z);
+    // x0..x3, y0..y3, z0..z3 -> x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
+    const __m128 xy_lo = _mm_unpacklo_ps(x, y), xy_hi = _mm_unpackhi_ps(x, y);
+    const __m128 z0x1 = _mm_shuffle_ps(zs, xy_lo, _MM_SHUFFLE(2, 2, 0, 0));
+    const __m128 y1z1 = _mm_shuffle_ps(xy_lo, zs, _MM_SHUFFLE(1, 1, 3, 3));
+    const __m128 z2x3 = _mm_shuffle_ps(zs, xy_hi, _MM_SHUFFLE(2, 2, 2, 2));
+    const __m128 y3z3 = _mm_shuffle_ps(xy_hi, zs, _MM_SHUFFLE(3, 3, 3, 3));
+    float* out = prow + 3 * c;
+    _mm_storeu_ps(out, _mm_shuffle_ps(xy_lo, z0x1, _MM_SHUFFLE(2, 0, 1, 0)));
+    _mm_storeu_ps(out + 4, _mm_shuffle_ps(y1z1, xy_hi, _MM_SHUFFLE(1, 0, 2, 0)));
+    _mm_storeu_ps(out + 8, _mm_shuffle_ps(z2x3, y3z3, _MM_SHUFFLE(2, 0, 2, 0)));
+  }
+  return c;
+}
+#endif
+
+}  // namespace
 
 void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full,
                             int sample_step) {
@@ -504,19 +788,27 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
   intrinsics.width = cols;
   intrinsics.height = rows;
   const float ifx = static_cast<float>(1.0 / full.fx), ify = static_cast<float>(1.0 / full.fy);
+  // x = rx z with rx = (u - cx) / fx, the same in every row.
+  std::vector<float> rx(static_cast<std::size_t>(std::max(cols, 0)));
+  for (int c = 0; c < cols; ++c)
+    rx[c] = (static_cast<float>(offset + c * step) - static_cast<float>(full.cx)) * ifx;
   for (int r = 0; r < rows; ++r) {
     const int v = offset + r * step;
     const auto* src = depth_full_mm.ptr<std::uint16_t>(v);
     auto* d = depth_mm.ptr<std::uint16_t>(r);
     auto* p = points.ptr<cv::Vec3f>(r);
     const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
+    int c = 0;
+#if defined(__SSE2__)
+    c = buildGridRowSse2(src, d, points.ptr<float>(r), rx.data(), ry, offset, step, cols);
+#endif
     // Selects, not a branch: holes make the test unpredictable.
-    for (int c = 0; c < cols; ++c) {
+    for (; c < cols; ++c) {
       const int u = offset + c * step;
       d[c] = src[u];
       const bool valid = src[u] != 0;
       const float z = static_cast<float>(src[u]) * 0.001f;
-      const float x = (static_cast<float>(u) - static_cast<float>(full.cx)) * ifx * z;
+      const float x = rx[c] * z;
       p[c] = cv::Vec3f(valid ? x : kNaN, valid ? ry * z : kNaN, valid ? z : kNaN);
     }
   }
@@ -548,13 +840,16 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
   // r and c from the index would cost two integer divisions per entry. Every sample enters it
   // at most once.
   CV_Assert(R <= 0xFFFF && C <= 0xFFFF);
-  std::vector<std::uint32_t> queue(static_cast<std::size_t>(R) * C);
+  // Not zeroed: only the entries below tail are read, each written first.
+  const auto queue =
+      std::make_unique_for_overwrite<std::uint32_t[]>(static_cast<std::size_t>(R) * C);
   std::size_t tail = 0;
   // Seeds: the labelled samples with an unlabelled valid 4-neighbour, in index order. The
   // others could never take a neighbour, so the growth is that of seeding every labelled sample.
   // Whether each sample is open (unlabelled and valid) first, in one branch-free pass, on a
   // grid with a closed one-sample border; the seed test then ORs four flags without bounds
-  // tests, and the seeds are appended without a branch.
+  // tests, into a row of seed flags (a branch-free pass that vectorises). Seeds are few (they
+  // line the borders of the labelled areas): the flags are scanned eight at a time.
   const int W = C + 2;
   std::vector<std::uint8_t> open(static_cast<std::size_t>(R + 2) * W, 0);
   for (int r = 0; r < R; ++r) {
@@ -564,14 +859,17 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
     for (int c = 0; c < C; ++c)
       orow[c] = static_cast<std::uint8_t>((lrow[c] == -1) & (prow[c][2] > 0));
   }
+  std::vector<std::uint8_t> seed(static_cast<std::size_t>(C) + 8, 0);  // one row, whole words
   for (int r = 0; r < R; ++r) {
     const int* lrow = lab + r * C;
     const std::uint8_t* orow = &open[static_cast<std::size_t>(r + 1) * W + 1];
     for (int c = 0; c < C; ++c) {
       const int any = orow[c - 1] | orow[c + 1] | orow[c - W] | orow[c + W];
-      queue[tail] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
-      tail += static_cast<std::size_t>((lrow[c] >= 0) & (any != 0));
+      seed[c] = static_cast<std::uint8_t>((lrow[c] >= 0) & (any != 0));
     }
+    forEachSetFlag(seed.data(), C, [&](int c) {
+      queue[tail++] = static_cast<std::uint32_t>(r) << 16 | static_cast<std::uint32_t>(c);
+    });
   }
   for (std::size_t q = 0; q < tail; ++q) {
     const int r = static_cast<int>(queue[q] >> 16), c = static_cast<int>(queue[q] & 0xFFFF);
@@ -630,8 +928,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       planeToleranceCoefficients(grid, sample_labels, planes, params);
   growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous).
-  std::vector<int> parent(static_cast<std::size_t>(R) * C);
-  std::iota(parent.begin(), parent.end(), 0);
+  // The per-sample arrays below are not zeroed where every entry read is written first (zeroing
+  // them cost as much as some of the passes over them).
+  const std::size_t samples = static_cast<std::size_t>(R) * C;
+  const auto parent_storage = std::make_unique_for_overwrite<int[]>(samples);
+  int* const parent = parent_storage.get();
+  std::iota(parent, parent + samples, 0);
   if (params.split_connected_regions) {
     // Which joins were made (bit 0: with the left neighbour, bit 1: with the one above). When
     // i joined its left neighbour, which joined the sample above it, which joined its own left
@@ -640,21 +942,40 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     // root: the root (smallest index) of the set of the sample just processed. No set changes
     // between that sample and the next, so a join with the left neighbour takes it without a
     // find.
-    std::vector<std::uint8_t> joined(static_cast<std::size_t>(R) * C, 0);
+    // Written for every labelled sample; read only for labelled ones.
+    const auto joined = std::make_unique_for_overwrite<std::uint8_t[]>(samples);
+    // The joins of each sample of a row (same bits), found first in branch-free passes over the
+    // row's depths copied to a contiguous array (they vectorise); the union-find pass only
+    // reads them. A sample with another label than its neighbour does not join it (two
+    // unlabelled neighbours may get a bit: they are never read).
+    std::vector<float> z_row(C), z_above(C);
+    std::vector<std::uint8_t> can_join(C);
     int root = -1;
-    for (int r = 0; r < R; ++r)
+    for (int r = 0; r < R; ++r) {
+      const int* lrow = lab + static_cast<std::ptrdiff_t>(r) * C;
+      for (int c = 0; c < C; ++c) z_row[c] = point(r * C + c)[2];
+      can_join[0] = 0;
+      for (int c = 1; c < C; ++c)
+        can_join[c] =
+            static_cast<std::uint8_t>(static_cast<int>(lrow[c] == lrow[c - 1]) &
+                                      static_cast<int>(continuous(z_row[c], z_row[c - 1])));
+      if (r > 0) {
+        const int* above = lrow - C;
+        for (int c = 0; c < C; ++c)
+          can_join[c] |=
+              static_cast<std::uint8_t>((static_cast<int>(lrow[c] == above[c]) &
+                                         static_cast<int>(continuous(z_row[c], z_above[c])))
+                                        << 1);
+      }
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
         if (lab[i] < 0) continue;
-        const float z = point(i)[2];
+        const int can = can_join[c];
         int own = i;  // i is still its own root here (raster order)
-        if (c > 0 && lab[i - 1] == lab[i] && continuous(z, point(i - 1)[2])) {
-          parent[i] = own = root;
-          joined[i] = 1;
-        }
-        if (r > 0 && lab[i - C] == lab[i] && continuous(z, point(i - C)[2])) {
-          joined[i] |= 2;
-          const bool linked = (joined[i] & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
+        joined[i] = static_cast<std::uint8_t>(can);
+        if (can & 1) parent[i] = own = root;
+        if (can & 2) {
+          const bool linked = (can & 1) && (joined[i - 1] & 2) && (joined[i - C] & 1);
           if (!linked) {
             // unite(i, i - C), with the find of i known.
             const int above = findRoot(parent, i - C);
@@ -666,6 +987,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         }
         root = own;
       }
+      std::swap(z_row, z_above);
+    }
   }
   // Pieces of one plane separated only by things in front of it (a floor seen between table
   // legs, a wall behind a box) are one surface: SegComp truth and users both see one floor.
@@ -675,15 +998,18 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // farther along its ray than the plane.
   if (params.split_connected_regions && params.merge_occluded_pieces) {
     const int min_piece = std::max(1, params.min_region_pixels / (2 * step * step));
-    // Sample count and row / column sums of each piece (a sum reaches R C max(R, C): 64 bits).
-    const std::size_t samples = static_cast<std::size_t>(R) * C;
-    std::vector<int> cnt(samples, 0);
-    std::vector<std::int64_t> sr(samples, 0), sc(samples, 0);
+    // Sample count and row / column sums of each piece (a sum reaches R C max(R, C): 64 bits),
+    // at its root: the root is the piece's smallest index, so its first sample in raster order,
+    // where the sums start (only roots are read).
+    const auto cnt = std::make_unique_for_overwrite<int[]>(samples);
+    const auto sr = std::make_unique_for_overwrite<std::int64_t[]>(samples);
+    const auto sc = std::make_unique_for_overwrite<std::int64_t[]>(samples);
     // parent[i] <= i (unite keeps the smaller root), so one forward pass leaves every entry
     // pointing at its root (the roots stay the same: no find is needed below). Consecutive
     // samples mostly share a root: its sums stay in registers until the root changes.
     int cur = -1, cur_n = 0;
     std::int64_t cur_r = 0, cur_c = 0;
+    std::vector<int> roots;  // of the labelled pieces, in index order
     for (int r = 0, i = 0; r < R; ++r)
       for (int c = 0; c < C; ++c, ++i) {
         const int root = parent[parent[i]];
@@ -696,9 +1022,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
             sc[cur] = cur_c;
           }
           cur = root;
-          cur_n = cnt[root];
-          cur_r = sr[root];
-          cur_c = sc[root];
+          const bool first = root == i;
+          if (first) roots.push_back(i);
+          cur_n = first ? 0 : cnt[root];
+          cur_r = first ? 0 : sr[root];
+          cur_c = first ? 0 : sc[root];
         }
         ++cur_n;
         cur_r += r;
@@ -710,8 +1038,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       sc[cur] = cur_c;
     }
     std::vector<std::vector<int>> pieces(planes.size());
-    for (int i = 0; i < R * C; ++i)
-      if (lab[i] >= 0 && parent[i] == i && cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
+    for (const int i : roots)
+      if (cnt[i] >= min_piece) pieces[lab[i]].push_back(i);
     for (std::size_t L = 0; L < planes.size(); ++L) {
       const auto& list = pieces[L];
       if (list.size() < 2 || list.size() > 64) continue;
@@ -743,10 +1071,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         }
     }
   }
-  std::vector<int> region_of(static_cast<std::size_t>(R) * C, -1);
+  const auto region_storage = std::make_unique_for_overwrite<int[]>(samples);
+  int* const region_of = region_storage.get();  // every entry written below
   std::vector<RegionAccumulator> regions;
   {
-    std::vector<int> root_region(static_cast<std::size_t>(R) * C, -1);
+    // The region of each root, written at the root: the first sample of its set in raster order.
+    const auto root_region = std::make_unique_for_overwrite<int[]>(samples);
     std::vector<int> plane_region(planes.size(), -1);
     std::vector<std::array<int, 4>> bounds;  // c0, r0, c1, r1 of each region's samples
     // Consecutive samples mostly share a region: its count and column bounds stay in registers
@@ -766,7 +1096,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
         // every entry pointing at its root.
         const int root = parent[parent[i]];
         parent[i] = root;
-        if (lab[i] < 0) continue;
+        if (lab[i] < 0) {
+          region_of[i] = -1;
+          continue;
+        }
+        if (root == i) root_region[i] = -1;
         int& slot = params.split_connected_regions ? root_region[root] : plane_region[lab[i]];
         if (slot < 0) {
           slot = static_cast<int>(regions.size());
@@ -795,9 +1129,43 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
   }
   // Pre-filter on sample counts (half the pixel threshold: edges add pixels at full resolution).
+  // A region's samples lie in its sample box: the boxes of the small regions are searched, unless
+  // together they cover more than the grid.
   const int min_samples = std::max(1, params.min_region_pixels / (2 * step * step));
-  for (int i = 0; i < R * C; ++i)
-    if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
+  std::size_t small_area = 0;
+  for (const auto& reg : regions)
+    if (reg.samples < min_samples) small_area += static_cast<std::size_t>(reg.sample_box.area());
+  if (small_area > samples) {
+    for (std::size_t i = 0; i < samples; ++i)
+      if (region_of[i] >= 0 && regions[region_of[i]].samples < min_samples) region_of[i] = -1;
+  } else {
+    for (std::size_t k = 0; k < regions.size(); ++k) {
+      if (regions[k].samples >= min_samples) continue;
+      const cv::Rect& b = regions[k].sample_box;
+      for (int r = b.y; r < b.y + b.height; ++r) {
+        int* row = region_of + static_cast<std::ptrdiff_t>(r) * C;
+        for (int c = b.x; c < b.x + b.width; ++c)
+          if (row[c] == static_cast<int>(k)) row[c] = -1;
+      }
+    }
+  }
+  // Pixels are labelled with region index + 1 in 16 bits. Past 65535 regions (small sample steps
+  // on fragmented labels: a checkerboard of two planes makes every sample a region), the regions
+  // kept above are renumbered in order and those still past the range are left unlabelled (their
+  // samples leave the regions, as the small ones did).
+  constexpr std::size_t kMaxRegions = 65535;
+  if (regions.size() > kMaxRegions) {
+    std::vector<int> new_index(regions.size(), -1);
+    std::vector<RegionAccumulator> kept;
+    for (std::size_t k = 0; k < regions.size() && kept.size() < kMaxRegions; ++k) {
+      if (regions[k].samples < min_samples) continue;
+      new_index[k] = static_cast<int>(kept.size());
+      kept.push_back(regions[k]);
+    }
+    for (std::size_t i = 0; i < samples; ++i)
+      if (region_of[i] >= 0) region_of[i] = new_index[region_of[i]];
+    regions = std::move(kept);
+  }
 
   // 3-4. Every pixel takes the closest candidate plane (the regions of its 3x3 sample
   //      neighbourhood) within the tolerance; see labelPixels.
@@ -808,7 +1176,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   PlaneDetection out;
   const LabelRuns label_runs =
       labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, planes, region_tol,
-                  tol_floor, regions, out.labels);
+                  tol_floor, params.labeling_avx2, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
@@ -828,31 +1196,39 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     }
     return region_fit[k];
   };
+  bool any_merged = false;
   if (params.merge_coplanar_regions) {
     std::vector<std::pair<int, int>> adjacent;
-    // Pairs with the right and the lower neighbour, sample by sample; most samples have the
-    // same region on both sides, so the two neighbour tests are selects, not branches.
+    // Pairs with the right and the lower neighbour. Most samples have the same region on both
+    // sides: the others (region borders) are flagged a row at a time in a branch-free pass that
+    // vectorises, and the flags are scanned eight at a time.
     auto addPair = [&](int i, int j, int a) {
       const int b = region_of[j];
       if (b < 0 || b == a || !continuous(point(i)[2], point(j)[2])) return;
       adjacent.emplace_back(std::min(a, b), std::max(a, b));
     };
-    for (int r = 0; r < R; ++r)
-      for (int c = 0; c < C; ++c) {
-        const int i = r * C + c, a = region_of[i];
-        if (a < 0) continue;
-        const int right = c + 1 < C ? region_of[i + 1] : a;
-        const int down = r + 1 < R ? region_of[i + C] : a;
-        if ((right == a) & (down == a)) continue;
-        if (c + 1 < C) addPair(i, i + 1, a);
-        if (r + 1 < R) addPair(i, i + C, a);
-      }
+    std::vector<std::uint8_t> border(static_cast<std::size_t>(C) + 8, 0);  // whole words
+    for (int r = 0; r < R; ++r) {
+      const int* row = region_of + static_cast<std::ptrdiff_t>(r) * C;
+      const int* below = r + 1 < R ? row + C : row;  // the last row has none
+      for (int c = 0; c + 1 < C; ++c)
+        border[c] = static_cast<std::uint8_t>(
+            static_cast<int>(row[c] >= 0) &
+            (static_cast<int>(row[c + 1] != row[c]) | static_cast<int>(below[c] != row[c])));
+      border[C - 1] = static_cast<std::uint8_t>(static_cast<int>(row[C - 1] >= 0) &
+                                                (below[C - 1] != row[C - 1]));
+      forEachSetFlag(border.data(), C, [&](int c) {
+        const int i = r * C + c;
+        if (c + 1 < C) addPair(i, i + 1, row[c]);
+        if (r + 1 < R) addPair(i, i + C, row[c]);
+      });
+    }
     std::sort(adjacent.begin(), adjacent.end());
     adjacent.erase(std::unique(adjacent.begin(), adjacent.end()), adjacent.end());
     const double cos_merge =
         std::cos(params.merge_coplanar_max_angle_deg * 3.14159265358979323846 / 180.0);
     for (const auto& [a0, b0] : adjacent) {
-      const int a = findRoot(merged_into, a0), b = findRoot(merged_into, b0);
+      const int a = findRoot(merged_into.data(), a0), b = findRoot(merged_into.data(), b0);
       if (a == b) continue;
       const PlaneFit &fa = fitOf(a), &fb = fitOf(b);
       if (!fa.valid || !fb.valid || fa.normal.dot(fb.normal) < cos_merge) continue;
@@ -878,9 +1254,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       for (int ch = 0; ch < 3; ++ch) ra.colour[ch] += rb.colour[ch];
       rb.count = 0;  // dropped below; its pixels are renumbered to the merged region
       merged_into[std::max(a, b)] = std::min(a, b);
+      any_merged = true;
     }
-    for (int i = 0; i < R * C; ++i)
-      if (region_of[i] >= 0) region_of[i] = findRoot(merged_into, region_of[i]);
+    if (any_merged)
+      for (int i = 0; i < R * C; ++i)
+        if (region_of[i] >= 0) region_of[i] = findRoot(merged_into.data(), region_of[i]);
   }
 
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
@@ -905,12 +1283,23 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
       mask_step[k] = static_cast<std::ptrdiff_t>(masks[k].step[0]);
       origin[k] = (1 - sb.y) * mask_step[k] + (1 - sb.x);
     }
-    for (int r = 0, i = 0; r < R; ++r)
+    // Consecutive samples mostly share a region: its mask and row offset are looked up when the
+    // region changes.
+    for (int r = 0, i = 0; r < R; ++r) {
+      int cur = -1;
+      std::uint8_t* data = nullptr;
+      std::ptrdiff_t row_offset = 0;
       for (int c = 0; c < C; ++c, ++i) {
         const int k = region_of[i];
-        if (k < 0 || !mask_data[k]) continue;
-        mask_data[k][origin[k] + r * mask_step[k] + c] = 255;
+        if (k < 0) continue;
+        if (k != cur) {
+          cur = k;
+          data = mask_data[k];
+          row_offset = origin[k] + r * mask_step[k];
+        }
+        if (data) data[row_offset + c] = 255;
       }
+    }
   }
   std::vector<std::uint16_t> lut(regions.size() + 1, 0);
   bool renumber = false;
@@ -945,7 +1334,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     out.planes.push_back(std::move(p));
   }
   for (std::size_t k = 0; k < nreg; ++k) {
-    const int root = findRoot(merged_into, static_cast<int>(k));
+    const int root = findRoot(merged_into.data(), static_cast<int>(k));
     if (root != static_cast<int>(k)) {
       lut[k + 1] = lut[root + 1];
       renumber = true;

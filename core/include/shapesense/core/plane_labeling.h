@@ -77,7 +77,9 @@ class SampleContinuity {
 
 /// Turns per-sample plane assignments into a PlaneDetection.
 /// `sample_labels`: CV_32SC1 on the sample grid, -1 = none, k = index into `planes`; it is
-/// modified (grown into unassigned samples that fit a neighbouring plane).
+/// modified (grown into unassigned samples that fit a neighbouring plane). Labels are 16-bit: of
+/// more than 65535 connected regions (small sample steps on fragmented labels), those past the
+/// first 65535 above the minimum size (in raster order of their first sample) stay unlabelled.
 PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                            const cv::Mat& bgr, const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                            const std::vector<PlaneHypothesis>& planes,
