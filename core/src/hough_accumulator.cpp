@@ -6,8 +6,12 @@
 #include <numeric>
 #include <tuple>
 
+#include <type_traits>
+#include <utility>
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#include <xmmintrin.h>
 #endif
 
 namespace shapesense {
@@ -32,6 +36,67 @@ std::vector<float> gaussianTaps(double sigma_cells, int max_radius) {
 
 inline int cellInBlock(int li, int lj, int lk) {
   return (lk * HoughAccumulator::kBlock + lj) * HoughAccumulator::kBlock + li;
+}
+
+constexpr int kB = HoughAccumulator::kBlock;
+constexpr int kTaps = 2 * kB + 1;
+
+// Four floats, one per lane: an SSE2 register, or an array without SSE2 (the same IEEE
+// operations either way: separate multiply and add, no FMA).
+#if defined(__SSE2__)
+using Quad = __m128;
+inline Quad quadZero() { return _mm_setzero_ps(); }
+inline Quad quadSplat(float v) { return _mm_set1_ps(v); }
+inline Quad quadLoad(const float* p) { return _mm_loadu_ps(p); }
+inline void quadStore(float* p, Quad q) { _mm_storeu_ps(p, q); }
+inline Quad quadMulAdd(Quad acc, Quad w, Quad x) { return _mm_add_ps(acc, _mm_mul_ps(w, x)); }
+inline void quadTranspose(Quad (&q)[kB]) { _MM_TRANSPOSE4_PS(q[0], q[1], q[2], q[3]); }
+#else
+struct Quad {
+  float v[4];
+};
+inline Quad quadZero() { return {}; }
+inline Quad quadSplat(float v) { return {{v, v, v, v}}; }
+inline Quad quadLoad(const float* p) {
+  Quad q;
+  std::copy_n(p, 4, q.v);
+  return q;
+}
+inline void quadStore(float* p, const Quad& q) { std::copy_n(q.v, 4, p); }
+inline Quad quadMulAdd(Quad acc, const Quad& w, const Quad& x) {
+  for (int i = 0; i < 4; ++i) acc.v[i] += w.v[i] * x.v[i];
+  return acc;
+}
+inline void quadTranspose(Quad (&q)[kB]) {
+  for (int r = 0; r < 4; ++r)
+    for (int c = r + 1; c < 4; ++c) std::swap(q[r].v[c], q[c].v[r]);
+}
+#endif
+
+// One output block of a smoothing pass, four independent lines at once (the lanes):
+// out[t] = sum over u in [-kB, kB], ascending, of w[u + kB] * in[kB + t + u], from 0, where
+// in[g] = row(g / kB, g % kB) is row g % kB of the previous (0), own (1) or next (2) block
+// along the axis. Each row is loaded once and added to the outputs it reaches; every output
+// still receives its terms in ascending u. Blocks that are absent or known to be zero
+// (present[s] false) are skipped: their terms are exact zeros, so the sums keep their bits.
+template <class Row>
+[[gnu::always_inline]] inline void convolveRows(const bool (&present)[3], const Row& row,
+                                                const Quad (&w)[kTaps], Quad (&out)[kB]) {
+#pragma GCC unroll 4
+  for (int t = 0; t < kB; ++t) out[t] = quadZero();
+#pragma GCC unroll 3
+  for (int s = 0; s < 3; ++s) {
+    if (!present[s]) continue;
+#pragma GCC unroll 4
+    for (int r = 0; r < kB; ++r) {
+      const Quad x = row(s, r);
+#pragma GCC unroll 4
+      for (int t = 0; t < kB; ++t) {
+        const int u = s * kB + r - kB - t;  // the tap of in[s kB + r] for output t
+        if (u >= -kB && u <= kB) out[t] = quadMulAdd(out[t], w[u + kB], x);
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -236,13 +301,12 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   }
   if (out.block_keys_.empty()) return;
 
-  // 2. Three separable passes: this -> out.cells_ (x), out -> scratch (y), scratch -> out (z).
-  //    Every pass writes the same block set; reads see zeros outside it (and, for the first,
-  //    the light blocks of this space).
+  // 2. Three separable passes (smoothPasses): this -> out.cells_ (x), out -> scratch (y),
+  //    scratch -> out (z), over the same block set; reads see zeros outside it (and, for the
+  //    first, the light blocks of this space).
   // Taps padded to the largest radius (kBlock) with zeros: fixed-size loops that unroll and
   // vectorise; the extra terms add exact zeros.
-  constexpr int kTaps = 2 * kBlock + 1;
-  std::array<std::array<float, kTaps>, 3> taps{};
+  SmoothingTaps taps{};
   const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_,
                                              sigma_angle_deg * kDegToRad / a_cell_,
                                              sigma_d_m / params_.d_cell_m};
@@ -251,90 +315,104 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     const int r = static_cast<int>(w.size() / 2);
     for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
   }
-  const std::array<int, 3> nb = {nba_, nba_, nbd_};
-  // Which passes each evaluated block needs (see kNeedX.. below); all of them without a peak bound.
+  // Which passes each evaluated block needs (kNeedX..); all of them without a peak bound.
   std::vector<std::uint8_t>& need = out.smooth_need_;
   need.assign(out.block_keys_.size(), kNeedZ);
   if (min_peak > 0.0f)
     out.pruneForPeaks(*this, block_mass, taps[0][kBlock] * taps[1][kBlock] * taps[2][kBlock],
                       min_peak);
-  out.scratch_.assign(out.cells_.size(), 0.0f);
-  const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
-  static constexpr std::array<float, kBlockCells> kZeros{};
+  out.smoothPasses(*this, taps);
+}
 
-  // The source blocks before, at and after output block `key` along `axis` (zeros = no votes).
-  auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index,
-                        const std::vector<float>& src, std::array<const float*, 3>& blocks) {
-    const int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
-    bool any = false;
-    for (int s = -1; s <= 1; ++s) {
-      int c[3] = {bc[0], bc[1], bc[2]};
-      c[axis] += s;
-      const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
-      const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
-      blocks[s + 1] = idx < 0 ? kZeros.data() : &src[static_cast<std::size_t>(idx) * kBlockCells];
-      any |= idx >= 0;
+void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps) {
+  const std::size_t count = block_keys_.size();
+  const std::vector<std::uint8_t>& need = smooth_need_;
+  scratch_.resize(cells_.size());  // every block the z pass reads is written first
+  // Which pass results of a block may be non-zero (kLiveX: the x pass, kLiveY: the y pass).
+  // A pass skips the neighbours that are absent or known to be zero: their terms are exact
+  // zeros, so the sums keep their bits. A block whose x or y result is not live is never read,
+  // so it is not written either.
+  constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
+  std::vector<std::uint8_t>& live = smooth_live_;
+  live.assign(count, 0);
+  Quad w[3][kTaps];
+  for (int axis = 0; axis < 3; ++axis)
+    for (int u = 0; u < kTaps; ++u) w[axis][u] = quadSplat(taps[axis][u]);
+
+  // x: this space's block lines are contiguous 4-cell rows; four of them (the 4 y of one z) are
+  // loaded and transposed, so each register holds one x position of four lines.
+  for (std::size_t b = 0; b < count; ++b) {
+    const int key = block_keys_[b], bi = key % nba_;
+    const float* blocks[3];
+    bool present[3];
+    for (int s = 0; s < 3; ++s) {
+      const int x = bi + s - 1;
+      blocks[s] = x >= 0 && x < nba_ ? src.block(key + s - 1) : nullptr;
+      present[s] = blocks[s] != nullptr;
     }
-    return any;
-  };
-  // Along x the 4 cells of a block line are contiguous: each output line is 4 running sums over
-  // a 12-cell window of the three blocks (the compiler vectorises the 4 sums).
-  auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
-                   std::vector<float>& dst) {
-    const auto& w = taps[0];
-    std::array<const float*, 3> blocks{};
-    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
-      float* o = &dst[b * kBlockCells];
-      if (!neighbours(out.block_keys_[b], 0, src_index, src, blocks)) {
-        std::fill_n(o, kBlockCells, 0.0f);
-        continue;
+    if (!(present[0] || present[1] || present[2])) continue;
+    live[b] = kLiveX;
+    float* o = &cells_[b * kBlockCells];
+    for (int k = 0; k < kBlock; ++k) {
+      const int plane = k * kBlock * kBlock;
+      Quad in[3][kBlock];
+      for (int s = 0; s < 3; ++s) {
+        if (!present[s]) continue;
+        for (int j = 0; j < kBlock; ++j) in[s][j] = quadLoad(blocks[s] + plane + j * kBlock);
+        quadTranspose(in[s]);
       }
-      for (int line = 0; line < kBlockCells; line += kBlock) {
-        std::array<float, 3 * kBlock> in;
-        for (int s = 0; s < 3; ++s) std::copy_n(blocks[s] + line, kBlock, &in[s * kBlock]);
-        std::array<float, kBlock> acc{};
-        for (int u = -kBlock; u <= kBlock; ++u)
-          for (int t = 0; t < kBlock; ++t) acc[t] += w[u + kBlock] * in[kBlock + t + u];
-        std::copy_n(acc.data(), kBlock, o + line);
-      }
+      Quad acc[kBlock];
+      convolveRows(
+          present, [&](int s, int r) { return in[s][r]; }, w[0], acc);
+      quadTranspose(acc);
+      for (int j = 0; j < kBlock; ++j) quadStore(o + plane + j * kBlock, acc[j]);
     }
-  };
-  // Along y and z a block line's cells are kBlock (or kBlock^2) apart, but the 4 lines that
-  // differ only in x are contiguous: smooth those 4 at once.
-  auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index,
-                    const std::vector<float>& src, std::vector<float>& dst) {
-    const auto& w = taps[axis];
-    const int other = axis == 1 ? 2 : 1;
-    std::array<const float*, 3> blocks{};
-    const std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
-    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
+  }
+  // y (cells_ -> scratch_) and z (scratch_ -> cells_): a block line's cells are kBlock (or
+  // kBlock^2) apart, but the 4 lines that differ only in x are contiguous: one register.
+  auto passYZ = [&](auto axis_constant, const std::vector<float>& in, std::vector<float>& dst) {
+    constexpr int axis = decltype(axis_constant)::value;
+    constexpr int along = axis == 1 ? kBlock : kBlock * kBlock;   // stride along the axis
+    constexpr int across = axis == 1 ? kBlock * kBlock : kBlock;  // stride of the other axis
+    constexpr std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
+    constexpr std::uint8_t reads = axis == 1 ? kLiveX : kLiveY;
+    const int step = axis == 1 ? nba_ : nba_ * nba_;  // key offset of the next block
+    const int last = axis == 1 ? nba_ - 1 : nbd_ - 1;
+    for (std::size_t b = 0; b < count; ++b) {
       float* o = &dst[b * kBlockCells];
-      if (need[b] < needed) {
-        // Never read: zeros (after the z pass, this is what findMaxima sees; it cannot hold a
-        // peak and is no neighbour of one).
-        std::fill_n(o, kBlockCells, 0.0f);
-        continue;
-      }
-      neighbours(out.block_keys_[b], axis, src_index, src, blocks);
-      for (int p = 0; p < kBlock; ++p) {
-        // rows[g]: the 4 x-cells at position g - kBlock along `axis`, g in [0, 3 kBlock).
-        std::array<const float*, 3 * kBlock> rows;
-        for (int g = 0; g < 3 * kBlock; ++g)
-          rows[g] = blocks[g / kBlock] + p * stride[other] + (g % kBlock) * stride[axis];
-        for (int t = 0; t < kBlock; ++t) {
-          std::array<float, kBlock> acc{};
-          for (int u = -kBlock; u <= kBlock; ++u) {
-            const float* row = rows[kBlock + t + u];
-            for (int i = 0; i < kBlock; ++i) acc[i] += w[u + kBlock] * row[i];
-          }
-          std::copy_n(acc.data(), kBlock, o + p * stride[other] + t * stride[axis]);
+      const int key = block_keys_[b];
+      const float* blocks[3] = {nullptr, &in[b * kBlockCells], nullptr};
+      bool present[3] = {false, (live[b] & reads) != 0, false};
+      if (need[b] >= needed) {
+        const int pos = axis == 1 ? (key / nba_) % nba_ : key / (nba_ * nba_);
+        for (int s = 0; s < 3; s += 2) {
+          if (s == 0 ? pos == 0 : pos == last) continue;
+          const int idx = index_[key + (s - 1) * step];
+          if (idx < 0 || !(live[idx] & reads)) continue;
+          blocks[s] = &in[static_cast<std::size_t>(idx) * kBlockCells];
+          present[s] = true;
         }
+      } else {
+        present[1] = false;
+      }
+      if (!(present[0] || present[1] || present[2])) {
+        // After the z pass this is what findMaxima sees: a block that cannot hold a peak and is
+        // no neighbour of one, or one without votes near it.
+        if (axis == 2) std::fill_n(o, kBlockCells, 0.0f);
+        continue;
+      }
+      if (axis == 1) live[b] |= kLiveY;
+      for (int p = 0; p < kBlock; ++p) {
+        Quad acc[kBlock];
+        convolveRows(
+            present, [&](int s, int r) { return quadLoad(blocks[s] + p * across + r * along); },
+            w[axis], acc);
+        for (int t = 0; t < kBlock; ++t) quadStore(o + p * across + t * along, acc[t]);
       }
     }
   };
-  passX(index_, cells_, out.cells_);
-  passYZ(1, out.index_, out.cells_, out.scratch_);
-  passYZ(2, out.index_, out.scratch_, out.cells_);
+  passYZ(std::integral_constant<int, 1>{}, cells_, scratch_);
+  passYZ(std::integral_constant<int, 2>{}, scratch_, cells_);
 }
 
 void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,

@@ -2,6 +2,7 @@
 // maxima, decay.
 #include "shapesense/core/hough_accumulator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <tuple>
@@ -171,6 +172,92 @@ TEST(HoughAccumulator, SmoothingIsANormalisedGaussianWithTheGivenSigmas) {
   acc.addToCell(i, j, k, 1.0f);
   acc.smoothInto(smooth, sa, sd, 2.0f);
   EXPECT_EQ(smooth.allocatedBlocks(), 0u);
+}
+
+// The separable smoothing as its definition states it, on a dense grid: per axis (x, then y,
+// then z) out(c) = sum over t in [-r, r], ascending, of w[t] * in(c + t), zero outside the
+// space, float sums from 0. Taps computed as smoothInto documents them.
+std::vector<float> denseSmoothing(const HoughAccumulator& acc, double sigma_angle_deg,
+                                  double sigma_d_m) {
+  const int na = acc.cellsA(), nd = acc.cellsD();
+  auto taps = [](double sigma_cells) {
+    if (!(sigma_cells > 1e-6)) return std::vector<float>{1.0f};
+    const int r = std::min(static_cast<int>(std::ceil(2.5 * sigma_cells)), 4);
+    std::vector<float> w(2 * r + 1);
+    double sum = 0;
+    for (int t = -r; t <= r; ++t) {
+      const double v = std::exp(-0.5 * t * t / (sigma_cells * sigma_cells));
+      w[t + r] = static_cast<float>(v);
+      sum += v;
+    }
+    for (auto& v : w) v = static_cast<float>(v / sum);
+    return w;
+  };
+  const double a_cell = std::max(1e-4, acc.params().angle_cell_deg * kDeg);
+  const std::vector<float> wa = taps(sigma_angle_deg * kDeg / a_cell),
+                           wd = taps(sigma_d_m / acc.params().d_cell_m);
+  const std::size_t size = static_cast<std::size_t>(na) * na * nd;
+  auto idx = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * na + j) * na + i; };
+  std::vector<float> a(size), b(size);
+  for (int k = 0; k < nd; ++k)
+    for (int j = 0; j < na; ++j)
+      for (int i = 0; i < na; ++i) a[idx(i, j, k)] = acc.at(i, j, k);
+  auto pass = [&](const std::vector<float>& in, std::vector<float>& out, int axis,
+                  const std::vector<float>& w) {
+    const int r = static_cast<int>(w.size() / 2);
+    for (int k = 0; k < nd; ++k)
+      for (int j = 0; j < na; ++j)
+        for (int i = 0; i < na; ++i) {
+          float sum = 0.0f;
+          for (int t = -r; t <= r; ++t) {
+            int c[3] = {i, j, k};
+            c[axis] += t;
+            if (c[axis] < 0 || c[axis] >= (axis == 2 ? nd : na)) continue;
+            sum += w[t + r] * in[idx(c[0], c[1], c[2])];
+          }
+          out[idx(i, j, k)] = sum;
+        }
+  };
+  pass(a, b, 0, wa);
+  pass(b, a, 1, wa);
+  pass(a, b, 2, wd);
+  return b;
+}
+
+TEST(HoughAccumulator, SmoothingIsBitIdenticalToTheDenseSeparableDefinition) {
+  // A small space (partial blocks at the far borders) with random clusters and scattered
+  // votes, including the borders; every block heavy (min_block_mass 0), so the sparse
+  // evaluation must give exactly the dense passes everywhere.
+  HoughSpaceParams sp;
+  sp.lambert_extent = 0.3;  // 23 cells per Lambert axis
+  sp.max_d_m = 0.5;         // 25 cells along d
+  HoughAccumulator acc(sp), smooth(sp);
+  ASSERT_NE(acc.cellsA() % HoughAccumulator::kBlock, 0);
+  std::uint32_t rng = 777;
+  auto uniform = [&rng](int n) {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<int>((rng >> 8) % static_cast<std::uint32_t>(n));
+  };
+  for (int cluster = 0; cluster < 6; ++cluster) {
+    const int ci = uniform(acc.cellsA()), cj = uniform(acc.cellsA()), ck = uniform(acc.cellsD());
+    for (int v = 0; v < 40; ++v)
+      acc.addToCell(ci + uniform(5) - 2, cj + uniform(5) - 2, ck + uniform(5) - 2,
+                    0.25f + 0.125f * static_cast<float>(uniform(8)));
+  }
+  for (int v = 0; v < 30; ++v)
+    acc.addToCell(uniform(acc.cellsA()), uniform(acc.cellsA()), uniform(acc.cellsD()), 1.0f);
+  acc.addToCell(0, 0, 0, 3.0f);
+  acc.addToCell(acc.cellsA() - 1, acc.cellsA() - 1, acc.cellsD() - 1, 2.0f);
+  for (const auto& [sa, sd] : {std::pair{2.0, 0.03}, std::pair{1.0, 0.01}, std::pair{0.0, 0.02}}) {
+    acc.smoothInto(smooth, sa, sd, 0.0f);
+    const std::vector<float> expected = denseSmoothing(acc, sa, sd);
+    int mismatches = 0;
+    std::size_t c = 0;
+    for (int k = 0; k < acc.cellsD(); ++k)
+      for (int j = 0; j < acc.cellsA(); ++j)
+        for (int i = 0; i < acc.cellsA(); ++i, ++c) mismatches += smooth.at(i, j, k) != expected[c];
+    EXPECT_EQ(mismatches, 0) << "sigmas " << sa << " deg, " << sd << " m";
+  }
 }
 
 TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {

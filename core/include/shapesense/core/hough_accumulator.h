@@ -17,6 +17,7 @@
 // would be 20+ million cells per frame, and >90% of it stays empty, as the seed observed).
 // Blocks are recycled between frames, so steady-state voting does not allocate.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -135,6 +136,11 @@ class HoughAccumulator {
   // still zero); fills smooth_need_.
   void pruneForPeaks(const HoughAccumulator& src, const std::vector<float>& src_block_mass,
                      float central_weight, float min_peak);
+  // Per-axis taps of smoothInto (x, y, z), padded with zeros to radius kBlock.
+  using SmoothingTaps = std::array<std::array<float, 2 * kBlock + 1>, 3>;
+  // smoothInto's three passes (this = the output, its block set and smooth_need_ ready):
+  // src -> cells_ (x), cells_ -> scratch_ (y), scratch_ -> cells_ (z).
+  void smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps);
 
   HoughSpaceParams params_;
   double a_cell_ = 0;  // Lambert units per cell
@@ -147,6 +153,7 @@ class HoughAccumulator {
   std::vector<float> scratch_;             // smoothInto's intermediate pass, kept between frames
   std::vector<float> block_mass_;          // smoothInto (output side): the source's block masses
   std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
+  std::vector<std::uint8_t> smooth_live_;  // smoothPasses: which pass results may be non-zero
 };
 
 }  // namespace shapesense
