@@ -41,6 +41,43 @@ inline int cellInBlock(int li, int lj, int lk) {
 constexpr int kB = HoughAccumulator::kBlock;
 constexpr int kTaps = 2 * kB + 1;
 
+// The 27 blocks of a block's 3x3x3 neighbourhood (itself included) that lie in the space, as
+// top-level keys, in (z, y, x) order. Blocks off the border of the space (almost all) add
+// fixed key offsets.
+class BlockNeighbourhood {
+ public:
+  BlockNeighbourhood(int nba, int nbd) : nba_(nba), nbd_(nbd) {
+    for (int t = 0, dk = -1; dk <= 1; ++dk)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) offsets_[t++] = (dk * nba + dj) * nba + di;
+  }
+  template <class F>
+  void forEach(int key, F&& f) const {
+    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    if (bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_) {
+      for (const int offset : offsets_) f(key + offset);
+      return;
+    }
+    for (int z = bk - 1; z <= bk + 1; ++z)
+      for (int y = bj - 1; y <= bj + 1; ++y)
+        for (int x = bi - 1; x <= bi + 1; ++x)
+          if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_)
+            f((z * nba_ + y) * nba_ + x);
+  }
+  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first).
+  template <class Pred>
+  bool any(int key, Pred&& pred) const {
+    if (pred(key)) return true;
+    bool found = false;
+    forEach(key, [&](int nkey) { found = found || (nkey != key && pred(nkey)); });
+    return found;
+  }
+
+ private:
+  int nba_, nbd_;
+  std::array<int, 27> offsets_{};
+};
+
 // Four floats, one per lane: an SSE2 register, or an array without SSE2 (the same IEEE
 // operations either way: separate multiply and add, no FMA).
 #if defined(__SSE2__)
@@ -283,21 +320,14 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // 1. The evaluated block set: heavy blocks and their 26 neighbours.
   std::vector<float>& block_mass = out.block_mass_;  // of this space's blocks, for the peak bound
   block_mass.resize(block_keys_.size());
+  const BlockNeighbourhood neighbourhood(nba_, nbd_);
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     const float* cells = &cells_[b * kBlockCells];
     float mass = 0;
     for (int c = 0; c < kBlockCells; ++c) mass += cells[c];
     block_mass[b] = mass;
     if (mass < min_block_mass) continue;
-    const int key = block_keys_[b];
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
-    for (int dk = -1; dk <= 1; ++dk)
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) {
-          const int x = bi + di, y = bj + dj, z = bk + dk;
-          if (x < 0 || y < 0 || z < 0 || x >= nba_ || y >= nba_ || z >= nbd_) continue;
-          out.blockOrCreate(blockIndex(x, y, z));
-        }
+    neighbourhood.forEach(block_keys_[b], [&](int nkey) { out.blockOrCreate(nkey); });
   }
   if (out.block_keys_.empty()) return;
 
@@ -421,7 +451,7 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   // A smoothed cell is a weighted sum, with weights <= central_weight, of the raw cells of its
   // block's 3x3x3 block neighbourhood (the kernel radius is at most a block edge): a block whose
   // neighbourhood mass times central_weight stays below min_peak holds no cell findMaxima
-  // reports. 1e-3 of margin covers the float rounding of the sums.
+  // reports. 1e-3 of margin covers the float rounding of the sums (in any order).
   const std::size_t count = block_keys_.size();
   auto blockCoords = [&](int key) {
     return std::array<int, 3>{key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
@@ -431,39 +461,36 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   };
   std::vector<std::uint8_t>& need = smooth_need_;
   need.assign(count, 0);
-  // 1. Peak blocks, and every evaluated block within one block of them (findMaxima compares a
+  const BlockNeighbourhood neighbourhood(nba_, nbd_);
+  // 1. The neighbourhood mass of each evaluated block, scattered from the source's blocks (all
+  //    of them, light ones included; there are far fewer of them than evaluated blocks).
+  std::vector<float>& near_mass = near_mass_;
+  near_mass.assign(count, 0.0f);
+  for (std::size_t b = 0; b < src.block_keys_.size(); ++b) {
+    const float mass = src_block_mass[b];
+    neighbourhood.forEach(src.block_keys_[b], [&](int nkey) {
+      const int idx = index_[nkey];
+      if (idx >= 0) near_mass[idx] += mass;
+    });
+  }
+  // 2. Peak blocks, and every evaluated block within one block of them (findMaxima compares a
   //    cell with its window of <= 2 cells and takes the centroid of its 3x3x3 cells): kNeedZ,
   //    which must come out exactly as without pruning.
+  //    Nearly every evaluated block is one: each looks for a peak block around it (usually
+  //    itself or the next one tried), and when all are, nothing is pruned.
   const float min_mass = min_peak / (central_weight * 1.001f);
-  // Key offsets of the 27 neighbours, for blocks off the border of the space (almost all).
-  std::array<int, 27> offsets{};
-  for (int t = 0, dk = -1; dk <= 1; ++dk)
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di) offsets[t++] = (dk * nba_ + dj) * nba_ + di;
+  std::size_t near_peaks = 0;
   for (std::size_t b = 0; b < count; ++b) {
-    const int key = block_keys_[b];
-    const auto [bi, bj, bk] = blockCoords(key);
-    const bool interior =
-        bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_;
-    auto neighbourKey = [&](int t) {
-      if (interior) return key + offsets[t];
-      const int x = bi + t % 3 - 1, y = bj + (t / 3) % 3 - 1, z = bk + t / 9 - 1;
-      return inside(x, y, z) ? blockIndex(x, y, z) : -1;
-    };
-    float mass = 0.0f;
-    for (int t = 0; t < 27 && mass < min_mass; ++t) {
-      const int nkey = neighbourKey(t);
-      const int idx = nkey < 0 ? -1 : src.index_[nkey];
-      if (idx >= 0) mass += src_block_mass[idx];
-    }
-    if (mass < min_mass) continue;
-    for (int t = 0; t < 27; ++t) {
-      const int nkey = neighbourKey(t);
-      const int idx = nkey < 0 ? -1 : index_[nkey];
-      if (idx >= 0) need[idx] = kNeedZ;
-    }
+    const bool near_peak = neighbourhood.any(block_keys_[b], [&](int nkey) {
+      const int idx = index_[nkey];
+      return idx >= 0 && near_mass[idx] >= min_mass;
+    });
+    if (!near_peak) continue;
+    need[b] = kNeedZ;
+    ++near_peaks;
   }
-  // 2. The z pass of a kNeedZ block reads the y pass of its z neighbours (kNeedY), whose y pass
+  if (near_peaks == count) return;
+  // 3. The z pass of a kNeedZ block reads the y pass of its z neighbours (kNeedY), whose y pass
   //    reads the x pass of their y neighbours (kNeedX). The passes read zeros outside the
   //    evaluated set, so these must keep exactly the blocks they had.
   auto raise = [&](int axis, std::uint8_t from, std::uint8_t to) {
@@ -481,7 +508,7 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   };
   raise(2, kNeedZ, kNeedY);
   raise(1, kNeedY, kNeedX);
-  // 3. Drop the rest (the pool is still all zeros, so it is rebuilt in the same order).
+  // 4. Drop the rest (the pool is still all zeros, so it is rebuilt in the same order).
   std::vector<std::int32_t> kept_keys;
   std::vector<std::uint8_t> kept_need;
   kept_keys.reserve(count);

@@ -154,6 +154,7 @@ class HoughAccumulator {
   std::vector<float> block_mass_;          // smoothInto (output side): the source's block masses
   std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
   std::vector<std::uint8_t> smooth_live_;  // smoothPasses: which pass results may be non-zero
+  std::vector<float> near_mass_;           // pruneForPeaks: neighbourhood mass of each block
 };
 
 }  // namespace shapesense
