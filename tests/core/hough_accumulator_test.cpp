@@ -283,6 +283,61 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   EXPECT_NEAR(maxima[1].d, 0.8, 0.01);
 }
 
+TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
+  // Small integer values (many ties, plateaus across block borders), compared with the
+  // definition: a cell >= min_value that no cell of its window beats (larger, or equal and
+  // earlier in (k, j, i) order), then strongest first.
+  HoughSpaceParams sp;
+  sp.lambert_extent = 0.3;
+  sp.max_d_m = 0.5;
+  HoughAccumulator acc(sp);
+  std::uint32_t rng = 4242;
+  auto uniform = [&rng](int n) {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<int>((rng >> 8) % static_cast<std::uint32_t>(n));
+  };
+  for (int v = 0; v < 3000; ++v)
+    acc.addToCell(uniform(acc.cellsA()), uniform(acc.cellsA()), uniform(acc.cellsD()),
+                  static_cast<float>(uniform(3)));
+  for (int k = 6; k < 10; ++k)  // a plateau across a block border
+    for (int j = 2; j < 6; ++j)
+      for (int i = 2; i < 7; ++i) acc.addToCell(i, j, k, 50.0f - acc.at(i, j, k));
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 3}, std::pair{0, 1}}) {
+    const float min_value = 2.0f;
+    std::vector<std::tuple<float, int, int, int>> expected;  // value, k, j, i
+    for (int k = 0; k < acc.cellsD(); ++k)
+      for (int j = 0; j < acc.cellsA(); ++j)
+        for (int i = 0; i < acc.cellsA(); ++i) {
+          const float v = acc.at(i, j, k);
+          if (v < min_value) continue;
+          bool is_max = true;
+          for (int dk = -wd; dk <= wd; ++dk)
+            for (int dj = -wa; dj <= wa; ++dj)
+              for (int di = -wa; di <= wa; ++di) {
+                const float o = acc.at(i + di, j + dj, k + dk);
+                const bool earlier = std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0);
+                if (o > v || (o == v && earlier)) is_max = false;
+              }
+          if (is_max) expected.emplace_back(v, k, j, i);
+        }
+    std::sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) {
+      return std::get<0>(a) > std::get<0>(b) ||
+             (std::get<0>(a) == std::get<0>(b) &&
+              std::tie(std::get<1>(a), std::get<2>(a), std::get<3>(a)) <
+                  std::tie(std::get<1>(b), std::get<2>(b), std::get<3>(b)));
+    });
+    const auto got = acc.findMaxima(min_value, wa, wd);
+    ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
+    ASSERT_GT(got.size(), 10u);
+    for (std::size_t m = 0; m < got.size(); ++m) {
+      EXPECT_EQ(got[m].value, std::get<0>(expected[m]));
+      EXPECT_EQ(
+          std::tie(got[m].k, got[m].j, got[m].i),
+          std::tie(std::get<1>(expected[m]), std::get<2>(expected[m]), std::get<3>(expected[m])));
+    }
+  }
+}
+
 TEST(HoughAccumulator, SmoothingPrunedForAPeakThresholdFindsTheSameMaxima) {
   // Scattered votes (a curved surface) around three planes of 60, 25 and 12 votes: with the
   // peak threshold of ~20 votes the pruned smoothing evaluates fewer blocks, yet every maximum
