@@ -9,6 +9,10 @@
 
 #include <Eigen/Geometry>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "shapesense/core/plane_labeling.h"
 #include "shapesense/core/planes.h"
 
@@ -16,6 +20,33 @@ namespace shapesense {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+// How many of the n points (x, y, z) lie within tol of plane (normal, d): |normal.p + d| <=
+// tol, evaluated left to right in double. Two points per SSE2 register (the same operations,
+// lane for lane; GCC does not vectorise the counting loop itself).
+std::size_t countWithin(const Eigen::Vector3d& normal, double d, const double* x, const double* y,
+                        const double* z, const double* tol, std::size_t n) {
+  const double nx = normal.x(), ny = normal.y(), nz = normal.z();
+  std::size_t count = 0, k = 0;
+#if defined(__SSE2__)
+  const __m128d vnx = _mm_set1_pd(nx), vny = _mm_set1_pd(ny), vnz = _mm_set1_pd(nz),
+                vd = _mm_set1_pd(d), sign = _mm_set1_pd(-0.0);
+  __m128i counts = _mm_setzero_si128();  // minus the number of inliers, per lane
+  for (; k + 2 <= n; k += 2) {
+    const __m128d dot = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(vnx, _mm_loadu_pd(x + k)),
+                                                         _mm_mul_pd(vny, _mm_loadu_pd(y + k))),
+                                              _mm_mul_pd(vnz, _mm_loadu_pd(z + k))),
+                                   vd);
+    const __m128d within = _mm_cmple_pd(_mm_andnot_pd(sign, dot), _mm_loadu_pd(tol + k));
+    counts = _mm_add_epi64(counts, _mm_castpd_si128(within));  // a true lane is -1
+  }
+  alignas(16) std::int64_t lanes[2];
+  _mm_store_si128(reinterpret_cast<__m128i*>(lanes), counts);
+  count = static_cast<std::size_t>(-(lanes[0] + lanes[1]));
+#endif
+  for (; k < n; ++k) count += std::fabs(nx * x[k] + ny * y[k] + nz * z[k] + d) <= tol[k];
+  return count;
+}
 
 // Sequential RANSAC on a leftover component that is not one plane: the two visible faces of a
 // small box or a table leg (joined at their convex edge), or a face joined to a curved surface
@@ -57,6 +88,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
       sub_tol.push_back(rest_tol[k]);
     }
     const std::size_t sub_n = sub_x.size();
+    const double *sx = sub_x.data(), *sy = sub_y.data(), *sz = sub_z.data(), *st = sub_tol.data();
     for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
       const auto& a = pts[rest[next(rest.size())]];
       const auto& b = pts[rest[next(rest.size())]];
@@ -71,10 +103,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
         d = -d;
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
-      std::size_t count = 0;
-      const double nx = n.x(), ny = n.y(), nz = n.z();
-      for (std::size_t k = 0; k < sub_n; ++k)
-        count += std::fabs(nx * sub_x[k] + ny * sub_y[k] + nz * sub_z[k] + d) <= sub_tol[k];
+      const std::size_t count = countWithin(n, d, sx, sy, sz, st, sub_n);
       if (count > best_count) {
         best_count = count;
         best_n = n;
