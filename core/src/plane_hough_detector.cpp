@@ -48,6 +48,88 @@ std::size_t countWithin(const Eigen::Vector3d& normal, double d, const double* x
   return count;
 }
 
+// The sums of PlaneMoments (w = 1) in registers, for loops over many points: two of them per
+// SSE2 register, lane for lane the additions PlaneMoments::add makes, in the same order, so
+// moments() equals the PlaneMoments the same add() calls give. Needs a reference (the first
+// point, as add() takes it, or the caller's).
+class MomentSums {
+ public:
+  MomentSums() = default;
+  explicit MomentSums(const Eigen::Vector3d& ref) { setReference(ref); }
+  bool hasReference() const { return has_ref_; }
+  void setReference(const Eigen::Vector3d& ref) {
+    ref_ = ref;
+    has_ref_ = true;
+#if defined(__SSE2__)
+    ref_xy_ = _mm_set_pd(ref.y(), ref.x());
+#endif
+  }
+  void add(float x, float y, float z) {
+#if defined(__SSE2__)
+    // (a, b) and c as add() computes them from the doubles of x, y, z.
+    const __m128d ab =
+        _mm_sub_pd(_mm_cvtps_pd(_mm_unpacklo_ps(_mm_set_ss(x), _mm_set_ss(y))), ref_xy_);
+    const __m128d c = _mm_set1_pd(static_cast<double>(z) - ref_.z());
+    n_ += 1.0;
+    s_ab_ = _mm_add_pd(s_ab_, ab);
+    s_c_ += _mm_cvtsd_f64(c);
+    aa_ab_ = _mm_add_pd(aa_ab_, _mm_mul_pd(_mm_unpacklo_pd(ab, ab), ab));  // (a a, a b)
+    ac_bb_ = _mm_add_pd(ac_bb_, _mm_mul_pd(ab, _mm_move_sd(ab, c)));       // (a c, b b)
+    bc_cc_ = _mm_add_pd(bc_cc_, _mm_mul_pd(_mm_unpackhi_pd(ab, c), c));    // (b c, c c)
+#else
+    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
+    n_ += 1.0;
+    s_[0] += a, s_[1] += b, s_[2] += c;
+    ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
+    ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
+#endif
+  }
+  /// PlaneMoments() when no reference was set.
+  PlaneMoments moments() const {
+    if (!has_ref_) return PlaneMoments();
+#if defined(__SSE2__)
+    alignas(16) double s[2], ss[6];
+    _mm_store_pd(s, s_ab_);
+    _mm_store_pd(ss, aa_ab_);
+    _mm_store_pd(ss + 2, ac_bb_);
+    _mm_store_pd(ss + 4, bc_cc_);
+    const Eigen::Vector3d sum(s[0], s[1], s_c_);
+    // ss: a a, a b, a c, b b, b c, c c
+#else
+    const Eigen::Vector3d sum(s_[0], s_[1], s_[2]);
+    const double* ss = ss_;
+#endif
+    Eigen::Matrix3d sq;
+    sq << ss[0], ss[1], ss[2], 0.0, ss[3], ss[4], 0.0, 0.0, ss[5];
+    return PlaneMoments::fromSums(ref_, n_, sum, sq);
+  }
+
+ private:
+  Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
+  bool has_ref_ = false;
+  double n_ = 0.0;
+#if defined(__SSE2__)
+  __m128d ref_xy_ = _mm_setzero_pd();
+  __m128d s_ab_ = _mm_setzero_pd(), aa_ab_ = _mm_setzero_pd(), ac_bb_ = _mm_setzero_pd(),
+          bc_cc_ = _mm_setzero_pd();
+  double s_c_ = 0.0;
+#else
+  double s_[3] = {0, 0, 0}, ss_[6] = {0, 0, 0, 0, 0, 0};
+#endif
+};
+
+// PlaneMoments(ref) after addIf(x[k], y[k], z[k], in[k]) for k = 0 .. count-1 (in == nullptr:
+// all in), the same moments. The points left out are skipped rather than added as zeros: a sum
+// that starts at +0 is never -0 (round to nearest gives -0 only for -0 + -0), and adding +0
+// leaves any other value unchanged. Nearly all candidates are in (the branch is predictable).
+PlaneMoments candidateMoments(const Eigen::Vector3d& ref, const float* x, const float* y,
+                              const float* z, const std::uint8_t* in, int count) {
+  MomentSums sums(ref);
+  for (int k = 0; k < count; ++k)
+    if (in == nullptr || in[k] != 0) sums.add(x[k], y[k], z[k]);
+  return sums.moments();
+}
+
 // Sequential RANSAC on a leftover component that is not one plane: the two visible faces of a
 // small box or a table leg (joined at their convex edge), or a face joined to a curved surface
 // by depth continuity. Extracts planes while the best hypothesis has enough inliers; a plane is
@@ -363,11 +445,12 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
         // Relative to a point of the candidate set (precision at metres of range).
-        PlaneMoments mom(Eigen::Vector3d(cx[first], cy[first], cz[first]));
+        const Eigen::Vector3d ref(cx[first], cy[first], cz[first]);
+        PlaneMoments mom;
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
+          mom = candidateMoments(ref, cx, cy, cz, nullptr, num_cand);
         } else {
           const float gate_mult = it == 1 ? 2.0f : 1.0f;
           const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
@@ -385,7 +468,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
             ok = false;
             break;
           }
-          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
+          mom = candidateMoments(ref, cx, cy, cz, cin, num_cand);
           std::swap(alive, cin);
           while (!alive[first]) ++first;
         }
@@ -436,28 +519,33 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     {
       // Runs of samples share a plane: its moments stay in locals until the plane changes (the
       // same additions in the same order, without a round trip through memory per sample).
+      // MomentSums: PlaneMoments::add's sums in registers (the first point is the reference).
+      std::vector<MomentSums> sums(planes.size());
       int cur = -1;
-      PlaneMoments cur_mom;
+      MomentSums cur_sums;
       double cur_z = 0.0;
       for (int i = 0; i < N; ++i) {
         const int L = lab[i];
         if (L < 0) continue;
         if (L != cur) {
           if (cur >= 0) {
-            mom[cur] = cur_mom;
+            sums[cur] = cur_sums;
             zsum[cur] = cur_z;
           }
           cur = L;
-          cur_mom = mom[L];
+          cur_sums = sums[L];
           cur_z = zsum[L];
+          if (!cur_sums.hasReference())
+            cur_sums.setReference(Eigen::Vector3d(pts[i][0], pts[i][1], pts[i][2]));
         }
-        cur_mom.add(pts[i][0], pts[i][1], pts[i][2]);
+        cur_sums.add(pts[i][0], pts[i][1], pts[i][2]);
         cur_z += pts[i][2];
       }
       if (cur >= 0) {
-        mom[cur] = cur_mom;
+        sums[cur] = cur_sums;
         zsum[cur] = cur_z;
       }
+      for (std::size_t p = 0; p < planes.size(); ++p) mom[p] = sums[p].moments();
     }
     std::vector<PlaneFit> fits(planes.size());
     for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();
