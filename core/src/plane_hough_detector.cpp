@@ -12,6 +12,10 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+// GCC only: the AVX2 variants are compiled with a target attribute (as in normals.cpp).
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define SHAPESENSE_HOUGH_AVX2 1  // AVX2 variants compiled in, used where the CPU has AVX2
+#endif
 
 #include "shapesense/core/plane_labeling.h"
 #include "shapesense/core/planes.h"
@@ -46,6 +50,94 @@ std::size_t countWithin(const Eigen::Vector3d& normal, double d, const double* x
 #endif
   for (; k < n; ++k) count += std::fabs(nx * x[k] + ny * y[k] + nz * z[k] + d) <= tol[k];
   return count;
+}
+
+// Samples as structure of arrays: points, unit normals (NaN = none) and distance tolerances.
+struct SampleArrays {
+  const float *x, *y, *z, *nx, *ny, *nz, *tol;
+};
+
+// A plane and the gates of a refinement test, in float as the scans evaluate them.
+struct PlaneGates {
+  float nx, ny, nz, d;
+  float gate_mult;   // distance gate: gate_mult x the sample's tolerance
+  float cos_normal;  // the normals' dot product must reach this
+};
+
+// Branch-free loops over every sample (the tests fail unpredictably) that vectorise; the
+// *Avx2 variants are the same code compiled for AVX2 without FMA (the same operations, lane
+// for lane: the same bits) and run where the CPU has it.
+//
+// in[k] = (alive == nullptr || alive[k]) && |plane . p_k| <= gate_mult tol[k] && the normals
+// agree.
+[[gnu::always_inline]] inline void gateFlagsLoop(const PlaneGates& g, const SampleArrays& a,
+                                                 const std::uint8_t* alive, std::uint8_t* in,
+                                                 int count) {
+  // Locals: the byte stores could alias the structs' members, not these (so it vectorises).
+  const float *x = a.x, *y = a.y, *z = a.z, *nx = a.nx, *ny = a.ny, *nz = a.nz, *tol = a.tol;
+  const float px = g.nx, py = g.ny, pz = g.nz, pd = g.d, mult = g.gate_mult, cos_n = g.cos_normal;
+  auto dist = [=](int k) { return std::fabs(px * x[k] + py * y[k] + pz * z[k] + pd); };
+  auto agrees = [=](int k) { return px * nx[k] + py * ny[k] + pz * nz[k] >= cos_n; };
+  if (alive == nullptr && mult == 1.0f)  // (1 x the tolerance is the tolerance: one multiply less)
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>((dist(k) <= tol[k]) & agrees(k));
+  else if (alive == nullptr)
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>((dist(k) <= mult * tol[k]) & agrees(k));
+  else
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>(alive[k] & (dist(k) <= mult * tol[k]) & agrees(k));
+}
+
+// agree[i] = whether normals i and i + offset (interleaved x, y, z) are within the angle whose
+// cosine is cos_max, for i in [begin, end). NaN normals never agree.
+[[gnu::always_inline]] inline void normalAgreementLoop(const float* normals, int offset,
+                                                       float cos_max, int begin, int end,
+                                                       std::uint8_t* agree) {
+  const float* m = normals + 3 * offset;
+  for (int i = begin; i < end; ++i)
+    agree[i] =
+        static_cast<std::uint8_t>(normals[3 * i] * m[3 * i] + normals[3 * i + 1] * m[3 * i + 1] +
+                                      normals[3 * i + 2] * m[3 * i + 2] >=
+                                  cos_max);
+}
+
+void gateFlagsDefault(const PlaneGates& g, const SampleArrays& a, const std::uint8_t* alive,
+                      std::uint8_t* in, int count) {
+  gateFlagsLoop(g, a, alive, in, count);
+}
+void normalAgreementDefault(const float* normals, int offset, float cos_max, int begin, int end,
+                            std::uint8_t* agree) {
+  normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
+}
+
+#if defined(SHAPESENSE_HOUGH_AVX2)
+[[gnu::target("avx2,no-fma")]] void gateFlagsAvx2(const PlaneGates& g, const SampleArrays& a,
+                                                  const std::uint8_t* alive, std::uint8_t* in,
+                                                  int count) {
+  gateFlagsLoop(g, a, alive, in, count);
+}
+[[gnu::target("avx2,no-fma")]] void normalAgreementAvx2(const float* normals, int offset,
+                                                        float cos_max, int begin, int end,
+                                                        std::uint8_t* agree) {
+  normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
+}
+#endif
+
+void gateFlags(const PlaneGates& g, const SampleArrays& a, const std::uint8_t* alive,
+               std::uint8_t* in, int count) {
+#if defined(SHAPESENSE_HOUGH_AVX2)
+  if (__builtin_cpu_supports("avx2")) return gateFlagsAvx2(g, a, alive, in, count);
+#endif
+  gateFlagsDefault(g, a, alive, in, count);
+}
+void normalAgreement(const float* normals, int offset, float cos_max, int begin, int end,
+                     std::uint8_t* agree) {
+#if defined(SHAPESENSE_HOUGH_AVX2)
+  if (__builtin_cpu_supports("avx2"))
+    return normalAgreementAvx2(normals, offset, cos_max, begin, end, agree);
+#endif
+  normalAgreementDefault(normals, offset, cos_max, begin, end, agree);
 }
 
 // The sums of PlaneMoments (w = 1) in registers, for loops over many points: two of them per
@@ -308,19 +400,18 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   auto* reliable = s.grid.reliable.ptr<std::uint8_t>(0);
   // Branch-free (the four tests fail unpredictably along edges and holes). A NaN normal, own or
   // a neighbour's, makes its dot product NaN, which fails the comparison.
-  auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
-    return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
-  };
   // Each neighbour pair is tested once (the dot product is symmetric, bit for bit): across[i]
-  // = whether sample i agrees with i + 1 (interior rows: the only ones tested below), down[i]
-  // = whether it agrees with i + C (every row but the last).
+  // = whether sample i agrees with i + 1 (interior rows, the only ones read below; one run
+  // from the second row's first sample, so the last sample of a row is compared with the next
+  // row's first too, never read), down[i] = whether it agrees with i + C (every row but the
+  // last).
   s.agree_across.resize(N);
   s.agree_down.resize(N);
   std::uint8_t* across = s.agree_across.data();
   std::uint8_t* down = s.agree_down.data();
-  for (int r = 1; r + 1 < R; ++r)
-    for (int c = 0; c + 1 < C; ++c) across[r * C + c] = agrees(nrm[r * C + c], nrm[r * C + c + 1]);
-  for (int i = 0; i + C < N; ++i) down[i] = agrees(nrm[i], nrm[i + C]);
+  const float* nrm_flat = &nrm[0][0];
+  if (R > 2) normalAgreement(nrm_flat, 1, cos_spread, C, (R - 1) * C - 1, across);
+  normalAgreement(nrm_flat, C, cos_spread, 0, N - C, down);
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
@@ -352,6 +443,9 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   s.sample_tol.resize(N);
   for (int i = 0; i < N; ++i)
     if (nrm[i][2] == nrm[i][2]) s.sample_tol[i] = static_cast<float>(tol.at(pts[i][2]));
+  // The free samples of a round, for the candidate scans (the arrays keep their size).
+  const SampleArrays free_samples{s.fx.data(),  s.fy.data(),  s.fz.data(),   s.fnx.data(),
+                                  s.fny.data(), s.fnz.data(), s.fgate.data()};
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
@@ -388,18 +482,15 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
         // advance the end.
-        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                    nz = static_cast<float>(n.z());
-        const float df = static_cast<float>(d);
-        const float *fx = s.fx.data(), *fy = s.fy.data(), *fz = s.fz.data();
-        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(),
-                    *fgate = s.fgate.data();
+        // The gate is fgate itself (1 x: exact).
+        const PlaneGates gates{static_cast<float>(n.x()),
+                               static_cast<float>(n.y()),
+                               static_cast<float>(n.z()),
+                               static_cast<float>(d),
+                               1.0f,
+                               cos_inlier};
         std::uint8_t* in = s.fin.data();
-        for (int f = 0; f < F; ++f) {
-          const float dist = std::fabs(nx * fx[f] + ny * fy[f] + nz * fz[f] + df);
-          in[f] = static_cast<std::uint8_t>(
-              (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
-        }
+        gateFlags(gates, free_samples, nullptr, in, F);
         if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // grows to the largest N
         int kept = 0, f = 0;
         // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
@@ -434,6 +525,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       const float *cx = s.cx.data(), *cy = s.cy.data(), *cz = s.cz.data();
       const float *cnx = s.cnx.data(), *cny = s.cny.data(), *cnz = s.cnz.data(),
                   *ctol = s.ctol.data();
+      const SampleArrays candidates{cx, cy, cz, cnx, cny, cnz, ctol};
       std::uint8_t* alive = s.calive.data();
       std::uint8_t* cin = s.cin.data();
       int first = 0;  // the first candidate of the current set
@@ -452,18 +544,12 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           // candidate passes, and the wide set stays for the first shrink.
           mom = candidateMoments(ref, cx, cy, cz, nullptr, num_cand);
         } else {
-          const float gate_mult = it == 1 ? 2.0f : 1.0f;
-          const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                      nz = static_cast<float>(n.z());
-          const float df = static_cast<float>(d);
+          const PlaneGates gates{static_cast<float>(n.x()), static_cast<float>(n.y()),
+                                 static_cast<float>(n.z()), static_cast<float>(d),
+                                 it == 1 ? 2.0f : 1.0f,     cos_inlier};
+          gateFlags(gates, candidates, alive, cin, num_cand);
           int kept = 0;
-          for (int k = 0; k < num_cand; ++k) {
-            const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
-            cin[k] =
-                static_cast<std::uint8_t>(alive[k] & (dist <= gate_mult * ctol[k]) &
-                                          (nx * cnx[k] + ny * cny[k] + nz * cnz[k] >= cos_inlier));
-            kept += cin[k];
-          }
+          for (int k = 0; k < num_cand; ++k) kept += cin[k];
           if (kept == 0 || kept < P.min_plane_samples) {
             ok = false;
             break;
