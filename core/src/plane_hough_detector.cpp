@@ -567,17 +567,23 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         d = fit.d;
       }
       if (!ok) continue;
-      // Final inliers at the tolerance with the refined plane.
-      const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                  nz = static_cast<float>(n.z());
-      const float df = static_cast<float>(d);
-      next.clear();
+      // Final inliers at the tolerance with the refined plane, then compacted as the
+      // candidates were. (A candidate still alive passed these tests with an earlier plane:
+      // its normal and its distance are not NaN, so "not rejected" is "accepted".)
+      const PlaneGates final_gates{static_cast<float>(n.x()),
+                                   static_cast<float>(n.y()),
+                                   static_cast<float>(n.z()),
+                                   static_cast<float>(d),
+                                   1.0f,
+                                   cos_inlier};
+      gateFlags(final_gates, candidates, alive, cin, num_cand);
+      next.resize(num_cand);
+      int inliers = 0;
       for (int k = 0; k < num_cand; ++k) {
-        const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
-        if (!alive[k] || dist > ctol[k] || nx * cnx[k] + ny * cny[k] + nz * cnz[k] < cos_inlier)
-          continue;
-        next.push_back(cand[k]);
+        next[inliers] = cand[k];
+        inliers += cin[k];
       }
+      next.resize(inliers);
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
       for (int f : next) {
