@@ -14,6 +14,11 @@
 #include <emmintrin.h>
 #include <xmmintrin.h>
 #endif
+// GCC only: the AVX2 variant is compiled with #pragma GCC target (as in normals.cpp).
+#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h>
+#define SHAPESENSE_HOUGH_SMOOTH_AVX2 1  // compiled in, used where the CPU has AVX2
+#endif
 
 namespace shapesense {
 namespace {
@@ -193,6 +198,77 @@ template <class Row>
   }
 }
 
+// The y (kAlong = kB) or z (kAlong = kB^2) pass of one output block o from its previous, own
+// and next source blocks along the axis: for each position p of the other axis, the 4 lines
+// that differ only in x at once.
+template <int kAlong>
+void smoothBlockAlong(const float* const (&blocks)[3], const bool (&present)[3],
+                      const Quad (&w)[kTaps], float* o) {
+  constexpr int kAcross = kAlong == kB ? kB * kB : kB;  // stride of the other axis
+  for (int p = 0; p < kB; ++p) {
+    Quad acc[kB];
+    convolveRows(
+        present, [&](int s, int r) { return quadLoad(blocks[s] + p * kAcross + r * kAlong); }, w,
+        acc);
+    for (int t = 0; t < kB; ++t) quadStore(o + p * kAcross + t * kAlong, acc[t]);
+  }
+}
+
+#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+#pragma GCC push_options
+#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+
+// convolveRows with eight lanes: positions p and p + 1 of the other axis in one register,
+// lane for lane the same operations (the same bits).
+template <class Row>
+[[gnu::always_inline]] inline void convolveRows8(const bool (&present)[3], const Row& row,
+                                                 const __m256 (&w)[kTaps], __m256 (&out)[kB]) {
+#pragma GCC unroll 4
+  for (int t = 0; t < kB; ++t) out[t] = _mm256_setzero_ps();
+#pragma GCC unroll 3
+  for (int s = 0; s < 3; ++s) {
+    if (!present[s]) continue;
+#pragma GCC unroll 4
+    for (int r = 0; r < kB; ++r) {
+      const __m256 x = row(s, r);
+#pragma GCC unroll 4
+      for (int t = 0; t < kB; ++t) {
+        const int u = s * kB + r - kB - t;
+        if (u >= -kB && u <= kB) out[t] = _mm256_add_ps(out[t], _mm256_mul_ps(w[u + kB], x));
+      }
+    }
+  }
+}
+
+// smoothBlockAlong, two positions of the other axis per register (contiguous along z's other
+// axis y; two halves along y's other axis z).
+template <int kAlong>
+void smoothBlockAlongAvx2(const float* const (&blocks)[3], const bool (&present)[3],
+                          const float* taps, float* o) {
+  constexpr int kAcross = kAlong == kB ? kB * kB : kB;
+  __m256 w[kTaps];
+  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
+  for (int p = 0; p < kB; p += 2) {
+    __m256 acc[kB];
+    convolveRows8(
+        present,
+        [&](int s, int r) {
+          const float* a = blocks[s] + p * kAcross + r * kAlong;
+          return kAcross == kB ? _mm256_loadu_ps(a) : _mm256_loadu2_m128(a + kAcross, a);
+        },
+        w, acc);
+    for (int t = 0; t < kB; ++t) {
+      float* out = o + p * kAcross + t * kAlong;
+      if (kAcross == kB)
+        _mm256_storeu_ps(out, acc[t]);
+      else
+        _mm256_storeu2_m128(out + kAcross, out, acc[t]);
+    }
+  }
+}
+
+#pragma GCC pop_options
+#endif
 }  // namespace
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
@@ -428,6 +504,9 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
   std::vector<std::uint8_t>& live = smooth_live_;
   live.assign(count, 0);
+#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+  const bool avx2 = __builtin_cpu_supports("avx2");
+#endif
   Quad w[3][kTaps];
   for (int axis = 0; axis < 3; ++axis)
     for (int u = 0; u < kTaps; ++u) w[axis][u] = quadSplat(taps[axis][u]);
@@ -465,8 +544,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   // kBlock^2) apart, but the 4 lines that differ only in x are contiguous: one register.
   auto passYZ = [&](auto axis_constant, const std::vector<float>& in, std::vector<float>& dst) {
     constexpr int axis = decltype(axis_constant)::value;
-    constexpr int along = axis == 1 ? kBlock : kBlock * kBlock;   // stride along the axis
-    constexpr int across = axis == 1 ? kBlock * kBlock : kBlock;  // stride of the other axis
+    constexpr int along = axis == 1 ? kBlock : kBlock * kBlock;  // stride along the axis
     constexpr std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
     constexpr std::uint8_t reads = axis == 1 ? kLiveX : kLiveY;
     const int step = axis == 1 ? nba_ : nba_ * nba_;  // key offset of the next block
@@ -495,13 +573,13 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
         continue;
       }
       if (axis == 1) live[b] |= kLiveY;
-      for (int p = 0; p < kBlock; ++p) {
-        Quad acc[kBlock];
-        convolveRows(
-            present, [&](int s, int r) { return quadLoad(blocks[s] + p * across + r * along); },
-            w[axis], acc);
-        for (int t = 0; t < kBlock; ++t) quadStore(o + p * across + t * along, acc[t]);
+#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+      if (avx2) {
+        smoothBlockAlongAvx2<along>(blocks, present, taps[axis].data(), o);
+        continue;
       }
+#endif
+      smoothBlockAlong<along>(blocks, present, w[axis], o);
     }
   };
   passYZ(std::integral_constant<int, 1>{}, cells_, scratch_);
