@@ -362,14 +362,14 @@ void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
 
 void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* nz, const float* d,
                                  int count, float w) {
+  int v = 0;
+#if defined(__SSE2__)
   // One vote, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
   auto add = [&](double ci, double cj, double ck) {
     int i, j, k;
     if (roundedCell(ci, cj, ck, i, j, k)) addToCellInRange(i, j, k, w);
   };
   const double ext = params_.lambert_extent;
-  int v = 0;
-#if defined(__SSE2__)
   // cellCoordinates, two votes per SSE2 register: the same IEEE operations in the same order
   // (division and square root are correctly rounded either way), so the same cells. A normal at
   // or beyond the pole (den <= 1e-9) has no cell.
@@ -466,7 +466,9 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     for (int c = 0; c < kBlockCells; ++c) mass += cells[c];
     block_mass[b] = mass;
     if (mass < min_block_mass) continue;
-    neighbourhood.forEach(block_keys_[b], [&](int nkey) { out.blockOrCreate(nkey); });
+    neighbourhood.forEach(block_keys_[b], [&](int nkey) {
+      if (out.index_[nkey] < 0) out.blockOrCreate(nkey);  // (most neighbours exist already)
+    });
   }
   if (out.block_keys_.empty()) return;
 
