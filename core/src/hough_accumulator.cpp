@@ -70,13 +70,24 @@ class BlockNeighbourhood {
           if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_)
             f((z * nba_ + y) * nba_ + x);
   }
-  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first).
+  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first;
+  /// stops at the first).
   template <class Pred>
   bool any(int key, Pred&& pred) const {
     if (pred(key)) return true;
-    bool found = false;
-    forEach(key, [&](int nkey) { found = found || (nkey != key && pred(nkey)); });
-    return found;
+    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    if (bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_) {
+      for (const int offset : offsets_)
+        if (pred(key + offset)) return true;
+      return false;
+    }
+    for (int z = bk - 1; z <= bk + 1; ++z)
+      for (int y = bj - 1; y <= bj + 1; ++y)
+        for (int x = bi - 1; x <= bi + 1; ++x)
+          if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_ &&
+              pred((z * nba_ + y) * nba_ + x))
+            return true;
+    return false;
   }
 
  private:
