@@ -158,22 +158,17 @@ class MomentSums {
   }
   void add(float x, float y, float z) {
 #if defined(__SSE2__)
-    // (a, b) and c as add() computes them from the doubles of x, y, z.
-    const __m128d ab =
-        _mm_sub_pd(_mm_cvtps_pd(_mm_unpacklo_ps(_mm_set_ss(x), _mm_set_ss(y))), ref_xy_);
-    const __m128d c = _mm_set1_pd(static_cast<double>(z) - ref_.z());
-    n_ += 1.0;
-    s_ab_ = _mm_add_pd(s_ab_, ab);
-    s_c_ += _mm_cvtsd_f64(c);
-    aa_ab_ = _mm_add_pd(aa_ab_, _mm_mul_pd(_mm_unpacklo_pd(ab, ab), ab));  // (a a, a b)
-    ac_bb_ = _mm_add_pd(ac_bb_, _mm_mul_pd(ab, _mm_move_sd(ab, c)));       // (a c, b b)
-    bc_cc_ = _mm_add_pd(bc_cc_, _mm_mul_pd(_mm_unpackhi_pd(ab, c), c));    // (b c, c c)
+    addXY(_mm_unpacklo_ps(_mm_set_ss(x), _mm_set_ss(y)), z);
 #else
-    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
-    n_ += 1.0;
-    s_[0] += a, s_[1] += b, s_[2] += c;
-    ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
-    ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
+    addScalar(x, y, z);
+#endif
+  }
+  /// add(p[0], p[1], p[2]), x and y in one load.
+  void add(const cv::Vec3f& p) {
+#if defined(__SSE2__)
+    addXY(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&p[0]))), p[2]);
+#else
+    addScalar(p[0], p[1], p[2]);
 #endif
   }
   /// PlaneMoments() when no reference was set.
@@ -197,6 +192,29 @@ class MomentSums {
   }
 
  private:
+#if defined(__SSE2__)
+  // x and y in the two low lanes of xy.
+  void addXY(__m128 xy, float z) {
+    // (a, b) and c as PlaneMoments::add computes them from the doubles of x, y, z.
+    const __m128d ab = _mm_sub_pd(_mm_cvtps_pd(xy), ref_xy_);
+    const __m128d c = _mm_set1_pd(static_cast<double>(z) - ref_.z());
+    n_ += 1.0;
+    s_ab_ = _mm_add_pd(s_ab_, ab);
+    s_c_ += _mm_cvtsd_f64(c);
+    aa_ab_ = _mm_add_pd(aa_ab_, _mm_mul_pd(_mm_unpacklo_pd(ab, ab), ab));  // (a a, a b)
+    ac_bb_ = _mm_add_pd(ac_bb_, _mm_mul_pd(ab, _mm_move_sd(ab, c)));       // (a c, b b)
+    bc_cc_ = _mm_add_pd(bc_cc_, _mm_mul_pd(_mm_unpackhi_pd(ab, c), c));    // (b c, c c)
+  }
+#else
+  void addScalar(float x, float y, float z) {
+    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
+    n_ += 1.0;
+    s_[0] += a, s_[1] += b, s_[2] += c;
+    ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
+    ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
+  }
+#endif
+
   Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
   bool has_ref_ = false;
   double n_ = 0.0;
@@ -630,7 +648,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           if (!cur_sums.hasReference())
             cur_sums.setReference(Eigen::Vector3d(pts[i][0], pts[i][1], pts[i][2]));
         }
-        cur_sums.add(pts[i][0], pts[i][1], pts[i][2]);
+        cur_sums.add(pts[i]);
         cur_z += pts[i][2];
       }
       if (cur >= 0) {
