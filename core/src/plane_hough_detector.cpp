@@ -166,7 +166,9 @@ class MomentSums {
   /// add(p[0], p[1], p[2]), x and y in one load.
   void add(const cv::Vec3f& p) {
 #if defined(__SSE2__)
-    addXY(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&p[0]))), p[2]);
+    double xy;  // the bytes of p[0] and p[1] (memcpy: one load, no aliasing question)
+    std::memcpy(&xy, &p[0], sizeof xy);
+    addXY(_mm_castpd_ps(_mm_set_sd(xy)), p[2]);
 #else
     addScalar(p[0], p[1], p[2]);
 #endif
