@@ -6,7 +6,6 @@
 #include <cmath>
 #include <numeric>
 #include <tuple>
-
 #include <type_traits>
 #include <utility>
 
@@ -151,15 +150,14 @@ inline std::uint64_t cellsNotBelow(const float* cells, float min_value) {
 inline std::uint64_t cellsBeatenInBlock(const float* cells, bool lambert, bool depth) {
   std::uint64_t bits = 0;
 #if defined(__SSE2__)
-  constexpr int kB2 = HoughAccumulator::kBlock;
   // Rows of 4 x-cells: row q = k * 4 + j.
-  __m128 row[kB2 * kB2];
-  for (int q = 0; q < kB2 * kB2; ++q) row[q] = _mm_loadu_ps(cells + kB2 * q);
+  __m128 row[kB * kB];
+  for (int q = 0; q < kB * kB; ++q) row[q] = _mm_loadu_ps(cells + kB * q);
   // x - 1 / x + 1 of each lane (lane 0 / lane 3 has none: masked).
   const __m128 has_prev = _mm_castsi128_ps(_mm_set_epi32(-1, -1, -1, 0));
   const __m128 has_next = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
-  for (int q = 0; q < kB2 * kB2; ++q) {
-    const int j = q % kB2, k = q / kB2;
+  for (int q = 0; q < kB * kB; ++q) {
+    const int j = q % kB, k = q / kB;
     const __m128 v = row[q];
     const __m128i vi = _mm_castps_si128(v);
     const __m128 prev = _mm_castsi128_ps(_mm_slli_si128(vi, 4));  // lane i: cell i - 1
@@ -169,13 +167,13 @@ inline std::uint64_t cellsBeatenInBlock(const float* cells, bool lambert, bool d
       beaten = _mm_or_ps(_mm_and_ps(has_prev, _mm_cmpge_ps(prev, v)),
                          _mm_and_ps(has_next, _mm_cmpgt_ps(next, v)));
       if (j > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - 1], v));
-      if (j + 1 < kB2) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + 1], v));
+      if (j + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + 1], v));
     }
     if (depth) {
-      if (k > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - kB2], v));
-      if (k + 1 < kB2) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + kB2], v));
+      if (k > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - kB], v));
+      if (k + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + kB], v));
     }
-    bits |= static_cast<std::uint64_t>(_mm_movemask_ps(beaten)) << (kB2 * q);
+    bits |= static_cast<std::uint64_t>(_mm_movemask_ps(beaten)) << (kB * q);
   }
 #else
   (void)cells, (void)lambert, (void)depth;
