@@ -223,6 +223,27 @@ void smoothBlockAlong(const float* const (&blocks)[3], const bool (&present)[3],
   }
 }
 
+// The x pass of one output block o: a block line's 4 cells are contiguous, so the 4 lines of
+// one z (the 4 y) are loaded and transposed, each register then holding one x position of four
+// lines; the results are transposed back.
+void smoothBlockX(const float* const (&blocks)[3], const bool (&present)[3], const Quad (&w)[kTaps],
+                  float* o) {
+  for (int k = 0; k < kB; ++k) {
+    const int plane = k * kB * kB;
+    Quad in[3][kB];
+    for (int s = 0; s < 3; ++s) {
+      if (!present[s]) continue;
+      for (int j = 0; j < kB; ++j) in[s][j] = quadLoad(blocks[s] + plane + j * kB);
+      quadTranspose(in[s]);
+    }
+    Quad acc[kB];
+    convolveRows(
+        present, [&](int s, int r) { return in[s][r]; }, w, acc);
+    quadTranspose(acc);
+    for (int j = 0; j < kB; ++j) quadStore(o + plane + j * kB, acc[j]);
+  }
+}
+
 #if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
 #pragma GCC push_options
 #pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
@@ -272,6 +293,43 @@ void smoothBlockAlongAvx2(const float* const (&blocks)[3], const bool (&present)
         _mm256_storeu_ps(out, acc[t]);
       else
         _mm256_storeu2_m128(out + kAcross, out, acc[t]);
+    }
+  }
+}
+
+// Transposes each 128-bit half of four registers as 4x4 blocks (_MM_TRANSPOSE4_PS per half).
+inline void transposeHalves(__m256 (&q)[kB]) {
+  const __m256 t0 = _mm256_unpacklo_ps(q[0], q[1]), t1 = _mm256_unpackhi_ps(q[0], q[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(q[2], q[3]), t3 = _mm256_unpackhi_ps(q[2], q[3]);
+  q[0] = _mm256_shuffle_ps(t0, t2, 0x44);
+  q[1] = _mm256_shuffle_ps(t0, t2, 0xEE);
+  q[2] = _mm256_shuffle_ps(t1, t3, 0x44);
+  q[3] = _mm256_shuffle_ps(t1, t3, 0xEE);
+}
+
+// smoothBlockX, two z positions per register (each half transposed on its own).
+void smoothBlockXAvx2(const float* const (&blocks)[3], const bool (&present)[3], const float* taps,
+                      float* o) {
+  constexpr int kPlane = kB * kB;
+  __m256 w[kTaps];
+  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
+  for (int k = 0; k < kB; k += 2) {
+    __m256 in[3][kB];
+    for (int s = 0; s < 3; ++s) {
+      if (!present[s]) continue;
+      for (int j = 0; j < kB; ++j) {
+        const float* line = blocks[s] + k * kPlane + j * kB;
+        in[s][j] = _mm256_loadu2_m128(line + kPlane, line);
+      }
+      transposeHalves(in[s]);
+    }
+    __m256 acc[kB];
+    convolveRows8(
+        present, [&](int s, int r) { return in[s][r]; }, w, acc);
+    transposeHalves(acc);
+    for (int j = 0; j < kB; ++j) {
+      float* line = o + k * kPlane + j * kB;
+      _mm256_storeu2_m128(line + kPlane, line, acc[j]);
     }
   }
 }
@@ -536,20 +594,13 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
     if (!(present[0] || present[1] || present[2])) continue;
     live[b] = kLiveX;
     float* o = &cells_[b * kBlockCells];
-    for (int k = 0; k < kBlock; ++k) {
-      const int plane = k * kBlock * kBlock;
-      Quad in[3][kBlock];
-      for (int s = 0; s < 3; ++s) {
-        if (!present[s]) continue;
-        for (int j = 0; j < kBlock; ++j) in[s][j] = quadLoad(blocks[s] + plane + j * kBlock);
-        quadTranspose(in[s]);
-      }
-      Quad acc[kBlock];
-      convolveRows(
-          present, [&](int s, int r) { return in[s][r]; }, w[0], acc);
-      quadTranspose(acc);
-      for (int j = 0; j < kBlock; ++j) quadStore(o + plane + j * kBlock, acc[j]);
+#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+    if (avx2) {
+      smoothBlockXAvx2(blocks, present, taps[0].data(), o);
+      continue;
     }
+#endif
+    smoothBlockX(blocks, present, w[0], o);
   }
   // y (cells_ -> scratch_) and z (scratch_ -> cells_): a block line's cells are kBlock (or
   // kBlock^2) apart, but the 4 lines that differ only in x are contiguous: one register.
