@@ -9,11 +9,7 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-// GCC only: the AVX2 functions are compiled with #pragma GCC target, which clang ignores.
-#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#include <immintrin.h>
-#define SHAPESENSE_NORMALS_AVX2 1  // AVX2 functions compiled in, used where the CPU has AVX2
-#endif
+#include "cpu_dispatch.h"
 
 namespace shapesense {
 namespace {
@@ -237,13 +233,14 @@ __attribute__((noinline)) void fourLanes(const RowWindows& g, int u, __m128i rl,
 
 #endif
 
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
 // The 3D-gradient mode's eight-pixel step (AVX2: pixels u..u+7 whose valid lanes share the radius
 // r), with the operations of the four-pixel SSE2 step in the same order, lane for lane: the same
-// bits. AVX2 only, never FMA (a fused multiply-add would round differently). Compiled for AVX2
-// (lambdas included) whatever the build flags; called only where the CPU has it.
+// bits. AVX2 only, never FMA (a fused multiply-add would round differently: the build has
+// -ffp-contract=off, and no FMA intrinsic is used). Compiled for AVX2 (lambdas included) whatever
+// the build flags; called only where the CPU has it.
 #pragma GCC push_options
-#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+#pragma GCC target("avx2")
 
 // The windows of radius r of centres x..x+7 of the row of centres y, into the cache.
 inline void gradOct(const RowWindows& g, float* means, int* radii, int x, int y, int r) {
@@ -591,10 +588,7 @@ int gradRun(const RowWindows& g, int u) {
 
 #pragma GCC pop_options
 
-bool cpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-}
+using detail::cpuHasAvx2;
 #endif
 
 }  // namespace
@@ -621,7 +615,7 @@ void NormalEstimator::markSteps() {
   last_z_.assign(cols, 0.0f);
   last_v_.assign(cols, -1000000);
   [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   use_avx2 = simd_ && avx2_ && cpuHasAvx2();
   after_hole_.resize(static_cast<std::size_t>(cols));
 #endif
@@ -636,7 +630,7 @@ void NormalEstimator::markSteps() {
     // pass lands in row v, which the horizontal pass below assigns.
     int u = 0;
     int u_horizontal = 1, n_after_hole = 0;  // AVX2: horizontal steps done, holes to follow up
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (use_avx2) {
       markStepsRowAvx2(zrow, last_z, last_v, v, cols, max_gap, factor, noise_k, steps_.data,
                        steps_.step, &u, &u_horizontal, after_hole_.data(), &n_after_hole);
@@ -752,12 +746,12 @@ void NormalEstimator::stepDistance(int cap) {
   // pixels at a time take three shift-add-min steps (k < 8 within the block) and the block before
   // enters as its edge value + 1..8. Same minima, so same values.
   [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   use_avx2 = simd_ && avx2_ && cpuHasAvx2();
 #endif
   auto scan = [cols, use_avx2](std::int16_t* d, int dir) {
     int u = dir > 0 ? 0 : cols - 1;  // first pixel not yet scanned
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (use_avx2) u = stepScanAvx2(d, cols, dir);
 #endif
 #if defined(__SSE2__)
@@ -830,7 +824,7 @@ void NormalEstimator::stepDistance(int cap) {
       d[u] = m < d[u] ? m : d[u];
     };
     // (Separate loops: a loop from a computed start does not vectorise.)
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (use_avx2) {
       for (int u = stepFoldAvx2(d, o, cols); u + 1 < cols; ++u) at(u);
     } else
@@ -844,7 +838,7 @@ void NormalEstimator::stepDistance(int cap) {
   for (int v = 0; v < rows; ++v) {
     const std::uint8_t* st = steps_.ptr<std::uint8_t>(v);
     std::int16_t* d = step_dist_.data() + static_cast<std::size_t>(v) * cols;
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (use_avx2) {
       for (int u = stepInitAvx2(st, d, cols, far); u < cols; ++u)
         d[u] = st[u] ? std::int16_t{0} : far;
@@ -1012,7 +1006,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
   std::fill(irow[0], irow[0] + rstride, 0u);
   // AVX2 steps where the CPU has them (tests: setAvx2(false), setSimd(false)).
   [[maybe_unused]] bool use_avx2 = false;
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
   use_avx2 = simd_ && avx2_ && cpuHasAvx2();
 #endif
   // Integral row v + 1 from image row v. Built lazily, just ahead of the rows pass 1 reads, so that
@@ -1052,7 +1046,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
         // per pixel from memory instead of 12.
         const __m128 ry = _mm_set1_ps(ry_v);
         const __m128i one = _mm_set1_epi32(1);
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
         if (use_avx2) u = gradIntegralRowAvx2(zrow, rx, ry_v, above, row, cols, acc);
 #endif
         for (; u + 4 < cols; u += 4) {  // the row's last pixel is left to element() below
@@ -1214,7 +1208,7 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       rr[u] = ok && r >= min_rf ? static_cast<int>(r) : 0;
     };
     // (Separate loops: a loop from a computed start does not vectorise.)
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (use_avx2) {
       const int u0 = radiusRowAvx2(zrow, dist, colb, cols, base_r, const_r, min_rf, max_rf, bv, rr);
       for (int u = u0; u < cols; ++u) radius(u);
@@ -1438,11 +1432,11 @@ void NormalEstimator::runGradient(const CameraIntrinsics& intr, cv::Mat& normals
       // share one radius and the windows of centres u - 1 .. u + 8 lie inside the image; four
       // pixels per step elsewhere.
       [[maybe_unused]] bool eight = false;
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
       eight = M == kGrad && use_avx2;
 #endif
       while (u + 4 <= cols) {
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
         if (eight) {
           u = gradRun(g, u);
           if (u + 4 > cols) break;
@@ -1510,14 +1504,14 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
     points_from_depth_ = true;
     points_built_ = false;
     [[maybe_unused]] bool use_avx2 = false;  // AVX2 steps where the CPU has them
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     use_avx2 = simd_ && avx2_ && cpuHasAvx2();
 #endif
     for (int v = 0; v < rows; ++v) {
       const auto* d = input.ptr<std::uint16_t>(v);
       float* zr = zplane_.data() + static_cast<std::size_t>(v) * cols;
       int u = 0;
-#if defined(SHAPESENSE_NORMALS_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
       if (use_avx2) u = depthRowAvx2(d, zr, cols);
 #endif
 #if defined(__SSE2__)
