@@ -11,13 +11,9 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
-#include <xmmintrin.h>
 #endif
-// GCC only: the AVX2 variant is compiled with #pragma GCC target (as in normals.cpp).
-#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#include <immintrin.h>
-#define SHAPESENSE_HOUGH_SMOOTH_AVX2 1  // compiled in, used where the CPU has AVX2
-#endif
+
+#include "cpu_dispatch.h"  // SHAPESENSE_AVX2_PATHS: the AVX2 smoothing passes (GCC only)
 
 namespace shapesense {
 namespace {
@@ -244,9 +240,9 @@ void smoothBlockX(const float* const (&blocks)[3], const bool (&present)[3], con
   }
 }
 
-#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
 #pragma GCC push_options
-#pragma GCC target("avx2,no-fma")  // no FMA even under -march=native: fusing changes bits
+#pragma GCC target("avx2")  // no FMA contraction: the build has -ffp-contract=off
 
 // convolveRows with eight lanes: positions p and p + 1 of the other axis in one register,
 // lane for lane the same operations (the same bits).
@@ -573,8 +569,8 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
   std::vector<std::uint8_t>& live = smooth_live_;
   live.assign(count, 0);
-#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
-  const bool avx2 = __builtin_cpu_supports("avx2");
+#if defined(SHAPESENSE_AVX2_PATHS)
+  const bool avx2 = detail::cpuHasAvx2();
 #endif
   Quad w[3][kTaps];
   for (int axis = 0; axis < 3; ++axis)
@@ -594,7 +590,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
     if (!(present[0] || present[1] || present[2])) continue;
     live[b] = kLiveX;
     float* o = &cells_[b * kBlockCells];
-#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
     if (avx2) {
       smoothBlockXAvx2(blocks, present, taps[0].data(), o);
       continue;
@@ -635,7 +631,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
         continue;
       }
       if (axis == 1) live[b] |= kLiveY;
-#if defined(SHAPESENSE_HOUGH_SMOOTH_AVX2)
+#if defined(SHAPESENSE_AVX2_PATHS)
       if (avx2) {
         smoothBlockAlongAvx2<along>(blocks, present, taps[axis].data(), o);
         continue;

@@ -12,12 +12,8 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-// GCC only: the AVX2 variants are compiled with a target attribute (as in normals.cpp).
-#if defined(__SSE2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#include <immintrin.h>
-#define SHAPESENSE_HOUGH_AVX2 1  // AVX2 variants compiled in, used where the CPU has AVX2
-#endif
 
+#include "cpu_dispatch.h"  // SHAPESENSE_AVX2_PATHS: the AVX2 variants below (GCC only)
 #include "shapesense/core/plane_labeling.h"
 #include "shapesense/core/planes.h"
 
@@ -26,13 +22,13 @@ namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
-#if defined(SHAPESENSE_HOUGH_AVX2)
-// countWithin (below), four points per AVX2 register: lane for lane the same operations, no
-// FMA.
-[[gnu::target("avx2,no-fma")]] std::size_t countWithinAvx2(double nx, double ny, double nz,
-                                                           double d, const double* x,
-                                                           const double* y, const double* z,
-                                                           const double* tol, std::size_t n) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+// countWithin (below), four points per AVX2 register: lane for lane the same operations
+// (nothing fused into FMA: the build has -ffp-contract=off).
+[[gnu::target("avx2")]] std::size_t countWithinAvx2(double nx, double ny, double nz, double d,
+                                                    const double* x, const double* y,
+                                                    const double* z, const double* tol,
+                                                    std::size_t n) {
   const __m256d vnx = _mm256_set1_pd(nx), vny = _mm256_set1_pd(ny), vnz = _mm256_set1_pd(nz),
                 vd = _mm256_set1_pd(d), sign = _mm256_set1_pd(-0.0);
   __m256i counts = _mm256_setzero_si256();  // minus the number of inliers, per lane
@@ -61,8 +57,8 @@ constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 std::size_t countWithin(const Eigen::Vector3d& normal, double d, const double* x, const double* y,
                         const double* z, const double* tol, std::size_t n) {
   const double nx = normal.x(), ny = normal.y(), nz = normal.z();
-#if defined(SHAPESENSE_HOUGH_AVX2)
-  if (__builtin_cpu_supports("avx2")) return countWithinAvx2(nx, ny, nz, d, x, y, z, tol, n);
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return countWithinAvx2(nx, ny, nz, d, x, y, z, tol, n);
 #endif
   std::size_t count = 0, k = 0;
 #if defined(__SSE2__)
@@ -98,8 +94,9 @@ struct PlaneGates {
 };
 
 // Branch-free loops over every sample (the tests fail unpredictably) that vectorise; the
-// *Avx2 variants are the same code compiled for AVX2 without FMA (the same operations, lane
-// for lane: the same bits) and run where the CPU has it.
+// *Avx2 variants are the same code compiled for AVX2 (nothing fused into FMA: the build has
+// -ffp-contract=off; the same operations, lane for lane: the same bits) and run where the CPU
+// has it (detail::cpuHasAvx2, checked once).
 //
 // in[k] = (alive == nullptr || alive[k]) && |plane . p_k| <= gate_mult tol[k] && the normals
 // agree.
@@ -144,31 +141,30 @@ void normalAgreementDefault(const float* normals, int offset, float cos_max, int
   normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
 }
 
-#if defined(SHAPESENSE_HOUGH_AVX2)
-[[gnu::target("avx2,no-fma")]] void gateFlagsAvx2(const PlaneGates& g, const SampleArrays& a,
-                                                  const std::uint8_t* alive, std::uint8_t* in,
-                                                  int count) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+[[gnu::target("avx2")]] void gateFlagsAvx2(const PlaneGates& g, const SampleArrays& a,
+                                           const std::uint8_t* alive, std::uint8_t* in, int count) {
   gateFlagsLoop(g, a, alive, in, count);
 }
-[[gnu::target("avx2,no-fma")]] void normalAgreementAvx2(const float* normals, int offset,
-                                                        float cos_max, int begin, int end,
-                                                        std::uint8_t* agree) {
+[[gnu::target("avx2")]] void normalAgreementAvx2(const float* normals, int offset, float cos_max,
+                                                 int begin, int end, std::uint8_t* agree) {
   normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
 }
 #endif
 
-void gateFlags(const PlaneGates& g, const SampleArrays& a, const std::uint8_t* alive,
-               std::uint8_t* in, int count) {
-#if defined(SHAPESENSE_HOUGH_AVX2)
-  if (__builtin_cpu_supports("avx2")) return gateFlagsAvx2(g, a, alive, in, count);
+// Out of line: inlined (three call sites in detect) it made GCC stop inlining
+// PlaneMoments::add into detect.
+[[gnu::noinline]] void gateFlags(const PlaneGates& g, const SampleArrays& a,
+                                 const std::uint8_t* alive, std::uint8_t* in, int count) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return gateFlagsAvx2(g, a, alive, in, count);
 #endif
   gateFlagsDefault(g, a, alive, in, count);
 }
 void normalAgreement(const float* normals, int offset, float cos_max, int begin, int end,
                      std::uint8_t* agree) {
-#if defined(SHAPESENSE_HOUGH_AVX2)
-  if (__builtin_cpu_supports("avx2"))
-    return normalAgreementAvx2(normals, offset, cos_max, begin, end, agree);
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return normalAgreementAvx2(normals, offset, cos_max, begin, end, agree);
 #endif
   normalAgreementDefault(normals, offset, cos_max, begin, end, agree);
 }
