@@ -742,14 +742,34 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
           if (std::abs(di) + std::abs(dj) + std::abs(dk) == l1)
             window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
   std::vector<HoughMaximum> maxima;
+  // The cells of the last block along an axis that lie in the space (1..kBlock): when na_ or
+  // nd_ is not a multiple of kBlock that block sticks out of the space, and the smoothing passes
+  // fill whole blocks, so its cells outside hold values at() does not see (it returns 0 there).
+  const int edge_a = na_ - (nba_ - 1) * kBlock, edge_d = nd_ - (nbd_ - 1) * kBlock;
+  alignas(16) float clipped[kBlockCells];
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     // The cells that are not below min_value, as bits (most blocks have none).
     const float* cells = &cells_[b * kBlockCells];
     std::uint64_t candidates = cellsNotBelow(cells, min_value);
     if (!candidates) continue;
-    candidates &= ~cellsBeatenInBlock(cells, window_a >= 1, window_d >= 1);
     const int key = block_keys_[b];
     const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    const int ni = bi + 1 == nba_ ? edge_a : kBlock, nj = bj + 1 == nba_ ? edge_a : kBlock,
+              nk = bk + 1 == nbd_ ? edge_d : kBlock;
+    if (ni < kBlock || nj < kBlock || nk < kBlock) {
+      // A block sticking out of the space: its cells as at() sees them (0 outside), and only
+      // the cells inside can be maxima.
+      std::uint64_t in_space = 0;
+      for (int c = 0; c < kBlockCells; ++c) {
+        const bool in = c % kBlock < ni && (c / kBlock) % kBlock < nj && c / (kBlock * kBlock) < nk;
+        clipped[c] = in ? cells[c] : 0.0f;
+        in_space |= static_cast<std::uint64_t>(in) << c;
+      }
+      cells = clipped;
+      candidates &= in_space;
+      if (!candidates) continue;
+    }
+    candidates &= ~cellsBeatenInBlock(cells, window_a >= 1, window_d >= 1);
     for (; candidates; candidates &= candidates - 1) {
       const int c = std::countr_zero(candidates);
       const float v = cells[c];

@@ -283,10 +283,58 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   EXPECT_NEAR(maxima[1].d, 0.8, 0.01);
 }
 
+// findMaxima by its definition, as (value, k, j, i), strongest first: a cell of the space that
+// is >= min_value and that no cell of its window beats (larger, or equal and earlier in (k, j,
+// i) order), the window read through at() (0 outside the space).
+std::vector<std::tuple<float, int, int, int>> bruteForceMaxima(const HoughAccumulator& acc,
+                                                               float min_value, int wa, int wd) {
+  std::vector<std::tuple<float, int, int, int>> maxima;
+  for (int k = 0; k < acc.cellsD(); ++k)
+    for (int j = 0; j < acc.cellsA(); ++j)
+      for (int i = 0; i < acc.cellsA(); ++i) {
+        const float v = acc.at(i, j, k);
+        if (!(v >= min_value)) continue;
+        bool is_max = true;
+        for (int dk = -wd; dk <= wd && is_max; ++dk)
+          for (int dj = -wa; dj <= wa && is_max; ++dj)
+            for (int di = -wa; di <= wa && is_max; ++di) {
+              const float o = acc.at(i + di, j + dj, k + dk);
+              const bool earlier = std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0);
+              if (o > v || (o == v && earlier)) is_max = false;
+            }
+        if (is_max) maxima.emplace_back(v, k, j, i);
+      }
+  std::sort(maxima.begin(), maxima.end(), [](const auto& a, const auto& b) {
+    return std::get<0>(a) > std::get<0>(b) ||
+           (std::get<0>(a) == std::get<0>(b) &&
+            std::tie(std::get<1>(a), std::get<2>(a), std::get<3>(a)) <
+                std::tie(std::get<1>(b), std::get<2>(b), std::get<3>(b)));
+  });
+  return maxima;
+}
+
+// findMaxima(min_value, wa, wd) equals bruteForceMaxima, with finite centroids.
+void expectBruteForceMaxima(const HoughAccumulator& acc, float min_value, int wa, int wd,
+                            std::size_t min_count) {
+  const auto expected = bruteForceMaxima(acc, min_value, wa, wd);
+  const auto got = acc.findMaxima(min_value, wa, wd);
+  ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
+  ASSERT_GE(got.size(), min_count) << "window " << wa << ", " << wd;
+  for (std::size_t m = 0; m < got.size(); ++m) {
+    EXPECT_EQ(got[m].value, std::get<0>(expected[m]));
+    EXPECT_EQ(
+        std::tie(got[m].k, got[m].j, got[m].i),
+        std::tie(std::get<1>(expected[m]), std::get<2>(expected[m]), std::get<3>(expected[m])))
+        << "window " << wa << ", " << wd;
+    EXPECT_TRUE(got[m].normal.allFinite() && std::isfinite(got[m].d))
+        << "window " << wa << ", " << wd << " cell " << got[m].i << " " << got[m].j << " "
+        << got[m].k;
+  }
+}
+
 TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
   // Small integer values (many ties, plateaus across block borders), compared with the
-  // definition: a cell >= min_value that no cell of its window beats (larger, or equal and
-  // earlier in (k, j, i) order), then strongest first.
+  // definition.
   HoughSpaceParams sp;
   sp.lambert_extent = 0.3;
   sp.max_d_m = 0.5;
@@ -302,40 +350,31 @@ TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
   for (int k = 6; k < 10; ++k)  // a plateau across a block border
     for (int j = 2; j < 6; ++j)
       for (int i = 2; i < 7; ++i) acc.addToCell(i, j, k, 50.0f - acc.at(i, j, k));
-  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 3}, std::pair{0, 1}}) {
-    const float min_value = 2.0f;
-    std::vector<std::tuple<float, int, int, int>> expected;  // value, k, j, i
-    for (int k = 0; k < acc.cellsD(); ++k)
-      for (int j = 0; j < acc.cellsA(); ++j)
-        for (int i = 0; i < acc.cellsA(); ++i) {
-          const float v = acc.at(i, j, k);
-          if (v < min_value) continue;
-          bool is_max = true;
-          for (int dk = -wd; dk <= wd; ++dk)
-            for (int dj = -wa; dj <= wa; ++dj)
-              for (int di = -wa; di <= wa; ++di) {
-                const float o = acc.at(i + di, j + dj, k + dk);
-                const bool earlier = std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0);
-                if (o > v || (o == v && earlier)) is_max = false;
-              }
-          if (is_max) expected.emplace_back(v, k, j, i);
-        }
-    std::sort(expected.begin(), expected.end(), [](const auto& a, const auto& b) {
-      return std::get<0>(a) > std::get<0>(b) ||
-             (std::get<0>(a) == std::get<0>(b) &&
-              std::tie(std::get<1>(a), std::get<2>(a), std::get<3>(a)) <
-                  std::tie(std::get<1>(b), std::get<2>(b), std::get<3>(b)));
-    });
-    const auto got = acc.findMaxima(min_value, wa, wd);
-    ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
-    ASSERT_GT(got.size(), 10u);
-    for (std::size_t m = 0; m < got.size(); ++m) {
-      EXPECT_EQ(got[m].value, std::get<0>(expected[m]));
-      EXPECT_EQ(
-          std::tie(got[m].k, got[m].j, got[m].i),
-          std::tie(std::get<1>(expected[m]), std::get<2>(expected[m]), std::get<3>(expected[m])));
-    }
-  }
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 3}, std::pair{0, 1}})
+    expectBruteForceMaxima(acc, 2.0f, wa, wd, 11);
+}
+
+TEST(HoughAccumulator, MaximaLieInTheSpaceWhenTheLastBlocksStickOut) {
+  // nd = 401 (the last block along d has 1 cell in the space and 3 outside) and na = 123 (3
+  // in, 1 outside), strong peaks at the far ends of the axes. The smoothing fills whole blocks,
+  // so the cells outside the space hold values; only cells of the space may be maxima, the
+  // window seeing 0 outside (as at() does), and every centroid is finite.
+  HoughSpaceParams sp;
+  sp.max_d_m = 8.01;
+  HoughAccumulator acc(sp), smooth;
+  const int na = acc.cellsA(), nd = acc.cellsD();
+  ASSERT_EQ(nd, 401);
+  ASSERT_EQ(na % HoughAccumulator::kBlock, 3);
+  acc.addToCell(na - 1, na - 1, nd - 1, 100.0f);  // the far corner
+  acc.addToCell(40, 40, nd - 1, 90.0f);           // the far d face
+  acc.addToCell(na - 1, 60, nd - 2, 80.0f);
+  acc.addToCell(70, na - 1, 200, 70.0f);  // far Lambert faces
+  acc.addToCell(na - 2, 20, 100, 60.0f);
+  acc.addToCell(10, 10, 10, 50.0f);  // inside
+  acc.smoothInto(smooth, 2.0, 0.03, 0.0f);
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 1}, std::pair{2, 0}, std::pair{0, 2},
+                               std::pair{1, 0}, std::pair{0, 0}})
+    expectBruteForceMaxima(smooth, 1e-3f, wa, wd, 6);
 }
 
 TEST(HoughAccumulator, SmoothingPrunedForAPeakThresholdFindsTheSameMaxima) {
