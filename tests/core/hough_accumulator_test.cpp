@@ -352,6 +352,15 @@ TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
       for (int i = 2; i < 7; ++i) acc.addToCell(i, j, k, 50.0f - acc.at(i, j, k));
   for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 3}, std::pair{0, 1}})
     expectBruteForceMaxima(acc, 2.0f, wa, wd, 11);
+  // A negative half-size counts as 0.
+  for (const auto& [wa, wd] : {std::pair{2, -1}, std::pair{-1, 1}, std::pair{-3, -2}}) {
+    const auto got = acc.findMaxima(2.0f, wa, wd);
+    const auto expected = acc.findMaxima(2.0f, std::max(wa, 0), std::max(wd, 0));
+    ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
+    for (std::size_t m = 0; m < got.size(); ++m)
+      EXPECT_EQ(std::tie(got[m].i, got[m].j, got[m].k, got[m].value),
+                std::tie(expected[m].i, expected[m].j, expected[m].k, expected[m].value));
+  }
 }
 
 TEST(HoughAccumulator, MaximaLieInTheSpaceWhenTheLastBlocksStickOut) {

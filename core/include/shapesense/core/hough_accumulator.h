@@ -99,7 +99,8 @@ class HoughAccumulator {
                   float min_block_mass, float min_peak = 0.0f) const;
 
   /// Local maxima with value >= min_value over a sliding window of half-size (wa, wa, wd)
-  /// cells, strongest first. Plateaus report one cell. Only cells of the space are reported
+  /// cells (a negative half-size counts as 0: no neighbours along that axis), strongest first.
+  /// Plateaus report one cell. Only cells of the space are reported
   /// (0 <= i, j < cellsA(), 0 <= k < cellsD()); the window reads at(), 0 outside the space.
   std::vector<HoughMaximum> findMaxima(float min_value, int window_a = 2, int window_d = 2) const;
 

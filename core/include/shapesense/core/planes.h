@@ -129,7 +129,8 @@ struct HoughPlaneParams {
   /// only costs resolution (the refinement restores it). Defaults 2 deg, 0.03 m.
   double sigma_angle_deg = 2.0;
   double sigma_d_m = 0.03;
-  /// Sliding window half-size (cells) of the maxima search. Default 2 (+-3 deg, +-4 cm).
+  /// Sliding window half-size (cells) of the maxima search, >= 0 (a negative value counts as
+  /// 0: no neighbours compared along that axis). Default 2 (+-3 deg, +-4 cm).
   int maxima_window_a = 2;
   int maxima_window_d = 2;
   /// A sample votes only if its 4 grid neighbours have normals within this angle. Default 6 deg.
