@@ -122,18 +122,19 @@ inline void quadTranspose(Quad (&q)[kB]) {
 }
 #endif
 
-// Bit c set when cells[c] < min_value is false (a block of kBlockCells = 64 cells).
-inline std::uint64_t cellsNotBelow(const float* cells, float min_value) {
+// Bit c set when cells[c] >= min_value (a block of kBlockCells = 64 cells): an ordered
+// compare, so a NaN cell is never a candidate.
+inline std::uint64_t cellsAtLeast(const float* cells, float min_value) {
   static_assert(HoughAccumulator::kBlockCells == 64);
   std::uint64_t bits = 0;
 #if defined(__SSE2__)
   const __m128 m = _mm_set1_ps(min_value);
   for (int q = 0; q < 16; ++q) {
-    const int mask = _mm_movemask_ps(_mm_cmpnlt_ps(_mm_loadu_ps(cells + 4 * q), m));
+    const int mask = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(cells + 4 * q), m));
     bits |= static_cast<std::uint64_t>(mask) << (4 * q);
   }
 #else
-  for (int c = 0; c < 64; ++c) bits |= static_cast<std::uint64_t>(!(cells[c] < min_value)) << c;
+  for (int c = 0; c < 64; ++c) bits |= static_cast<std::uint64_t>(cells[c] >= min_value) << c;
 #endif
   return bits;
 }
@@ -751,9 +752,9 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
   const int edge_a = na_ - (nba_ - 1) * kBlock, edge_d = nd_ - (nbd_ - 1) * kBlock;
   alignas(16) float clipped[kBlockCells];
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
-    // The cells that are not below min_value, as bits (most blocks have none).
+    // The cells >= min_value, as bits (most blocks have none).
     const float* cells = &cells_[b * kBlockCells];
-    std::uint64_t candidates = cellsNotBelow(cells, min_value);
+    std::uint64_t candidates = cellsAtLeast(cells, min_value);
     if (!candidates) continue;
     const int key = block_keys_[b];
     const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -361,6 +362,25 @@ TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
       EXPECT_EQ(std::tie(got[m].i, got[m].j, got[m].k, got[m].value),
                 std::tie(expected[m].i, expected[m].j, expected[m].k, expected[m].value));
   }
+}
+
+TEST(HoughAccumulator, NaNCellsAreNoMaxima) {
+  // NaN cells (one alone, one in a peak's window, one in a plateau's) are never reported and
+  // beat no neighbour: the brute-force definition with ordered compares. (Not within a
+  // maximum's 3x3x3 cells: its centroid would be NaN.)
+  HoughAccumulator acc;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  acc.addToCell(20, 20, 20, nan);
+  acc.addToCell(40, 40, 40, 5.0f);
+  acc.addToCell(42, 40, 40, nan);
+  acc.addToCell(60, 60, 60, 3.0f);
+  acc.addToCell(61, 60, 60, 3.0f);
+  acc.addToCell(60, 62, 59, nan);
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 0}, std::pair{0, 0}}) {
+    expectBruteForceMaxima(acc, 1.0f, wa, wd, 2);
+    for (const auto& m : acc.findMaxima(1.0f, wa, wd)) EXPECT_FALSE(std::isnan(m.value));
+  }
+  for (const auto& m : acc.findMaxima(-1.0f, 1, 1)) EXPECT_FALSE(std::isnan(m.value));
 }
 
 TEST(HoughAccumulator, MaximaLieInTheSpaceWhenTheLastBlocksStickOut) {

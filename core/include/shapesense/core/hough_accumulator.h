@@ -102,6 +102,8 @@ class HoughAccumulator {
   /// cells (a negative half-size counts as 0: no neighbours along that axis), strongest first.
   /// Plateaus report one cell. Only cells of the space are reported
   /// (0 <= i, j < cellsA(), 0 <= k < cellsD()); the window reads at(), 0 outside the space.
+  /// Cells are meant to be finite (finite votes and weights); a NaN cell is never a maximum
+  /// and beats no neighbour.
   std::vector<HoughMaximum> findMaxima(float min_value, int window_a = 2, int window_d = 2) const;
 
   /// Multiplies every cell by `factor` and then subtracts `thinning` (the seed's "thinning"),
