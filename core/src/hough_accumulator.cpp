@@ -651,7 +651,11 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   // A smoothed cell is a weighted sum, with weights <= central_weight, of the raw cells of its
   // block's 3x3x3 block neighbourhood (the kernel radius is at most a block edge): a block whose
   // neighbourhood mass times central_weight stays below min_peak holds no cell findMaxima
-  // reports. 1e-3 of margin covers the float rounding of the sums (in any order).
+  // reports. 1e-3 of margin covers the float rounding of the sums (in any order), so every block
+  // that can hold such a cell is kept whatever the summation order. The order does decide blocks
+  // whose neighbourhood mass lies within rounding of the (margined) threshold: none of them can
+  // hold a reported cell, but whether such a block is evaluated or left zero may differ from
+  // another summation order (main's, before the scatter below) in lastSmoothedSpace().
   const std::size_t count = block_keys_.size();
   auto blockCoords = [&](int key) {
     return std::array<int, 3>{key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
@@ -663,7 +667,8 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   need.assign(count, 0);
   const BlockNeighbourhood neighbourhood(nba_, nbd_);
   // 1. The neighbourhood mass of each evaluated block, scattered from the source's blocks (all
-  //    of them, light ones included; there are far fewer of them than evaluated blocks).
+  //    of them, light ones included: smoothed cells read them too): 27 look-ups per source
+  //    block, instead of 27 per evaluated block for gathering.
   std::vector<float>& near_mass = near_mass_;
   near_mass.assign(count, 0.0f);
   for (std::size_t b = 0; b < src.block_keys_.size(); ++b) {

@@ -94,7 +94,9 @@ class HoughAccumulator {
   /// (scattered votes of curved surfaces) cannot form a peak worth reporting and would dominate
   /// the cost. With `min_peak` > 0 only what findMaxima(min_peak) reads is evaluated: the
   /// blocks that could hold a cell >= min_peak and their neighbours come out exactly as without
-  /// it, every other block is zero (or absent).
+  /// it, every other block is zero (or absent). Which of those other blocks are still evaluated
+  /// depends on float sums of block masses compared with a threshold: for a block within
+  /// rounding of it, on the order of the additions (not on anything findMaxima(min_peak) reads).
   void smoothInto(HoughAccumulator& out, double sigma_angle_deg, double sigma_d_m,
                   float min_block_mass, float min_peak = 0.0f) const;
 

@@ -184,7 +184,11 @@ class HoughPlaneDetector {
                         const cv::Mat& bgr = {});
 
   /// The smoothed Hough space of the last round of the last frame (for inspection / tests),
-  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere).
+  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere). The
+  /// cells around every peak are exact; farther blocks whose neighbourhood mass lies within
+  /// float rounding of the pruning threshold may be evaluated or zero depending on the order
+  /// the masses are summed in (it changed with the scattered sums: such blocks can differ from
+  /// earlier versions; the detected planes do not).
   const HoughAccumulator& lastSmoothedSpace() const;
 
  private:
