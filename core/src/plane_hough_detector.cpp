@@ -618,7 +618,9 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       if (!ok) continue;
       // Final inliers at the tolerance with the refined plane, then compacted as the
       // candidates were. (A candidate still alive passed these tests with an earlier plane:
-      // its normal and its distance are not NaN, so "not rejected" is "accepted".)
+      // its point and normal are not NaN. The plane is finite too, since fit() returns a
+      // finite normal and d for finite points (the eigenvectors of a finite covariance), so no
+      // comparison sees a NaN and "not rejected" is "accepted".)
       const PlaneGates final_gates{static_cast<float>(n.x()),
                                    static_cast<float>(n.y()),
                                    static_cast<float>(n.z()),
