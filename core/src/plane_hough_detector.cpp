@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -185,7 +186,10 @@ class MomentSums {
     ref_xy_ = _mm_set_pd(ref.y(), ref.x());
 #endif
   }
+  /// Needs a reference (the constructor's or setReference's): without one the sums would be
+  /// taken relative to (0, 0, 0), unlike PlaneMoments::add.
   void add(float x, float y, float z) {
+    assert(has_ref_);
 #if defined(__SSE2__)
     addXY(_mm_unpacklo_ps(_mm_set_ss(x), _mm_set_ss(y)), z);
 #else
@@ -194,6 +198,7 @@ class MomentSums {
   }
   /// add(p[0], p[1], p[2]), x and y in one load.
   void add(const cv::Vec3f& p) {
+    assert(has_ref_);
 #if defined(__SSE2__)
     double xy;  // the bytes of p[0] and p[1] (memcpy: one load, no aliasing question)
     std::memcpy(&xy, &p[0], sizeof xy);
@@ -259,10 +264,11 @@ class MomentSums {
 #endif
 };
 
-// PlaneMoments(ref) after addIf(x[k], y[k], z[k], in[k]) for k = 0 .. count-1 (in == nullptr:
-// all in), the same moments. The points left out are skipped rather than added as zeros: a sum
-// that starts at +0 is never -0 (round to nearest gives -0 only for -0 + -0), and adding +0
-// leaves any other value unchanged. Nearly all candidates are in (the branch is predictable).
+// PlaneMoments(ref) after add(x[k], y[k], z[k]) for the k in 0 .. count-1 with in[k] (in ==
+// nullptr: all), the same moments. (Skipping a point gives the sums adding zeros for it would:
+// a sum that starts at +0 is never -0, round to nearest giving -0 only for -0 + -0, and adding
+// +0 leaves any other value unchanged.) Nearly all candidates are in (the branch is
+// predictable).
 PlaneMoments candidateMoments(const Eigen::Vector3d& ref, const float* x, const float* y,
                               const float* z, const std::uint8_t* in, int count) {
   MomentSums sums(ref);
@@ -560,8 +566,8 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       }
       if (num_cand == 0 || num_cand < P.min_plane_samples) continue;
       // The candidates' data, contiguous (the shrinking passes test them in loops that
-      // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
-      // the moments, which leaves every sum exactly what the set alone gives.
+      // vectorise); `alive` marks the current set, and candidateMoments skips the candidates
+      // that left it.
       for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(num_cand);
       s.calive.assign(num_cand, 1);
       s.cin.resize(num_cand);
