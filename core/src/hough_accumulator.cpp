@@ -42,6 +42,12 @@ inline int cellInBlock(int li, int lj, int lk) {
 constexpr int kB = HoughAccumulator::kBlock;
 constexpr int kTaps = 2 * kB + 1;
 
+// Block coordinates (bi, bj, bk) of a top-level key (bi fastest) in a space nba blocks wide
+// along each Lambert axis.
+inline std::array<int, 3> blockCoordsOf(int key, int nba) {
+  return {key % nba, (key / nba) % nba, key / (nba * nba)};
+}
+
 // The 27 blocks of a block's 3x3x3 neighbourhood (itself included) that lie in the space, as
 // top-level keys, in (z, y, x) order. Blocks off the border of the space (almost all) add
 // fixed key offsets.
@@ -52,37 +58,36 @@ class BlockNeighbourhood {
       for (int dj = -1; dj <= 1; ++dj)
         for (int di = -1; di <= 1; ++di) offsets_[t++] = (dk * nba + dj) * nba + di;
   }
+  /// Calls f(neighbour key) in that order until f returns true; whether it did.
   template <class F>
-  void forEach(int key, F&& f) const {
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
-    if (bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_) {
-      for (const int offset : offsets_) f(key + offset);
-      return;
-    }
-    for (int z = bk - 1; z <= bk + 1; ++z)
-      for (int y = bj - 1; y <= bj + 1; ++y)
-        for (int x = bi - 1; x <= bi + 1; ++x)
-          if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_)
-            f((z * nba_ + y) * nba_ + x);
-  }
-  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first;
-  /// stops at the first).
-  template <class Pred>
-  bool any(int key, Pred&& pred) const {
-    if (pred(key)) return true;
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+  bool until(int key, F&& f) const {
+    const auto [bi, bj, bk] = blockCoordsOf(key, nba_);
     if (bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_) {
       for (const int offset : offsets_)
-        if (pred(key + offset)) return true;
+        if (f(key + offset)) return true;
       return false;
     }
     for (int z = bk - 1; z <= bk + 1; ++z)
       for (int y = bj - 1; y <= bj + 1; ++y)
         for (int x = bi - 1; x <= bi + 1; ++x)
           if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_ &&
-              pred((z * nba_ + y) * nba_ + x))
+              f((z * nba_ + y) * nba_ + x))
             return true;
     return false;
+  }
+  /// f(neighbour key) for each of them.
+  template <class F>
+  void forEach(int key, F&& f) const {
+    until(key, [&](int nkey) {
+      f(nkey);
+      return false;
+    });
+  }
+  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first;
+  /// stops at the first).
+  template <class Pred>
+  bool any(int key, Pred&& pred) const {
+    return pred(key) || until(key, pred);
   }
 
  private:
@@ -405,6 +410,10 @@ Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
   return Eigen::Vector3d(a * s, b * s, rho2 / 2.0 - 1.0).normalized();
 }
 
+[[gnu::always_inline]] inline std::array<int, 3> HoughAccumulator::blockCoords(int key) const {
+  return blockCoordsOf(key, nba_);
+}
+
 float* HoughAccumulator::blockOrCreate(int key) {
   if (index_[key] < 0) {
     index_[key] = static_cast<std::int32_t>(block_keys_.size());
@@ -580,7 +589,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   // x: this space's block lines are contiguous 4-cell rows; four of them (the 4 y of one z) are
   // loaded and transposed, so each register holds one x position of four lines.
   for (std::size_t b = 0; b < count; ++b) {
-    const int key = block_keys_[b], bi = key % nba_;
+    const int key = block_keys_[b], bi = blockCoords(key)[0];
     const float* blocks[3];
     bool present[3];
     for (int s = 0; s < 3; ++s) {
@@ -614,7 +623,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
       const float* blocks[3] = {nullptr, &in[b * kBlockCells], nullptr};
       bool present[3] = {false, (live[b] & reads) != 0, false};
       if (need[b] >= needed) {
-        const int pos = axis == 1 ? (key / nba_) % nba_ : key / (nba_ * nba_);
+        const int pos = blockCoords(key)[axis];
         for (int s = 0; s < 3; s += 2) {
           if (s == 0 ? pos == 0 : pos == last) continue;
           const int idx = index_[key + (s - 1) * step];
@@ -657,9 +666,6 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   // hold a reported cell, but whether such a block is evaluated or left zero may differ from
   // another summation order (main's, before the scatter below) in lastSmoothedSpace().
   const std::size_t count = block_keys_.size();
-  auto blockCoords = [&](int key) {
-    return std::array<int, 3>{key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
-  };
   auto inside = [&](int x, int y, int z) {
     return x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_;
   };
@@ -762,7 +768,7 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
     std::uint64_t candidates = cellsAtLeast(cells, min_value);
     if (!candidates) continue;
     const int key = block_keys_[b];
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
+    const auto [bi, bj, bk] = blockCoords(key);
     const int ni = bi + 1 == nba_ ? edge_a : kBlock, nj = bj + 1 == nba_ ? edge_a : kBlock,
               nk = bk + 1 == nbd_ ? edge_d : kBlock;
     if (ni < kBlock || nj < kBlock || nk < kBlock) {
