@@ -2,13 +2,18 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <numeric>
 #include <tuple>
+#include <type_traits>
+#include <utility>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+
+#include "cpu_dispatch.h"  // SHAPESENSE_AVX2_PATHS: the AVX2 smoothing passes (GCC only)
 
 namespace shapesense {
 namespace {
@@ -34,6 +39,305 @@ inline int cellInBlock(int li, int lj, int lk) {
   return (lk * HoughAccumulator::kBlock + lj) * HoughAccumulator::kBlock + li;
 }
 
+constexpr int kB = HoughAccumulator::kBlock;
+constexpr int kTaps = 2 * kB + 1;
+
+// Block coordinates (bi, bj, bk) of a top-level key (bi fastest) in a space nba blocks wide
+// along each Lambert axis.
+inline std::array<int, 3> blockCoordsOf(int key, int nba) {
+  return {key % nba, (key / nba) % nba, key / (nba * nba)};
+}
+
+// The 27 blocks of a block's 3x3x3 neighbourhood (itself included) that lie in the space, as
+// top-level keys, in (z, y, x) order. Blocks off the border of the space (almost all) add
+// fixed key offsets.
+class BlockNeighbourhood {
+ public:
+  BlockNeighbourhood(int nba, int nbd) : nba_(nba), nbd_(nbd) {
+    for (int t = 0, dk = -1; dk <= 1; ++dk)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) offsets_[t++] = (dk * nba + dj) * nba + di;
+  }
+  /// Calls f(neighbour key) in that order until f returns true; whether it did.
+  template <class F>
+  bool until(int key, F&& f) const {
+    const auto [bi, bj, bk] = blockCoordsOf(key, nba_);
+    if (bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_) {
+      for (const int offset : offsets_)
+        if (f(key + offset)) return true;
+      return false;
+    }
+    for (int z = bk - 1; z <= bk + 1; ++z)
+      for (int y = bj - 1; y <= bj + 1; ++y)
+        for (int x = bi - 1; x <= bi + 1; ++x)
+          if (x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_ &&
+              f((z * nba_ + y) * nba_ + x))
+            return true;
+    return false;
+  }
+  /// f(neighbour key) for each of them.
+  template <class F>
+  void forEach(int key, F&& f) const {
+    until(key, [&](int nkey) {
+      f(nkey);
+      return false;
+    });
+  }
+  /// Whether pred(neighbour key) holds for any of them (the block itself is tried first;
+  /// stops at the first).
+  template <class Pred>
+  bool any(int key, Pred&& pred) const {
+    return pred(key) || until(key, pred);
+  }
+
+ private:
+  int nba_, nbd_;
+  std::array<int, 27> offsets_{};
+};
+
+// Four floats, one per lane: an SSE2 register, or an array without SSE2 (the same IEEE
+// operations either way: separate multiply and add, no FMA).
+#if defined(__SSE2__)
+using Quad = __m128;
+inline Quad quadZero() { return _mm_setzero_ps(); }
+inline Quad quadSplat(float v) { return _mm_set1_ps(v); }
+inline Quad quadLoad(const float* p) { return _mm_loadu_ps(p); }
+inline void quadStore(float* p, Quad q) { _mm_storeu_ps(p, q); }
+inline Quad quadMulAdd(Quad acc, Quad w, Quad x) { return _mm_add_ps(acc, _mm_mul_ps(w, x)); }
+inline void quadTranspose(Quad (&q)[kB]) { _MM_TRANSPOSE4_PS(q[0], q[1], q[2], q[3]); }
+#else
+struct Quad {
+  float v[4];
+};
+inline Quad quadZero() { return {}; }
+inline Quad quadSplat(float v) { return {{v, v, v, v}}; }
+inline Quad quadLoad(const float* p) {
+  Quad q;
+  std::copy_n(p, 4, q.v);
+  return q;
+}
+inline void quadStore(float* p, const Quad& q) { std::copy_n(q.v, 4, p); }
+inline Quad quadMulAdd(Quad acc, const Quad& w, const Quad& x) {
+  for (int i = 0; i < 4; ++i) acc.v[i] += w.v[i] * x.v[i];
+  return acc;
+}
+inline void quadTranspose(Quad (&q)[kB]) {
+  for (int r = 0; r < 4; ++r)
+    for (int c = r + 1; c < 4; ++c) std::swap(q[r].v[c], q[c].v[r]);
+}
+#endif
+
+// Bit c set when cells[c] >= min_value (a block of kBlockCells = 64 cells): an ordered
+// compare, so a NaN cell is never a candidate.
+inline std::uint64_t cellsAtLeast(const float* cells, float min_value) {
+  static_assert(HoughAccumulator::kBlockCells == 64);
+  std::uint64_t bits = 0;
+#if defined(__SSE2__)
+  const __m128 m = _mm_set1_ps(min_value);
+  for (int q = 0; q < 16; ++q) {
+    const int mask = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(cells + 4 * q), m));
+    bits |= static_cast<std::uint64_t>(mask) << (4 * q);
+  }
+#else
+  for (int c = 0; c < 64; ++c) bits |= static_cast<std::uint64_t>(cells[c] >= min_value) << c;
+#endif
+  return bits;
+}
+
+// Bit c set when a direct neighbour of cell c inside the block rules it out as a findMaxima
+// maximum: a larger one, or an equal one that comes earlier in (k, j, i) order (the plateau
+// tie-break). Only neighbours inside the window count: along x and y with `lambert` (window_a
+// >= 1), along z with `depth` (window_d >= 1). Exact whatever the order of the tests, so it
+// only saves look-ups; without SSE2 it rules nothing out.
+inline std::uint64_t cellsBeatenInBlock(const float* cells, bool lambert, bool depth) {
+  std::uint64_t bits = 0;
+#if defined(__SSE2__)
+  // Rows of 4 x-cells: row q = k * 4 + j.
+  __m128 row[kB * kB];
+  for (int q = 0; q < kB * kB; ++q) row[q] = _mm_loadu_ps(cells + kB * q);
+  // x - 1 / x + 1 of each lane (lane 0 / lane 3 has none: masked).
+  const __m128 has_prev = _mm_castsi128_ps(_mm_set_epi32(-1, -1, -1, 0));
+  const __m128 has_next = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
+  for (int q = 0; q < kB * kB; ++q) {
+    const int j = q % kB, k = q / kB;
+    const __m128 v = row[q];
+    const __m128i vi = _mm_castps_si128(v);
+    const __m128 prev = _mm_castsi128_ps(_mm_slli_si128(vi, 4));  // lane i: cell i - 1
+    const __m128 next = _mm_castsi128_ps(_mm_srli_si128(vi, 4));  // lane i: cell i + 1
+    __m128 beaten = _mm_setzero_ps();
+    if (lambert) {
+      beaten = _mm_or_ps(_mm_and_ps(has_prev, _mm_cmpge_ps(prev, v)),
+                         _mm_and_ps(has_next, _mm_cmpgt_ps(next, v)));
+      if (j > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - 1], v));
+      if (j + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + 1], v));
+    }
+    if (depth) {
+      if (k > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - kB], v));
+      if (k + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + kB], v));
+    }
+    bits |= static_cast<std::uint64_t>(_mm_movemask_ps(beaten)) << (kB * q);
+  }
+#else
+  (void)cells, (void)lambert, (void)depth;
+#endif
+  return bits;
+}
+
+// One output block of a smoothing pass, four independent lines at once (the lanes):
+// out[t] = sum over u in [-kB, kB], ascending, of w[u + kB] * in[kB + t + u], from 0, where
+// in[g] = row(g / kB, g % kB) is row g % kB of the previous (0), own (1) or next (2) block
+// along the axis. Each row is loaded once and added to the outputs it reaches; every output
+// still receives its terms in ascending u. Blocks that are absent or known to be zero
+// (present[s] false) are skipped: their terms are exact zeros, so the sums keep their bits.
+template <class Row>
+[[gnu::always_inline]] inline void convolveRows(const bool (&present)[3], const Row& row,
+                                                const Quad (&w)[kTaps], Quad (&out)[kB]) {
+#pragma GCC unroll 4
+  for (int t = 0; t < kB; ++t) out[t] = quadZero();
+#pragma GCC unroll 3
+  for (int s = 0; s < 3; ++s) {
+    if (!present[s]) continue;
+#pragma GCC unroll 4
+    for (int r = 0; r < kB; ++r) {
+      const Quad x = row(s, r);
+#pragma GCC unroll 4
+      for (int t = 0; t < kB; ++t) {
+        const int u = s * kB + r - kB - t;  // the tap of in[s kB + r] for output t
+        if (u >= -kB && u <= kB) out[t] = quadMulAdd(out[t], w[u + kB], x);
+      }
+    }
+  }
+}
+
+// The y (kAlong = kB) or z (kAlong = kB^2) pass of one output block o from its previous, own
+// and next source blocks along the axis: for each position p of the other axis, the 4 lines
+// that differ only in x at once.
+template <int kAlong>
+void smoothBlockAlong(const float* const (&blocks)[3], const bool (&present)[3],
+                      const Quad (&w)[kTaps], float* o) {
+  constexpr int kAcross = kAlong == kB ? kB * kB : kB;  // stride of the other axis
+  for (int p = 0; p < kB; ++p) {
+    Quad acc[kB];
+    convolveRows(
+        present, [&](int s, int r) { return quadLoad(blocks[s] + p * kAcross + r * kAlong); }, w,
+        acc);
+    for (int t = 0; t < kB; ++t) quadStore(o + p * kAcross + t * kAlong, acc[t]);
+  }
+}
+
+// The x pass of one output block o: a block line's 4 cells are contiguous, so the 4 lines of
+// one z (the 4 y) are loaded and transposed, each register then holding one x position of four
+// lines; the results are transposed back.
+void smoothBlockX(const float* const (&blocks)[3], const bool (&present)[3], const Quad (&w)[kTaps],
+                  float* o) {
+  for (int k = 0; k < kB; ++k) {
+    const int plane = k * kB * kB;
+    Quad in[3][kB];
+    for (int s = 0; s < 3; ++s) {
+      if (!present[s]) continue;
+      for (int j = 0; j < kB; ++j) in[s][j] = quadLoad(blocks[s] + plane + j * kB);
+      quadTranspose(in[s]);
+    }
+    Quad acc[kB];
+    convolveRows(
+        present, [&](int s, int r) { return in[s][r]; }, w, acc);
+    quadTranspose(acc);
+    for (int j = 0; j < kB; ++j) quadStore(o + plane + j * kB, acc[j]);
+  }
+}
+
+#if defined(SHAPESENSE_AVX2_PATHS)
+#pragma GCC push_options
+#pragma GCC target("avx2")  // no FMA contraction: the build has -ffp-contract=off
+
+// convolveRows with eight lanes: positions p and p + 1 of the other axis in one register,
+// lane for lane the same operations (the same bits).
+template <class Row>
+[[gnu::always_inline]] inline void convolveRows8(const bool (&present)[3], const Row& row,
+                                                 const __m256 (&w)[kTaps], __m256 (&out)[kB]) {
+#pragma GCC unroll 4
+  for (int t = 0; t < kB; ++t) out[t] = _mm256_setzero_ps();
+#pragma GCC unroll 3
+  for (int s = 0; s < 3; ++s) {
+    if (!present[s]) continue;
+#pragma GCC unroll 4
+    for (int r = 0; r < kB; ++r) {
+      const __m256 x = row(s, r);
+#pragma GCC unroll 4
+      for (int t = 0; t < kB; ++t) {
+        const int u = s * kB + r - kB - t;
+        if (u >= -kB && u <= kB) out[t] = _mm256_add_ps(out[t], _mm256_mul_ps(w[u + kB], x));
+      }
+    }
+  }
+}
+
+// smoothBlockAlong, two positions of the other axis per register (contiguous along z's other
+// axis y; two halves along y's other axis z).
+template <int kAlong>
+void smoothBlockAlongAvx2(const float* const (&blocks)[3], const bool (&present)[3],
+                          const float* taps, float* o) {
+  constexpr int kAcross = kAlong == kB ? kB * kB : kB;
+  __m256 w[kTaps];
+  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
+  for (int p = 0; p < kB; p += 2) {
+    __m256 acc[kB];
+    convolveRows8(
+        present,
+        [&](int s, int r) {
+          const float* a = blocks[s] + p * kAcross + r * kAlong;
+          return kAcross == kB ? _mm256_loadu_ps(a) : _mm256_loadu2_m128(a + kAcross, a);
+        },
+        w, acc);
+    for (int t = 0; t < kB; ++t) {
+      float* out = o + p * kAcross + t * kAlong;
+      if (kAcross == kB)
+        _mm256_storeu_ps(out, acc[t]);
+      else
+        _mm256_storeu2_m128(out + kAcross, out, acc[t]);
+    }
+  }
+}
+
+// Transposes each 128-bit half of four registers as 4x4 blocks (_MM_TRANSPOSE4_PS per half).
+inline void transposeHalves(__m256 (&q)[kB]) {
+  const __m256 t0 = _mm256_unpacklo_ps(q[0], q[1]), t1 = _mm256_unpackhi_ps(q[0], q[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(q[2], q[3]), t3 = _mm256_unpackhi_ps(q[2], q[3]);
+  q[0] = _mm256_shuffle_ps(t0, t2, 0x44);
+  q[1] = _mm256_shuffle_ps(t0, t2, 0xEE);
+  q[2] = _mm256_shuffle_ps(t1, t3, 0x44);
+  q[3] = _mm256_shuffle_ps(t1, t3, 0xEE);
+}
+
+// smoothBlockX, two z positions per register (each half transposed on its own).
+void smoothBlockXAvx2(const float* const (&blocks)[3], const bool (&present)[3], const float* taps,
+                      float* o) {
+  constexpr int kPlane = kB * kB;
+  __m256 w[kTaps];
+  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
+  for (int k = 0; k < kB; k += 2) {
+    __m256 in[3][kB];
+    for (int s = 0; s < 3; ++s) {
+      if (!present[s]) continue;
+      for (int j = 0; j < kB; ++j) {
+        const float* line = blocks[s] + k * kPlane + j * kB;
+        in[s][j] = _mm256_loadu2_m128(line + kPlane, line);
+      }
+      transposeHalves(in[s]);
+    }
+    __m256 acc[kB];
+    convolveRows8(
+        present, [&](int s, int r) { return in[s][r]; }, w, acc);
+    transposeHalves(acc);
+    for (int j = 0; j < kB; ++j) {
+      float* line = o + k * kPlane + j * kB;
+      _mm256_storeu2_m128(line + kPlane, line, acc[j]);
+    }
+  }
+}
+
+#pragma GCC pop_options
+#endif
 }  // namespace
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
@@ -106,6 +410,10 @@ Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
   return Eigen::Vector3d(a * s, b * s, rho2 / 2.0 - 1.0).normalized();
 }
 
+[[gnu::always_inline]] inline std::array<int, 3> HoughAccumulator::blockCoords(int key) const {
+  return blockCoordsOf(key, nba_);
+}
+
 float* HoughAccumulator::blockOrCreate(int key) {
   if (index_[key] < 0) {
     index_[key] = static_cast<std::int32_t>(block_keys_.size());
@@ -127,14 +435,14 @@ void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
 
 void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* nz, const float* d,
                                  int count, float w) {
+  int v = 0;
+#if defined(__SSE2__)
   // One vote, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
   auto add = [&](double ci, double cj, double ck) {
     int i, j, k;
     if (roundedCell(ci, cj, ck, i, j, k)) addToCellInRange(i, j, k, w);
   };
   const double ext = params_.lambert_extent;
-  int v = 0;
-#if defined(__SSE2__)
   // cellCoordinates, two votes per SSE2 register: the same IEEE operations in the same order
   // (division and square root are correctly rounded either way), so the same cells. A normal at
   // or beyond the pole (den <= 1e-9) has no cell.
@@ -167,9 +475,15 @@ void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* 
 }
 
 float HoughAccumulator::at(int i, int j, int k) const {
-  if (i < 0 || j < 0 || k < 0 || i >= na_ || j >= na_ || k >= nd_) return 0.0f;
-  const float* b = block(blockIndex(i / kBlock, j / kBlock, k / kBlock));
-  return b ? b[cellInBlock(i % kBlock, j % kBlock, k % kBlock)] : 0.0f;
+  // One unsigned comparison per axis also rejects negative indices; then shifts and masks
+  // (findMaxima calls this for every neighbour it compares).
+  static_assert(kBlock == 4);
+  if (static_cast<unsigned>(i) >= static_cast<unsigned>(na_) ||
+      static_cast<unsigned>(j) >= static_cast<unsigned>(na_) ||
+      static_cast<unsigned>(k) >= static_cast<unsigned>(nd_))
+    return 0.0f;
+  const float* b = block(blockIndex(i >> 2, j >> 2, k >> 2));
+  return b ? b[cellInBlock(i & 3, j & 3, k & 3)] : 0.0f;
 }
 
 double HoughAccumulator::totalMass() const {
@@ -218,31 +532,25 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // 1. The evaluated block set: heavy blocks and their 26 neighbours.
   std::vector<float>& block_mass = out.block_mass_;  // of this space's blocks, for the peak bound
   block_mass.resize(block_keys_.size());
+  const BlockNeighbourhood neighbourhood(nba_, nbd_);
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     const float* cells = &cells_[b * kBlockCells];
     float mass = 0;
     for (int c = 0; c < kBlockCells; ++c) mass += cells[c];
     block_mass[b] = mass;
     if (mass < min_block_mass) continue;
-    const int key = block_keys_[b];
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
-    for (int dk = -1; dk <= 1; ++dk)
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) {
-          const int x = bi + di, y = bj + dj, z = bk + dk;
-          if (x < 0 || y < 0 || z < 0 || x >= nba_ || y >= nba_ || z >= nbd_) continue;
-          out.blockOrCreate(blockIndex(x, y, z));
-        }
+    neighbourhood.forEach(block_keys_[b], [&](int nkey) {
+      if (out.index_[nkey] < 0) out.blockOrCreate(nkey);  // (most neighbours exist already)
+    });
   }
   if (out.block_keys_.empty()) return;
 
-  // 2. Three separable passes: this -> out.cells_ (x), out -> scratch (y), scratch -> out (z).
-  //    Every pass writes the same block set; reads see zeros outside it (and, for the first,
-  //    the light blocks of this space).
+  // 2. Three separable passes (smoothPasses): this -> out.cells_ (x), out -> scratch (y),
+  //    scratch -> out (z), over the same block set; reads see zeros outside it (and, for the
+  //    first, the light blocks of this space).
   // Taps padded to the largest radius (kBlock) with zeros: fixed-size loops that unroll and
   // vectorise; the extra terms add exact zeros.
-  constexpr int kTaps = 2 * kBlock + 1;
-  std::array<std::array<float, kTaps>, 3> taps{};
+  SmoothingTaps taps{};
   const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_,
                                              sigma_angle_deg * kDegToRad / a_cell_,
                                              sigma_d_m / params_.d_cell_m};
@@ -251,90 +559,99 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     const int r = static_cast<int>(w.size() / 2);
     for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
   }
-  const std::array<int, 3> nb = {nba_, nba_, nbd_};
-  // Which passes each evaluated block needs (see kNeedX.. below); all of them without a peak bound.
+  // Which passes each evaluated block needs (kNeedX..); all of them without a peak bound.
   std::vector<std::uint8_t>& need = out.smooth_need_;
   need.assign(out.block_keys_.size(), kNeedZ);
   if (min_peak > 0.0f)
     out.pruneForPeaks(*this, block_mass, taps[0][kBlock] * taps[1][kBlock] * taps[2][kBlock],
                       min_peak);
-  out.scratch_.assign(out.cells_.size(), 0.0f);
-  const std::array<int, 3> stride = {1, kBlock, kBlock * kBlock};
-  static constexpr std::array<float, kBlockCells> kZeros{};
+  out.smoothPasses(*this, taps);
+}
 
-  // The source blocks before, at and after output block `key` along `axis` (zeros = no votes).
-  auto neighbours = [&](int key, int axis, const std::vector<std::int32_t>& src_index,
-                        const std::vector<float>& src, std::array<const float*, 3>& blocks) {
-    const int bc[3] = {key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
-    bool any = false;
-    for (int s = -1; s <= 1; ++s) {
-      int c[3] = {bc[0], bc[1], bc[2]};
-      c[axis] += s;
-      const bool inside = c[axis] >= 0 && c[axis] < nb[axis];
-      const int idx = inside ? src_index[blockIndex(c[0], c[1], c[2])] : -1;
-      blocks[s + 1] = idx < 0 ? kZeros.data() : &src[static_cast<std::size_t>(idx) * kBlockCells];
-      any |= idx >= 0;
+void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps) {
+  const std::size_t count = block_keys_.size();
+  const std::vector<std::uint8_t>& need = smooth_need_;
+  scratch_.resize(cells_.size());  // every block the z pass reads is written first
+  // Which pass results of a block may be non-zero (kLiveX: the x pass, kLiveY: the y pass).
+  // A pass skips the neighbours that are absent or known to be zero: their terms are exact
+  // zeros, so the sums keep their bits. A block whose x or y result is not live is never read,
+  // so it is not written either.
+  constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
+  std::vector<std::uint8_t>& live = smooth_live_;
+  live.assign(count, 0);
+#if defined(SHAPESENSE_AVX2_PATHS)
+  const bool avx2 = detail::cpuHasAvx2();
+#endif
+  Quad w[3][kTaps];
+  for (int axis = 0; axis < 3; ++axis)
+    for (int u = 0; u < kTaps; ++u) w[axis][u] = quadSplat(taps[axis][u]);
+
+  // x: this space's block lines are contiguous 4-cell rows; four of them (the 4 y of one z) are
+  // loaded and transposed, so each register holds one x position of four lines.
+  for (std::size_t b = 0; b < count; ++b) {
+    const int key = block_keys_[b], bi = blockCoords(key)[0];
+    const float* blocks[3];
+    bool present[3];
+    for (int s = 0; s < 3; ++s) {
+      const int x = bi + s - 1;
+      blocks[s] = x >= 0 && x < nba_ ? src.block(key + s - 1) : nullptr;
+      present[s] = blocks[s] != nullptr;
     }
-    return any;
-  };
-  // Along x the 4 cells of a block line are contiguous: each output line is 4 running sums over
-  // a 12-cell window of the three blocks (the compiler vectorises the 4 sums).
-  auto passX = [&](const std::vector<std::int32_t>& src_index, const std::vector<float>& src,
-                   std::vector<float>& dst) {
-    const auto& w = taps[0];
-    std::array<const float*, 3> blocks{};
-    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
-      float* o = &dst[b * kBlockCells];
-      if (!neighbours(out.block_keys_[b], 0, src_index, src, blocks)) {
-        std::fill_n(o, kBlockCells, 0.0f);
-        continue;
-      }
-      for (int line = 0; line < kBlockCells; line += kBlock) {
-        std::array<float, 3 * kBlock> in;
-        for (int s = 0; s < 3; ++s) std::copy_n(blocks[s] + line, kBlock, &in[s * kBlock]);
-        std::array<float, kBlock> acc{};
-        for (int u = -kBlock; u <= kBlock; ++u)
-          for (int t = 0; t < kBlock; ++t) acc[t] += w[u + kBlock] * in[kBlock + t + u];
-        std::copy_n(acc.data(), kBlock, o + line);
-      }
+    if (!(present[0] || present[1] || present[2])) continue;
+    live[b] = kLiveX;
+    float* o = &cells_[b * kBlockCells];
+#if defined(SHAPESENSE_AVX2_PATHS)
+    if (avx2) {
+      smoothBlockXAvx2(blocks, present, taps[0].data(), o);
+      continue;
     }
-  };
-  // Along y and z a block line's cells are kBlock (or kBlock^2) apart, but the 4 lines that
-  // differ only in x are contiguous: smooth those 4 at once.
-  auto passYZ = [&](int axis, const std::vector<std::int32_t>& src_index,
-                    const std::vector<float>& src, std::vector<float>& dst) {
-    const auto& w = taps[axis];
-    const int other = axis == 1 ? 2 : 1;
-    std::array<const float*, 3> blocks{};
-    const std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
-    for (std::size_t b = 0; b < out.block_keys_.size(); ++b) {
+#endif
+    smoothBlockX(blocks, present, w[0], o);
+  }
+  // y (cells_ -> scratch_) and z (scratch_ -> cells_): a block line's cells are kBlock (or
+  // kBlock^2) apart, but the 4 lines that differ only in x are contiguous: one register.
+  auto passYZ = [&](auto axis_constant, const std::vector<float>& in, std::vector<float>& dst) {
+    constexpr int axis = decltype(axis_constant)::value;
+    constexpr int along = axis == 1 ? kBlock : kBlock * kBlock;  // stride along the axis
+    constexpr std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
+    constexpr std::uint8_t reads = axis == 1 ? kLiveX : kLiveY;
+    const int step = axis == 1 ? nba_ : nba_ * nba_;  // key offset of the next block
+    const int last = axis == 1 ? nba_ - 1 : nbd_ - 1;
+    for (std::size_t b = 0; b < count; ++b) {
       float* o = &dst[b * kBlockCells];
-      if (need[b] < needed) {
-        // Never read: zeros (after the z pass, this is what findMaxima sees; it cannot hold a
-        // peak and is no neighbour of one).
-        std::fill_n(o, kBlockCells, 0.0f);
-        continue;
-      }
-      neighbours(out.block_keys_[b], axis, src_index, src, blocks);
-      for (int p = 0; p < kBlock; ++p) {
-        // rows[g]: the 4 x-cells at position g - kBlock along `axis`, g in [0, 3 kBlock).
-        std::array<const float*, 3 * kBlock> rows;
-        for (int g = 0; g < 3 * kBlock; ++g)
-          rows[g] = blocks[g / kBlock] + p * stride[other] + (g % kBlock) * stride[axis];
-        for (int t = 0; t < kBlock; ++t) {
-          std::array<float, kBlock> acc{};
-          for (int u = -kBlock; u <= kBlock; ++u) {
-            const float* row = rows[kBlock + t + u];
-            for (int i = 0; i < kBlock; ++i) acc[i] += w[u + kBlock] * row[i];
-          }
-          std::copy_n(acc.data(), kBlock, o + p * stride[other] + t * stride[axis]);
+      const int key = block_keys_[b];
+      const float* blocks[3] = {nullptr, &in[b * kBlockCells], nullptr};
+      bool present[3] = {false, (live[b] & reads) != 0, false};
+      if (need[b] >= needed) {
+        const int pos = blockCoords(key)[axis];
+        for (int s = 0; s < 3; s += 2) {
+          if (s == 0 ? pos == 0 : pos == last) continue;
+          const int idx = index_[key + (s - 1) * step];
+          if (idx < 0 || !(live[idx] & reads)) continue;
+          blocks[s] = &in[static_cast<std::size_t>(idx) * kBlockCells];
+          present[s] = true;
         }
+      } else {
+        present[1] = false;
       }
+      if (!(present[0] || present[1] || present[2])) {
+        // After the z pass this is what findMaxima sees: a block that cannot hold a peak and is
+        // no neighbour of one, or one without votes near it.
+        if (axis == 2) std::fill_n(o, kBlockCells, 0.0f);
+        continue;
+      }
+      if (axis == 1) live[b] |= kLiveY;
+#if defined(SHAPESENSE_AVX2_PATHS)
+      if (avx2) {
+        smoothBlockAlongAvx2<along>(blocks, present, taps[axis].data(), o);
+        continue;
+      }
+#endif
+      smoothBlockAlong<along>(blocks, present, w[axis], o);
     }
   };
-  passX(index_, cells_, out.cells_);
-  passYZ(1, out.index_, out.cells_, out.scratch_);
-  passYZ(2, out.index_, out.scratch_, out.cells_);
+  passYZ(std::integral_constant<int, 1>{}, cells_, scratch_);
+  passYZ(std::integral_constant<int, 2>{}, scratch_, cells_);
 }
 
 void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
@@ -343,49 +660,48 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   // A smoothed cell is a weighted sum, with weights <= central_weight, of the raw cells of its
   // block's 3x3x3 block neighbourhood (the kernel radius is at most a block edge): a block whose
   // neighbourhood mass times central_weight stays below min_peak holds no cell findMaxima
-  // reports. 1e-3 of margin covers the float rounding of the sums.
+  // reports. 1e-3 of margin covers the float rounding of the sums (in any order), so every block
+  // that can hold such a cell is kept whatever the summation order. The order does decide blocks
+  // whose neighbourhood mass lies within rounding of the (margined) threshold: none of them can
+  // hold a reported cell, but whether such a block is evaluated or left zero may differ from
+  // another summation order (main's, before the scatter below) in lastSmoothedSpace().
   const std::size_t count = block_keys_.size();
-  auto blockCoords = [&](int key) {
-    return std::array<int, 3>{key % nba_, (key / nba_) % nba_, key / (nba_ * nba_)};
-  };
   auto inside = [&](int x, int y, int z) {
     return x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_;
   };
   std::vector<std::uint8_t>& need = smooth_need_;
   need.assign(count, 0);
-  // 1. Peak blocks, and every evaluated block within one block of them (findMaxima compares a
+  const BlockNeighbourhood neighbourhood(nba_, nbd_);
+  // 1. The neighbourhood mass of each evaluated block, scattered from the source's blocks (all
+  //    of them, light ones included: smoothed cells read them too): 27 look-ups per source
+  //    block, instead of 27 per evaluated block for gathering.
+  std::vector<float>& near_mass = near_mass_;
+  near_mass.assign(count, 0.0f);
+  for (std::size_t b = 0; b < src.block_keys_.size(); ++b) {
+    const float mass = src_block_mass[b];
+    neighbourhood.forEach(src.block_keys_[b], [&](int nkey) {
+      const int idx = index_[nkey];
+      if (idx >= 0) near_mass[idx] += mass;
+    });
+  }
+  // 2. Peak blocks, and every evaluated block within one block of them (findMaxima compares a
   //    cell with its window of <= 2 cells and takes the centroid of its 3x3x3 cells): kNeedZ,
   //    which must come out exactly as without pruning.
+  //    Nearly every evaluated block is one: each looks for a peak block around it (usually
+  //    itself or the next one tried), and when all are, nothing is pruned.
   const float min_mass = min_peak / (central_weight * 1.001f);
-  // Key offsets of the 27 neighbours, for blocks off the border of the space (almost all).
-  std::array<int, 27> offsets{};
-  for (int t = 0, dk = -1; dk <= 1; ++dk)
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di) offsets[t++] = (dk * nba_ + dj) * nba_ + di;
+  std::size_t near_peaks = 0;
   for (std::size_t b = 0; b < count; ++b) {
-    const int key = block_keys_[b];
-    const auto [bi, bj, bk] = blockCoords(key);
-    const bool interior =
-        bi > 0 && bj > 0 && bk > 0 && bi + 1 < nba_ && bj + 1 < nba_ && bk + 1 < nbd_;
-    auto neighbourKey = [&](int t) {
-      if (interior) return key + offsets[t];
-      const int x = bi + t % 3 - 1, y = bj + (t / 3) % 3 - 1, z = bk + t / 9 - 1;
-      return inside(x, y, z) ? blockIndex(x, y, z) : -1;
-    };
-    float mass = 0.0f;
-    for (int t = 0; t < 27 && mass < min_mass; ++t) {
-      const int nkey = neighbourKey(t);
-      const int idx = nkey < 0 ? -1 : src.index_[nkey];
-      if (idx >= 0) mass += src_block_mass[idx];
-    }
-    if (mass < min_mass) continue;
-    for (int t = 0; t < 27; ++t) {
-      const int nkey = neighbourKey(t);
-      const int idx = nkey < 0 ? -1 : index_[nkey];
-      if (idx >= 0) need[idx] = kNeedZ;
-    }
+    const bool near_peak = neighbourhood.any(block_keys_[b], [&](int nkey) {
+      const int idx = index_[nkey];
+      return idx >= 0 && near_mass[idx] >= min_mass;
+    });
+    if (!near_peak) continue;
+    need[b] = kNeedZ;
+    ++near_peaks;
   }
-  // 2. The z pass of a kNeedZ block reads the y pass of its z neighbours (kNeedY), whose y pass
+  if (near_peaks == count) return;
+  // 3. The z pass of a kNeedZ block reads the y pass of its z neighbours (kNeedY), whose y pass
   //    reads the x pass of their y neighbours (kNeedX). The passes read zeros outside the
   //    evaluated set, so these must keep exactly the blocks they had.
   auto raise = [&](int axis, std::uint8_t from, std::uint8_t to) {
@@ -403,7 +719,7 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   };
   raise(2, kNeedZ, kNeedY);
   raise(1, kNeedY, kNeedX);
-  // 3. Drop the rest (the pool is still all zeros, so it is rebuilt in the same order).
+  // 4. Drop the rest (the pool is still all zeros, so it is rebuilt in the same order).
   std::vector<std::int32_t> kept_keys;
   std::vector<std::uint8_t> kept_need;
   kept_keys.reserve(count);
@@ -428,25 +744,50 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
     int di, dj, dk;
     bool earlier;
   };
+  // Generated by increasing L1 distance, each distance in (dk, dj, di) order: the order a
+  // stable sort by distance of the lexicographic enumeration gives. A negative half-size counts
+  // as 0 (as the in-block filter below takes it).
+  window_a = std::max(0, window_a);
+  window_d = std::max(0, window_d);
   std::vector<Offset> window;
-  for (int dk = -window_d; dk <= window_d; ++dk)
-    for (int dj = -window_a; dj <= window_a; ++dj)
-      for (int di = -window_a; di <= window_a; ++di)
-        if (di || dj || dk)
-          window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
-  std::stable_sort(window.begin(), window.end(), [](const Offset& a, const Offset& b) {
-    return std::abs(a.di) + std::abs(a.dj) + std::abs(a.dk) <
-           std::abs(b.di) + std::abs(b.dj) + std::abs(b.dk);
-  });
+  for (int l1 = 1; l1 <= 2 * window_a + window_d; ++l1)
+    for (int dk = -window_d; dk <= window_d; ++dk)
+      for (int dj = -window_a; dj <= window_a; ++dj)
+        for (int di = -window_a; di <= window_a; ++di)
+          if (std::abs(di) + std::abs(dj) + std::abs(dk) == l1)
+            window.push_back({di, dj, dk, std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0)});
   std::vector<HoughMaximum> maxima;
+  // The cells of the last block along an axis that lie in the space (1..kBlock): when na_ or
+  // nd_ is not a multiple of kBlock that block sticks out of the space, and the smoothing passes
+  // fill whole blocks, so its cells outside hold values at() does not see (it returns 0 there).
+  const int edge_a = na_ - (nba_ - 1) * kBlock, edge_d = nd_ - (nbd_ - 1) * kBlock;
+  alignas(16) float clipped[kBlockCells];
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
+    // The cells >= min_value, as bits (most blocks have none).
     const float* cells = &cells_[b * kBlockCells];
-    if (*std::max_element(cells, cells + kBlockCells) < min_value) continue;
+    std::uint64_t candidates = cellsAtLeast(cells, min_value);
+    if (!candidates) continue;
     const int key = block_keys_[b];
-    const int bi = key % nba_, bj = (key / nba_) % nba_, bk = key / (nba_ * nba_);
-    for (int c = 0; c < kBlockCells; ++c) {
+    const auto [bi, bj, bk] = blockCoords(key);
+    const int ni = bi + 1 == nba_ ? edge_a : kBlock, nj = bj + 1 == nba_ ? edge_a : kBlock,
+              nk = bk + 1 == nbd_ ? edge_d : kBlock;
+    if (ni < kBlock || nj < kBlock || nk < kBlock) {
+      // A block sticking out of the space: its cells as at() sees them (0 outside), and only
+      // the cells inside can be maxima.
+      std::uint64_t in_space = 0;
+      for (int c = 0; c < kBlockCells; ++c) {
+        const bool in = c % kBlock < ni && (c / kBlock) % kBlock < nj && c / (kBlock * kBlock) < nk;
+        clipped[c] = in ? cells[c] : 0.0f;
+        in_space |= static_cast<std::uint64_t>(in) << c;
+      }
+      cells = clipped;
+      candidates &= in_space;
+      if (!candidates) continue;
+    }
+    candidates &= ~cellsBeatenInBlock(cells, window_a >= 1, window_d >= 1);
+    for (; candidates; candidates &= candidates - 1) {
+      const int c = std::countr_zero(candidates);
       const float v = cells[c];
-      if (v < min_value) continue;
       const int i = bi * kBlock + c % kBlock, j = bj * kBlock + (c / kBlock) % kBlock;
       const int k = bk * kBlock + c / (kBlock * kBlock);
       bool is_max = true;

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -9,6 +10,11 @@
 
 #include <Eigen/Geometry>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "cpu_dispatch.h"  // SHAPESENSE_AVX2_PATHS: the AVX2 variants below (GCC only)
 #include "shapesense/core/plane_labeling.h"
 #include "shapesense/core/planes.h"
 
@@ -16,6 +22,260 @@ namespace shapesense {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+#if defined(SHAPESENSE_AVX2_PATHS)
+// countWithin (below), four points per AVX2 register: lane for lane the same operations
+// (nothing fused into FMA: the build has -ffp-contract=off).
+[[gnu::target("avx2")]] std::size_t countWithinAvx2(double nx, double ny, double nz, double d,
+                                                    const double* x, const double* y,
+                                                    const double* z, const double* tol,
+                                                    std::size_t n) {
+  const __m256d vnx = _mm256_set1_pd(nx), vny = _mm256_set1_pd(ny), vnz = _mm256_set1_pd(nz),
+                vd = _mm256_set1_pd(d), sign = _mm256_set1_pd(-0.0);
+  __m256i counts = _mm256_setzero_si256();  // minus the number of inliers, per lane
+  std::size_t k = 0;
+  for (; k + 4 <= n; k += 4) {
+    const __m256d dot =
+        _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vnx, _mm256_loadu_pd(x + k)),
+                                                  _mm256_mul_pd(vny, _mm256_loadu_pd(y + k))),
+                                    _mm256_mul_pd(vnz, _mm256_loadu_pd(z + k))),
+                      vd);
+    const __m256d within =
+        _mm256_cmp_pd(_mm256_andnot_pd(sign, dot), _mm256_loadu_pd(tol + k), _CMP_LE_OQ);
+    counts = _mm256_add_epi64(counts, _mm256_castpd_si256(within));  // a true lane is -1
+  }
+  alignas(32) std::int64_t lanes[4];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), counts);
+  std::size_t count = static_cast<std::size_t>(-(lanes[0] + lanes[1] + lanes[2] + lanes[3]));
+  for (; k < n; ++k) count += std::fabs(nx * x[k] + ny * y[k] + nz * z[k] + d) <= tol[k];
+  return count;
+}
+#endif
+
+// How many of the n points (x, y, z) lie within tol of plane (normal, d): |normal.p + d| <=
+// tol, evaluated left to right in double. Two points per SSE2 register, or four with AVX2
+// (the same operations, lane for lane; GCC does not vectorise the counting loop itself).
+std::size_t countWithin(const Eigen::Vector3d& normal, double d, const double* x, const double* y,
+                        const double* z, const double* tol, std::size_t n) {
+  const double nx = normal.x(), ny = normal.y(), nz = normal.z();
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return countWithinAvx2(nx, ny, nz, d, x, y, z, tol, n);
+#endif
+  std::size_t count = 0, k = 0;
+#if defined(__SSE2__)
+  const __m128d vnx = _mm_set1_pd(nx), vny = _mm_set1_pd(ny), vnz = _mm_set1_pd(nz),
+                vd = _mm_set1_pd(d), sign = _mm_set1_pd(-0.0);
+  __m128i counts = _mm_setzero_si128();  // minus the number of inliers, per lane
+  for (; k + 2 <= n; k += 2) {
+    const __m128d dot = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(vnx, _mm_loadu_pd(x + k)),
+                                                         _mm_mul_pd(vny, _mm_loadu_pd(y + k))),
+                                              _mm_mul_pd(vnz, _mm_loadu_pd(z + k))),
+                                   vd);
+    const __m128d within = _mm_cmple_pd(_mm_andnot_pd(sign, dot), _mm_loadu_pd(tol + k));
+    counts = _mm_add_epi64(counts, _mm_castpd_si128(within));  // a true lane is -1
+  }
+  alignas(16) std::int64_t lanes[2];
+  _mm_store_si128(reinterpret_cast<__m128i*>(lanes), counts);
+  count = static_cast<std::size_t>(-(lanes[0] + lanes[1]));
+#endif
+  for (; k < n; ++k) count += std::fabs(nx * x[k] + ny * y[k] + nz * z[k] + d) <= tol[k];
+  return count;
+}
+
+// Samples as structure of arrays: points, unit normals (NaN = none) and distance tolerances.
+struct SampleArrays {
+  const float *x, *y, *z, *nx, *ny, *nz, *tol;
+};
+
+// A plane and the gates of a refinement test, in float as the scans evaluate them.
+struct PlaneGates {
+  float nx, ny, nz, d;
+  float gate_mult;   // distance gate: gate_mult x the sample's tolerance
+  float cos_normal;  // the normals' dot product must reach this
+};
+
+// Branch-free loops over every sample (the tests fail unpredictably) that vectorise; the
+// *Avx2 variants are the same code compiled for AVX2 (nothing fused into FMA: the build has
+// -ffp-contract=off; the same operations, lane for lane: the same bits) and run where the CPU
+// has it (detail::cpuHasAvx2, checked once).
+//
+// in[k] = (alive == nullptr || alive[k]) && |plane . p_k| <= gate_mult tol[k] && the normals
+// agree.
+[[gnu::always_inline]] inline void gateFlagsLoop(const PlaneGates& g, const SampleArrays& a,
+                                                 const std::uint8_t* alive, std::uint8_t* in,
+                                                 int count) {
+  // Locals: the byte stores could alias the structs' members, not these (so it vectorises).
+  const float *x = a.x, *y = a.y, *z = a.z, *nx = a.nx, *ny = a.ny, *nz = a.nz, *tol = a.tol;
+  const float px = g.nx, py = g.ny, pz = g.nz, pd = g.d, mult = g.gate_mult, cos_n = g.cos_normal;
+  auto dist = [=](int k) { return std::fabs(px * x[k] + py * y[k] + pz * z[k] + pd); };
+  auto agrees = [=](int k) { return px * nx[k] + py * ny[k] + pz * nz[k] >= cos_n; };
+  if (alive == nullptr && mult == 1.0f)  // (1 x the tolerance is the tolerance: one multiply less)
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>((dist(k) <= tol[k]) & agrees(k));
+  else if (alive == nullptr)
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>((dist(k) <= mult * tol[k]) & agrees(k));
+  else
+    for (int k = 0; k < count; ++k)
+      in[k] = static_cast<std::uint8_t>(alive[k] & (dist(k) <= mult * tol[k]) & agrees(k));
+}
+
+// agree[i] = whether normals i and i + offset (interleaved x, y, z) are within the angle whose
+// cosine is cos_max, for i in [begin, end). NaN normals never agree.
+[[gnu::always_inline]] inline void normalAgreementLoop(const float* normals, int offset,
+                                                       float cos_max, int begin, int end,
+                                                       std::uint8_t* agree) {
+  const float* m = normals + 3 * offset;
+  for (int i = begin; i < end; ++i)
+    agree[i] =
+        static_cast<std::uint8_t>(normals[3 * i] * m[3 * i] + normals[3 * i + 1] * m[3 * i + 1] +
+                                      normals[3 * i + 2] * m[3 * i + 2] >=
+                                  cos_max);
+}
+
+void gateFlagsDefault(const PlaneGates& g, const SampleArrays& a, const std::uint8_t* alive,
+                      std::uint8_t* in, int count) {
+  gateFlagsLoop(g, a, alive, in, count);
+}
+void normalAgreementDefault(const float* normals, int offset, float cos_max, int begin, int end,
+                            std::uint8_t* agree) {
+  normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
+}
+
+#if defined(SHAPESENSE_AVX2_PATHS)
+[[gnu::target("avx2")]] void gateFlagsAvx2(const PlaneGates& g, const SampleArrays& a,
+                                           const std::uint8_t* alive, std::uint8_t* in, int count) {
+  gateFlagsLoop(g, a, alive, in, count);
+}
+[[gnu::target("avx2")]] void normalAgreementAvx2(const float* normals, int offset, float cos_max,
+                                                 int begin, int end, std::uint8_t* agree) {
+  normalAgreementLoop(normals, offset, cos_max, begin, end, agree);
+}
+#endif
+
+// Out of line: inlined (three call sites in detect) it made GCC stop inlining
+// PlaneMoments::add into detect.
+[[gnu::noinline]] void gateFlags(const PlaneGates& g, const SampleArrays& a,
+                                 const std::uint8_t* alive, std::uint8_t* in, int count) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return gateFlagsAvx2(g, a, alive, in, count);
+#endif
+  gateFlagsDefault(g, a, alive, in, count);
+}
+void normalAgreement(const float* normals, int offset, float cos_max, int begin, int end,
+                     std::uint8_t* agree) {
+#if defined(SHAPESENSE_AVX2_PATHS)
+  if (detail::cpuHasAvx2()) return normalAgreementAvx2(normals, offset, cos_max, begin, end, agree);
+#endif
+  normalAgreementDefault(normals, offset, cos_max, begin, end, agree);
+}
+
+// The sums of PlaneMoments (w = 1) in registers, for loops over many points: two of them per
+// SSE2 register, lane for lane the additions PlaneMoments::add makes, in the same order, so
+// moments() equals the PlaneMoments the same add() calls give. Needs a reference (the first
+// point, as add() takes it, or the caller's).
+class MomentSums {
+ public:
+  MomentSums() = default;
+  explicit MomentSums(const Eigen::Vector3d& ref) { setReference(ref); }
+  bool hasReference() const { return has_ref_; }
+  void setReference(const Eigen::Vector3d& ref) {
+    ref_ = ref;
+    has_ref_ = true;
+#if defined(__SSE2__)
+    ref_xy_ = _mm_set_pd(ref.y(), ref.x());
+#endif
+  }
+  /// Needs a reference (the constructor's or setReference's): without one the sums would be
+  /// taken relative to (0, 0, 0), unlike PlaneMoments::add.
+  void add(float x, float y, float z) {
+    assert(has_ref_);
+#if defined(__SSE2__)
+    addXY(_mm_unpacklo_ps(_mm_set_ss(x), _mm_set_ss(y)), z);
+#else
+    addScalar(x, y, z);
+#endif
+  }
+  /// add(p[0], p[1], p[2]), x and y in one load.
+  void add(const cv::Vec3f& p) {
+    assert(has_ref_);
+#if defined(__SSE2__)
+    double xy;  // the bytes of p[0] and p[1] (memcpy: one load, no aliasing question)
+    std::memcpy(&xy, &p[0], sizeof xy);
+    addXY(_mm_castpd_ps(_mm_set_sd(xy)), p[2]);
+#else
+    addScalar(p[0], p[1], p[2]);
+#endif
+  }
+  /// PlaneMoments() when no reference was set.
+  PlaneMoments moments() const {
+    if (!has_ref_) return PlaneMoments();
+#if defined(__SSE2__)
+    alignas(16) double s[2], ss[6];
+    _mm_store_pd(s, s_ab_);
+    _mm_store_pd(ss, aa_ab_);
+    _mm_store_pd(ss + 2, ac_bb_);
+    _mm_store_pd(ss + 4, bc_cc_);
+    const Eigen::Vector3d sum(s[0], s[1], s_c_);
+    // ss: a a, a b, a c, b b, b c, c c
+#else
+    const Eigen::Vector3d sum(s_[0], s_[1], s_[2]);
+    const double* ss = ss_;
+#endif
+    Eigen::Matrix3d sq;
+    sq << ss[0], ss[1], ss[2], 0.0, ss[3], ss[4], 0.0, 0.0, ss[5];
+    return PlaneMoments::fromSums(ref_, n_, sum, sq);
+  }
+
+ private:
+#if defined(__SSE2__)
+  // x and y in the two low lanes of xy.
+  void addXY(__m128 xy, float z) {
+    // (a, b) and c as PlaneMoments::add computes them from the doubles of x, y, z.
+    const __m128d ab = _mm_sub_pd(_mm_cvtps_pd(xy), ref_xy_);
+    const __m128d c = _mm_set1_pd(static_cast<double>(z) - ref_.z());
+    n_ += 1.0;
+    s_ab_ = _mm_add_pd(s_ab_, ab);
+    s_c_ += _mm_cvtsd_f64(c);
+    aa_ab_ = _mm_add_pd(aa_ab_, _mm_mul_pd(_mm_unpacklo_pd(ab, ab), ab));  // (a a, a b)
+    ac_bb_ = _mm_add_pd(ac_bb_, _mm_mul_pd(ab, _mm_move_sd(ab, c)));       // (a c, b b)
+    bc_cc_ = _mm_add_pd(bc_cc_, _mm_mul_pd(_mm_unpackhi_pd(ab, c), c));    // (b c, c c)
+  }
+#else
+  void addScalar(float x, float y, float z) {
+    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
+    n_ += 1.0;
+    s_[0] += a, s_[1] += b, s_[2] += c;
+    ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
+    ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
+  }
+#endif
+
+  Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
+  bool has_ref_ = false;
+  double n_ = 0.0;
+#if defined(__SSE2__)
+  __m128d ref_xy_ = _mm_setzero_pd();
+  __m128d s_ab_ = _mm_setzero_pd(), aa_ab_ = _mm_setzero_pd(), ac_bb_ = _mm_setzero_pd(),
+          bc_cc_ = _mm_setzero_pd();
+  double s_c_ = 0.0;
+#else
+  double s_[3] = {0, 0, 0}, ss_[6] = {0, 0, 0, 0, 0, 0};
+#endif
+};
+
+// PlaneMoments(ref) after add(x[k], y[k], z[k]) for the k in 0 .. count-1 with in[k] (in ==
+// nullptr: all), the same moments. (Skipping a point gives the sums adding zeros for it would:
+// a sum that starts at +0 is never -0, round to nearest giving -0 only for -0 + -0, and adding
+// +0 leaves any other value unchanged.) Nearly all candidates are in (the branch is
+// predictable).
+PlaneMoments candidateMoments(const Eigen::Vector3d& ref, const float* x, const float* y,
+                              const float* z, const std::uint8_t* in, int count) {
+  MomentSums sums(ref);
+  for (int k = 0; k < count; ++k)
+    if (in == nullptr || in[k] != 0) sums.add(x[k], y[k], z[k]);
+  return sums.moments();
+}
 
 // Sequential RANSAC on a leftover component that is not one plane: the two visible faces of a
 // small box or a table leg (joined at their convex edge), or a face joined to a curved surface
@@ -57,6 +317,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
       sub_tol.push_back(rest_tol[k]);
     }
     const std::size_t sub_n = sub_x.size();
+    const double *sx = sub_x.data(), *sy = sub_y.data(), *sz = sub_z.data(), *st = sub_tol.data();
     for (int h = 0; h < P.leftover_ransac_hypotheses; ++h) {
       const auto& a = pts[rest[next(rest.size())]];
       const auto& b = pts[rest[next(rest.size())]];
@@ -71,10 +332,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
         d = -d;
       }
       // Scored on an even subset of at most ~128 members (the refit below uses all of them).
-      std::size_t count = 0;
-      const double nx = n.x(), ny = n.y(), nz = n.z();
-      for (std::size_t k = 0; k < sub_n; ++k)
-        count += std::fabs(nx * sub_x[k] + ny * sub_y[k] + nz * sub_z[k] + d) <= sub_tol[k];
+      const std::size_t count = countWithin(n, d, sx, sy, sz, st, sub_n);
       if (count > best_count) {
         best_count = count;
         best_n = n;
@@ -197,19 +455,18 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   auto* reliable = s.grid.reliable.ptr<std::uint8_t>(0);
   // Branch-free (the four tests fail unpredictably along edges and holes). A NaN normal, own or
   // a neighbour's, makes its dot product NaN, which fails the comparison.
-  auto agrees = [&](const cv::Vec3f& n, const cv::Vec3f& m) {
-    return static_cast<std::uint8_t>(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] >= cos_spread);
-  };
   // Each neighbour pair is tested once (the dot product is symmetric, bit for bit): across[i]
-  // = whether sample i agrees with i + 1 (interior rows: the only ones tested below), down[i]
-  // = whether it agrees with i + C (every row but the last).
+  // = whether sample i agrees with i + 1 (interior rows, the only ones read below; one run
+  // from the second row's first sample, so the last sample of a row is compared with the next
+  // row's first too, never read), down[i] = whether it agrees with i + C (every row but the
+  // last).
   s.agree_across.resize(N);
   s.agree_down.resize(N);
   std::uint8_t* across = s.agree_across.data();
   std::uint8_t* down = s.agree_down.data();
-  for (int r = 1; r + 1 < R; ++r)
-    for (int c = 0; c + 1 < C; ++c) across[r * C + c] = agrees(nrm[r * C + c], nrm[r * C + c + 1]);
-  for (int i = 0; i + C < N; ++i) down[i] = agrees(nrm[i], nrm[i + C]);
+  const float* nrm_flat = &nrm[0][0];
+  if (R > 2) normalAgreement(nrm_flat, 1, cos_spread, C, (R - 1) * C - 1, across);
+  normalAgreement(nrm_flat, C, cos_spread, 0, N - C, down);
   for (int r = 1; r + 1 < R; ++r)
     for (int c = 1; c + 1 < C; ++c) {
       const int i = r * C + c;
@@ -241,6 +498,9 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   s.sample_tol.resize(N);
   for (int i = 0; i < N; ++i)
     if (nrm[i][2] == nrm[i][2]) s.sample_tol[i] = static_cast<float>(tol.at(pts[i][2]));
+  // The free samples of a round, for the candidate scans (the arrays keep their size).
+  const SampleArrays free_samples{s.fx.data(),  s.fy.data(),  s.fz.data(),   s.fnx.data(),
+                                  s.fny.data(), s.fnz.data(), s.fgate.data()};
   for (int round = 0; round < std::max(1, P.rounds); ++round) {
     // 3. Vote with the free reliable samples; collect the free samples with normals.
     s.raw.clear();
@@ -277,18 +537,15 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // Two branch-free loops (most samples fail, unpredictably): the tests, which
         // vectorise, then the compaction, where every index is written and only the kept ones
         // advance the end.
-        const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                    nz = static_cast<float>(n.z());
-        const float df = static_cast<float>(d);
-        const float *fx = s.fx.data(), *fy = s.fy.data(), *fz = s.fz.data();
-        const float *fnx = s.fnx.data(), *fny = s.fny.data(), *fnz = s.fnz.data(),
-                    *fgate = s.fgate.data();
+        // The gate is fgate itself (1 x: exact).
+        const PlaneGates gates{static_cast<float>(n.x()),
+                               static_cast<float>(n.y()),
+                               static_cast<float>(n.z()),
+                               static_cast<float>(d),
+                               1.0f,
+                               cos_inlier};
         std::uint8_t* in = s.fin.data();
-        for (int f = 0; f < F; ++f) {
-          const float dist = std::fabs(nx * fx[f] + ny * fy[f] + nz * fz[f] + df);
-          in[f] = static_cast<std::uint8_t>(
-              (dist <= fgate[f]) & (nx * fnx[f] + ny * fny[f] + nz * fnz[f] >= cos_inlier));
-        }
+        gateFlags(gates, free_samples, nullptr, in, F);
         if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // grows to the largest N
         int kept = 0, f = 0;
         // Most samples fail for most maxima, in long stretches: skip 8 flags at a time.
@@ -309,8 +566,8 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       }
       if (num_cand == 0 || num_cand < P.min_plane_samples) continue;
       // The candidates' data, contiguous (the shrinking passes test them in loops that
-      // vectorise); `alive` marks the current set. A candidate that left the set adds zeros to
-      // the moments, which leaves every sum exactly what the set alone gives.
+      // vectorise); `alive` marks the current set, and candidateMoments skips the candidates
+      // that left it.
       for (auto* v : {&s.cx, &s.cy, &s.cz, &s.cnx, &s.cny, &s.cnz, &s.ctol}) v->resize(num_cand);
       s.calive.assign(num_cand, 1);
       s.cin.resize(num_cand);
@@ -323,6 +580,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       const float *cx = s.cx.data(), *cy = s.cy.data(), *cz = s.cz.data();
       const float *cnx = s.cnx.data(), *cny = s.cny.data(), *cnz = s.cnz.data(),
                   *ctol = s.ctol.data();
+      const SampleArrays candidates{cx, cy, cz, cnx, cny, cnz, ctol};
       std::uint8_t* alive = s.calive.data();
       std::uint8_t* cin = s.cin.data();
       int first = 0;  // the first candidate of the current set
@@ -334,29 +592,24 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // a degree or two, and a wide gate would let two crossing surfaces of similar d (a box
         // face and the table edge behind it) pull the fit to a plane between them.
         // Relative to a point of the candidate set (precision at metres of range).
-        PlaneMoments mom(Eigen::Vector3d(cx[first], cy[first], cz[first]));
+        const Eigen::Vector3d ref(cx[first], cy[first], cz[first]);
+        PlaneMoments mom;
         if (it == 0) {
           // The first pass's gates are the candidate scan's, with the same plane: every
           // candidate passes, and the wide set stays for the first shrink.
-          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], true);
+          mom = candidateMoments(ref, cx, cy, cz, nullptr, num_cand);
         } else {
-          const float gate_mult = it == 1 ? 2.0f : 1.0f;
-          const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                      nz = static_cast<float>(n.z());
-          const float df = static_cast<float>(d);
+          const PlaneGates gates{static_cast<float>(n.x()), static_cast<float>(n.y()),
+                                 static_cast<float>(n.z()), static_cast<float>(d),
+                                 it == 1 ? 2.0f : 1.0f,     cos_inlier};
+          gateFlags(gates, candidates, alive, cin, num_cand);
           int kept = 0;
-          for (int k = 0; k < num_cand; ++k) {
-            const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
-            cin[k] =
-                static_cast<std::uint8_t>(alive[k] & (dist <= gate_mult * ctol[k]) &
-                                          (nx * cnx[k] + ny * cny[k] + nz * cnz[k] >= cos_inlier));
-            kept += cin[k];
-          }
+          for (int k = 0; k < num_cand; ++k) kept += cin[k];
           if (kept == 0 || kept < P.min_plane_samples) {
             ok = false;
             break;
           }
-          for (int k = 0; k < num_cand; ++k) mom.addIf(cx[k], cy[k], cz[k], cin[k] != 0);
+          mom = candidateMoments(ref, cx, cy, cz, cin, num_cand);
           std::swap(alive, cin);
           while (!alive[first]) ++first;
         }
@@ -369,17 +622,25 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         d = fit.d;
       }
       if (!ok) continue;
-      // Final inliers at the tolerance with the refined plane.
-      const float nx = static_cast<float>(n.x()), ny = static_cast<float>(n.y()),
-                  nz = static_cast<float>(n.z());
-      const float df = static_cast<float>(d);
-      next.clear();
+      // Final inliers at the tolerance with the refined plane, then compacted as the
+      // candidates were. (A candidate still alive passed these tests with an earlier plane:
+      // its point and normal are not NaN. The plane is finite too, since fit() returns a
+      // finite normal and d for finite points (the eigenvectors of a finite covariance), so no
+      // comparison sees a NaN and "not rejected" is "accepted".)
+      const PlaneGates final_gates{static_cast<float>(n.x()),
+                                   static_cast<float>(n.y()),
+                                   static_cast<float>(n.z()),
+                                   static_cast<float>(d),
+                                   1.0f,
+                                   cos_inlier};
+      gateFlags(final_gates, candidates, alive, cin, num_cand);
+      next.resize(num_cand);
+      int inliers = 0;
       for (int k = 0; k < num_cand; ++k) {
-        const float dist = std::fabs(nx * cx[k] + ny * cy[k] + nz * cz[k] + df);
-        if (!alive[k] || dist > ctol[k] || nx * cnx[k] + ny * cny[k] + nz * cnz[k] < cos_inlier)
-          continue;
-        next.push_back(cand[k]);
+        next[inliers] = cand[k];
+        inliers += cin[k];
       }
+      next.resize(inliers);
       if (static_cast<int>(next.size()) < P.min_plane_samples) continue;
       const int id = static_cast<int>(planes.size());
       for (int f : next) {
@@ -407,28 +668,33 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
     {
       // Runs of samples share a plane: its moments stay in locals until the plane changes (the
       // same additions in the same order, without a round trip through memory per sample).
+      // MomentSums: PlaneMoments::add's sums in registers (the first point is the reference).
+      std::vector<MomentSums> sums(planes.size());
       int cur = -1;
-      PlaneMoments cur_mom;
+      MomentSums cur_sums;
       double cur_z = 0.0;
       for (int i = 0; i < N; ++i) {
         const int L = lab[i];
         if (L < 0) continue;
         if (L != cur) {
           if (cur >= 0) {
-            mom[cur] = cur_mom;
+            sums[cur] = cur_sums;
             zsum[cur] = cur_z;
           }
           cur = L;
-          cur_mom = mom[L];
+          cur_sums = sums[L];
           cur_z = zsum[L];
+          if (!cur_sums.hasReference())
+            cur_sums.setReference(Eigen::Vector3d(pts[i][0], pts[i][1], pts[i][2]));
         }
-        cur_mom.add(pts[i][0], pts[i][1], pts[i][2]);
+        cur_sums.add(pts[i]);
         cur_z += pts[i][2];
       }
       if (cur >= 0) {
-        mom[cur] = cur_mom;
+        sums[cur] = cur_sums;
         zsum[cur] = cur_z;
       }
+      for (std::size_t p = 0; p < planes.size(); ++p) mom[p] = sums[p].moments();
     }
     std::vector<PlaneFit> fits(planes.size());
     for (std::size_t i = 0; i < planes.size(); ++i) fits[i] = mom[i].fit();

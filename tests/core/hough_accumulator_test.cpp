@@ -2,8 +2,10 @@
 // maxima, decay.
 #include "shapesense/core/hough_accumulator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -173,6 +175,92 @@ TEST(HoughAccumulator, SmoothingIsANormalisedGaussianWithTheGivenSigmas) {
   EXPECT_EQ(smooth.allocatedBlocks(), 0u);
 }
 
+// The separable smoothing as its definition states it, on a dense grid: per axis (x, then y,
+// then z) out(c) = sum over t in [-r, r], ascending, of w[t] * in(c + t), zero outside the
+// space, float sums from 0. Taps computed as smoothInto documents them.
+std::vector<float> denseSmoothing(const HoughAccumulator& acc, double sigma_angle_deg,
+                                  double sigma_d_m) {
+  const int na = acc.cellsA(), nd = acc.cellsD();
+  auto taps = [](double sigma_cells) {
+    if (!(sigma_cells > 1e-6)) return std::vector<float>{1.0f};
+    const int r = std::min(static_cast<int>(std::ceil(2.5 * sigma_cells)), 4);
+    std::vector<float> w(2 * r + 1);
+    double sum = 0;
+    for (int t = -r; t <= r; ++t) {
+      const double v = std::exp(-0.5 * t * t / (sigma_cells * sigma_cells));
+      w[t + r] = static_cast<float>(v);
+      sum += v;
+    }
+    for (auto& v : w) v = static_cast<float>(v / sum);
+    return w;
+  };
+  const double a_cell = std::max(1e-4, acc.params().angle_cell_deg * kDeg);
+  const std::vector<float> wa = taps(sigma_angle_deg * kDeg / a_cell),
+                           wd = taps(sigma_d_m / acc.params().d_cell_m);
+  const std::size_t size = static_cast<std::size_t>(na) * na * nd;
+  auto idx = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * na + j) * na + i; };
+  std::vector<float> a(size), b(size);
+  for (int k = 0; k < nd; ++k)
+    for (int j = 0; j < na; ++j)
+      for (int i = 0; i < na; ++i) a[idx(i, j, k)] = acc.at(i, j, k);
+  auto pass = [&](const std::vector<float>& in, std::vector<float>& out, int axis,
+                  const std::vector<float>& w) {
+    const int r = static_cast<int>(w.size() / 2);
+    for (int k = 0; k < nd; ++k)
+      for (int j = 0; j < na; ++j)
+        for (int i = 0; i < na; ++i) {
+          float sum = 0.0f;
+          for (int t = -r; t <= r; ++t) {
+            int c[3] = {i, j, k};
+            c[axis] += t;
+            if (c[axis] < 0 || c[axis] >= (axis == 2 ? nd : na)) continue;
+            sum += w[t + r] * in[idx(c[0], c[1], c[2])];
+          }
+          out[idx(i, j, k)] = sum;
+        }
+  };
+  pass(a, b, 0, wa);
+  pass(b, a, 1, wa);
+  pass(a, b, 2, wd);
+  return b;
+}
+
+TEST(HoughAccumulator, SmoothingIsBitIdenticalToTheDenseSeparableDefinition) {
+  // A small space (partial blocks at the far borders) with random clusters and scattered
+  // votes, including the borders; every block heavy (min_block_mass 0), so the sparse
+  // evaluation must give exactly the dense passes everywhere.
+  HoughSpaceParams sp;
+  sp.lambert_extent = 0.3;  // 23 cells per Lambert axis
+  sp.max_d_m = 0.5;         // 25 cells along d
+  HoughAccumulator acc(sp), smooth(sp);
+  ASSERT_NE(acc.cellsA() % HoughAccumulator::kBlock, 0);
+  std::uint32_t rng = 777;
+  auto uniform = [&rng](int n) {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<int>((rng >> 8) % static_cast<std::uint32_t>(n));
+  };
+  for (int cluster = 0; cluster < 6; ++cluster) {
+    const int ci = uniform(acc.cellsA()), cj = uniform(acc.cellsA()), ck = uniform(acc.cellsD());
+    for (int v = 0; v < 40; ++v)
+      acc.addToCell(ci + uniform(5) - 2, cj + uniform(5) - 2, ck + uniform(5) - 2,
+                    0.25f + 0.125f * static_cast<float>(uniform(8)));
+  }
+  for (int v = 0; v < 30; ++v)
+    acc.addToCell(uniform(acc.cellsA()), uniform(acc.cellsA()), uniform(acc.cellsD()), 1.0f);
+  acc.addToCell(0, 0, 0, 3.0f);
+  acc.addToCell(acc.cellsA() - 1, acc.cellsA() - 1, acc.cellsD() - 1, 2.0f);
+  for (const auto& [sa, sd] : {std::pair{2.0, 0.03}, std::pair{1.0, 0.01}, std::pair{0.0, 0.02}}) {
+    acc.smoothInto(smooth, sa, sd, 0.0f);
+    const std::vector<float> expected = denseSmoothing(acc, sa, sd);
+    int mismatches = 0;
+    std::size_t c = 0;
+    for (int k = 0; k < acc.cellsD(); ++k)
+      for (int j = 0; j < acc.cellsA(); ++j)
+        for (int i = 0; i < acc.cellsA(); ++i, ++c) mismatches += smooth.at(i, j, k) != expected[c];
+    EXPECT_EQ(mismatches, 0) << "sigmas " << sa << " deg, " << sd << " m";
+  }
+}
+
 TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   HoughAccumulator acc, smooth;
   // Two planes 30 deg apart, 400 and 200 votes spread over +-1 deg / +-1 cm, plus a single
@@ -194,6 +282,128 @@ TEST(HoughAccumulator, SlidingWindowMaximaWithSubCellPrecision) {
   EXPECT_NEAR(maxima[0].d, 1.2, 0.01);
   EXPECT_LT(std::acos(std::min(1.0, maxima[1].normal.dot(n2))) / kDeg, 1.0);
   EXPECT_NEAR(maxima[1].d, 0.8, 0.01);
+}
+
+// findMaxima by its definition, as (value, k, j, i), strongest first: a cell of the space that
+// is >= min_value and that no cell of its window beats (larger, or equal and earlier in (k, j,
+// i) order), the window read through at() (0 outside the space).
+std::vector<std::tuple<float, int, int, int>> bruteForceMaxima(const HoughAccumulator& acc,
+                                                               float min_value, int wa, int wd) {
+  std::vector<std::tuple<float, int, int, int>> maxima;
+  for (int k = 0; k < acc.cellsD(); ++k)
+    for (int j = 0; j < acc.cellsA(); ++j)
+      for (int i = 0; i < acc.cellsA(); ++i) {
+        const float v = acc.at(i, j, k);
+        if (!(v >= min_value)) continue;
+        bool is_max = true;
+        for (int dk = -wd; dk <= wd && is_max; ++dk)
+          for (int dj = -wa; dj <= wa && is_max; ++dj)
+            for (int di = -wa; di <= wa && is_max; ++di) {
+              const float o = acc.at(i + di, j + dj, k + dk);
+              const bool earlier = std::make_tuple(dk, dj, di) < std::make_tuple(0, 0, 0);
+              if (o > v || (o == v && earlier)) is_max = false;
+            }
+        if (is_max) maxima.emplace_back(v, k, j, i);
+      }
+  std::sort(maxima.begin(), maxima.end(), [](const auto& a, const auto& b) {
+    return std::get<0>(a) > std::get<0>(b) ||
+           (std::get<0>(a) == std::get<0>(b) &&
+            std::tie(std::get<1>(a), std::get<2>(a), std::get<3>(a)) <
+                std::tie(std::get<1>(b), std::get<2>(b), std::get<3>(b)));
+  });
+  return maxima;
+}
+
+// findMaxima(min_value, wa, wd) equals bruteForceMaxima, with finite centroids.
+void expectBruteForceMaxima(const HoughAccumulator& acc, float min_value, int wa, int wd,
+                            std::size_t min_count) {
+  const auto expected = bruteForceMaxima(acc, min_value, wa, wd);
+  const auto got = acc.findMaxima(min_value, wa, wd);
+  ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
+  ASSERT_GE(got.size(), min_count) << "window " << wa << ", " << wd;
+  for (std::size_t m = 0; m < got.size(); ++m) {
+    EXPECT_EQ(got[m].value, std::get<0>(expected[m]));
+    EXPECT_EQ(
+        std::tie(got[m].k, got[m].j, got[m].i),
+        std::tie(std::get<1>(expected[m]), std::get<2>(expected[m]), std::get<3>(expected[m])))
+        << "window " << wa << ", " << wd;
+    EXPECT_TRUE(got[m].normal.allFinite() && std::isfinite(got[m].d))
+        << "window " << wa << ", " << wd << " cell " << got[m].i << " " << got[m].j << " "
+        << got[m].k;
+  }
+}
+
+TEST(HoughAccumulator, MaximaAreTheBruteForceWindowMaximaWithPlateaus) {
+  // Small integer values (many ties, plateaus across block borders), compared with the
+  // definition.
+  HoughSpaceParams sp;
+  sp.lambert_extent = 0.3;
+  sp.max_d_m = 0.5;
+  HoughAccumulator acc(sp);
+  std::uint32_t rng = 4242;
+  auto uniform = [&rng](int n) {
+    rng = rng * 1664525u + 1013904223u;
+    return static_cast<int>((rng >> 8) % static_cast<std::uint32_t>(n));
+  };
+  for (int v = 0; v < 3000; ++v)
+    acc.addToCell(uniform(acc.cellsA()), uniform(acc.cellsA()), uniform(acc.cellsD()),
+                  static_cast<float>(uniform(3)));
+  for (int k = 6; k < 10; ++k)  // a plateau across a block border
+    for (int j = 2; j < 6; ++j)
+      for (int i = 2; i < 7; ++i) acc.addToCell(i, j, k, 50.0f - acc.at(i, j, k));
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 3}, std::pair{0, 1}})
+    expectBruteForceMaxima(acc, 2.0f, wa, wd, 11);
+  // A negative half-size counts as 0.
+  for (const auto& [wa, wd] : {std::pair{2, -1}, std::pair{-1, 1}, std::pair{-3, -2}}) {
+    const auto got = acc.findMaxima(2.0f, wa, wd);
+    const auto expected = acc.findMaxima(2.0f, std::max(wa, 0), std::max(wd, 0));
+    ASSERT_EQ(got.size(), expected.size()) << "window " << wa << ", " << wd;
+    for (std::size_t m = 0; m < got.size(); ++m)
+      EXPECT_EQ(std::tie(got[m].i, got[m].j, got[m].k, got[m].value),
+                std::tie(expected[m].i, expected[m].j, expected[m].k, expected[m].value));
+  }
+}
+
+TEST(HoughAccumulator, NaNCellsAreNoMaxima) {
+  // NaN cells (one alone, one in a peak's window, one in a plateau's) are never reported and
+  // beat no neighbour: the brute-force definition with ordered compares. (Not within a
+  // maximum's 3x3x3 cells: its centroid would be NaN.)
+  HoughAccumulator acc;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  acc.addToCell(20, 20, 20, nan);
+  acc.addToCell(40, 40, 40, 5.0f);
+  acc.addToCell(42, 40, 40, nan);
+  acc.addToCell(60, 60, 60, 3.0f);
+  acc.addToCell(61, 60, 60, 3.0f);
+  acc.addToCell(60, 62, 59, nan);
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 0}, std::pair{0, 0}}) {
+    expectBruteForceMaxima(acc, 1.0f, wa, wd, 2);
+    for (const auto& m : acc.findMaxima(1.0f, wa, wd)) EXPECT_FALSE(std::isnan(m.value));
+  }
+  for (const auto& m : acc.findMaxima(-1.0f, 1, 1)) EXPECT_FALSE(std::isnan(m.value));
+}
+
+TEST(HoughAccumulator, MaximaLieInTheSpaceWhenTheLastBlocksStickOut) {
+  // nd = 401 (the last block along d has 1 cell in the space and 3 outside) and na = 123 (3
+  // in, 1 outside), strong peaks at the far ends of the axes. The smoothing fills whole blocks,
+  // so the cells outside the space hold values; only cells of the space may be maxima, the
+  // window seeing 0 outside (as at() does), and every centroid is finite.
+  HoughSpaceParams sp;
+  sp.max_d_m = 8.01;
+  HoughAccumulator acc(sp), smooth;
+  const int na = acc.cellsA(), nd = acc.cellsD();
+  ASSERT_EQ(nd, 401);
+  ASSERT_EQ(na % HoughAccumulator::kBlock, 3);
+  acc.addToCell(na - 1, na - 1, nd - 1, 100.0f);  // the far corner
+  acc.addToCell(40, 40, nd - 1, 90.0f);           // the far d face
+  acc.addToCell(na - 1, 60, nd - 2, 80.0f);
+  acc.addToCell(70, na - 1, 200, 70.0f);  // far Lambert faces
+  acc.addToCell(na - 2, 20, 100, 60.0f);
+  acc.addToCell(10, 10, 10, 50.0f);  // inside
+  acc.smoothInto(smooth, 2.0, 0.03, 0.0f);
+  for (const auto& [wa, wd] : {std::pair{2, 2}, std::pair{1, 1}, std::pair{2, 0}, std::pair{0, 2},
+                               std::pair{1, 0}, std::pair{0, 0}})
+    expectBruteForceMaxima(smooth, 1e-3f, wa, wd, 6);
 }
 
 TEST(HoughAccumulator, SmoothingPrunedForAPeakThresholdFindsTheSameMaxima) {

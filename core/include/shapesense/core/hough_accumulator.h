@@ -17,6 +17,7 @@
 // would be 20+ million cells per frame, and >90% of it stays empty, as the seed observed).
 // Blocks are recycled between frames, so steady-state voting does not allocate.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -93,12 +94,18 @@ class HoughAccumulator {
   /// (scattered votes of curved surfaces) cannot form a peak worth reporting and would dominate
   /// the cost. With `min_peak` > 0 only what findMaxima(min_peak) reads is evaluated: the
   /// blocks that could hold a cell >= min_peak and their neighbours come out exactly as without
-  /// it, every other block is zero (or absent).
+  /// it, every other block is zero (or absent). Which of those other blocks are still evaluated
+  /// depends on float sums of block masses compared with a threshold: for a block within
+  /// rounding of it, on the order of the additions (not on anything findMaxima(min_peak) reads).
   void smoothInto(HoughAccumulator& out, double sigma_angle_deg, double sigma_d_m,
                   float min_block_mass, float min_peak = 0.0f) const;
 
   /// Local maxima with value >= min_value over a sliding window of half-size (wa, wa, wd)
-  /// cells, strongest first. Plateaus report one cell.
+  /// cells (a negative half-size counts as 0: no neighbours along that axis), strongest first.
+  /// Plateaus report one cell. Only cells of the space are reported
+  /// (0 <= i, j < cellsA(), 0 <= k < cellsD()); the window reads at(), 0 outside the space.
+  /// Cells are meant to be finite (finite votes and weights); a NaN cell is never a maximum
+  /// and beats no neighbour.
   std::vector<HoughMaximum> findMaxima(float min_value, int window_a = 2, int window_d = 2) const;
 
   /// Multiplies every cell by `factor` and then subtracts `thinning` (the seed's "thinning"),
@@ -114,6 +121,8 @@ class HoughAccumulator {
 
  private:
   int blockIndex(int bi, int bj, int bk) const { return (bk * nba_ + bj) * nba_ + bi; }
+  /// The inverse of blockIndex: (bi, bj, bk) of a top-level key.
+  std::array<int, 3> blockCoords(int key) const;
   float* block(int key) {
     const int b = index_[key];
     return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells];
@@ -135,6 +144,11 @@ class HoughAccumulator {
   // still zero); fills smooth_need_.
   void pruneForPeaks(const HoughAccumulator& src, const std::vector<float>& src_block_mass,
                      float central_weight, float min_peak);
+  // Per-axis taps of smoothInto (x, y, z), padded with zeros to radius kBlock.
+  using SmoothingTaps = std::array<std::array<float, 2 * kBlock + 1>, 3>;
+  // smoothInto's three passes (this = the output, its block set and smooth_need_ ready):
+  // src -> cells_ (x), cells_ -> scratch_ (y), scratch_ -> cells_ (z).
+  void smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps);
 
   HoughSpaceParams params_;
   double a_cell_ = 0;  // Lambert units per cell
@@ -147,6 +161,8 @@ class HoughAccumulator {
   std::vector<float> scratch_;             // smoothInto's intermediate pass, kept between frames
   std::vector<float> block_mass_;          // smoothInto (output side): the source's block masses
   std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
+  std::vector<std::uint8_t> smooth_live_;  // smoothPasses: which pass results may be non-zero
+  std::vector<float> near_mass_;           // pruneForPeaks: neighbourhood mass of each block
 };
 
 }  // namespace shapesense

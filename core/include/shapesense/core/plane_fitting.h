@@ -45,20 +45,6 @@ class PlaneMoments {
     ss_(2, 2) += w * c * c;
   }
   void add(const Eigen::Vector3d& p, double w = 1.0) { add(p.x(), p.y(), p.z(), w); }
-  /// Adds the point only when `in`, without a branch: for hot loops over candidates whose test
-  /// is unpredictable. Needs a reference (the constructor's).
-  void addIf(double x, double y, double z, bool in) {
-    const double a = in ? x - ref_.x() : 0.0, b = in ? y - ref_.y() : 0.0,
-                 c = in ? z - ref_.z() : 0.0;
-    n_ += in;
-    s_ += Eigen::Vector3d(a, b, c);
-    ss_(0, 0) += a * a;
-    ss_(0, 1) += a * b;
-    ss_(0, 2) += a * c;
-    ss_(1, 1) += b * b;
-    ss_(1, 2) += b * c;
-    ss_(2, 2) += c * c;
-  }
   /// Adds the sums of a point set taken relative to this set's reference (as in fromSums; only
   /// the upper triangle of sum_sq is read): for loops that keep raw sums in registers.
   void addSums(double n, const Eigen::Vector3d& sum, const Eigen::Matrix3d& sum_sq) {

@@ -133,7 +133,8 @@ struct HoughPlaneParams {
   /// only costs resolution (the refinement restores it). Defaults 2 deg, 0.03 m.
   double sigma_angle_deg = 2.0;
   double sigma_d_m = 0.03;
-  /// Sliding window half-size (cells) of the maxima search. Default 2 (+-3 deg, +-4 cm).
+  /// Sliding window half-size (cells) of the maxima search, >= 0 (a negative value counts as
+  /// 0: no neighbours compared along that axis). Default 2 (+-3 deg, +-4 cm).
   int maxima_window_a = 2;
   int maxima_window_d = 2;
   /// A sample votes only if its 4 grid neighbours have normals within this angle. Default 6 deg.
@@ -187,7 +188,11 @@ class HoughPlaneDetector {
                         const cv::Mat& bgr = {});
 
   /// The smoothed Hough space of the last round of the last frame (for inspection / tests),
-  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere).
+  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere). The
+  /// cells around every peak are exact; farther blocks whose neighbourhood mass lies within
+  /// float rounding of the pruning threshold may be evaluated or zero depending on the order
+  /// the masses are summed in (it changed with the scattered sums: such blocks can differ from
+  /// earlier versions; the detected planes do not).
   const HoughAccumulator& lastSmoothedSpace() const;
 
  private:
