@@ -43,7 +43,7 @@ constexpr int kB = HoughAccumulator::kBlock;
 constexpr int kTaps = 2 * kB + 1;
 
 // Block coordinates (bi, bj, bk) of a top-level key (bi fastest) in a space nba blocks wide
-// along each Lambert axis.
+// along each Lambert axis: the inverse of HoughAccumulator::blockIndex.
 inline std::array<int, 3> blockCoordsOf(int key, int nba) {
   return {key % nba, (key / nba) % nba, key / (nba * nba)};
 }
@@ -87,7 +87,7 @@ class BlockNeighbourhood {
   /// stops at the first).
   template <class Pred>
   bool any(int key, Pred&& pred) const {
-    return pred(key) || until(key, pred);
+    return pred(key) || until(key, [&](int nkey) { return nkey != key && pred(nkey); });
   }
 
  private:
@@ -410,10 +410,6 @@ Eigen::Vector3d HoughAccumulator::normalAt(double i, double j) const {
   return Eigen::Vector3d(a * s, b * s, rho2 / 2.0 - 1.0).normalized();
 }
 
-[[gnu::always_inline]] inline std::array<int, 3> HoughAccumulator::blockCoords(int key) const {
-  return blockCoordsOf(key, nba_);
-}
-
 float* HoughAccumulator::blockOrCreate(int key) {
   if (index_[key] < 0) {
     index_[key] = static_cast<std::int32_t>(block_keys_.size());
@@ -589,7 +585,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   // x: this space's block lines are contiguous 4-cell rows; four of them (the 4 y of one z) are
   // loaded and transposed, so each register holds one x position of four lines.
   for (std::size_t b = 0; b < count; ++b) {
-    const int key = block_keys_[b], bi = blockCoords(key)[0];
+    const int key = block_keys_[b], bi = blockCoordsOf(key, nba_)[0];
     const float* blocks[3];
     bool present[3];
     for (int s = 0; s < 3; ++s) {
@@ -623,7 +619,7 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
       const float* blocks[3] = {nullptr, &in[b * kBlockCells], nullptr};
       bool present[3] = {false, (live[b] & reads) != 0, false};
       if (need[b] >= needed) {
-        const int pos = blockCoords(key)[axis];
+        const int pos = blockCoordsOf(key, nba_)[axis];
         for (int s = 0; s < 3; s += 2) {
           if (s == 0 ? pos == 0 : pos == last) continue;
           const int idx = index_[key + (s - 1) * step];
@@ -663,8 +659,8 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   // reports. 1e-3 of margin covers the float rounding of the sums (in any order), so every block
   // that can hold such a cell is kept whatever the summation order. The order does decide blocks
   // whose neighbourhood mass lies within rounding of the (margined) threshold: none of them can
-  // hold a reported cell, but whether such a block is evaluated or left zero may differ from
-  // another summation order (main's, before the scatter below) in lastSmoothedSpace().
+  // hold a reported cell, but whether such a block is evaluated or left zero in
+  // lastSmoothedSpace() depends on the summation order of the scatter below.
   const std::size_t count = block_keys_.size();
   auto inside = [&](int x, int y, int z) {
     return x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_;
@@ -707,7 +703,7 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   auto raise = [&](int axis, std::uint8_t from, std::uint8_t to) {
     for (std::size_t b = 0; b < count; ++b) {
       if (need[b] < from) continue;
-      const auto c = blockCoords(block_keys_[b]);
+      const auto c = blockCoordsOf(block_keys_[b], nba_);
       for (int s = -1; s <= 1; s += 2) {
         auto n = c;
         n[axis] += s;
@@ -768,7 +764,7 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
     std::uint64_t candidates = cellsAtLeast(cells, min_value);
     if (!candidates) continue;
     const int key = block_keys_[b];
-    const auto [bi, bj, bk] = blockCoords(key);
+    const auto [bi, bj, bk] = blockCoordsOf(key, nba_);
     const int ni = bi + 1 == nba_ ? edge_a : kBlock, nj = bj + 1 == nba_ ? edge_a : kBlock,
               nk = bk + 1 == nbd_ ? edge_d : kBlock;
     if (ni < kBlock || nj < kBlock || nk < kBlock) {

@@ -168,7 +168,7 @@ Working makeWorking(const cv::Mat& depth, const CameraIntrinsics& intr, const Re
 // neighbour has no depth or does not differ), subtracted from the offsets inside the image.
 template <int R>
 void stepCount8(const std::uint16_t* dp, const std::uint16_t* const* window_rows,
-                const std::vector<cv::Mat>& thr, int v, int u, int offsets, std::uint8_t* e) {
+                const std::uint16_t* const* thr_rows, int u, int offsets, std::uint8_t* e) {
   constexpr int r = R;  // a template argument: the offset loops unroll
   auto load = [](const std::uint16_t* p) {
     return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
@@ -176,7 +176,7 @@ void stepCount8(const std::uint16_t* dp, const std::uint16_t* const* window_rows
   const __m128i zero = _mm_setzero_si128();
   const __m128i x = load(dp + u);
   __m128i t[R];
-  for (int k = 0; k < R; ++k) t[k] = load(thr[k].ptr<std::uint16_t>(v) + u);
+  for (int k = 0; k < R; ++k) t[k] = load(thr_rows[k] + u);
   __m128i minus_misses = zero;
   for (int dv = -r; dv <= r; ++dv) {
     const std::uint16_t* dq = window_rows[dv + r];
@@ -227,8 +227,10 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
     }
   }
   std::vector<const std::uint16_t*> window_rows(2 * r + 1);  // nullptr: outside the image
+  std::vector<const std::uint16_t*> thr_rows(r);             // row v of each ring's thresholds
   for (int v = 0; v < rows; ++v) {
     const auto* dp = d.ptr<std::uint16_t>(v);
+    for (int k = 0; k < r; ++k) thr_rows[k] = thr[k].ptr<std::uint16_t>(v);
     int offsets = 0;  // window offsets whose row is inside the image
     for (int dv = -r; dv <= r; ++dv) {
       const int vq = v + dv;
@@ -250,7 +252,7 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
           const std::uint16_t y = dq[uq];
           const std::uint16_t diff = x > y ? x - y : y - x;
           const int ring = std::max(std::abs(du), std::abs(dv));
-          count += (y != 0) & (diff > thr[ring - 1].ptr<std::uint16_t>(v)[u]);
+          count += (y != 0) & (diff > thr_rows[ring - 1][u]);
         }
       }
       e[u] = x == 0 ? kNoDepth : static_cast<std::uint8_t>(count);
@@ -266,7 +268,7 @@ cv::Mat depthStepEdges(const Working& w, const DepthStepParams& p, const KinectN
       auto blocks = [&]<int R>() {
         for (int u = simd_begin;; u += 8) {
           u = std::min(u, simd_end - 8);
-          stepCount8<R>(dp, window_rows.data(), thr, v, u, offsets, e);
+          stepCount8<R>(dp, window_rows.data(), thr_rows.data(), u, offsets, e);
           if (u == simd_end - 8) break;
         }
       };

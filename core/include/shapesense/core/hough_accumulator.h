@@ -121,8 +121,6 @@ class HoughAccumulator {
 
  private:
   int blockIndex(int bi, int bj, int bk) const { return (bk * nba_ + bj) * nba_ + bi; }
-  /// The inverse of blockIndex: (bi, bj, bk) of a top-level key.
-  std::array<int, 3> blockCoords(int key) const;
   float* block(int key) {
     const int b = index_[key];
     return b < 0 ? nullptr : &cells_[static_cast<std::size_t>(b) * kBlockCells];

@@ -191,8 +191,7 @@ class HoughPlaneDetector {
   /// evaluated only around the cells that can reach the peak threshold (zero elsewhere). The
   /// cells around every peak are exact; farther blocks whose neighbourhood mass lies within
   /// float rounding of the pruning threshold may be evaluated or zero depending on the order
-  /// the masses are summed in (it changed with the scattered sums: such blocks can differ from
-  /// earlier versions; the detected planes do not).
+  /// the masses are summed in (the detected planes never depend on it).
   const HoughAccumulator& lastSmoothedSpace() const;
 
  private:
