@@ -94,6 +94,16 @@ struct PlaneGates {
   float cos_normal;  // the normals' dot product must reach this
 };
 
+// The gates of the plane n . X + d = 0, in the floats the loops compare.
+PlaneGates planeGates(const Eigen::Vector3d& n, double d, float gate_mult, float cos_normal) {
+  return {static_cast<float>(n.x()),
+          static_cast<float>(n.y()),
+          static_cast<float>(n.z()),
+          static_cast<float>(d),
+          gate_mult,
+          cos_normal};
+}
+
 // Branch-free loops over every sample (the tests fail unpredictably) that vectorise; the
 // *Avx2 variants are the same code compiled for AVX2 (nothing fused into FMA: the build has
 // -ffp-contract=off; the same operations, lane for lane: the same bits) and run where the CPU
@@ -538,12 +548,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
         // vectorise, then the compaction, where every index is written and only the kept ones
         // advance the end.
         // The gate is fgate itself (1 x: exact).
-        const PlaneGates gates{static_cast<float>(n.x()),
-                               static_cast<float>(n.y()),
-                               static_cast<float>(n.z()),
-                               static_cast<float>(d),
-                               1.0f,
-                               cos_inlier};
+        const PlaneGates gates = planeGates(n, d, 1.0f, cos_inlier);
         std::uint8_t* in = s.fin.data();
         gateFlags(gates, free_samples, nullptr, in, F);
         if (cand.size() < static_cast<std::size_t>(F)) cand.resize(N);  // grows to the largest N
@@ -599,9 +604,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
           // candidate passes, and the wide set stays for the first shrink.
           mom = candidateMoments(ref, cx, cy, cz, nullptr, num_cand);
         } else {
-          const PlaneGates gates{static_cast<float>(n.x()), static_cast<float>(n.y()),
-                                 static_cast<float>(n.z()), static_cast<float>(d),
-                                 it == 1 ? 2.0f : 1.0f,     cos_inlier};
+          const PlaneGates gates = planeGates(n, d, it == 1 ? 2.0f : 1.0f, cos_inlier);
           gateFlags(gates, candidates, alive, cin, num_cand);
           int kept = 0;
           for (int k = 0; k < num_cand; ++k) kept += cin[k];
@@ -627,12 +630,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
       // its point and normal are not NaN. The plane is finite too, since fit() returns a
       // finite normal and d for finite points (the eigenvectors of a finite covariance), so no
       // comparison sees a NaN and "not rejected" is "accepted".)
-      const PlaneGates final_gates{static_cast<float>(n.x()),
-                                   static_cast<float>(n.y()),
-                                   static_cast<float>(n.z()),
-                                   static_cast<float>(d),
-                                   1.0f,
-                                   cos_inlier};
+      const PlaneGates final_gates = planeGates(n, d, 1.0f, cos_inlier);
       gateFlags(final_gates, candidates, alive, cin, num_cand);
       next.resize(num_cand);
       int inliers = 0;
