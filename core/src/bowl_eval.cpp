@@ -10,6 +10,14 @@ double boxIoU(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? inter / uni : 0.0;
 }
 
+bool isTinyOrSparseBowl(const cv::Rect& box, std::size_t pixel_count) {
+  return box.width < 20 || box.height < 12 || static_cast<double>(pixel_count) < 0.25 * box.area();
+}
+
+bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count, double visible_fraction) {
+  return isTinyOrSparseBowl(box, pixel_count) || visible_fraction < kMinVisibleBowlFraction;
+}
+
 BowlEvalResult evaluateBowlDetections(const std::vector<BowlEvalFrame>& frames, double iou,
                                       double fppi) {
   BowlEvalResult r;

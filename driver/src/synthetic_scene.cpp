@@ -17,6 +17,9 @@
 #include <random>
 #include <stdexcept>
 #include <utility>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 namespace shapesense::synthetic {
 
@@ -1118,8 +1121,9 @@ class SensorModel {
 /// Fills the per-surface and per-object records of a frame from its label images.
 class TruthBuilder {
  public:
-  TruthBuilder(const SceneModel& model, const Eigen::Isometry3d& world_from_camera)
-      : model_(model), world_from_camera_(world_from_camera) {}
+  TruthBuilder(const SceneModel& model, const Eigen::Isometry3d& world_from_camera,
+               const CameraIntrinsics& intrinsics)
+      : model_(model), world_from_camera_(world_from_camera), intrinsics_(intrinsics) {}
 
   void build(TruthFrame& truth) const {
     truth.world_from_camera = world_from_camera_;
@@ -1160,6 +1164,10 @@ class TruthBuilder {
       out.id = static_cast<std::uint16_t>(o + 1);
       out.pixel_count = object_pixels[o + 1];
       out.image_box = object_boxes[o + 1];
+      if (model_.objects[o].is_bowl && out.pixel_count > 0) {
+        const double area = bowlSilhouetteArea(out);
+        out.visible_fraction = area > 0 ? static_cast<double>(out.pixel_count) / area : 0.0;
+      }
       truth.objects.push_back(std::move(out));
     }
   }
@@ -1203,8 +1211,40 @@ class TruthBuilder {
     return out;
   }
 
+  /// Area (pixels) of the projected outer shell of a bowl (TruthObject in camera coordinates):
+  /// the convex hull of points sampled densely on the spherical cap, which projects to a convex
+  /// outline. 0 when part of the bowl lies behind the camera plane.
+  double bowlSilhouetteArea(const TruthObject& bowl) const {
+    const double r = bowl.rim_radius_m, h = std::max(bowl.depth_m, 1e-4);
+    const double sphere_r = (r * r + h * h) / (2.0 * h);
+    const Eigen::Vector3d axis = bowl.axis.normalized();
+    const Eigen::Vector3d e1 = axis.unitOrthogonal(), e2 = axis.cross(e1);
+    const Eigen::Vector3d centre = bowl.rim_center + axis * (sphere_r - h);
+    const double polar_max = std::asin(std::min(1.0, r / sphere_r));  // the rim
+    constexpr int kPolar = 24, kAzimuth = 96;
+    std::vector<cv::Point2f> outline;
+    outline.reserve((kPolar + 1) * kAzimuth);
+    for (int i = 0; i <= kPolar; ++i) {
+      const double polar = polar_max * i / kPolar;
+      for (int j = 0; j < kAzimuth; ++j) {
+        const double azimuth = 2.0 * std::numbers::pi * j / kAzimuth;
+        const Eigen::Vector3d p =
+            centre +
+            sphere_r * (std::sin(polar) * (std::cos(azimuth) * e1 + std::sin(azimuth) * e2) -
+                        std::cos(polar) * axis);
+        if (p.z() < 0.01) return 0.0;
+        const Eigen::Vector2d px = intrinsics_.project(p);
+        outline.emplace_back(static_cast<float>(px.x()), static_cast<float>(px.y()));
+      }
+    }
+    std::vector<cv::Point2f> hull;
+    cv::convexHull(outline, hull);
+    return cv::contourArea(hull);
+  }
+
   const SceneModel& model_;
   Eigen::Isometry3d world_from_camera_;
+  const CameraIntrinsics& intrinsics_;
 };
 
 void validate(const SceneParams& p) {
@@ -1279,7 +1319,7 @@ RenderedFrame SyntheticScene::render(std::uint64_t index, TimestampNs timestamp_
   out.frame.timestamp_ns = timestamp_ns;
   out.frame.sequence = index;
   SensorModel(params_, *model_, index).apply(hits, world_from_camera, out.frame, out.truth);
-  TruthBuilder(*model_, world_from_camera).build(out.truth);
+  TruthBuilder(*model_, world_from_camera, k).build(out.truth);
   return out;
 }
 

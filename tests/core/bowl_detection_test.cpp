@@ -16,14 +16,10 @@ std::filesystem::path shippedModels() {
   return std::filesystem::path(SHAPESENSE_SOURCE_DIR) / "models";
 }
 
-// The same difficult rule as shapesense-train's datasets (tools/shapesense-train/dataset.h).
-bool difficult(const cv::Rect& box, std::size_t pixels) {
-  return box.width < 20 || box.height < 12 || static_cast<double>(pixels) < 0.25 * box.area();
-}
-
-// Goal: AP50 >= 0.95. Unmet: the floor is set just under what the shipped models reach on
-// these 16 frames (measured 0.898; 0.871 on the 160-frame test set of shapesense-train eval).
-constexpr double kApFloor = 0.85;
+// Goal: AP50 >= 0.95, measured by shapesense-train eval on the 160-frame test set (0.966) and
+// two 800-frame sets (0.962, 0.970; models/README.md). These 16 frames hold only 19 bowls, so
+// one bowl moves their AP by ~5 points: the floor sits below their measured 0.938.
+constexpr double kApFloor = 0.88;
 
 TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
   const auto detector = BowlDetector::load(shippedModels());
@@ -47,7 +43,8 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
     f.detections = detector.detect(r.frame.depth, r.frame.intrinsics);
     for (const auto& o : r.truth.objects)
       if (o.kind == "bowl" && o.upright && !o.image_box.empty())
-        f.truth.push_back({o.image_box, difficult(o.image_box, o.pixel_count)});
+        f.truth.push_back(
+            {o.image_box, isDifficultBowl(o.image_box, o.pixel_count, o.visible_fraction)});
     frames.push_back(std::move(f));
   }
   const auto res = evaluateBowlDetections(frames, 0.5, 0.1);

@@ -484,6 +484,54 @@ TEST(SyntheticScene, BowlsSeenFromAboveShowMostlyTheirInside) {
   EXPECT_GT(checked, 5);
 }
 
+// visible_fraction against the pixels themselves: with a sensor that reads every pixel and
+// nothing on the table but one bowl, a bowl inside the image is seen whole (the silhouette
+// area and the pixel count agree within 10%: the bowl's own rim may hide a sliver of its
+// inside); moving the principal point so that the image border runs through the bowl's centre
+// leaves about half of it.
+TEST(SyntheticScene, BowlVisibleFractionFollowsWhatTheSensorSees) {
+  SceneParams params;
+  params.render_colour = false;
+  params.boxes_on_table_min = params.boxes_on_table_max = 0;
+  params.floor_box_probability = 0.0;
+  params.cups_min = params.cups_max = 0;
+  params.tins_min = params.tins_max = 0;
+  params.balls_min = params.balls_max = 0;
+  params.bowls_min = params.bowls_max = 1;
+  params.kinect.dropout_rate = 0.0;
+  params.kinect.projector_shadows = false;
+  params.kinect.max_incidence_deg = 90.0;
+  params.camera_motion = 0.0;
+  int whole = 0, halved = 0;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    params.seed = seed;
+    const RenderedFrame f = SyntheticScene(params).render(0, 0);
+    for (const TruthObject& bowl : f.truth.objects) {
+      if (bowl.kind != "bowl") continue;
+      const cv::Rect inner(5, 5, params.intrinsics.width - 10, params.intrinsics.height - 10);
+      if (bowl.pixel_count < 300 || (bowl.image_box & inner) != bowl.image_box) continue;
+      SCOPED_TRACE(bowl.name + " seed " + std::to_string(seed));
+      EXPECT_GT(bowl.visible_fraction, 0.9);
+      EXPECT_LT(bowl.visible_fraction, 1.05);
+      ++whole;
+
+      SceneParams cut = params;  // the same scene, the image's left border through the bowl
+      const double centre_u = bowl.image_box.x + bowl.image_box.width / 2.0;
+      cut.intrinsics.cx = params.intrinsics.cx - centre_u;
+      const RenderedFrame g = SyntheticScene(cut).render(0, 0);
+      const TruthObject& same = g.truth.objects.at(bowl.id - 1u);
+      ASSERT_EQ(same.name, bowl.name);
+      EXPECT_GT(same.visible_fraction, 0.3);
+      EXPECT_LT(same.visible_fraction, 0.75);
+      ++halved;
+      std::printf("%s seed %d: visible %.3f whole, %.3f cut at its centre\n", bowl.name.c_str(),
+                  static_cast<int>(seed), bowl.visible_fraction, same.visible_fraction);
+    }
+  }
+  EXPECT_GE(whole, 4);
+  EXPECT_EQ(halved, whole);
+}
+
 TEST(SyntheticScene, RejectsImpossibleParams) {
   SceneParams bad_range;
   bad_range.bowls_min = 3;

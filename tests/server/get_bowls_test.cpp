@@ -41,11 +41,10 @@ DetectorConfig bowlsOnly() {
 }
 
 // Truth bowls the detector is meant to find: upright, visible, and not "difficult" (the
-// training set's rule: tiny or mostly hidden bowls are neither required nor counted as false).
+// evaluation's rule: tiny, sparse or mostly hidden bowls are neither required nor counted as
+// false).
 bool difficult(const synthetic::TruthObject& bowl) {
-  const cv::Rect& box = bowl.image_box;
-  return box.width < 20 || box.height < 12 ||
-         static_cast<double>(bowl.pixel_count) < 0.25 * box.area();
+  return isDifficultBowl(bowl.image_box, bowl.pixel_count, bowl.visible_fraction);
 }
 
 class GetBowlsTest : public ::testing::Test {

@@ -10,15 +10,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "shapesense/core/bowl_eval.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::train {
 
 using nlohmann::json;
-
-bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count) {
-  return box.width < 20 || box.height < 12 || static_cast<double>(pixel_count) < 0.25 * box.area();
-}
 
 namespace {
 
@@ -110,7 +107,10 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
             bowls.push_back({{"box", {b.x, b.y, b.width, b.height}},
                              {"view", o.view_class},
                              {"upright", o.upright},
-                             {"difficult", isDifficultBowl(b, o.pixel_count)}});
+                             {"pixels", o.pixel_count},
+                             {"visible_fraction", o.visible_fraction},
+                             {"difficult", isDifficultBowl(b, o.pixel_count, o.visible_fraction)},
+                             {"trainable", o.upright && !isTinyOrSparseBowl(b, o.pixel_count)}});
           }
           line["negative"] = !any_upright;
           line["bowls"] = std::move(bowls);
@@ -135,7 +135,7 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
   std::ofstream ann(dir / "annotations.jsonl");
   for (const auto& l : lines) ann << l << "\n";
   json meta = {{"format", "shapesense-bowl-dataset"},
-               {"version", 1},
+               {"version", 2},
                {"generator",
                 {{"seed", gp.seed},
                  {"positive_scenes", gp.positive_scenes},
@@ -167,6 +167,10 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
       a.view = b.at("view").get<std::string>();
       a.upright = b.at("upright").get<bool>();
       a.difficult = b.at("difficult").get<bool>();
+      // Version 1 datasets had one flag for both (the tiny-or-sparse rule).
+      a.trainable =
+          b.contains("trainable") ? b.at("trainable").get<bool>() : a.upright && !a.difficult;
+      a.visible_fraction = b.value("visible_fraction", 1.0);
       f.bowls.push_back(a);
     }
     out.push_back(std::move(f));

@@ -1,16 +1,19 @@
 #pragma once
 // Bowl datasets for shapesense-train: a folder of depth frames with bowl annotations.
 //
-// Layout (version 1):
+// Layout (version 2; version 1 had no pixels, visible_fraction or trainable):
 //   <dir>/dataset.json       {"format": "shapesense-bowl-dataset", "version": 1,
 //                             "generator": {...how it was made...}}
 //   <dir>/annotations.jsonl  one line per frame: {"file": "frames/000123.png",
 //                             "fx": .., "fy": .., "cx": .., "cy": .., "negative": bool,
 //                             "bowls": [{"box": [x, y, w, h], "view": "middle",
-//                                        "upright": true, "difficult": false}, ...]}
+//                                        "upright": true, "pixels": 812,
+//                                        "visible_fraction": 0.93, "difficult": false,
+//                                        "trainable": true}, ...]}
 //   <dir>/frames/*.png       16-bit depth, millimetres, 0 = no reading
 // "negative" frames hold no upright bowl and feed the bootstrapping; the others give the
-// positives (upright, not difficult bowls) and the evaluation truth.
+// positives ("trainable" bowls) and the evaluation truth (upright bowls; "difficult" ones
+// ignored, core/bowl_eval.h isDifficultBowl).
 
 #include <cstdint>
 #include <filesystem>
@@ -27,7 +30,15 @@ struct BowlAnnotation {
   cv::Rect box;
   std::string view;
   bool upright = true;
+  /// The evaluation ignores it (isDifficultBowl in core/bowl_eval.h).
   bool difficult = false;
+  /// A training positive: upright and not tiny or sparse (isTinyOrSparseBowl). Partly hidden
+  /// bowls are kept here (they teach partial views) although the evaluation does not require
+  /// them.
+  bool trainable = false;
+  /// Seen fraction of the silhouette (synthetic::TruthObject::visible_fraction); 1 in
+  /// version 1 datasets, which did not record it.
+  double visible_fraction = 1.0;
 };
 
 struct DatasetFrame {
@@ -55,9 +66,5 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir);
 
 /// Reads one frame's depth (CV_16UC1 mm).
 cv::Mat readDepth(const std::filesystem::path& dir, const DatasetFrame& frame);
-
-/// The annotation rule for difficult bowls (shared with the tests' evaluation): boxes under
-/// 20 px wide or 12 px high, or less than 25% of the box covered by bowl pixels.
-bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count);
 
 }  // namespace shapesense::train

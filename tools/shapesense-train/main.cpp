@@ -133,7 +133,7 @@ int runTrain(const TrainOptions& o) {
     std::vector<double> aspects;
     for (const auto& f : frames)
       for (const auto& b : f.bowls)
-        if (b.upright && !b.difficult && b.view == view)
+        if (b.trainable && b.view == view)
           aspects.push_back(static_cast<double>(b.box.height) / b.box.width);
     if (aspects.empty()) {
       spdlog::warn("no training bowls for view {}", view);
@@ -152,7 +152,7 @@ int runTrain(const TrainOptions& o) {
     for (std::size_t i = 0; i < frames.size(); ++i) {
       std::vector<const BowlAnnotation*> mine;
       for (const auto& b : frames[i].bowls)
-        if (b.upright && !b.difficult && b.view == view) mine.push_back(&b);
+        if (b.trainable && b.view == view) mine.push_back(&b);
       if (mine.empty()) continue;
       const auto levels = buildBowlPyramid(prepared[i].img8, det.scale_step, W, H);
       for (const auto* b : mine) {

@@ -83,7 +83,7 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out,
     std::vector<double> aspects;
     for (std::size_t i = 0; i < frames.size(); ++i)
       for (const auto& b : frames[i].bowls)
-        if (b.upright && !b.difficult && b.view == view) {
+        if (b.trainable && b.view == view) {
           bowls.emplace_back(i, &b);
           aspects.push_back(static_cast<double>(b.box.height) / b.box.width);
         }

@@ -3,6 +3,7 @@
 // interpolated, VOC 2010+) at an IoU threshold, and the log-average-free "miss rate at a
 // false-positives-per-frame budget" used in pedestrian detection.
 
+#include <cstddef>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -14,9 +15,24 @@ namespace shapesense {
 struct BowlTruthBox {
   cv::Rect box;
   /// Ignored: matching it is neither a true nor a false positive, missing it is no miss
-  /// (tiny, mostly hidden or out-of-range bowls).
+  /// (tiny, mostly hidden or out-of-range bowls: isDifficultBowl).
   bool difficult = false;
 };
+
+/// A bowl too small or too sparse in the image to learn or find: its box (the bounds of its
+/// pixels) under 20 x 12 px, or less than a quarter of the box covered by its pixels.
+bool isTinyOrSparseBowl(const cv::Rect& box, std::size_t pixel_count);
+
+/// Bowls of which the sensor sees less than this fraction of the whole silhouette are difficult.
+inline constexpr double kMinVisibleBowlFraction = 0.5;
+
+/// The truth rule of every bowl evaluation (shapesense-train datasets, the tests, the bench):
+/// difficult = tiny or sparse (isTinyOrSparseBowl), or less than half of the bowl visible
+/// (`visible_fraction`: its pixels with depth over the area of its whole silhouette, e.g.
+/// synthetic::TruthObject::visible_fraction), i.e. mostly hidden behind other objects, cut by
+/// the image border, or nearer than the sensor's range. As PASCAL VOC's "difficult" objects,
+/// such bowls are neither required nor counted as false detections.
+bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count, double visible_fraction);
 
 struct BowlEvalFrame {
   std::vector<BowlDetection> detections;

@@ -157,6 +157,13 @@ struct TruthObject {
   double rim_radius_m = 0.0;                             ///< outer radius at the rim
   double depth_m = 0.0;            ///< outer depth, rim plane to the outer bottom
   double shell_thickness_m = 0.0;  ///< also the rim width
+  /// pixel_count over the area in pixels of the bowl's whole silhouette (its outer shell
+  /// projected with nothing in front and no image border): how much of the bowl the sensor sees
+  /// in this frame. 1 = all of it; less where other objects hide it, the image border cuts it
+  /// or its pixels read no depth (nearer than KinectParams::min_range_m, shadows, dropouts). May
+  /// exceed 1 by a few percent (whole pixels against an exact outline). 0 when not visible or
+  /// when the bowl reaches behind the camera plane.
+  double visible_fraction = 0.0;
 };
 
 /// The bowl view class for an elevation in degrees (thresholds 20 and 60, see TruthObject).
