@@ -177,6 +177,12 @@ const std::vector<TestFrame>& testSet() {
   static const std::vector<TestFrame> all = [] {
     std::vector<TestFrame> out;
     if (!fs::exists(testSetDir() / "annotations.jsonl")) return out;
+    try {
+      shapesense::train::requireEvaluationTruth(testSetDir());
+    } catch (const std::exception& e) {  // a stale test set: rerun bench/prepare-bowl-peer
+      std::fprintf(stderr, "%s\n", e.what());
+      return out;
+    }
     for (const auto& f : shapesense::train::readDataset(testSetDir())) {
       TestFrame t{shapesense::train::readDepth(testSetDir(), f), f.intrinsics, {}, {}};
       // As shapesense-train eval: upright bowls are the truth, difficult ones are ignored.
@@ -196,7 +202,7 @@ const std::vector<TestFrame>& testSet() {
 void runTestSet(benchmark::State& state, const char* name, const BowlDetectFn& detect) {
   const auto& frames = testSet();
   if (frames.empty()) {
-    state.SkipWithError("no test set: run bench/prepare-bowl-peer BUILD_DIR");
+    state.SkipWithError("no current test set: run bench/prepare-bowl-peer BUILD_DIR");
     return;
   }
   std::vector<shapesense::BowlEvalFrame> eval;

@@ -1220,7 +1220,7 @@ class TruthBuilder {
     const Eigen::Vector3d axis = bowl.axis.normalized();
     const Eigen::Vector3d e1 = axis.unitOrthogonal(), e2 = axis.cross(e1);
     const Eigen::Vector3d centre = bowl.rim_center + axis * (sphere_r - h);
-    const double polar_max = std::asin(std::min(1.0, r / sphere_r));  // the rim
+    const double polar_max = std::acos(std::clamp(1.0 - h / sphere_r, -1.0, 1.0));  // the rim
     constexpr int kPolar = 24, kAzimuth = 96;
     std::vector<cv::Point2f> outline;
     outline.reserve((kPolar + 1) * kAzimuth);

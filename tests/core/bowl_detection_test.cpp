@@ -52,7 +52,7 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
               res.positives, res.ap, res.miss_rate_at_fppi, res.true_positives,
               res.false_positives);
   ASSERT_GE(res.positives, 16);
-  // Floor set from the shipped models' measured AP on these frames (see models/README.md).
+  // Floor set below the shipped models' measured AP on these frames (kApFloor).
   EXPECT_GE(res.ap, kApFloor);
 }
 

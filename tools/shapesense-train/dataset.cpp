@@ -145,6 +145,17 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
   std::ofstream(dir / "dataset.json") << meta.dump(2) << "\n";
 }
 
+void requireEvaluationTruth(const std::filesystem::path& dir) {
+  std::ifstream in(dir / "dataset.json");
+  if (!in) throw std::runtime_error("no dataset.json in " + dir.string());
+  const int version = json::parse(in).value("version", 0);
+  if (version < 2)
+    throw std::runtime_error(dir.string() + " is a version " + std::to_string(version) +
+                             " dataset: its \"difficult\" flags predate the visible-fraction "
+                             "rule (core/bowl_eval.h), so it cannot be evaluated; regenerate it "
+                             "with shapesense-train generate");
+}
+
 std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
   std::ifstream in(dir / "annotations.jsonl");
   if (!in) throw std::runtime_error("no annotations.jsonl in " + dir.string());
@@ -170,7 +181,6 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
       // Version 1 datasets had one flag for both (the tiny-or-sparse rule).
       a.trainable =
           b.contains("trainable") ? b.at("trainable").get<bool>() : a.upright && !a.difficult;
-      a.visible_fraction = b.value("visible_fraction", 1.0);
       f.bowls.push_back(a);
     }
     out.push_back(std::move(f));

@@ -2,7 +2,7 @@
 // Bowl datasets for shapesense-train: a folder of depth frames with bowl annotations.
 //
 // Layout (version 2; version 1 had no pixels, visible_fraction or trainable):
-//   <dir>/dataset.json       {"format": "shapesense-bowl-dataset", "version": 1,
+//   <dir>/dataset.json       {"format": "shapesense-bowl-dataset", "version": 2,
 //                             "generator": {...how it was made...}}
 //   <dir>/annotations.jsonl  one line per frame: {"file": "frames/000123.png",
 //                             "fx": .., "fy": .., "cx": .., "cy": .., "negative": bool,
@@ -36,9 +36,6 @@ struct BowlAnnotation {
   /// bowls are kept here (they teach partial views) although the evaluation does not require
   /// them.
   bool trainable = false;
-  /// Seen fraction of the silhouette (synthetic::TruthObject::visible_fraction); 1 in
-  /// version 1 datasets, which did not record it.
-  double visible_fraction = 1.0;
 };
 
 struct DatasetFrame {
@@ -63,6 +60,10 @@ struct GenerateParams {
 void generateDataset(const std::filesystem::path& dir, const GenerateParams& params);
 
 std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir);
+
+/// Throws unless the dataset's "difficult" flags follow the current truth rule (version >= 2):
+/// evaluation (eval, diagnose, the bench) calls it; training reads version 1 too.
+void requireEvaluationTruth(const std::filesystem::path& dir);
 
 /// Reads one frame's depth (CV_16UC1 mm).
 cv::Mat readDepth(const std::filesystem::path& dir, const DatasetFrame& frame);

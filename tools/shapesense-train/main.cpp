@@ -311,6 +311,7 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
   const auto detector = BowlDetector::load(models, p);
   std::ofstream raw_file;
   if (!raw_out.empty()) raw_file.open(raw_out);
+  requireEvaluationTruth(data);
   const auto frames = readDataset(data);
   std::vector<BowlEvalFrame> eval;
   std::map<std::string, std::pair<int, int>> per_view;  // found, total
@@ -374,6 +375,7 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
   BowlDetectorParams all = p;
   all.score_threshold = -1e6;
   const auto loose = BowlDetector::load(models, all);
+  requireEvaluationTruth(data);
   const auto frames = readDataset(data);
   std::map<std::string, std::map<std::string, int>> causes;  // view -> cause -> count
   auto best = [](const std::vector<BowlDetection>& ds, const cv::Rect& box) {

@@ -48,10 +48,11 @@ struct BowlDetectorParams {
   bool depth_gate = true;      ///< skip windows whose size misfits the depth. Default true.
   /// Final score a window must reach (Real AdaBoost units, applied after the last stage).
   /// Default 12: chosen on the synthetic validation set (seed 5, never trained on) with the
-  /// shipped models: without box merging, from 0 to 12 recall drops 0.5% (0.938 -> 0.933) while
-  /// false positives fall 300-fold (68 -> 0.23 per frame). The threshold also decides which
-  /// windows a merged box averages (box_merge_iou): with merging, recall is 0.903 at 0 and 0.954
-  /// at 12. Retrained models need it re-chosen (shapesense-train eval --threshold).
+  /// shipped models, under the truth rule of that time (bowls seen less than half still
+  /// required; models/README.md): without box merging, from 0 to 12 recall drops 0.5% (0.938 ->
+  /// 0.933) while false positives fall 300-fold (68 -> 0.23 per frame). The threshold also decides
+  /// which windows a merged box averages (box_merge_iou): with merging, recall is 0.903 at 0 and
+  /// 0.954 at 12. Retrained models need it re-chosen (shapesense-train eval --threshold).
   double score_threshold = 12.0;
   /// NMS: two detections are distinct objects when the circles inscribed in their boxes
   /// overlap by less than this fraction of the smaller circle's area. Default 0.10 (seed).
@@ -61,17 +62,17 @@ struct BowlDetectorParams {
   /// own box. The highest-scoring window often sits one or two pyramid levels off the bowl's
   /// size, or belongs to another view's classifier whose fixed aspect misfits (a "middle"
   /// window on a thin "side" profile); its neighbours straddle the true box. Default 0.3: on
-  /// the validation set (seed 5) it recovers 4 of the 13 misses, with 0.2-0.3 giving the same
-  /// result and 0.4 fewer (shapesense-train eval --merge-iou).
+  /// the validation set (seed 5, earlier truth rule) it recovers 4 of the 13 misses, with 0.2-0.3
+  /// giving the same result and 0.4 fewer (shapesense-train eval --merge-iou).
   double box_merge_iou = 0.3;
   /// Score of a kept detection += support_score_weight * ln(n), n = the accepted windows its box
   /// was merged from (box_merge_iou; needs merging on). A bowl fires many windows across
   /// positions, pyramid levels and views, a lone look-alike few, so this ranks true bowls above
   /// false positives of the same window score. It only re-ranks: which detections are kept (and
   /// the false positives per frame at the threshold) do not change. Default 16: on the
-  /// validation set (seed 5) AP50 0.9465 at 0, 0.9504 at 4, 0.9513 at 8, 0.9516 at 12 and
-  /// 0.9519 at 16 and 24 (miss rate at 0.1 FPPI 0.082 -> 0.051); 16 is inside that plateau
-  /// (shapesense-train eval --support-weight).
+  /// validation set (seed 5, earlier truth rule) AP50 0.9465 at 0, 0.9504 at 4, 0.9513 at 8, 0.9516
+  /// at 12 and 0.9519 at 16 and 24 (miss rate at 0.1 FPPI 0.082 -> 0.051); 16 is inside that
+  /// plateau (shapesense-train eval --support-weight).
   double support_score_weight = 16.0;
   /// Run pyramid levels in parallel with cv::parallel_for_ (OpenCV's pool). Default false:
   /// core adds no threads of its own unless asked; the daemon gives the detector one thread.

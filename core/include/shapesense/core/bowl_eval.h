@@ -27,11 +27,12 @@ bool isTinyOrSparseBowl(const cv::Rect& box, std::size_t pixel_count);
 inline constexpr double kMinVisibleBowlFraction = 0.5;
 
 /// The truth rule of every bowl evaluation (shapesense-train datasets, the tests, the bench):
-/// difficult = tiny or sparse (isTinyOrSparseBowl), or less than half of the bowl visible
-/// (`visible_fraction`: its pixels with depth over the area of its whole silhouette, e.g.
-/// synthetic::TruthObject::visible_fraction), i.e. mostly hidden behind other objects, cut by
-/// the image border, or nearer than the sensor's range. As PASCAL VOC's "difficult" objects,
-/// such bowls are neither required nor counted as false detections.
+/// difficult = tiny or sparse (isTinyOrSparseBowl), or visible_fraction below
+/// kMinVisibleBowlFraction (its pixels with depth over the area of its whole silhouette, e.g.
+/// synthetic::TruthObject::visible_fraction): mostly hidden behind other objects, cut by the
+/// image border, or reading no depth (nearer than the sensor's range, in shadow, at grazing
+/// angles). As PASCAL VOC's "difficult" objects, such bowls are neither required nor counted as
+/// false detections.
 bool isDifficultBowl(const cv::Rect& box, std::size_t pixel_count, double visible_fraction);
 
 struct BowlEvalFrame {
