@@ -580,8 +580,14 @@ TEST(SyntheticScene, RendersAFrameQuickly) {
         "synthetic render (colour %s): best %.1f ms CPU, mean %.1f ms wall per 640x480 frame\n",
         colour ? "on" : "off", best_cpu, total_wall / kFrames);
     RecordProperty(colour ? "render_cpu_ms" : "render_cpu_ms_no_colour", std::to_string(best_cpu));
-    // The Release target is < 40 ms; the bound is loose for Debug and sanitizer builds.
-    EXPECT_LT(best_cpu, 400.0);
+    // A bound against gross slow-downs, not a benchmark: Release takes ~30-40 ms; ASan + UBSan
+    // builds took ~0.5 s a frame on a 2.1 GHz Xeon (2026-12-01), past the other builds' bound.
+#if defined(__SANITIZE_ADDRESS__)
+    constexpr double kMaxCpuMs = 2000.0;
+#else
+    constexpr double kMaxCpuMs = 400.0;
+#endif
+    EXPECT_LT(best_cpu, kMaxCpuMs);
   }
 }
 
