@@ -1222,16 +1222,18 @@ class TruthBuilder {
     const Eigen::Vector3d centre = bowl.rim_center + axis * (sphere_r - h);
     const double polar_max = std::acos(std::clamp(1.0 - h / sphere_r, -1.0, 1.0));  // the rim
     constexpr int kPolar = 24, kAzimuth = 96;
+    std::array<Eigen::Vector3d, kAzimuth> around;  // unit directions in the rim plane
+    for (int j = 0; j < kAzimuth; ++j) {
+      const double azimuth = 2.0 * std::numbers::pi * j / kAzimuth;
+      around[static_cast<std::size_t>(j)] = std::cos(azimuth) * e1 + std::sin(azimuth) * e2;
+    }
     std::vector<cv::Point2f> outline;
     outline.reserve((kPolar + 1) * kAzimuth);
     for (int i = 0; i <= kPolar; ++i) {
       const double polar = polar_max * i / kPolar;
-      for (int j = 0; j < kAzimuth; ++j) {
-        const double azimuth = 2.0 * std::numbers::pi * j / kAzimuth;
-        const Eigen::Vector3d p =
-            centre +
-            sphere_r * (std::sin(polar) * (std::cos(azimuth) * e1 + std::sin(azimuth) * e2) -
-                        std::cos(polar) * axis);
+      const double sin_polar = std::sin(polar), cos_polar = std::cos(polar);
+      for (const Eigen::Vector3d& dir : around) {
+        const Eigen::Vector3d p = centre + sphere_r * (sin_polar * dir - cos_polar * axis);
         if (p.z() < 0.01) return 0.0;
         const Eigen::Vector2d px = intrinsics_.project(p);
         outline.emplace_back(static_cast<float>(px.x()), static_cast<float>(px.y()));

@@ -109,8 +109,7 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
                              {"upright", o.upright},
                              {"pixels", o.pixel_count},
                              {"visible_fraction", o.visible_fraction},
-                             {"difficult", isDifficultBowl(b, o.pixel_count, o.visible_fraction)},
-                             {"trainable", o.upright && !isTinyOrSparseBowl(b, o.pixel_count)}});
+                             {"difficult", isDifficultBowl(b, o.pixel_count, o.visible_fraction)}});
           }
           line["negative"] = !any_upright;
           line["bowls"] = std::move(bowls);
@@ -178,9 +177,11 @@ std::vector<DatasetFrame> readDataset(const std::filesystem::path& dir) {
       a.view = b.at("view").get<std::string>();
       a.upright = b.at("upright").get<bool>();
       a.difficult = b.at("difficult").get<bool>();
-      // Version 1 datasets had one flag for both (the tiny-or-sparse rule).
+      // Version 1 datasets have no pixel count, and their one flag was the tiny-or-sparse rule.
       a.trainable =
-          b.contains("trainable") ? b.at("trainable").get<bool>() : a.upright && !a.difficult;
+          a.upright &&
+          (b.contains("pixels") ? !isTinyOrSparseBowl(a.box, b.at("pixels").get<std::size_t>())
+                                : !a.difficult);
       f.bowls.push_back(a);
     }
     out.push_back(std::move(f));

@@ -1,19 +1,19 @@
 #pragma once
 // Bowl datasets for shapesense-train: a folder of depth frames with bowl annotations.
 //
-// Layout (version 2; version 1 had no pixels, visible_fraction or trainable):
+// Layout (version 2; version 1 had no pixels or visible_fraction):
 //   <dir>/dataset.json       {"format": "shapesense-bowl-dataset", "version": 2,
 //                             "generator": {...how it was made...}}
 //   <dir>/annotations.jsonl  one line per frame: {"file": "frames/000123.png",
 //                             "fx": .., "fy": .., "cx": .., "cy": .., "negative": bool,
 //                             "bowls": [{"box": [x, y, w, h], "view": "middle",
 //                                        "upright": true, "pixels": 812,
-//                                        "visible_fraction": 0.93, "difficult": false,
-//                                        "trainable": true}, ...]}
+//                                        "visible_fraction": 0.93, "difficult": false},
+//                                       ...]}
 //   <dir>/frames/*.png       16-bit depth, millimetres, 0 = no reading
 // "negative" frames hold no upright bowl and feed the bootstrapping; the others give the
-// positives ("trainable" bowls) and the evaluation truth (upright bowls; "difficult" ones
-// ignored, core/bowl_eval.h isDifficultBowl).
+// positives (BowlAnnotation::trainable, from "upright", "box" and "pixels") and the evaluation
+// truth (upright bowls; "difficult" ones ignored, core/bowl_eval.h isDifficultBowl).
 
 #include <cstdint>
 #include <filesystem>
@@ -32,7 +32,8 @@ struct BowlAnnotation {
   bool upright = true;
   /// The evaluation ignores it (isDifficultBowl in core/bowl_eval.h).
   bool difficult = false;
-  /// A training positive: upright and not tiny or sparse (isTinyOrSparseBowl). Partly hidden
+  /// A training positive (derived on reading): upright and not tiny or sparse
+  /// (isTinyOrSparseBowl; in version 1 datasets: not difficult). Partly hidden
   /// bowls are kept here (they teach partial views) although the evaluation does not require
   /// them.
   bool trainable = false;
