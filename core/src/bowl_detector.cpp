@@ -439,7 +439,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
                    static_cast<int>(std::lround((h.y + my) * level.scale)),
                    static_cast<int>(std::lround(ow * level.scale)),
                    static_cast<int>(std::lround(oh * level.scale)));
-      per_task[task].push_back({box, h.score * kWaldBoostScoreUnit, m.view});
+      per_task[task].push_back({box, h.score * kWaldBoostScoreUnit, m.view, std::nullopt});
     }
   };
   if (params_.parallel) {
@@ -459,6 +459,21 @@ std::vector<BowlDetection> BowlDetector::detect(const cv::Mat& depth_mm,
                                                 const CameraIntrinsics& intr) const {
   return suppressNonMaxima(detectRaw(depth_mm, intr), params_.nms_max_overlap,
                            params_.box_merge_iou, params_.support_score_weight);
+}
+
+std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
+                                          const cv::Mat& depth_mm,
+                                          const CameraIntrinsics& intrinsics,
+                                          const PlaneDetection& planes,
+                                          const BowlGeometryParams& params) {
+  std::erase_if(detections, [&](BowlDetection& detection) {
+    auto measured = measureBowlGeometry(depth_mm, intrinsics, detection.box, planes, params);
+    auto* geometry = std::get_if<BowlGeometry>(&measured);
+    if (geometry == nullptr) return true;
+    detection.geometry = *geometry;
+    return false;
+  });
+  return detections;
 }
 
 }  // namespace shapesense

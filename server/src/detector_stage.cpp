@@ -109,10 +109,14 @@ void ObjectBoxStage::run(const Frame& frame, FrameResults& results) {
 }
 
 std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& detector,
+                                      const PlaneDetection& planes,
+                                      const BowlGeometryParams& geometry_params,
                                       const BoxEstimationParams& box_params) {
   std::vector<DetectedBowl> bowls;
   const cv::Rect image(0, 0, frame.depth.cols, frame.depth.rows);
-  for (auto& detection : detector.detect(frame.depth, frame.intrinsics)) {
+  auto detections = keepBowlShaped(detector.detect(frame.depth, frame.intrinsics), frame.depth,
+                                   frame.intrinsics, planes, geometry_params);
+  for (auto& detection : detections) {
     DetectedBowl bowl{.detection = std::move(detection), .box = std::nullopt};
     // Pyramid rounding can put a box's edge a pixel past the image; estimateBox rejects that.
     bowl.detection.box &= image;
@@ -133,7 +137,14 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
 }
 
 void BowlStage::run(const Frame& frame, FrameResults& results) {
-  results.bowls = detectBowls(frame, *detector_, box_params_);
+  if (results.planes) {
+    results.bowls =
+        detectBowls(frame, *detector_, results.planes->frame, geometry_params_, box_params_);
+    return;
+  }
+  if (!own_planes_) own_planes_.emplace();
+  const PlaneDetection planes = own_planes_->detect(frame.depth, frame.intrinsics);
+  results.bowls = detectBowls(frame, *detector_, planes, geometry_params_, box_params_);
 }
 
 namespace {
@@ -185,7 +196,7 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
     try {
       chain.add(std::make_unique<BowlStage>(
           std::make_unique<const BowlDetector>(BowlDetector::load(models, params)),
-          config.bowl_box_params));
+          config.bowl_geometry_params, config.bowl_box_params));
     } catch (const std::exception& e) {
       throw std::runtime_error("the bowl stage is on but its models in '" + models.string() +
                                "' do not load (" + e.what() +

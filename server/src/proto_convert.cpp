@@ -113,6 +113,11 @@ void toProto(const DetectedBowl& bowl, v1::Bowl* out) {
   toProto(bowl.detection.box, out->mutable_box());
   out->set_score(bowl.detection.score);
   out->set_view(bowl.detection.view);
+  if (const auto& geometry = bowl.detection.geometry) {
+    out->set_rim_diameter_m(geometry->rim_diameter_m);
+    out->set_height_m(geometry->height_m);
+    out->set_support_plane_id(geometry->support_plane_id);
+  }
   if (bowl.box) {
     for (const auto& corner : bowl.box->corners) toProto(corner, out->add_corners());
   }

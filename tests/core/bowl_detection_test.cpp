@@ -7,6 +7,7 @@
 
 #include "shapesense/core/bowl_detector.h"
 #include "shapesense/core/bowl_eval.h"
+#include "shapesense/core/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {
@@ -23,6 +24,7 @@ constexpr double kApFloor = 0.88;
 
 TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
   const auto detector = BowlDetector::load(shippedModels());
+  HoughPlaneDetector plane_detector;
   std::vector<BowlEvalFrame> frames;
   for (int k = 0; k < 16; ++k) {
     synthetic::SceneParams p;
@@ -40,7 +42,10 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
     const synthetic::SyntheticScene scene(p);
     const auto r = scene.render(0, 0);
     BowlEvalFrame f;
-    f.detections = detector.detect(r.frame.depth, r.frame.intrinsics);
+    const auto& depth = r.frame.depth;
+    f.detections = keepBowlShaped(detector.detect(depth, r.frame.intrinsics), depth,
+                                  r.frame.intrinsics,
+                                  plane_detector.detect(depth, r.frame.intrinsics));
     for (const auto& o : r.truth.objects)
       if (o.kind == "bowl" && o.upright && !o.image_box.empty())
         f.truth.push_back(

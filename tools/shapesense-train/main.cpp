@@ -32,6 +32,7 @@
 #include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/depth_preprocess.h"
+#include "shapesense/core/planes.h"
 #include "shapesense/driver/tum_recording.h"
 #include "wbdetector_export.h"
 
@@ -299,6 +300,12 @@ int runTrain(const TrainOptions& o) {
   return 0;
 }
 
+/// The 3D check after the classifier (keepBowlShaped), on the Hough planes of each frame.
+struct BowlVerification {
+  bool on = true;
+  BowlGeometryParams params;
+};
+
 std::vector<BowlTruthBox> truthOf(const DatasetFrame& f) {
   std::vector<BowlTruthBox> t;
   for (const auto& b : f.bowls)
@@ -306,9 +313,10 @@ std::vector<BowlTruthBox> truthOf(const DatasetFrame& f) {
   return t;
 }
 
-int runEval(const fs::path& models, const fs::path& data, const BowlDetectorParams& p, bool verbose,
-            const fs::path& raw_out) {
+int runEval(const fs::path& models, const fs::path& data, const BowlDetectorParams& p,
+            const BowlVerification& verification, bool verbose, const fs::path& raw_out) {
   const auto detector = BowlDetector::load(models, p);
+  HoughPlaneDetector plane_detector;
   std::ofstream raw_file;
   if (!raw_out.empty()) raw_file.open(raw_out);
   requireEvaluationTruth(data);
@@ -322,6 +330,13 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
     BowlEvalFrame e;
     e.detections = detector.detect(depth, f.intrinsics);
     secs += elapsed(t);
+    if (verification.on) {
+      const auto planes = plane_detector.detect(depth, f.intrinsics);
+      const auto t_verify = std::chrono::steady_clock::now();
+      e.detections = keepBowlShaped(std::move(e.detections), depth, f.intrinsics, planes,
+                                    verification.params);
+      secs += elapsed(t_verify);
+    }
     if (raw_file.is_open()) {  // accepted windows before NMS and the truth, for offline NMS studies
       json line = {{"file", f.file}, {"truth", json::array()}, {"raw", json::array()}};
       for (const auto& b : f.bowls)
@@ -436,30 +451,53 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
   return 0;
 }
 
-int runReal(const fs::path& models, const fs::path& tum, double threshold) {
-  BowlDetectorParams p;
-  p.score_threshold = threshold;
+// Detections on real recordings (a check only: real frames are never used for training or
+// for choosing). Each candidate the classifier keeps after NMS is printed with its 3D
+// geometry, or with the reason the 3D check rejects it; the counts are of verified bowls.
+int runReal(const fs::path& models, const std::vector<fs::path>& recordings,
+            const BowlDetectorParams& p, const BowlVerification& verification) {
   const auto detector = BowlDetector::load(models, p);
-  // The driver's reader: camera.json's intrinsics and depth scale when the recording has one.
-  const TumIndex index = readTumIndex(tum);
-  for (const auto& problem : index.problems) spdlog::warn("{}", problem);
-  int n = 0;
-  for (const auto& entry : index.depth) {
-    const fs::path file = tum / entry.relative_path;
-    const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-    if (raw.empty() || raw.type() != CV_16UC1) {
-      spdlog::error("{}: not a 16-bit depth PNG", file.string());
-      return 1;
+  HoughPlaneDetector plane_detector;
+  int total_frames = 0, total_bowls = 0;
+  for (const auto& tum : recordings) {
+    // The driver's reader: camera.json's intrinsics and depth scale when the recording has one.
+    const TumIndex index = readTumIndex(tum);
+    for (const auto& problem : index.problems) spdlog::warn("{}", problem);
+    int n = 0, bowls = 0;
+    for (const auto& entry : index.depth) {
+      const fs::path file = tum / entry.relative_path;
+      const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+      if (raw.empty() || raw.type() != CV_16UC1) {
+        spdlog::error("{}: not a 16-bit depth PNG", file.string());
+        return 1;
+      }
+      cv::Mat mm;
+      raw.convertTo(mm, CV_16UC1, 1000.0 / index.camera.depth_scale);
+      const auto dets = detector.detect(mm, index.camera.intrinsics);
+      const auto planes = plane_detector.detect(mm, index.camera.intrinsics);
+      std::printf("%s frame %d (%s):", tum.filename().c_str(), ++n, entry.relative_path.c_str());
+      for (const auto& d : dets) {
+        std::printf(" [%d %d %d %d score %.2f %s", d.box.x, d.box.y, d.box.x + d.box.width - 1,
+                    d.box.y + d.box.height - 1, d.score, d.view.c_str());
+        const auto measured =
+            measureBowlGeometry(mm, index.camera.intrinsics, d.box, planes, verification.params);
+        if (const auto* g = std::get_if<BowlGeometry>(&measured)) {
+          ++bowls;
+          std::printf(" BOWL rim %.1f cm height %.1f cm widening %.2f]", 100 * g->rim_diameter_m,
+                      100 * g->height_m, g->rim_to_foot_width);
+        } else {
+          bowls += !verification.on;
+          std::printf(" rejected: %s]",
+                      toString(std::get<BowlGeometryRejection>(measured)).c_str());
+        }
+      }
+      std::printf("\n");
     }
-    cv::Mat mm;
-    raw.convertTo(mm, CV_16UC1, 1000.0 / index.camera.depth_scale);
-    const auto dets = detector.detect(mm, index.camera.intrinsics);
-    std::printf("frame %d (%s):", ++n, entry.relative_path.c_str());
-    for (const auto& d : dets)
-      std::printf(" [%d %d %d %d score %.2f %s]", d.box.x, d.box.y, d.box.x + d.box.width - 1,
-                  d.box.y + d.box.height - 1, d.score, d.view.c_str());
-    std::printf("\n");
+    std::printf("%s: %d bowls reported on %d frames\n", tum.filename().c_str(), bowls, n);
+    total_frames += n;
+    total_bowls += bowls;
   }
+  std::printf("all: %d bowls reported on %d frames\n", total_bowls, total_frames);
   return 0;
 }
 
@@ -497,7 +535,7 @@ int main(int argc, char** argv) {
   tr->add_option("--views", views);
   tr->add_option("--threads", to.threads);
 
-  fs::path models, data, tum;
+  fs::path models, data;
   BowlDetectorParams dp;
   double& threshold = dp.score_threshold;
   // Scan options of eval and diagnose (defaults: BowlDetectorParams).
@@ -528,8 +566,19 @@ int main(int argc, char** argv) {
   scanOptions(dg);
   auto* re = app.add_subcommand("real", "print detections on a TUM recording");
   re->add_option("--models", models)->required();
-  re->add_option("--tum", tum)->required();
+  std::vector<fs::path> recordings;
+  re->add_option("--tum", recordings, "TUM recording folders")->required();
   re->add_option("--threshold", threshold, "final score threshold");
+  BowlVerification verification;
+  for (auto* a : {ev, re}) {
+    auto& g = verification.params;
+    a->add_flag("!--no-verify", verification.on, "the classifier's detections, without the 3D check");
+    a->add_option("--min-rim-to-foot", g.min_rim_to_foot_width, "3D check: rim over foot width");
+    a->add_option("--height-ratio-min", g.min_height_to_diameter, "3D check: height / rim, min");
+    a->add_option("--height-ratio-max", g.max_height_to_diameter, "3D check: height / rim, max");
+    a->add_option("--support-tilt", g.max_support_tilt_deg, "3D check: support tilt (deg)");
+    a->add_option("--band-fraction", g.band_fraction, "3D check: rim / foot band share");
+  }
 
   WbDetectorExportParams wp;
   fs::path wb_data, wb_out;
@@ -555,9 +604,9 @@ int main(int argc, char** argv) {
       for (std::string v; std::getline(ss, v, ',');) to.views.push_back(v);
       return runTrain(to);
     }
-    if (ev->parsed()) return runEval(models, data, dp, verbose, raw_out);
+    if (ev->parsed()) return runEval(models, data, dp, verification, verbose, raw_out);
     if (dg->parsed()) return runDiagnose(models, data, dp);
-    if (re->parsed()) return runReal(models, tum, threshold);
+    if (re->parsed()) return runReal(models, recordings, dp, verification);
     if (wb->parsed()) {
       wp.views.clear();
       std::stringstream ss(wb_views);

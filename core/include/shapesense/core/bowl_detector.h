@@ -20,11 +20,13 @@
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "shapesense/core/bowl_geometry.h"
 #include "shapesense/core/bowl_model.h"
 #include "shapesense/core/camera.h"
 #include "shapesense/core/depth_preprocess.h"
@@ -37,6 +39,8 @@ struct BowlDetection {
   /// (BowlDetectorParams::support_score_weight); higher = more bowl-like
   double score = 0;
   std::string view;  ///< the view class of the classifier that fired
+  /// The bowl measured in 3D; set by keepBowlShaped.
+  std::optional<BowlGeometry> geometry;
 };
 
 /// Parameters of BowlDetector. Defaults are what the shipped models were evaluated with.
@@ -155,6 +159,16 @@ class BowlDetector {
   /// The models' depth mapping, its table built once here rather than per frame.
   DepthTo8BitMap depth_map_;
 };
+
+/// The detections whose depth is bowl-shaped at a bowl's size on a support plane of `planes`
+/// (measureBowlGeometry, bowl_geometry.h), each with its geometry, in the same order. The
+/// classifier alone takes round things of any shape for bowls; this is the detector's second
+/// half, and the daemon reports only what it keeps.
+std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
+                                          const cv::Mat& depth_mm,
+                                          const CameraIntrinsics& intrinsics,
+                                          const PlaneDetection& planes,
+                                          const BowlGeometryParams& params = {});
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
 /// trainer's bootstrapping); a stage reads its code from level.codes when the image of its

@@ -96,22 +96,33 @@ class ObjectBoxStage : public DetectorStage {
   ObjectBoxParams params_;
 };
 
-/// Finds bowls with the trained depth-only detector and gives each the 3D box behind its image
-/// box. Stateless per frame; the detector runs single-threaded (the pipeline owns the threads).
+/// Finds bowls with the trained depth-only detector, keeps those whose depth is bowl-shaped on
+/// a support plane (keepBowlShaped) and gives each the 3D box behind its image box. The planes
+/// are the plane stage's when it ran before this one on the frame; without a plane stage the
+/// bowl stage detects them itself (Hough, default parameters). The detector runs
+/// single-threaded (the pipeline owns the threads).
 class BowlStage : public DetectorStage {
  public:
-  BowlStage(std::unique_ptr<const BowlDetector> detector, BoxEstimationParams box_params)
-      : detector_(std::move(detector)), box_params_(box_params) {}
+  BowlStage(std::unique_ptr<const BowlDetector> detector, BowlGeometryParams geometry_params,
+            BoxEstimationParams box_params)
+      : detector_(std::move(detector)),
+        geometry_params_(geometry_params),
+        box_params_(box_params) {}
   std::string name() const override { return "bowls"; }
   void run(const Frame& frame, FrameResults& results) override;
 
  private:
   std::unique_ptr<const BowlDetector> detector_;
+  BowlGeometryParams geometry_params_;
   BoxEstimationParams box_params_;
+  std::optional<HoughPlaneDetector> own_planes_;  ///< made on the first frame without a plane stage
 };
 
 /// The bowls of one frame with their boxes: what BowlStage computes, as a pure function.
+/// `planes`: the plane detection of the same frame.
 std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& detector,
+                                      const PlaneDetection& planes,
+                                      const BowlGeometryParams& geometry_params = {},
                                       const BoxEstimationParams& box_params = {});
 
 /// Where the bowl models are when nobody says: the first folder holding bowl_*.json of
@@ -144,6 +155,8 @@ struct DetectorConfig {
   /// Default: the parameters the shipped models were evaluated with. `parallel` is ignored:
   /// the stage always runs single-threaded on the pipeline's detector thread.
   BowlDetectorParams bowl_params;
+  /// The 3D check of each detection (rim diameter range and shape). Default: defaults.
+  BowlGeometryParams bowl_geometry_params;
   /// How each bowl's 3D box is estimated (always mode 2, see detectBowls). Default: defaults.
   BoxEstimationParams bowl_box_params;
 };

@@ -1,0 +1,305 @@
+#include "shapesense/core/bowl_geometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+namespace shapesense {
+
+namespace {
+
+struct SupportPlane {
+  Eigen::Vector3d normal;
+  double d = 0;
+  std::uint16_t id = 0;
+};
+
+/// The object's points and the support they stand on, in the support's frame.
+struct Profile {
+  std::vector<double> heights;  ///< above the support (m)
+  std::vector<double> across;   ///< along the horizontal axis across the line of sight (m)
+};
+
+constexpr int kMaxSupportSamples = 1200;
+constexpr int kMinBandPoints = 5;
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+/// Where a support shows: beside the lower half of the box and below it (a bowl stands on it;
+/// objects in front may hide the bowl's foot, so the window reaches the surface beside it).
+cv::Rect supportWindow(const cv::Rect& box, const cv::Size& image) {
+  const cv::Point tl(box.x - box.width, box.y + box.height / 2);
+  const cv::Point br(box.x + 2 * box.width, box.y + 2 * box.height);
+  return cv::Rect(tl, br) & cv::Rect(cv::Point(0, 0), image);
+}
+
+/// Labelled pixels of each plane in the window but outside the box, sampled on a grid of
+/// about kMaxSupportSamples.
+std::map<std::uint16_t, int> planePixelsBeside(const cv::Mat& labels, const cv::Rect& window,
+                                               const cv::Rect& box) {
+  std::map<std::uint16_t, int> counts;
+  if (window.empty()) return counts;
+  const double area = static_cast<double>(window.area());
+  const int step = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / kMaxSupportSamples))));
+  for (int v = window.y; v < window.br().y; v += step) {
+    const auto* row = labels.ptr<std::uint16_t>(v);
+    for (int u = window.x; u < window.br().x; u += step)
+      if (row[u] != 0 && !box.contains({u, v})) ++counts[row[u]];
+  }
+  return counts;
+}
+
+/// A plane that lies within the object's box (a bowl's flat rim, a tin's lid) is part of it.
+bool reachesBeyond(const DetectedPlane& plane, const cv::Rect& box) {
+  const cv::Rect grown(box.x - box.width / 4, box.y - box.height / 4, box.width * 3 / 2,
+                       box.height * 3 / 2);
+  return (plane.box & grown) != plane.box;
+}
+
+/// The median reading of the box's central half: a point of the object the support must hold.
+std::optional<Eigen::Vector3d> centralPoint(const cv::Mat& depth_mm,
+                                            const CameraIntrinsics& intrinsics,
+                                            const cv::Rect& box) {
+  const cv::Rect centre(box.x + box.width / 4, box.y + box.height / 4, std::max(1, box.width / 2),
+                        std::max(1, box.height / 2));
+  std::vector<std::uint16_t> depths;
+  for (int v = centre.y; v < centre.br().y; ++v)
+    for (int u = centre.x; u < centre.br().x; ++u)
+      if (const auto mm = depth_mm.at<std::uint16_t>(v, u); mm != 0) depths.push_back(mm);
+  if (depths.empty()) return std::nullopt;
+  auto middle = depths.begin() + static_cast<std::ptrdiff_t>(depths.size() / 2);
+  std::nth_element(depths.begin(), middle, depths.end());
+  const cv::Point c = (centre.tl() + centre.br()) / 2;
+  return intrinsics.backproject(c.x, c.y, *middle * 1e-3);
+}
+
+double maxObjectHeight(const BowlGeometryParams& params) {
+  return 1.25 * params.max_rim_diameter_m * params.max_height_to_diameter;
+}
+
+/// How far above the support a reading at range z must lie to be the object's.
+double clearance(double z, const BowlGeometryParams& params) {
+  return std::max(params.min_clearance_m, params.clearance_steps * params.noise.depthStep(z));
+}
+
+/// The plane the object stands on. Candidates: detected planes that face up in the image
+/// (max_support_angle_from_image_up_deg), show beside and below the box and reach beyond it,
+/// and hold the object's central point above them (within the clearance's noise, up to a
+/// bowl's height). The largest of them (the table, the floor) gives "up"; the support is the
+/// nearest candidate under the object that is parallel to it within max_support_tilt_deg, so a
+/// bowl on a box stands on the box's top, never on a tilted face.
+std::optional<SupportPlane> chooseSupport(const PlaneDetection& planes, const cv::Rect& box,
+                                          const Eigen::Vector3d& object_point,
+                                          const BowlGeometryParams& params) {
+  if (planes.labels.empty()) return std::nullopt;
+  const auto shown =
+      planePixelsBeside(planes.labels, supportWindow(box, planes.labels.size()), box);
+  const double min_up_cos = std::cos(params.max_support_angle_from_image_up_deg * kRadPerDeg);
+  const double noise = clearance(object_point.z(), params);
+  auto heightOf = [&](const DetectedPlane& plane) {
+    return plane.normal.dot(object_point) + plane.d;
+  };
+  std::vector<const DetectedPlane*> candidates;
+  for (const auto& plane : planes.planes) {
+    const auto it = shown.find(plane.id);
+    if (it == shown.end() || it->second < params.min_support_samples) continue;
+    if (-plane.normal.y() < min_up_cos || !reachesBeyond(plane, box)) continue;
+    const double height = heightOf(plane);
+    if (height > -noise && height <= maxObjectHeight(params)) candidates.push_back(&plane);
+  }
+  if (candidates.empty()) return std::nullopt;
+  const auto* largest = *std::max_element(
+      candidates.begin(), candidates.end(),
+      [](const auto* a, const auto* b) { return a->inliers < b->inliers; });
+  const double min_cos = std::cos(params.max_support_tilt_deg * kRadPerDeg);
+  const DetectedPlane* nearest = largest;
+  for (const auto* plane : candidates)
+    if (plane->normal.dot(largest->normal) >= min_cos && heightOf(*plane) < heightOf(*nearest))
+      nearest = plane;
+  return SupportPlane{nearest->normal, nearest->d, nearest->id};
+}
+
+double heightAbove(const SupportPlane& support, const Eigen::Vector3d& point) {
+  return support.normal.dot(point) + support.d;
+}
+
+/// The connected surface standing on the support that holds the box's centre: readings above
+/// the support's clearance, joined across neighbouring pixels without a depth step; of the
+/// components reaching the central half of the box, the largest.
+std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
+                                             const CameraIntrinsics& intrinsics,
+                                             const cv::Rect& box, const SupportPlane& support,
+                                             const BowlGeometryParams& params) {
+  const double max_height = maxObjectHeight(params);
+  cv::Mat standing(box.size(), CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < box.height; ++v) {
+    const auto* row = depth_mm.ptr<std::uint16_t>(box.y + v);
+    for (int u = 0; u < box.width; ++u) {
+      const std::uint16_t mm = row[box.x + u];
+      if (mm == 0) continue;
+      const double z = mm * 1e-3;
+      const double h = heightAbove(support, intrinsics.backproject(box.x + u, box.y + v, z));
+      if (h > clearance(z, params) && h < max_height) standing.at<std::uint8_t>(v, u) = 1;
+    }
+  }
+  const KinectNoiseModel& noise = params.noise;
+  auto joined = [&](int u0, int v0, int u1, int v1) {
+    const double z0 = depth_mm.at<std::uint16_t>(box.y + v0, box.x + u0) * 1e-3;
+    const double z1 = depth_mm.at<std::uint16_t>(box.y + v1, box.x + u1) * 1e-3;
+    const double step =
+        std::max(params.max_step_floor_m, params.max_step_steps * noise.depthStep(std::max(z0, z1)));
+    return std::abs(z0 - z1) <= step;
+  };
+  cv::Mat component(box.size(), CV_32SC1, cv::Scalar(0));
+  const cv::Rect centre(box.width / 4, box.height / 4, box.width / 2, box.height / 2);
+  int best_label = 0, best_size = 0, label = 0;
+  std::vector<cv::Point> stack;
+  for (int v = 0; v < box.height; ++v) {
+    for (int u = 0; u < box.width; ++u) {
+      if (!standing.at<std::uint8_t>(v, u) || component.at<int>(v, u) != 0) continue;
+      ++label;
+      int size = 0;
+      bool central = false;
+      stack.assign(1, {u, v});
+      component.at<int>(v, u) = label;
+      while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        ++size;
+        central = central || centre.contains(p);
+        const cv::Point neighbours[4] = {{p.x - 1, p.y}, {p.x + 1, p.y}, {p.x, p.y - 1}, {p.x, p.y + 1}};
+        for (const cv::Point& q : neighbours) {
+          if (q.x < 0 || q.y < 0 || q.x >= box.width || q.y >= box.height) continue;
+          if (!standing.at<std::uint8_t>(q) || component.at<int>(q) != 0) continue;
+          if (!joined(p.x, p.y, q.x, q.y)) continue;
+          component.at<int>(q) = label;
+          stack.push_back(q);
+        }
+      }
+      if (central && size > best_size) {
+        best_size = size;
+        best_label = label;
+      }
+    }
+  }
+  std::vector<Eigen::Vector3d> points;
+  if (best_label == 0) return points;
+  points.reserve(static_cast<std::size_t>(best_size));
+  for (int v = 0; v < box.height; ++v)
+    for (int u = 0; u < box.width; ++u)
+      if (component.at<int>(v, u) == best_label)
+        points.push_back(intrinsics.backproject(box.x + u, box.y + v,
+                                                depth_mm.at<std::uint16_t>(box.y + v, box.x + u) * 1e-3));
+  return points;
+}
+
+/// Heights above the support, and positions along the horizontal axis across the line of
+/// sight (looking straight down at the support, any horizontal axis: the camera's x).
+Profile profileOf(const std::vector<Eigen::Vector3d>& points, const SupportPlane& support) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Vector3d across = support.normal.cross(centroid);
+  if (across.norm() < 1e-3 * centroid.norm()) {
+    across = Eigen::Vector3d::UnitX() - support.normal.x() * support.normal;
+  }
+  across.normalize();
+  Profile profile;
+  profile.heights.reserve(points.size());
+  profile.across.reserve(points.size());
+  for (const auto& p : points) {
+    profile.heights.push_back(heightAbove(support, p));
+    profile.across.push_back(across.dot(p));
+  }
+  return profile;
+}
+
+/// The q-quantile (0..1) of values (reordered).
+double quantile(std::vector<double>& values, double q) {
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[static_cast<std::size_t>(k)];
+}
+
+/// Spread across the line of sight (3rd to 97th percentile) of the points whose height lies
+/// in [low, high]; 0 with too few points.
+double bandWidth(const Profile& profile, double low, double high) {
+  std::vector<double> across;
+  for (std::size_t i = 0; i < profile.heights.size(); ++i)
+    if (profile.heights[i] >= low && profile.heights[i] <= high) across.push_back(profile.across[i]);
+  if (across.size() < static_cast<std::size_t>(kMinBandPoints)) return 0;
+  const double lo = quantile(across, 0.03);
+  return quantile(across, 0.97) - lo;
+}
+
+std::variant<BowlGeometry, BowlGeometryRejection> judgeProfile(const Profile& profile,
+                                                               const BowlGeometryParams& params) {
+  std::vector<double> heights = profile.heights;
+  const double bottom = quantile(heights, 0.02);
+  const double top = quantile(heights, 0.98);
+  const double band = params.band_fraction * (top - bottom);
+  BowlGeometry geometry;
+  geometry.height_m = top - bottom;
+  geometry.rim_diameter_m = bandWidth(profile, top - band, top);
+  const double foot = bandWidth(profile, bottom, bottom + band);
+  geometry.rim_to_foot_width = foot > 0 ? geometry.rim_diameter_m / foot : 0;
+  if (getenv("BOWLDBG")) fprintf(stderr, "DBG n=%zu bottom %.3f top %.3f rim %.3f foot %.3f\n", heights.size(), bottom, top, geometry.rim_diameter_m, foot);
+  if (geometry.rim_diameter_m < params.min_rim_diameter_m ||
+      geometry.rim_diameter_m > params.max_rim_diameter_m)
+    return BowlGeometryRejection::kRimSize;
+  const double proportion = geometry.height_m / geometry.rim_diameter_m;
+  if (proportion < params.min_height_to_diameter || proportion > params.max_height_to_diameter)
+    return BowlGeometryRejection::kHeight;
+  if (foot <= 0 || geometry.rim_to_foot_width < params.min_rim_to_foot_width)
+    return BowlGeometryRejection::kNotWiderAtRim;
+  return geometry;
+}
+
+}  // namespace
+
+std::string toString(BowlGeometryRejection reason) {
+  switch (reason) {
+    case BowlGeometryRejection::kNoSupport:
+      return "no supporting plane under the box";
+    case BowlGeometryRejection::kNoObject:
+      return "nothing stands on the support at the box's centre";
+    case BowlGeometryRejection::kRimSize:
+      return "rim width outside the bowl range";
+    case BowlGeometryRejection::kHeight:
+      return "height out of proportion to the rim";
+    case BowlGeometryRejection::kNotWiderAtRim:
+      return "not wider at the rim than at the foot";
+  }
+  return "unknown";
+}
+
+std::variant<BowlGeometry, BowlGeometryRejection> measureBowlGeometry(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, const cv::Rect& box,
+    const PlaneDetection& planes, const BowlGeometryParams& params) {
+  CV_Assert(depth_mm.type() == CV_16UC1);
+  const cv::Rect clipped = box & cv::Rect(0, 0, depth_mm.cols, depth_mm.rows);
+  if (clipped.width < 2 || clipped.height < 2) return BowlGeometryRejection::kNoObject;
+  const auto object_point = centralPoint(depth_mm, intrinsics, clipped);
+  if (!object_point) return BowlGeometryRejection::kNoObject;
+  const auto support = chooseSupport(planes, clipped, *object_point, params);
+  if (!support) return BowlGeometryRejection::kNoSupport;
+  if (getenv("BOWLDBG")) fprintf(stderr, "DBG support id %d n %.3f %.3f %.3f d %.3f\n", support->id, support->normal.x(), support->normal.y(), support->normal.z(), support->d);
+  const auto points = objectOnSupport(depth_mm, intrinsics, clipped, *support, params);
+  if (points.size() < static_cast<std::size_t>(4 * kMinBandPoints))
+    return BowlGeometryRejection::kNoObject;
+  auto result = judgeProfile(profileOf(points, *support), params);
+  if (auto* geometry = std::get_if<BowlGeometry>(&result)) {
+    geometry->support_normal = support->normal;
+    geometry->support_d = support->d;
+    geometry->support_plane_id = support->id;
+  }
+  return result;
+}
+
+}  // namespace shapesense
