@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -330,6 +331,36 @@ BowlDetector BowlDetector::load(const std::filesystem::path& path, BowlDetectorP
   return BowlDetector(std::move(models), std::move(params));
 }
 
+namespace {
+
+/// The operating point the models state (they must agree), the score threshold replaced by
+/// `score_threshold` when it is set. Models that state none need one set; without their
+/// stated unverified threshold no unverified detection is kept.
+BowlOperatingPoint resolveOperatingPoint(const std::vector<BowlViewModel>& models,
+                                         const std::optional<double>& score_threshold) {
+  std::optional<BowlOperatingPoint> stated;
+  for (const auto& m : models) {
+    if (!m.operating_point) continue;
+    if (stated && !(*stated == *m.operating_point))
+      throw std::runtime_error("BowlDetector: models disagree on the operating point");
+    stated = m.operating_point;
+  }
+  if (!stated && !score_threshold)
+    throw std::runtime_error(
+        "BowlDetector: the models state no operating point; set a score threshold");
+  BowlOperatingPoint point = stated.value_or(
+      BowlOperatingPoint{.score_threshold = 0,
+                         .unverified_score_threshold = std::numeric_limits<double>::infinity(),
+                         .chosen_on = ""});
+  if (score_threshold) {
+    point.score_threshold = *score_threshold;
+    point.chosen_on = "set by the caller";
+  }
+  return point;
+}
+
+}  // namespace
+
 BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams params)
     : models_(std::move(models)),
       params_(std::move(params)),
@@ -341,6 +372,7 @@ BowlDetector::BowlDetector(std::vector<BowlViewModel> models, BowlDetectorParams
     if (p.near_m != p0.near_m || p.far_m != p0.far_m || p.low != p0.low || p.high != p0.high)
       throw std::runtime_error("BowlDetector: models disagree on the depth mapping");
   }
+  operating_point_ = resolveOperatingPoint(models_, params_.score_threshold);
 }
 
 std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
@@ -369,7 +401,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
         min_scale, params_.min_object_px / (m->classifier.win_w * (1.0 - 2.0 * m->object_margin)));
   auto levels = buildBowlPyramid(img8, params_.scale_step, min_w, min_h, max_scale, min_scale);
   const auto min_score =
-      static_cast<std::int32_t>(std::ceil(params_.score_threshold / kWaldBoostScoreUnit));
+      static_cast<std::int32_t>(std::ceil(operating_point_.score_threshold / kWaldBoostScoreUnit));
   std::array<bool, 4> code_cell_sizes{};
   bool any_code_image = false;
   // Per active view, computed once per frame rather than per level: whether it can fire at all,
@@ -465,13 +497,15 @@ std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
                                           const cv::Mat& depth_mm,
                                           const CameraIntrinsics& intrinsics,
                                           const PlaneDetection& planes,
-                                          const BowlGeometryParams& params) {
+                                          const BowlGeometryParams& params,
+                                          double min_unverified_score) {
   std::erase_if(detections, [&](BowlDetection& detection) {
-    auto measured = measureBowlGeometry(depth_mm, intrinsics, detection.box, planes, params);
-    auto* geometry = std::get_if<BowlGeometry>(&measured);
-    if (geometry == nullptr) return true;
-    detection.geometry = *geometry;
-    return false;
+    const auto measured = measureBowlGeometry(depth_mm, intrinsics, detection.box, planes, params);
+    if (measured.isBowl()) {
+      detection.geometry = measured.geometry;
+      return false;
+    }
+    return !isInconclusive(*measured.rejection) || detection.score < min_unverified_score;
   });
   return detections;
 }

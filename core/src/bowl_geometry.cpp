@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <cstdio>
-#include <cstdlib>
 #include <numbers>
 #include <optional>
 #include <vector>
@@ -21,15 +19,20 @@ struct SupportPlane {
   std::uint16_t id = 0;
 };
 
-/// The object's points and the support they stand on, in the support's frame.
+/// The object's points in the support's frame.
 struct Profile {
   std::vector<double> heights;  ///< above the support (m)
   std::vector<double> across;   ///< along the horizontal axis across the line of sight (m)
+  std::vector<double> along;    ///< along the horizontal axis away from the camera (m)
+  Eigen::Vector3d across_axis = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d along_axis = Eigen::Vector3d::UnitZ();
 };
 
 constexpr int kMaxSupportSamples = 1200;
 constexpr int kMinBandPoints = 5;
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+/// A rim narrower than this share of the box's width at the object's range was seen in part.
+constexpr double kPartlySeenRimShare = 0.6;
 
 /// Where a support shows: beside the lower half of the box and below it (a bowl stands on it;
 /// objects in front may hide the bowl's foot, so the window reaches the surface beside it).
@@ -114,15 +117,10 @@ std::optional<SupportPlane> chooseSupport(const PlaneDetection& planes, const cv
     if (height > -noise && height <= maxObjectHeight(params)) candidates.push_back(&plane);
   }
   if (candidates.empty()) return std::nullopt;
-  const auto* largest = *std::max_element(
+  const auto* best = *std::max_element(
       candidates.begin(), candidates.end(),
-      [](const auto* a, const auto* b) { return a->inliers < b->inliers; });
-  const double min_cos = std::cos(params.max_support_tilt_deg * kRadPerDeg);
-  const DetectedPlane* nearest = largest;
-  for (const auto* plane : candidates)
-    if (plane->normal.dot(largest->normal) >= min_cos && heightOf(*plane) < heightOf(*nearest))
-      nearest = plane;
-  return SupportPlane{nearest->normal, nearest->d, nearest->id};
+      [&](const auto* a, const auto* b) { return shown.at(a->id) < shown.at(b->id); });
+  return SupportPlane{best->normal, best->d, best->id};
 }
 
 double heightAbove(const SupportPlane& support, const Eigen::Vector3d& point) {
@@ -200,7 +198,8 @@ std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
 }
 
 /// Heights above the support, and positions along the horizontal axis across the line of
-/// sight (looking straight down at the support, any horizontal axis: the camera's x).
+/// sight (looking straight down at the support, any horizontal axis: the camera's x) and along
+/// the horizontal axis perpendicular to it.
 Profile profileOf(const std::vector<Eigen::Vector3d>& points, const SupportPlane& support) {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const auto& p : points) centroid += p;
@@ -210,12 +209,17 @@ Profile profileOf(const std::vector<Eigen::Vector3d>& points, const SupportPlane
     across = Eigen::Vector3d::UnitX() - support.normal.x() * support.normal;
   }
   across.normalize();
+  const Eigen::Vector3d along = across.cross(support.normal);
   Profile profile;
+  profile.across_axis = across;
+  profile.along_axis = along;
   profile.heights.reserve(points.size());
   profile.across.reserve(points.size());
+  profile.along.reserve(points.size());
   for (const auto& p : points) {
     profile.heights.push_back(heightAbove(support, p));
     profile.across.push_back(across.dot(p));
+    profile.along.push_back(along.dot(p));
   }
   return profile;
 }
@@ -238,27 +242,92 @@ double bandWidth(const Profile& profile, double low, double high) {
   return quantile(across, 0.97) - lo;
 }
 
-std::variant<BowlGeometry, BowlGeometryRejection> judgeProfile(const Profile& profile,
-                                                               const BowlGeometryParams& params) {
+/// Midpoint of the 3rd and 97th percentiles of values[i] over the indices in `band`.
+double bandMiddle(const std::vector<double>& values, const std::vector<std::size_t>& band) {
+  std::vector<double> selected;
+  selected.reserve(band.size());
+  for (const std::size_t i : band) selected.push_back(values[i]);
+  const double lo = quantile(selected, 0.03);
+  return 0.5 * (lo + quantile(selected, 0.97));
+}
+
+/// How far the middle of the object lies below its top, as a share of its visible height: the
+/// median height of the box's readings within dish_radius_fraction x the rim of the axis (the
+/// middle of the rim band, horizontally) against the top. Readings below the object's
+/// clearance count: looking into a bowl, the middle is its inside bottom, nearly at the
+/// support's height; from the side, the foot of its front wall (a bowl narrows downwards). A
+/// tin's lid, a box's top, a ball's or an upside-down bowl's crown are the top itself. -1 when
+/// no reading lies that near the axis (a tin's wall from the side).
+double dishDepth(const Profile& profile, const std::vector<Eigen::Vector3d>& box_readings,
+                 const SupportPlane& support, double bottom, double top, double band,
+                 double rim, const BowlGeometryParams& params) {
+  std::vector<std::size_t> rim_band;
+  for (std::size_t i = 0; i < profile.heights.size(); ++i)
+    if (profile.heights[i] >= top - band) rim_band.push_back(i);
+  if (rim_band.size() < static_cast<std::size_t>(kMinBandPoints) || top <= bottom) return -1;
+  const double axis_across = bandMiddle(profile.across, rim_band);
+  const double axis_along = bandMiddle(profile.along, rim_band);
+  const double radius = params.dish_radius_fraction * rim;
+  std::vector<double> middle;
+  for (const auto& p : box_readings) {
+    const double a = profile.across_axis.dot(p) - axis_across;
+    const double b = profile.along_axis.dot(p) - axis_along;
+    if (a * a + b * b <= radius * radius) middle.push_back(heightAbove(support, p));
+  }
+  if (middle.size() < static_cast<std::size_t>(kMinBandPoints)) return -1;
+  return (top - quantile(middle, 0.5)) / (top - bottom);
+}
+
+/// The box's readings that may belong to an object on the support: from just under it (its
+/// noise) up to a bowl's height.
+std::vector<Eigen::Vector3d> readingsOnSupport(const cv::Mat& depth_mm,
+                                               const CameraIntrinsics& intrinsics,
+                                               const cv::Rect& box, const SupportPlane& support,
+                                               const BowlGeometryParams& params) {
+  std::vector<Eigen::Vector3d> readings;
+  const double max_height = maxObjectHeight(params);
+  for (int v = box.y; v < box.br().y; ++v) {
+    const auto* row = depth_mm.ptr<std::uint16_t>(v);
+    for (int u = box.x; u < box.br().x; ++u) {
+      if (row[u] == 0) continue;
+      const double z = row[u] * 1e-3;
+      const Eigen::Vector3d p = intrinsics.backproject(u, v, z);
+      const double h = heightAbove(support, p);
+      if (h > -clearance(z, params) && h < max_height) readings.push_back(p);
+    }
+  }
+  return readings;
+}
+
+/// Measures the profile into `result.geometry` and judges it.
+void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& box_readings,
+                  const SupportPlane& support, double box_width_m,
+                  const BowlGeometryParams& params, BowlGeometryResult& result) {
   std::vector<double> heights = profile.heights;
   const double bottom = quantile(heights, 0.02);
   const double top = quantile(heights, 0.98);
   const double band = params.band_fraction * (top - bottom);
-  BowlGeometry geometry;
+  BowlGeometry& geometry = result.geometry;
   geometry.height_m = top - bottom;
+  geometry.top_m = top;
   geometry.rim_diameter_m = bandWidth(profile, top - band, top);
   const double foot = bandWidth(profile, bottom, bottom + band);
   geometry.rim_to_foot_width = foot > 0 ? geometry.rim_diameter_m / foot : 0;
-  if (getenv("BOWLDBG")) fprintf(stderr, "DBG n=%zu bottom %.3f top %.3f rim %.3f foot %.3f\n", heights.size(), bottom, top, geometry.rim_diameter_m, foot);
-  if (geometry.rim_diameter_m < params.min_rim_diameter_m ||
-      geometry.rim_diameter_m > params.max_rim_diameter_m)
-    return BowlGeometryRejection::kRimSize;
-  const double proportion = geometry.height_m / geometry.rim_diameter_m;
-  if (proportion < params.min_height_to_diameter || proportion > params.max_height_to_diameter)
-    return BowlGeometryRejection::kHeight;
-  if (foot <= 0 || geometry.rim_to_foot_width < params.min_rim_to_foot_width)
-    return BowlGeometryRejection::kNotWiderAtRim;
-  return geometry;
+  geometry.dish_depth = dishDepth(profile, box_readings, support, bottom, top, band,
+                                  geometry.rim_diameter_m, params);
+  const double rim = std::max(1e-6, geometry.rim_diameter_m);
+  const bool wider_at_rim = foot > 0 && geometry.rim_to_foot_width >= params.min_rim_to_foot_width;
+  if (geometry.rim_diameter_m < params.min_rim_diameter_m)
+    result.rejection = geometry.rim_diameter_m < kPartlySeenRimShare * box_width_m
+                           ? BowlGeometryRejection::kRimPartlySeen
+                           : BowlGeometryRejection::kRimTooSmall;
+  else if (geometry.rim_diameter_m > params.max_rim_diameter_m)
+    result.rejection = BowlGeometryRejection::kRimTooLarge;
+  else if (top < params.min_height_to_diameter * rim ||
+           geometry.height_m > params.max_height_to_diameter * rim)
+    result.rejection = BowlGeometryRejection::kHeight;
+  else if (!wider_at_rim && geometry.dish_depth < params.min_dish_depth)
+    result.rejection = BowlGeometryRejection::kNotBowlShaped;
 }
 
 }  // namespace
@@ -269,36 +338,56 @@ std::string toString(BowlGeometryRejection reason) {
       return "no supporting plane under the box";
     case BowlGeometryRejection::kNoObject:
       return "nothing stands on the support at the box's centre";
-    case BowlGeometryRejection::kRimSize:
-      return "rim width outside the bowl range";
+    case BowlGeometryRejection::kRimTooSmall:
+      return "rim narrower than a bowl's";
+    case BowlGeometryRejection::kRimPartlySeen:
+      return "rim seen in part";
+    case BowlGeometryRejection::kRimTooLarge:
+      return "rim wider than a bowl's";
     case BowlGeometryRejection::kHeight:
       return "height out of proportion to the rim";
-    case BowlGeometryRejection::kNotWiderAtRim:
-      return "not wider at the rim than at the foot";
+    case BowlGeometryRejection::kNotBowlShaped:
+      return "neither wider at the rim than at the foot nor dished";
   }
   return "unknown";
 }
 
-std::variant<BowlGeometry, BowlGeometryRejection> measureBowlGeometry(
-    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, const cv::Rect& box,
-    const PlaneDetection& planes, const BowlGeometryParams& params) {
+bool isInconclusive(BowlGeometryRejection reason) {
+  return reason == BowlGeometryRejection::kNoSupport ||
+         reason == BowlGeometryRejection::kNoObject ||
+         reason == BowlGeometryRejection::kRimPartlySeen;
+}
+
+BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                       const cv::Rect& box, const PlaneDetection& planes,
+                                       const BowlGeometryParams& params) {
   CV_Assert(depth_mm.type() == CV_16UC1);
+  BowlGeometryResult result;
   const cv::Rect clipped = box & cv::Rect(0, 0, depth_mm.cols, depth_mm.rows);
-  if (clipped.width < 2 || clipped.height < 2) return BowlGeometryRejection::kNoObject;
-  const auto object_point = centralPoint(depth_mm, intrinsics, clipped);
-  if (!object_point) return BowlGeometryRejection::kNoObject;
-  const auto support = chooseSupport(planes, clipped, *object_point, params);
-  if (!support) return BowlGeometryRejection::kNoSupport;
-  if (getenv("BOWLDBG")) fprintf(stderr, "DBG support id %d n %.3f %.3f %.3f d %.3f\n", support->id, support->normal.x(), support->normal.y(), support->normal.z(), support->d);
-  const auto points = objectOnSupport(depth_mm, intrinsics, clipped, *support, params);
-  if (points.size() < static_cast<std::size_t>(4 * kMinBandPoints))
-    return BowlGeometryRejection::kNoObject;
-  auto result = judgeProfile(profileOf(points, *support), params);
-  if (auto* geometry = std::get_if<BowlGeometry>(&result)) {
-    geometry->support_normal = support->normal;
-    geometry->support_d = support->d;
-    geometry->support_plane_id = support->id;
+  const auto object_point = clipped.width >= 2 && clipped.height >= 2
+                                ? centralPoint(depth_mm, intrinsics, clipped)
+                                : std::nullopt;
+  if (!object_point) {
+    result.rejection = BowlGeometryRejection::kNoObject;
+    return result;
   }
+  const auto support = chooseSupport(planes, clipped, *object_point, params);
+  if (!support) {
+    result.rejection = BowlGeometryRejection::kNoSupport;
+    return result;
+  }
+  result.geometry.support_normal = support->normal;
+  result.geometry.support_d = support->d;
+  result.geometry.support_plane_id = support->id;
+  const auto points = objectOnSupport(depth_mm, intrinsics, clipped, *support, params);
+  if (points.size() < static_cast<std::size_t>(4 * kMinBandPoints)) {
+    result.rejection = BowlGeometryRejection::kNoObject;
+    return result;
+  }
+  const double box_width_m = clipped.width * object_point->z() / intrinsics.fx;
+  judgeProfile(profileOf(points, *support),
+               readingsOnSupport(depth_mm, intrinsics, clipped, *support, params), *support,
+               box_width_m, params, result);
   return result;
 }
 

@@ -27,6 +27,11 @@ void saveBowlModel(const BowlViewModel& m, const std::filesystem::path& file) {
   j["score_unit"] = kWaldBoostScoreUnit;
   j["lbp"] = {{"bit_order", "clockwise-from-top-left"}, {"compare", "neighbour >= centre"}};
   j["training"] = json::parse(m.training_json.empty() ? "{}" : m.training_json);
+  if (const auto& op = m.operating_point) {
+    j["operating_point"] = {{"score_threshold", op->score_threshold},
+                            {"unverified_score_threshold", op->unverified_score_threshold},
+                            {"chosen_on", op->chosen_on}};
+  }
   json stages = json::array();
   for (const auto& s : m.classifier.stages) {
     json js = {{"x", s.feature.x}, {"y", s.feature.y}, {"cw", s.feature.cw}, {"ch", s.feature.ch}};
@@ -82,6 +87,13 @@ BowlViewModel loadBowlModel(const std::filesystem::path& file) {
     if (j.at("score_unit").get<double>() != kWaldBoostScoreUnit)
       throw std::runtime_error("unsupported score_unit");
     m.training_json = j.contains("training") ? j["training"].dump() : "{}";
+    if (j.contains("operating_point")) {
+      const auto& op = j.at("operating_point");
+      m.operating_point = BowlOperatingPoint{
+          .score_threshold = op.at("score_threshold").get<double>(),
+          .unverified_score_threshold = op.at("unverified_score_threshold").get<double>(),
+          .chosen_on = op.at("chosen_on").get<std::string>()};
+    }
     for (const auto& js : j.at("stages")) {
       WaldBoostStage s;
       s.feature = {js.at("x").get<int>(), js.at("y").get<int>(), js.at("cw").get<int>(),

@@ -114,8 +114,9 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
                                       const BoxEstimationParams& box_params) {
   std::vector<DetectedBowl> bowls;
   const cv::Rect image(0, 0, frame.depth.cols, frame.depth.rows);
-  auto detections = keepBowlShaped(detector.detect(frame.depth, frame.intrinsics), frame.depth,
-                                   frame.intrinsics, planes, geometry_params);
+  auto detections =
+      keepBowlShaped(detector.detect(frame.depth, frame.intrinsics), frame.depth, frame.intrinsics,
+                     planes, geometry_params, detector.operatingPoint().unverified_score_threshold);
   for (auto& detection : detections) {
     DetectedBowl bowl{.detection = std::move(detection), .box = std::nullopt};
     // Pyramid rounding can put a box's edge a pixel past the image; estimateBox rejects that.

@@ -16,6 +16,7 @@
 #include "shapesense/core/timestamp.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
+#include "shapesense/server/detector_stage.h"
 #include "test_paths.h"
 
 namespace shapesense::cli {
@@ -169,7 +170,8 @@ TEST(Analyze, BowlsOfASyntheticRecordingMatchItsTruth) {
   const auto truths = readLines(recording / "truth.jsonl");
   ASSERT_EQ(lines.size(), 2u);
   ASSERT_EQ(truths.size(), 2u);
-  const BowlDetectorParams defaults;
+  const double threshold =
+      BowlDetector::load(defaultBowlModelsDir()).operatingPoint().score_threshold;
   int truth_bowls = 0, found = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const auto json = nlohmann::json::parse(lines[i]);
@@ -182,7 +184,7 @@ TEST(Analyze, BowlsOfASyntheticRecordingMatchItsTruth) {
                          bowl["box"][2].get<int>(), bowl["box"][3].get<int>());
       EXPECT_THAT(bowl["view"].get<std::string>(), ::testing::AnyOf("top", "middle", "side"));
       const double score = bowl["score"].get<double>();
-      EXPECT_GE(score, defaults.score_threshold);
+      EXPECT_GE(score, threshold);
       EXPECT_LE(score, previous_score) << "not highest score first";
       previous_score = score;
     }

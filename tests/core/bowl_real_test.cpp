@@ -51,7 +51,8 @@ std::vector<RealFrame> detectAll(const BowlDetector& detector, HoughPlaneDetecto
     const auto& intrinsics = index.camera.intrinsics;
     const auto planes = plane_detector.detect(mm, intrinsics);
     frames.push_back({recording + "/" + e.relative_path.string(),
-                      keepBowlShaped(detector.detect(mm, intrinsics), mm, intrinsics, planes)});
+                      keepBowlShaped(detector.detect(mm, intrinsics), mm, intrinsics, planes, {},
+                                     detector.operatingPoint().unverified_score_threshold)});
   }
   return frames;
 }

@@ -304,6 +304,8 @@ int runTrain(const TrainOptions& o) {
 struct BowlVerification {
   bool on = true;
   BowlGeometryParams params;
+  /// Default: the models' operating point.
+  std::optional<double> min_unverified_score;
 };
 
 std::vector<BowlTruthBox> truthOf(const DatasetFrame& f) {
@@ -311,6 +313,28 @@ std::vector<BowlTruthBox> truthOf(const DatasetFrame& f) {
   for (const auto& b : f.bowls)
     if (b.upright) t.push_back({b.box, b.difficult});
   return t;
+}
+
+/// Counts, by reason, the classifier's detections of required bowls (IoU >= 0.5 with a
+/// non-difficult upright bowl) that the 3D check rejects; with --verbose each is printed.
+void countRejectedBowls(const std::vector<BowlDetection>& candidates, const DatasetFrame& f,
+                        const cv::Mat& depth, const PlaneDetection& planes,
+                        const BowlGeometryParams& params, std::map<std::string, int>& counts) {
+  for (const auto& d : candidates) {
+    const bool on_bowl = std::any_of(f.bowls.begin(), f.bowls.end(), [&](const auto& b) {
+      return b.upright && !b.difficult && boxIoU(d.box, b.box) >= 0.5;
+    });
+    if (!on_bowl) continue;
+    const auto measured = measureBowlGeometry(depth, f.intrinsics, d.box, planes, params);
+    if (const auto& reason = measured.rejection) {
+      const auto& g = measured.geometry;
+      ++counts[toString(*reason)];
+      spdlog::debug("{} [{} {} {} {}] {} score {:.1f}: {} (rim {:.3f} height {:.3f} widening {:.2f} dish {:.2f})",
+                    f.file, d.box.x, d.box.y, d.box.width, d.box.height, d.view, d.score,
+                    toString(*reason), g.rim_diameter_m, g.height_m, g.rim_to_foot_width,
+                    g.dish_depth);
+    }
+  }
 }
 
 int runEval(const fs::path& models, const fs::path& data, const BowlDetectorParams& p,
@@ -323,6 +347,7 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
   const auto frames = readDataset(data);
   std::vector<BowlEvalFrame> eval;
   std::map<std::string, std::pair<int, int>> per_view;  // found, total
+  std::map<std::string, int> rejected_bowls;             // by the 3D check's reason
   double secs = 0;
   for (const auto& f : frames) {
     const cv::Mat depth = readDepth(data, f);
@@ -333,9 +358,13 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
     if (verification.on) {
       const auto planes = plane_detector.detect(depth, f.intrinsics);
       const auto t_verify = std::chrono::steady_clock::now();
-      e.detections = keepBowlShaped(std::move(e.detections), depth, f.intrinsics, planes,
-                                    verification.params);
+      auto candidates = e.detections;
+      e.detections = keepBowlShaped(
+          std::move(e.detections), depth, f.intrinsics, planes, verification.params,
+          verification.min_unverified_score.value_or(
+              detector.operatingPoint().unverified_score_threshold));
       secs += elapsed(t_verify);
+      countRejectedBowls(candidates, f, depth, planes, verification.params, rejected_bowls);
     }
     if (raw_file.is_open()) {  // accepted windows before NMS and the truth, for offline NMS studies
       json line = {{"file", f.file}, {"truth", json::array()}, {"raw", json::array()}};
@@ -367,6 +396,8 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
     }
     eval.push_back(std::move(e));
   }
+  for (const auto& [reason, count] : rejected_bowls)
+    std::printf("true bowls the 3D check rejects: %d, %s\n", count, reason.c_str());
   const auto r = evaluateBowlDetections(eval, 0.5, 0.1);
   std::printf(
       "frames %d  bowls %d  AP50 %.4f  miss rate @0.1 FPPI %.4f  max recall %.4f  TP %d FP %d  "
@@ -481,14 +512,19 @@ int runReal(const fs::path& models, const std::vector<fs::path>& recordings,
                     d.box.y + d.box.height - 1, d.score, d.view.c_str());
         const auto measured =
             measureBowlGeometry(mm, index.camera.intrinsics, d.box, planes, verification.params);
-        if (const auto* g = std::get_if<BowlGeometry>(&measured)) {
+        const BowlGeometry* g = &measured.geometry;
+        if (measured.isBowl()) {
           ++bowls;
-          std::printf(" BOWL rim %.1f cm height %.1f cm widening %.2f]", 100 * g->rim_diameter_m,
-                      100 * g->height_m, g->rim_to_foot_width);
+          std::printf(" BOWL rim %.1f cm height %.1f cm widening %.2f dish %.2f]",
+                      100 * g->rim_diameter_m, 100 * g->height_m, g->rim_to_foot_width,
+                      g->dish_depth);
+        } else if (isInconclusive(*measured.rejection) &&
+                   d.score >= detector.operatingPoint().unverified_score_threshold) {
+          ++bowls;
+          std::printf(" BOWL, unverified: %s]", toString(*measured.rejection).c_str());
         } else {
           bowls += !verification.on;
-          std::printf(" rejected: %s]",
-                      toString(std::get<BowlGeometryRejection>(measured)).c_str());
+          std::printf(" rejected: %s]", toString(*measured.rejection).c_str());
         }
       }
       std::printf("\n");
@@ -537,10 +573,10 @@ int main(int argc, char** argv) {
 
   fs::path models, data;
   BowlDetectorParams dp;
-  double& threshold = dp.score_threshold;
   // Scan options of eval and diagnose (defaults: BowlDetectorParams).
   auto scanOptions = [&dp](CLI::App* a) {
-    a->add_option("--threshold", dp.score_threshold, "final score threshold");
+    a->add_option("--threshold", dp.score_threshold,
+                  "final score threshold (default: the models' operating point)");
     a->add_option("--scale-step", dp.scale_step, "pyramid scale step");
     a->add_option("--stride", dp.stride, "window stride (level pixels)");
     a->add_option("--nms-overlap", dp.nms_max_overlap, "NMS inscribed-circle overlap");
@@ -568,11 +604,14 @@ int main(int argc, char** argv) {
   re->add_option("--models", models)->required();
   std::vector<fs::path> recordings;
   re->add_option("--tum", recordings, "TUM recording folders")->required();
-  re->add_option("--threshold", threshold, "final score threshold");
+  re->add_option("--threshold", dp.score_threshold,
+                 "final score threshold (default: the models' operating point)");
   BowlVerification verification;
   for (auto* a : {ev, re}) {
     auto& g = verification.params;
     a->add_flag("!--no-verify", verification.on, "the classifier's detections, without the 3D check");
+    a->add_option("--unverified-score", verification.min_unverified_score,
+                  "3D check: score keeping a detection the depth cannot settle");
     a->add_option("--min-rim-to-foot", g.min_rim_to_foot_width, "3D check: rim over foot width");
     a->add_option("--height-ratio-min", g.min_height_to_diameter, "3D check: height / rim, min");
     a->add_option("--height-ratio-max", g.max_height_to_diameter, "3D check: height / rim, max");
@@ -604,6 +643,7 @@ int main(int argc, char** argv) {
       for (std::string v; std::getline(ss, v, ',');) to.views.push_back(v);
       return runTrain(to);
     }
+    if (verbose) spdlog::set_level(spdlog::level::debug);
     if (ev->parsed()) return runEval(models, data, dp, verification, verbose, raw_out);
     if (dg->parsed()) return runDiagnose(models, data, dp);
     if (re->parsed()) return runReal(models, recordings, dp, verification);

@@ -51,13 +51,10 @@ struct BowlDetectorParams {
   double max_object_px = 400;  ///< largest object box width searched (pixels). Default 400.
   bool depth_gate = true;      ///< skip windows whose size misfits the depth. Default true.
   /// Final score a window must reach (Real AdaBoost units, applied after the last stage).
-  /// Default 12: chosen on the synthetic validation set (seed 5, never trained on) with the
-  /// shipped models, under the truth rule of that time (bowls seen less than half still
-  /// required; models/README.md): without box merging, from 0 to 12 recall drops 0.5% (0.938 ->
-  /// 0.933) while false positives fall 300-fold (68 -> 0.23 per frame). The threshold also decides
-  /// which windows a merged box averages (box_merge_iou): with merging, recall is 0.903 at 0 and
-  /// 0.954 at 12. Retrained models need it re-chosen (shapesense-train eval --threshold).
-  double score_threshold = 12.0;
+  /// Default (nullopt): the operating point stated in the model files (BowlOperatingPoint,
+  /// models/README.md says how it was chosen). Retrained models need it re-chosen
+  /// (shapesense-train eval --threshold).
+  std::optional<double> score_threshold;
   /// NMS: two detections are distinct objects when the circles inscribed in their boxes
   /// overlap by less than this fraction of the smaller circle's area. Default 0.10 (seed).
   double nms_max_overlap = 0.10;
@@ -136,7 +133,8 @@ std::vector<BowlDetection> suppressNonMaxima(std::vector<BowlDetection> detectio
 class BowlDetector {
  public:
   /// Loads bowl_*.json from a folder (sorted by name) or one model file. Throws
-  /// std::runtime_error when nothing loads or the models disagree on preprocessing.
+  /// std::runtime_error when nothing loads, the models disagree on preprocessing or on their
+  /// operating point, or they state none and params.score_threshold is not set.
   static BowlDetector load(const std::filesystem::path& models_dir_or_file,
                            BowlDetectorParams params = {});
 
@@ -151,24 +149,30 @@ class BowlDetector {
 
   const std::vector<BowlViewModel>& models() const { return models_; }
   const BowlDetectorParams& params() const { return params_; }
-  void setParams(const BowlDetectorParams& p) { params_ = p; }
+  /// Where this detector reports: the models' operating point, with params.score_threshold
+  /// in place of the models' when it is set.
+  const BowlOperatingPoint& operatingPoint() const { return operating_point_; }
 
  private:
   std::vector<BowlViewModel> models_;
   BowlDetectorParams params_;
+  BowlOperatingPoint operating_point_;
   /// The models' depth mapping, its table built once here rather than per frame.
   DepthTo8BitMap depth_map_;
 };
 
-/// The detections whose depth is bowl-shaped at a bowl's size on a support plane of `planes`
-/// (measureBowlGeometry, bowl_geometry.h), each with its geometry, in the same order. The
-/// classifier alone takes round things of any shape for bowls; this is the detector's second
-/// half, and the daemon reports only what it keeps.
+/// The second half of the detector: the detections whose depth is bowl-shaped at a bowl's size
+/// on a support plane of `planes` (measureBowlGeometry, bowl_geometry.h), each with its
+/// geometry, in the same order. The classifier alone takes round things of any shape for
+/// bowls. Where the depth cannot settle it (isInconclusive: the support out of view, a rim seen
+/// in part, typically a far bowl seen from the side), a detection is kept, without geometry,
+/// when its score reaches `min_unverified_score` (the models' operating point).
 std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
                                           const cv::Mat& depth_mm,
                                           const CameraIntrinsics& intrinsics,
                                           const PlaneDetection& planes,
-                                          const BowlGeometryParams& params = {});
+                                          const BowlGeometryParams& params,
+                                          double min_unverified_score);
 
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
 /// trainer's bootstrapping); a stage reads its code from level.codes when the image of its

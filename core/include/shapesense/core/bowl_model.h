@@ -14,6 +14,10 @@
 //   "score_unit": 0.001,                          // scores/votes are integers in this unit
 //   "lbp": {"bit_order": "clockwise-from-top-left", "compare": "neighbour >= centre"},
 //   "training": {...},                            // free-form: how it was made (reproducibility)
+//   "operating_point": {                          // optional: where the detector reports,
+//     "score_threshold": t,                       //   chosen on validation data (see
+//     "unverified_score_threshold": u,            //   BowlOperatingPoint); absent in a freshly
+//     "chosen_on": "..."},                        //   trained model
 //   "stages": [{"x", "y", "cw", "ch", "threshold" (int or null = never rejects),
 //               "lut": [256 ints]}, ...]          // see waldboost.h
 // }
@@ -21,6 +25,7 @@
 // file on any malformed content.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "shapesense/core/depth_preprocess.h"
@@ -30,6 +35,17 @@ namespace shapesense {
 
 inline constexpr int kBowlModelVersion = 1;
 
+/// Where the detector reports bowls, chosen on validation data and stated in the model files.
+struct BowlOperatingPoint {
+  /// Final classifier score (Real AdaBoost units plus the support bonus) a detection needs.
+  double score_threshold = 0;
+  /// Score a detection needs when the 3D check cannot settle it (keepBowlShaped).
+  double unverified_score_threshold = 0;
+  std::string chosen_on;  ///< the data and rule it was chosen by
+
+  bool operator==(const BowlOperatingPoint&) const = default;
+};
+
 struct BowlViewModel {
   std::string view;  ///< "top", "middle" or "side"
   WaldBoostClassifier classifier;
@@ -38,6 +54,7 @@ struct BowlViewModel {
   double max_object_width_m = 0.45;
   DepthPreprocessParams preprocess;
   std::string training_json = "{}";  ///< the "training" object, verbatim
+  std::optional<BowlOperatingPoint> operating_point;
 
   bool operator==(const BowlViewModel& o) const {
     return view == o.view && classifier == o.classifier && object_margin == o.object_margin &&
