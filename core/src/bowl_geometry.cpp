@@ -31,8 +31,6 @@ struct Profile {
 constexpr int kMaxSupportSamples = 1200;
 constexpr int kMinBandPoints = 5;
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-/// A rim narrower than this share of the box's width at the object's range was seen in part.
-constexpr double kPartlySeenRimShare = 0.6;
 
 /// Where a support shows: beside the lower half of the box and below it (a bowl stands on it;
 /// objects in front may hide the bowl's foot, so the window reaches the surface beside it).
@@ -301,8 +299,8 @@ std::vector<Eigen::Vector3d> readingsOnSupport(const cv::Mat& depth_mm,
 
 /// Measures the profile into `result.geometry` and judges it.
 void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& box_readings,
-                  const SupportPlane& support, double box_width_m,
-                  const BowlGeometryParams& params, BowlGeometryResult& result) {
+                  const SupportPlane& support, const BowlGeometryParams& params,
+                  BowlGeometryResult& result) {
   std::vector<double> heights = profile.heights;
   const double bottom = quantile(heights, 0.02);
   const double top = quantile(heights, 0.98);
@@ -318,9 +316,7 @@ void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& bo
   const double rim = std::max(1e-6, geometry.rim_diameter_m);
   const bool wider_at_rim = foot > 0 && geometry.rim_to_foot_width >= params.min_rim_to_foot_width;
   if (geometry.rim_diameter_m < params.min_rim_diameter_m)
-    result.rejection = geometry.rim_diameter_m < kPartlySeenRimShare * box_width_m
-                           ? BowlGeometryRejection::kRimPartlySeen
-                           : BowlGeometryRejection::kRimTooSmall;
+    result.rejection = BowlGeometryRejection::kRimTooSmall;
   else if (geometry.rim_diameter_m > params.max_rim_diameter_m)
     result.rejection = BowlGeometryRejection::kRimTooLarge;
   else if (top < params.min_height_to_diameter * rim ||
@@ -339,9 +335,7 @@ std::string toString(BowlGeometryRejection reason) {
     case BowlGeometryRejection::kNoObject:
       return "nothing stands on the support at the box's centre";
     case BowlGeometryRejection::kRimTooSmall:
-      return "rim narrower than a bowl's";
-    case BowlGeometryRejection::kRimPartlySeen:
-      return "rim seen in part";
+      return "rim narrower than a bowl's (or seen in part)";
     case BowlGeometryRejection::kRimTooLarge:
       return "rim wider than a bowl's";
     case BowlGeometryRejection::kHeight:
@@ -355,7 +349,7 @@ std::string toString(BowlGeometryRejection reason) {
 bool isInconclusive(BowlGeometryRejection reason) {
   return reason == BowlGeometryRejection::kNoSupport ||
          reason == BowlGeometryRejection::kNoObject ||
-         reason == BowlGeometryRejection::kRimPartlySeen;
+         reason == BowlGeometryRejection::kRimTooSmall;
 }
 
 BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
@@ -384,10 +378,9 @@ BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntr
     result.rejection = BowlGeometryRejection::kNoObject;
     return result;
   }
-  const double box_width_m = clipped.width * object_point->z() / intrinsics.fx;
   judgeProfile(profileOf(points, *support),
-               readingsOnSupport(depth_mm, intrinsics, clipped, *support, params), *support,
-               box_width_m, params, result);
+               readingsOnSupport(depth_mm, intrinsics, clipped, *support, params), *support, params,
+               result);
   return result;
 }
 

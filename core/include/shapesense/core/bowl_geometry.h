@@ -104,8 +104,7 @@ struct BowlGeometry {
 enum class BowlGeometryRejection {
   kNoSupport,        ///< no detected plane under the box
   kNoObject,         ///< nothing stands on the support at the box's centre
-  kRimTooSmall,      ///< rim band narrower than min_rim_diameter_m, and the box as narrow
-  kRimPartlySeen,    ///< rim band narrower than min_rim_diameter_m in a much wider box
+  kRimTooSmall,      ///< rim band narrower than min_rim_diameter_m (or only part of it seen)
   kRimTooLarge,      ///< rim band wider than max_rim_diameter_m
   kHeight,           ///< height out of proportion to the rim
   kNotBowlShaped,    ///< neither wider at the rim than at the foot nor dished
