@@ -63,14 +63,21 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
 
 namespace {
 
-/// Adds reflection to one builder; InitProtoReflectionServerBuilderPlugin() would add it to every
-/// server of the process.
+/// Serves reflection on one server, or not. Linking grpc++_reflection registers its plugin with
+/// every ServerBuilder of the process (a static initializer), so "not" means taking it out.
 class ReflectionOption final : public grpc::ServerBuilderOption {
  public:
+  explicit ReflectionOption(bool enabled) : enabled_(enabled) {}
   void UpdateArguments(grpc::ChannelArguments*) override {}
   void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
-    plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
+    const std::string name = grpc::reflection::ProtoServerReflectionPlugin().name();
+    std::erase_if(*plugins, [&name](const auto& plugin) { return plugin->name() == name; });
+    if (enabled_)
+      plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
   }
+
+ private:
+  bool enabled_;
 };
 
 }  // namespace
@@ -81,7 +88,7 @@ RpcServer::RpcServer(const std::string& listen_address, ServiceContext context,
   service_ = std::make_unique<ShapeSenseService>(std::move(context));
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
-  if (options.reflection) builder.SetOption(std::make_unique<ReflectionOption>());
+  builder.SetOption(std::make_unique<ReflectionOption>(options.reflection));
   // gRPC enables SO_REUSEPORT by default, which lets a second daemon bind the same port and
   // share its clients; one address must mean one daemon.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
