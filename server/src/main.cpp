@@ -166,6 +166,13 @@ int main(int argc, char** argv) {
   app.add_option("--models", models,
                  "Folder of the bowl models (bowl_*.json); default: " +
                      shapesense::defaultBowlModelsDir().string());
+  double stall_seconds = std::chrono::duration<double>(options.stall_limit).count();
+  app.add_option("--watchdog-stall-seconds", stall_seconds,
+                 "Under a systemd watchdog (WatchdogSec=): stop petting it when a streaming "
+                 "source has delivered nothing, or the detectors have worked on one frame, for "
+                 "this long")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
   std::string check_fakenect;
   app.add_option(
       "--check-fakenect", check_fakenect,
@@ -190,6 +197,8 @@ int main(int argc, char** argv) {
   options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
   options.detectors.bowls = bowls == "on";
   options.detectors.bowl_models = models;  // empty -> the default folder
+  options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(stall_seconds));
   options.record.root = record_root;
   options.record.min_free_bytes = record_min_free_mb << 20;
 

@@ -26,7 +26,8 @@ std::string parseError(const std::string& text) {
 
 TEST(AccessTokens, ParsesNamesRolesAndTokensAndIgnoresComments) {
   const AccessTokens tokens = AccessTokens::parse(
-      "# clients of the robot\n\n  robot read aaaaaaaaaaaaaaaa  \nops\trecord bbbbbbbbbbbbbbbbbb # x\n",
+      "# clients of the robot\n\n  robot read aaaaaaaaaaaaaaaa  \nops\trecord bbbbbbbbbbbbbbbbbb # "
+      "x\n",
       "tokens");
   ASSERT_EQ(tokens.size(), 2u);
   const auto robot = tokens.find("aaaaaaaaaaaaaaaa");
@@ -46,7 +47,8 @@ TEST(AccessTokens, RefusesMalformedFiles) {
   EXPECT_THAT(parseError("# only a comment\n"), HasSubstr("holds no token"));
   EXPECT_THAT(parseError("robot read\n"), HasSubstr("line 1: expected NAME ROLE TOKEN"));
   EXPECT_THAT(parseError("\nrobot read aaaaaaaaaaaaaaaa extra\n"), HasSubstr("line 2"));
-  EXPECT_THAT(parseError("robot admin aaaaaaaaaaaaaaaa\n"), HasSubstr("role must be read or record"));
+  EXPECT_THAT(parseError("robot admin aaaaaaaaaaaaaaaa\n"),
+              HasSubstr("role must be read or record"));
   EXPECT_THAT(parseError("robot read short\n"), HasSubstr("at least 16"));
   EXPECT_THAT(parseError("a read aaaaaaaaaaaaaaaa\nb record aaaaaaaaaaaaaaaa\n"),
               HasSubstr("line 2: token repeated"));

@@ -48,7 +48,8 @@ class SecureServer {
       : root_(testing::scratchDir("secure-server-root")) {
     RpcServerOptions options;
     if (security.tokens()) {
-      options.tokens = std::make_shared<const AccessTokens>(AccessTokens::load(security.token_file));
+      options.tokens =
+          std::make_shared<const AccessTokens>(AccessTokens::load(security.token_file));
     }
     options.credentials = makeServerCredentials(security, options.tokens);
     options.reflection = security.reflection;
@@ -89,8 +90,8 @@ std::shared_ptr<grpc::Channel> channelTo(const std::string& address, ClientOptio
   }
   auto credentials = grpc::SslCredentials(ssl);
   if (!options.token.empty()) {
-    credentials = grpc::CompositeChannelCredentials(
-        credentials, grpc::AccessTokenCredentials(options.token));
+    credentials =
+        grpc::CompositeChannelCredentials(credentials, grpc::AccessTokenCredentials(options.token));
   }
   return grpc::CreateChannel(address, credentials);
 }
@@ -136,8 +137,7 @@ TransportSecurity tlsWithTokens(const std::string& scratch) {
   return security;
 }
 
-#define EXPECT_CODE(status, code) \
-  EXPECT_EQ((status).error_code(), code) << (status).error_message()
+#define EXPECT_CODE(status, code) EXPECT_EQ((status).error_code(), code) << (status).error_message()
 
 TEST(TransportSecurity, ACallWithoutATokenIsUnauthenticated) {
   SecureServer server(tlsWithTokens("tokens-none"));
@@ -194,9 +194,9 @@ TEST(TransportSecurity, AnExpiredServerCertificateFailsTheHandshake) {
 
 TEST(TransportSecurity, AServerCertificateFromAnotherCaFailsTheHandshake) {
   SecureServer server(tlsWithTokens("tokens-other-ca"));
-  EXPECT_CODE(getStatus(channelTo(server.address(),
-                                  {.ca = testPki().other_ca_cert, .token = kReadToken})),
-              grpc::StatusCode::UNAVAILABLE);
+  EXPECT_CODE(
+      getStatus(channelTo(server.address(), {.ca = testPki().other_ca_cert, .token = kReadToken})),
+      grpc::StatusCode::UNAVAILABLE);
 }
 
 TEST(TransportSecurity, APlainClientCannotTalkToATlsServer) {
@@ -213,17 +213,17 @@ TEST(TransportSecurity, ClientCertificatesAreRequiredAndVerifiedWithAClientCa) {
   const auto& pki = testPki();
   EXPECT_CODE(getStatus(channelTo(server.address(), {.token = kReadToken})),
               grpc::StatusCode::UNAVAILABLE);
-  EXPECT_CODE(getStatus(channelTo(server.address(), {.token = kReadToken,
-                                                     .cert = pki.expired_client_cert,
-                                                     .key = pki.client_key})),
+  EXPECT_CODE(getStatus(channelTo(
+                  server.address(),
+                  {.token = kReadToken, .cert = pki.expired_client_cert, .key = pki.client_key})),
               grpc::StatusCode::UNAVAILABLE);
   const grpc::Status good = getStatus(channelTo(
       server.address(), {.token = kReadToken, .cert = pki.client_cert, .key = pki.client_key}));
   EXPECT_TRUE(good.ok()) << good.error_message();
   // A valid certificate does not replace the token.
-  EXPECT_CODE(getStatus(channelTo(server.address(),
-                                  {.cert = pki.client_cert, .key = pki.client_key})),
-              grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_CODE(
+      getStatus(channelTo(server.address(), {.cert = pki.client_cert, .key = pki.client_key})),
+      grpc::StatusCode::UNAUTHENTICATED);
 }
 
 TEST(TransportSecurity, ReflectionIsServedOnlyWhenAskedFor) {
@@ -246,9 +246,9 @@ TEST(ListenPolicy, LoopbackAddresses) {
                               "ipv4:127.0.0.1:1", "ipv6:[::1]:1", "unix:/run/shapesense.sock"}) {
     EXPECT_TRUE(isLoopbackAddress(address)) << address;
   }
-  for (const char* address : {"0.0.0.0:50551", "[::]:50551", "192.168.1.20:50551", ":50551",
-                              "robot.local:50551", "127.0.0.1.example.com:1", "[::ffff:1.2.3.4]:1",
-                              "10.127.0.0:1"}) {
+  for (const char* address :
+       {"0.0.0.0:50551", "[::]:50551", "192.168.1.20:50551", ":50551", "robot.local:50551",
+        "127.0.0.1.example.com:1", "[::ffff:1.2.3.4]:1", "10.127.0.0:1"}) {
     EXPECT_FALSE(isLoopbackAddress(address)) << address;
   }
 }
@@ -308,8 +308,8 @@ TEST(ListenPolicy, TheDaemonRefusesToStartOnAReachableAddressWithoutTlsAndTokens
 std::pair<int, std::string> runDaemon(const std::string& arguments) {
   const fs::path binary = fs::path(SHAPESENSE_BINARY_DIR) / "server" / "shapesensed";
   const fs::path log = testing::scratchDir("shapesensed-run") / "out.txt";
-  const std::string line = "timeout 20 '" + binary.string() + "' " + arguments + " >'" +
-                           log.string() + "' 2>&1";
+  const std::string line =
+      "timeout 20 '" + binary.string() + "' " + arguments + " >'" + log.string() + "' 2>&1";
   const int status = std::system(line.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};
 }

@@ -29,8 +29,9 @@ void makeKeyAndRequest(const fs::path& dir, const std::string& name, const std::
 
 void sign(const fs::path& dir, const std::string& name, const std::string& out, int days,
           const std::string& extensions) {
-  run(dir, "openssl x509 -req -in " + name + ".csr -CA ca.pem -CAkey ca.key -CAcreateserial -days " +
-               std::to_string(days) + " -extfile " + extensions + " -out " + out);
+  run(dir, "openssl x509 -req -in " + name +
+               ".csr -CA ca.pem -CAkey ca.key -CAcreateserial -days " + std::to_string(days) +
+               " -extfile " + extensions + " -out " + out);
 }
 
 TestPki makePki() {
