@@ -5,6 +5,7 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include "commands.h"
 #include "shapesense/server/access_tokens.h"
 
 namespace shapesense::cli {
@@ -19,6 +20,21 @@ std::string readFile(const std::string& file, const char* option) {
 }
 
 }  // namespace
+
+void addGlobalOptions(CLI::App& app, GlobalOptions& global) {
+  app.add_option("--server", global.server, "Daemon address")->capture_default_str();
+  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")
+      ->capture_default_str();
+  app.add_option("--tls-ca", global.tls_ca,
+                 "Connect with TLS, trusting daemon certificates this PEM CA bundle signed");
+  app.add_option("--tls-cert", global.tls_cert,
+                 "With --tls-ca: this client's PEM certificate, for a daemon started with "
+                 "--tls-client-ca");
+  app.add_option("--tls-key", global.tls_key, "With --tls-cert: this client's PEM private key");
+  app.add_option("--token-file", global.token_file,
+                 "Send the bearer token on this file's first line with every call (needs "
+                 "--tls-ca)");
+}
 
 std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options) {
   if (options.tls_ca.empty()) {

@@ -11,18 +11,7 @@ int main(int argc, char** argv) {
       "shapesense: query a shapesensed daemon, record sources, make synthetic recordings, analyse "
       "recordings offline."};
   app.require_subcommand(1);
-  app.add_option("--server", global.server, "Daemon address")->capture_default_str();
-  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")
-      ->capture_default_str();
-  app.add_option("--tls-ca", global.tls_ca,
-                 "Connect with TLS, trusting daemon certificates this PEM CA bundle signed");
-  app.add_option("--tls-cert", global.tls_cert,
-                 "With --tls-ca: this client's PEM certificate, for a daemon started with "
-                 "--tls-client-ca");
-  app.add_option("--tls-key", global.tls_key, "With --tls-cert: this client's PEM private key");
-  app.add_option("--token-file", global.token_file,
-                 "Send the bearer token on this file's first line with every call (needs "
-                 "--tls-ca)");
+  addGlobalOptions(app, global);
   addStatusCommand(app, global);
   addFramesCommand(app, global);
   addFrameCommand(app, global);

@@ -60,7 +60,8 @@ TEST(SystemdUnit, IsANotifyServiceWithAWatchdog) {
 
 TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
   const fs::path unit = unitUnderTest();
-  const CommandResult verify = runCommand("systemd-analyze verify '" + unit.string() + "'", unit.parent_path() / "verify.log");
+  const CommandResult verify = runCommand("systemd-analyze verify '" + unit.string() + "'",
+                                          unit.parent_path() / "verify.log");
   EXPECT_EQ(verify.code, 0) << verify.output;
   // Unknown or misspelt settings are only warnings for verify; none are allowed here.
   EXPECT_THAT(verify.output, Not(HasSubstr("shapesensed.service"))) << verify.output;
@@ -68,8 +69,9 @@ TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
 
 TEST(SystemdUnit, SandboxExposureIsAtMostTwo) {
   const fs::path unit = unitUnderTest();
-  const CommandResult security = runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
-                           unit.parent_path() / "security.log");
+  const CommandResult security =
+      runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
+                 unit.parent_path() / "security.log");
   std::smatch match;
   ASSERT_TRUE(std::regex_search(security.output, match,
                                 std::regex("Overall exposure level for shapesensed\\.service: "
