@@ -22,7 +22,9 @@ using ::testing::HasSubstr;
 class SecureConnection : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir = testing::scratchDir("cli_secure_connection");
+    dir = testing::scratchDir(
+        "cli_secure_connection_" +
+        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     const auto& pki = testing::testPki();
     std::ofstream(dir / "tokens") << "robot read read-token-0123456789abcdef\n"
                                   << "operator record record-token-0123456789abcdef\n";

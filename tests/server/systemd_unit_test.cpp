@@ -35,8 +35,8 @@ CommandResult runCommand(const std::string& command, const fs::path& log) {
 }
 
 /// The unit with ExecStart pointing at the built daemon, as <scratch>/shapesensed.service.
-fs::path unitUnderTest() {
-  const fs::path dir = testing::scratchDir("systemd_unit");
+fs::path unitUnderTest(const std::string& scratch_name) {
+  const fs::path dir = testing::scratchDir(scratch_name);
   std::string unit =
       testing::readText(fs::path(SHAPESENSE_SOURCE_DIR) / "systemd" / "shapesensed.service");
   const std::string installed = "/usr/local/bin/shapesensed";
@@ -59,7 +59,7 @@ TEST(SystemdUnit, IsANotifyServiceWithAWatchdog) {
 }
 
 TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
-  const fs::path unit = unitUnderTest();
+  const fs::path unit = unitUnderTest("systemd_unit_verify");
   const CommandResult verify = runCommand("systemd-analyze verify '" + unit.string() + "'",
                                           unit.parent_path() / "verify.log");
   EXPECT_EQ(verify.code, 0) << verify.output;
@@ -68,7 +68,7 @@ TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
 }
 
 TEST(SystemdUnit, SandboxExposureIsAtMostTwo) {
-  const fs::path unit = unitUnderTest();
+  const fs::path unit = unitUnderTest("systemd_unit_security");
   const CommandResult security =
       runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
                  unit.parent_path() / "security.log");

@@ -5,6 +5,8 @@
 #include "shapesense/server/transport_security.h"
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <future>
@@ -45,7 +47,7 @@ fs::path writeTokenFile(const fs::path& dir) {
 class SecureServer {
  public:
   explicit SecureServer(const TransportSecurity& security)
-      : root_(testing::scratchDir("secure-server-root")) {
+      : root_(testing::scratchDir("secure-server-root-" + std::to_string(::getpid()))) {
     RpcServerOptions options;
     if (security.tokens()) {
       options.tokens =
@@ -304,12 +306,17 @@ TEST(ListenPolicy, TheDaemonRefusesToStartOnAReachableAddressWithoutTlsAndTokens
   }
 }
 
-/// Runs the built shapesensed with `arguments`; its exit code and output.
-std::pair<int, std::string> runDaemon(const std::string& arguments) {
+/// Runs the built shapesensed with `arguments`, stopped with SIGTERM after `seconds` if it has
+/// not exited by then; its exit code (124 when stopped) and output.
+std::pair<int, std::string> runDaemon(const std::string& arguments, int seconds = 20) {
   const fs::path binary = fs::path(SHAPESENSE_BINARY_DIR) / "server" / "shapesensed";
-  const fs::path log = testing::scratchDir("shapesensed-run") / "out.txt";
-  const std::string line =
-      "timeout 20 '" + binary.string() + "' " + arguments + " >'" + log.string() + "' 2>&1";
+  const fs::path dir = testing::scratchDir(
+      "shapesensed-run-" +
+      std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+  const fs::path log = dir / "out.txt";
+  const std::string line = "timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
+                           arguments + " --record-root '" + (dir / "recordings").string() + "' >'" +
+                           log.string() + "' 2>&1";
   const int status = std::system(line.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};
 }
@@ -319,6 +326,13 @@ TEST(ListenPolicy, ShapesensedExitsWithAClearMessage) {
   EXPECT_EQ(code, 1) << output;
   EXPECT_THAT(output, HasSubstr("is reachable from other machines"));
   EXPECT_THAT(output, HasSubstr("--insecure-remote"));
+}
+
+TEST(ListenPolicy, InsecureRemoteServesButWarns) {
+  const auto [code, output] = runDaemon("--listen 0.0.0.0:0 --bowls off --insecure-remote", 2);
+  EXPECT_EQ(code, 124) << output;  // still serving when stopped
+  EXPECT_THAT(output, HasSubstr("--insecure-remote: 0.0.0.0:0 serves the whole API without "
+                                "encryption or authentication"));
 }
 
 TEST(TokenFile, ShapesensedRefusesATokenFileOthersCanRead) {

@@ -1,5 +1,7 @@
 #include "test_pki.h"
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <mutex>
@@ -36,7 +38,8 @@ void sign(const fs::path& dir, const std::string& name, const std::string& out, 
 
 TestPki makePki() {
   TestPki pki;
-  pki.dir = scratchDir("test-pki");
+  // Per process: ctest runs tests of one binary in parallel processes.
+  pki.dir = scratchDir("test-pki-" + std::to_string(::getpid()));
   const fs::path& dir = pki.dir;
   for (const char* ca : {"ca", "other-ca"}) {
     run(dir, std::string("openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes ") +

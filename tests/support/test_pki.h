@@ -2,7 +2,7 @@
 // Certificates for TLS tests, made with the openssl command line tool at test time (P-256
 // keys): a CA, a server certificate for localhost and 127.0.0.1, a client certificate, and an
 // expired twin of each (end date before start date: `openssl x509 -days -1`). Made once per
-// test process in the build tree.
+// test process, in a directory of its own under the build tree.
 
 #include <filesystem>
 
