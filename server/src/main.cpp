@@ -141,6 +141,7 @@ int main(int argc, char** argv) {
   app.add_option("--record-min-free-mb", record_min_free_mb,
                  "Record stops (and does not start) when the recordings' file system has less "
                  "free space, in MB")
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 30))
       ->capture_default_str();
   app.add_option("--record-max-seconds", options.record.max_seconds,
                  "Longest recording a client may ask for")
