@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
+#include <string_view>
 #include <system_error>
 
 namespace shapesense {
@@ -32,9 +33,8 @@ std::uintmax_t availableBytes(const fs::path& path) { return fs::space(path).ava
 fs::path defaultRecordRoot() {
   if (const char* state = std::getenv("STATE_DIRECTORY"); state && *state) {
     // Several directories are separated by ':'; the first is ours.
-    const std::string first(state,
-                            std::find(state, state + std::char_traits<char>::length(state), ':'));
-    return fs::path(first) / "recordings";
+    const std::string_view directories(state);
+    return fs::path(directories.substr(0, directories.find(':'))) / "recordings";
   }
   if (const char* xdg = std::getenv("XDG_STATE_HOME"); xdg && *xdg) {
     return fs::path(xdg) / "shapesense" / "recordings";
