@@ -14,9 +14,7 @@ namespace {
 namespace fs = std::filesystem;
 
 bool isInside(const fs::path& path, const fs::path& root) {
-  const auto [root_end, path_at] =
-      std::mismatch(root.begin(), root.end(), path.begin(), path.end());
-  return root_end == root.end();
+  return std::mismatch(root.begin(), root.end(), path.begin(), path.end()).first == root.end();
 }
 
 grpc::Status cannotCreate(const fs::path& dir, const std::error_code& error) {
