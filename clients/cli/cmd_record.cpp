@@ -90,7 +90,7 @@ void recordFromSource(const std::string& spec, Pacing pacing, const fs::path& di
   std::cout << "\n";
 }
 
-void recordOnDaemon(const GlobalOptions& global, const fs::path& dir, double seconds) {
+void recordOnDaemon(const GlobalOptions& global, const std::string& name, double seconds) {
   Connection connection(global);
   auto context = Connection::streamContext();
   // The stream runs `seconds` plus the time to write what is queued; allow generous slack.
@@ -98,7 +98,7 @@ void recordOnDaemon(const GlobalOptions& global, const fs::path& dir, double sec
                         std::chrono::duration_cast<std::chrono::system_clock::duration>(
                             std::chrono::duration<double>(seconds + global.timeout_s + 30.0)));
   v1::RecordRequest request;
-  request.set_dir(dir.string());
+  request.set_dir(name);
   request.set_seconds(seconds);
   auto reader = connection.stub().Record(context.get(), request);
   v1::RecordProgress progress;
@@ -140,8 +140,8 @@ void addRecordCommand(CLI::App& app, const GlobalOptions& global) {
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--out", args->out,
-                  "Output directory, new or empty. Without --source it is on the daemon's machine "
-                  "(a relative path is made absolute against this directory)")
+                  "Output directory, new or empty. Without --source: a name under the daemon's "
+                  "recordings root (shapesensed --record-root), e.g. desk-1")
       ->required();
   cmd->add_option("--seconds", args->seconds,
                   "Wall-clock duration; with --source, 0 = until the source ends")
@@ -164,7 +164,7 @@ void addRecordCommand(CLI::App& app, const GlobalOptions& global) {
     }
     if (args->seconds <= 0)
       throw CLI::ValidationError("--seconds", "must be more than 0 when the daemon records");
-    recordOnDaemon(global, fs::absolute(args->out).lexically_normal(), args->seconds);
+    recordOnDaemon(global, args->out, args->seconds);
   });
 }
 

@@ -7,6 +7,10 @@
 
 namespace shapesense::cli {
 
+/// --server, --timeout and the transport options (--tls-ca, --tls-cert, --tls-key,
+/// --token-file) every daemon command shares.
+void addGlobalOptions(CLI::App& app, GlobalOptions& global);
+
 void addStatusCommand(CLI::App& app, const GlobalOptions& global);
 void addFramesCommand(CLI::App& app, const GlobalOptions& global);
 void addFrameCommand(CLI::App& app, const GlobalOptions& global);

@@ -1,8 +1,70 @@
 #include "connection.h"
 
+#include <fstream>
+#include <sstream>
+
 #include <google/protobuf/util/json_util.h>
 
+#include "commands.h"
+#include "shapesense/server/access_tokens.h"
+
 namespace shapesense::cli {
+namespace {
+
+std::string readFile(const std::string& file, const char* option) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in) throw std::runtime_error(std::string("cannot read ") + option + " " + file);
+  return text.str();
+}
+
+}  // namespace
+
+void addGlobalOptions(CLI::App& app, GlobalOptions& global) {
+  app.add_option("--server", global.server, "Daemon address")->capture_default_str();
+  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")
+      ->capture_default_str();
+  app.add_option("--tls-ca", global.tls_ca,
+                 "Connect with TLS, trusting daemon certificates this PEM CA bundle signed");
+  app.add_option("--tls-cert", global.tls_cert,
+                 "With --tls-ca: this client's PEM certificate, for a daemon started with "
+                 "--tls-client-ca");
+  app.add_option("--tls-key", global.tls_key, "With --tls-cert: this client's PEM private key");
+  app.add_option("--token-file", global.token_file,
+                 "Send the bearer token on this file's first line with every call (needs "
+                 "--tls-ca)");
+}
+
+std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options) {
+  if (options.tls_ca.empty()) {
+    if (!options.tls_cert.empty()) {
+      throw std::runtime_error("--tls-cert needs --tls-ca (the CA of the daemon's certificate)");
+    }
+    if (!options.token_file.empty()) {
+      throw std::runtime_error(
+          "--token-file needs --tls-ca: a token is never sent in clear text (the daemon takes "
+          "tokens only over TLS)");
+    }
+    return grpc::CreateChannel(options.server, grpc::InsecureChannelCredentials());
+  }
+  if (options.tls_cert.empty() != options.tls_key.empty()) {
+    throw std::runtime_error("--tls-cert and --tls-key go together: give both or neither");
+  }
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = readFile(options.tls_ca, "--tls-ca");
+  if (!options.tls_cert.empty()) {
+    ssl.pem_cert_chain = readFile(options.tls_cert, "--tls-cert");
+    ssl.pem_private_key = readFile(options.tls_key, "--tls-key");
+  }
+  auto credentials = grpc::SslCredentials(ssl);
+  if (!options.token_file.empty()) {
+    // Sent as `authorization: Bearer TOKEN`, the form the daemon's CallAuthenticator reads.
+    credentials = grpc::CompositeChannelCredentials(
+        credentials, grpc::AccessTokenCredentials(readClientToken(options.token_file)));
+  }
+  return grpc::CreateChannel(options.server, credentials);
+}
 
 std::string statusCodeName(grpc::StatusCode code) {
   switch (code) {
@@ -50,9 +112,7 @@ RpcError::RpcError(const grpc::Status& status)
       code_(status.error_code()) {}
 
 Connection::Connection(const GlobalOptions& options)
-    : options_(options),
-      stub_(v1::ShapeSense::NewStub(
-          grpc::CreateChannel(options.server, grpc::InsecureChannelCredentials()))) {}
+    : options_(options), stub_(v1::ShapeSense::NewStub(makeChannel(options))) {}
 
 std::unique_ptr<grpc::ClientContext> Connection::context() const {
   auto context = std::make_unique<grpc::ClientContext>();

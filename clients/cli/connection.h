@@ -15,7 +15,19 @@ namespace shapesense::cli {
 struct GlobalOptions {
   std::string server = "127.0.0.1:50551";
   double timeout_s = 10.0;
+  /// PEM CA bundle that signed the daemon's certificate; set: connect with TLS.
+  std::string tls_ca;
+  /// This client's PEM certificate and key, for a daemon that verifies clients (--tls-client-ca).
+  std::string tls_cert;
+  std::string tls_key;
+  /// File whose first line is the bearer token sent with every call.
+  std::string token_file;
 };
+
+/// The channel `options` describe: plain, or TLS when tls_ca is set, sending the token of
+/// token_file with every call (only over TLS). Throws std::runtime_error for a file that cannot
+/// be read or options that do not go together.
+std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options);
 
 /// Thrown for a failed RPC; main() prints it to stderr and exits non-zero.
 class RpcError : public std::runtime_error {

@@ -11,9 +11,7 @@ int main(int argc, char** argv) {
       "shapesense: query a shapesensed daemon, record sources, make synthetic recordings, analyse "
       "recordings offline."};
   app.require_subcommand(1);
-  app.add_option("--server", global.server, "Daemon address")->capture_default_str();
-  app.add_option("--timeout", global.timeout_s, "Seconds to wait for an answer")
-      ->capture_default_str();
+  addGlobalOptions(app, global);
   addStatusCommand(app, global);
   addFramesCommand(app, global);
   addFrameCommand(app, global);

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
 #include "shapesense/driver/live_sources.h"
 #include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_source.h"
@@ -37,20 +39,43 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
                               std::string(kLiveSourceSpecs));
 }
 
-Daemon::Daemon(const DaemonOptions& options) : cache_(options.cache_frames) {
-  // The chain first: bad detector options (bowl models that do not load) should fail before a
-  // sensor is opened for nothing.
+Daemon::Daemon(const DaemonOptions& options)
+    : cache_(options.cache_frames), stall_limit_(options.stall_limit) {
+  // Options and files first: a refused listen address, an unreadable token file or bowl
+  // models that do not load should fail before a sensor is opened for nothing.
+  checkTransportOptions(options.listen, options.security);
+  RpcServerOptions server_options;
+  if (options.security.tokens()) {
+    server_options.tokens =
+        std::make_shared<const AccessTokens>(AccessTokens::load(options.security.token_file));
+  }
+  server_options.credentials = makeServerCredentials(options.security, server_options.tokens);
+  server_options.reflection = options.security.reflection;
+  if (!options.record.root.empty()) {
+    std::error_code error;
+    std::filesystem::create_directories(options.record.root, error);
+    if (error) {
+      spdlog::warn("cannot create the recordings root {}: {}; Record will be refused",
+                   options.record.root.string(), error.message());
+    }
+  }
   DetectorChain chain = makeDetectorChain(options.detectors);
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
                                          std::move(chain), cache_, hub_, &tap_);
   ServiceContext context{.cache = cache_, .hub = hub_};
   context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };
-  server_ = std::make_unique<RpcServer>(options.listen, std::move(context));
+  context.record = options.record;
+  server_ =
+      std::make_unique<RpcServer>(options.listen, std::move(context), std::move(server_options));
   pipeline_->start();
 }
 
 Daemon::~Daemon() { shutdown(); }
+
+HealthVerdict Daemon::health() const {
+  return judgePipelineHealth(pipeline_->progress(), std::chrono::steady_clock::now(), stall_limit_);
+}
 
 void Daemon::shutdown() {
   hub_.closeAll();

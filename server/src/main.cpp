@@ -1,6 +1,9 @@
 // shapesensed: the shapesense daemon. See README.md and `shapesensed --help`.
 
+#include <algorithm>
+#include <chrono>
 #include <csignal>
+#include <ctime>
 #include <iostream>
 
 #include <spdlog/spdlog.h>
@@ -32,6 +35,64 @@ void notifySystemd([[maybe_unused]] const char* state) {
 #endif
 }
 
+/// The systemd watchdog interval (WatchdogSec=), or zero when systemd does not watch us.
+std::chrono::microseconds watchdogInterval() {
+  std::uint64_t usec = 0;
+#ifdef SHAPESENSE_HAVE_SYSTEMD
+  if (sd_watchdog_enabled(0, &usec) <= 0) usec = 0;
+#endif
+  return std::chrono::microseconds(usec);
+}
+
+/// Waits for SIGINT or SIGTERM. Meanwhile pets the systemd watchdog at half its interval while
+/// the pipeline is healthy, and repeats the warning about an open remote API every minute.
+int waitForShutdown(const sigset_t& signals, const shapesense::Daemon& daemon, bool insecure_remote,
+                    const std::string& listen) {
+  using Clock = std::chrono::steady_clock;
+  constexpr auto kInsecureWarningPeriod = std::chrono::minutes(1);
+  const auto pet_period = watchdogInterval() / 2;
+  const auto never = Clock::time_point::max();
+  auto next_warning = insecure_remote ? Clock::now() : never;
+  auto next_pet = pet_period.count() > 0 ? Clock::now() : never;
+  bool healthy = true;
+  while (true) {
+    const auto now = Clock::now();
+    if (now >= next_warning) {
+      spdlog::warn(
+          "--insecure-remote: {} serves the whole API without encryption or authentication to "
+          "anyone who can reach it",
+          listen);
+      next_warning = now + kInsecureWarningPeriod;
+    }
+    if (now >= next_pet) {
+      const shapesense::HealthVerdict verdict = daemon.health();
+      if (verdict.healthy) {
+        notifySystemd("WATCHDOG=1");
+        if (!healthy) spdlog::info("the pipeline moves again; petting the watchdog");
+      } else if (healthy) {
+        spdlog::error("{}: the pipeline hangs; no longer petting the systemd watchdog",
+                      verdict.reason);
+      }
+      healthy = verdict.healthy;
+      next_pet = now + pet_period;
+    }
+    const auto wake = std::min(next_warning, next_pet);
+    int signal_number = 0;
+    if (wake == never) {
+      sigwait(&signals, &signal_number);
+      return signal_number;
+    }
+    const auto wait = std::max(Clock::duration::zero(), wake - Clock::now());
+    const auto wait_s = std::chrono::duration_cast<std::chrono::seconds>(wait);
+    const timespec timeout{
+        static_cast<std::time_t>(wait_s.count()),
+        static_cast<long>(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(wait - wait_s).count())};
+    signal_number = sigtimedwait(&signals, nullptr, &timeout);
+    if (signal_number > 0) return signal_number;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -55,7 +116,37 @@ int main(int argc, char** argv) {
   app.add_option("--cache-frames", options.cache_frames, "Frames kept in the cache")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  app.add_option("--listen", options.listen, "gRPC listen address")->capture_default_str();
+  app.add_option("--listen", options.listen,
+                 "gRPC listen address; one other machines can reach needs TLS and tokens, or "
+                 "--insecure-remote")
+      ->capture_default_str();
+  shapesense::TransportSecurity& security = options.security;
+  app.add_option("--tls-cert", security.tls_cert,
+                 "TLS: the server's PEM certificate chain (with --tls-key)");
+  app.add_option("--tls-key", security.tls_key, "TLS: the server's PEM private key");
+  app.add_option("--tls-client-ca", security.tls_client_ca,
+                 "TLS: also require client certificates signed by this PEM CA bundle");
+  app.add_option("--token-file", security.token_file,
+                 "Bearer tokens, one `NAME ROLE TOKEN` a line (ROLE: read or record); the file "
+                 "must be readable only by the daemon's user; needs TLS");
+  app.add_flag("--insecure-remote", security.insecure_remote,
+               "Allow a non-loopback --listen without TLS and tokens (warns every minute)");
+  app.add_flag("--reflection", security.reflection,
+               "Serve gRPC server reflection (lists the whole API)");
+  std::string record_root = shapesense::defaultRecordRoot().string();
+  app.add_option("--record-root", record_root,
+                 "Directory the Record RPC writes under; clients name recordings relative to it")
+      ->capture_default_str();
+  std::uint64_t record_min_free_mb = options.record.min_free_bytes >> 20;
+  app.add_option("--record-min-free-mb", record_min_free_mb,
+                 "Record stops (and does not start) when the recordings' file system has less "
+                 "free space, in MB")
+      ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 30))
+      ->capture_default_str();
+  app.add_option("--record-max-seconds", options.record.max_seconds,
+                 "Longest recording a client may ask for")
+      ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
   std::string segmentation = "depth_step";
   app.add_option("--segmentation", segmentation,
                  "Segmentation run on every frame: depth_step, normal_edges, fused, "
@@ -76,6 +167,13 @@ int main(int argc, char** argv) {
   app.add_option("--models", models,
                  "Folder of the bowl models (bowl_*.json); default: " +
                      shapesense::defaultBowlModelsDir().string());
+  double stall_seconds = std::chrono::duration<double>(options.stall_limit).count();
+  app.add_option("--watchdog-stall-seconds", stall_seconds,
+                 "Under a systemd watchdog (WatchdogSec=): stop petting it when a streaming "
+                 "source has delivered nothing, or the detectors have worked on one frame, for "
+                 "this long")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
   std::string check_fakenect;
   app.add_option(
       "--check-fakenect", check_fakenect,
@@ -100,6 +198,10 @@ int main(int argc, char** argv) {
   options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
   options.detectors.bowls = bowls == "on";
   options.detectors.bowl_models = models;  // empty -> the default folder
+  options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(stall_seconds));
+  options.record.root = record_root;
+  options.record.min_free_bytes = record_min_free_mb << 20;
 
   const sigset_t signals = blockShutdownSignals();
   std::unique_ptr<shapesense::Daemon> daemon;
@@ -109,12 +211,15 @@ int main(int argc, char** argv) {
     spdlog::error("{}", e.what());
     return 1;
   }
-  spdlog::info("shapesensed {} serving {} on {} (port {})", SHAPESENSE_VERSION, options.source,
-               options.listen, daemon->port());
+  spdlog::info("shapesensed {} serving {} on {} (port {}, {}{}); recordings under {}",
+               SHAPESENSE_VERSION, options.source, options.listen, daemon->port(),
+               security.tls() ? "TLS" : "plain", security.tokens() ? " with tokens" : "",
+               record_root);
   notifySystemd("READY=1");
 
-  int signal_number = 0;
-  sigwait(&signals, &signal_number);
+  const int signal_number = waitForShutdown(
+      signals, *daemon, shapesense::servesInsecureRemote(options.listen, options.security),
+      options.listen);
   spdlog::info("{} received; shutting down", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
   notifySystemd("STOPPING=1");
   daemon->shutdown();

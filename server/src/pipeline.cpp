@@ -32,6 +32,10 @@ Pipeline::Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, Fra
 Pipeline::~Pipeline() { stop(); }
 
 void Pipeline::start() {
+  {
+    std::lock_guard lock(mutex_);
+    last_source_event_ = std::chrono::steady_clock::now();
+  }
   capture_thread_ = std::jthread([this](std::stop_token stop) { captureLoop(stop); });
   detect_thread_ = std::jthread([this](std::stop_token stop) { detectLoop(stop); });
 }
@@ -54,6 +58,7 @@ void Pipeline::captureLoop(std::stop_token stop) {
     SourceEvent event;
     try {
       event = source_->next(stop);
+      noteSourceEvent();
     } catch (const std::exception& e) {
       spdlog::error("source {} failed: {}", source_name_, e.what());
       setState(SourceState::kFailed, e.what());
@@ -110,6 +115,7 @@ void Pipeline::detectLoop(std::stop_token stop) {
       frame = std::move(waiting_);
       waiting_.reset();
       detecting_ = true;
+      detecting_since_ = std::chrono::steady_clock::now();
     }
     const auto start = std::chrono::steady_clock::now();
     auto results = std::make_shared<const FrameResults>(chain_.process(*frame));
@@ -139,6 +145,31 @@ bool Pipeline::waitUntilDrained(std::chrono::milliseconds timeout) {
                            [this] { return capture_done_ && !waiting_ && !detecting_; });
 }
 
+void Pipeline::noteSourceEvent() {
+  std::lock_guard lock(mutex_);
+  last_source_event_ = std::chrono::steady_clock::now();
+}
+
+SourceState Pipeline::reportedState(SourceState state) const {
+  if (state != SourceState::kStreaming) return state;
+  const SourceHealth health = source_->health();
+  return health.live && !health.connected ? SourceState::kReconnecting : state;
+}
+
+PipelineProgress Pipeline::progress() const {
+  PipelineProgress p;
+  p.source = source_name_;
+  SourceState state;
+  {
+    std::lock_guard lock(mutex_);
+    state = state_;
+    p.last_source_event = last_source_event_;
+    if (detecting_) p.detecting_since = detecting_since_;
+  }
+  p.state = reportedState(state);
+  return p;
+}
+
 PipelineStatus Pipeline::status() const {
   PipelineStatus s;
   s.source = source_name_;
@@ -154,9 +185,7 @@ PipelineStatus Pipeline::status() const {
   s.stages = latency_.summaries();
   s.detectors = chain_.stageNames();
   s.health = source_->health();
-  if (s.state == SourceState::kStreaming && s.health.live && !s.health.connected) {
-    s.state = SourceState::kReconnecting;
-  }
+  s.state = reportedState(s.state);
   return s;
 }
 

@@ -4,6 +4,8 @@
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/server_builder.h>
 
+#include "shapesense/server/access_tokens.h"
+#include "shapesense/server/call_log.h"
 #include "shapesense/server/handlers.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
 
@@ -59,21 +61,51 @@ class ShapeSenseService final : public v1::ShapeSense::Service {
   ServiceContext context_;
 };
 
-RpcServer::RpcServer(const std::string& listen_address, ServiceContext context) {
+namespace {
+
+/// Serves reflection on one server, or not. Linking grpc++_reflection registers its plugin with
+/// every ServerBuilder of the process (a static initializer), so "not" means taking it out.
+class ReflectionOption final : public grpc::ServerBuilderOption {
+ public:
+  explicit ReflectionOption(bool enabled) : enabled_(enabled) {}
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    const std::string name = grpc::reflection::ProtoServerReflectionPlugin().name();
+    std::erase_if(*plugins, [&name](const auto& plugin) { return plugin->name() == name; });
+    if (enabled_)
+      plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
+  }
+
+ private:
+  bool enabled_;
+};
+
+}  // namespace
+
+RpcServer::RpcServer(const std::string& listen_address, ServiceContext context,
+                     RpcServerOptions options) {
   context.shutting_down = &shutting_down_;
   service_ = std::make_unique<ShapeSenseService>(std::move(context));
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  builder.SetOption(std::make_unique<ReflectionOption>(options.reflection));
   // gRPC enables SO_REUSEPORT by default, which lets a second daemon bind the same port and
   // share its clients; one address must mean one daemon.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  builder.AddListeningPort(listen_address, grpc::InsecureServerCredentials(), &port_);
+  builder.AddListeningPort(
+      listen_address, options.credentials ? options.credentials : grpc::InsecureServerCredentials(),
+      &port_);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<CallLogFactory>(options.tokens));
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.RegisterService(service_.get());
   server_ = builder.BuildAndStart();
   if (!server_ || port_ == 0) {
-    throw std::runtime_error("cannot listen on " + listen_address +
-                             " (address in use or not valid; choose another with --listen)");
+    throw std::runtime_error(
+        "cannot listen on " + listen_address +
+        (options.credentials
+             ? " (address in use or not valid, or --tls-key is not the key of --tls-cert)"
+             : " (address in use or not valid; choose another with --listen)"));
   }
 }
 

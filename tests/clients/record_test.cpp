@@ -66,14 +66,14 @@ TEST(RecordCommand, WithSourceRefusesANonEmptyDirectory) {
 
 TEST(RecordCommand, WithoutSourceTheDaemonRecords) {
   testing::TestServer srv(64);
-  const fs::path out = testing::scratchDir("record_cli_daemon") / "rec";
+  const fs::path out = srv.recordRoot() / "rec";
   cli::GlobalOptions global;
   global.server = "127.0.0.1:" + std::to_string(srv.port());
   std::atomic<bool> finished{false};
   std::exception_ptr failure;
   std::thread recorder([&] {
     try {
-      runRecord(global, {"--out", out.string(), "--seconds", "0.5"});
+      runRecord(global, {"--out", "rec", "--seconds", "0.5"});
     } catch (...) {
       failure = std::current_exception();
     }
@@ -107,17 +107,27 @@ TEST(RecordCommand, WithoutSourceTheDaemonRecords) {
 
 TEST(RecordCommand, WithoutSourceReportsTheDaemonsRefusal) {
   testing::TestServer srv(4);
-  const fs::path out = testing::scratchDir("record_cli_daemon_full");
-  std::ofstream(out / "keep.txt") << "x";
+  fs::create_directories(srv.recordRoot() / "full");
+  std::ofstream(srv.recordRoot() / "full" / "keep.txt") << "x";
   cli::GlobalOptions global;
   global.server = "127.0.0.1:" + std::to_string(srv.port());
-  try {
-    runRecord(global, {"--out", out.string(), "--seconds", "1"});
-    FAIL() << "expected an error";
-  } catch (const cli::RpcError& e) {
-    EXPECT_EQ(e.code(), grpc::StatusCode::FAILED_PRECONDITION);
-    EXPECT_THAT(e.what(), HasSubstr("is not empty"));
-  }
+  const auto expectRefusal = [&](const std::string& out, grpc::StatusCode code,
+                                 const std::string& text) {
+    try {
+      runRecord(global, {"--out", out, "--seconds", "1"});
+      ADD_FAILURE() << "expected an error for " << out;
+    } catch (const cli::RpcError& e) {
+      EXPECT_EQ(e.code(), code) << out;
+      EXPECT_THAT(e.what(), HasSubstr(text));
+    }
+  };
+  expectRefusal("full", grpc::StatusCode::FAILED_PRECONDITION, "is not empty");
+  // The name goes to the daemon as given: relative to its recordings root, never out of it.
+  expectRefusal("../escaped", grpc::StatusCode::INVALID_ARGUMENT, "contains '..'");
+  expectRefusal((srv.recordRoot() / "abs").string(), grpc::StatusCode::INVALID_ARGUMENT,
+                "is absolute");
+  EXPECT_FALSE(fs::exists(srv.recordRoot().parent_path() / "escaped"));
+  EXPECT_FALSE(fs::exists(srv.recordRoot() / "abs"));
 }
 
 }  // namespace

@@ -1,11 +1,15 @@
 #include "server_fixture.h"
 
+#include <unistd.h>
+
+#include <atomic>
 #include <thread>
 
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
 
 #include "shapesense/server/detector_stage.h"
+#include "test_paths.h"
 
 namespace shapesense::testing {
 
@@ -40,11 +44,19 @@ std::shared_ptr<const FrameResults> makeTestResults(const Frame& frame) {
   return results;
 }
 
-TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus()> pipeline_status)
+TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus()> pipeline_status,
+                       RecordLimits record)
     : cache_(std::make_unique<FrameCache>(cache_capacity)) {
+  if (record.root.empty()) {
+    static std::atomic<int> servers{0};
+    record.root =
+        scratchDir("record-root-" + std::to_string(::getpid()) + "-" + std::to_string(servers++));
+  }
+  record_root_ = record.root;
   ServiceContext context{.cache = *cache_, .hub = hub_};
   if (pipeline_status) context.pipeline_status = std::move(pipeline_status);
   context.frame_tap = &tap_;
+  context.record = std::move(record);
   server_ = std::make_unique<RpcServer>("127.0.0.1:0", std::move(context));
   channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
                                  grpc::InsecureChannelCredentials());

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 
@@ -32,10 +33,13 @@ Frame makeTestFrame(TimestampNs timestamp_ns, std::uint64_t sequence, bool with_
 std::shared_ptr<const FrameResults> makeTestResults(const Frame& frame);
 
 /// Owns a FrameCache, a SummaryHub and an RpcServer on 127.0.0.1:<free port>, and a client stub.
+/// Record writes under recordRoot(): record.root, or a fresh scratch directory when that is
+/// empty.
 class TestServer {
  public:
   explicit TestServer(std::size_t cache_capacity = 16,
-                      std::function<PipelineStatus()> pipeline_status = {});
+                      std::function<PipelineStatus()> pipeline_status = {},
+                      RecordLimits record = {});
   ~TestServer();
   TestServer(const TestServer&) = delete;
   TestServer& operator=(const TestServer&) = delete;
@@ -48,6 +52,7 @@ class TestServer {
   v1::ShapeSense::Stub& stub() { return *stub_; }
   std::shared_ptr<grpc::Channel> channel() { return channel_; }
   int port() const { return server_->port(); }
+  const std::filesystem::path& recordRoot() const { return record_root_; }
 
   /// Inserts the next frame (sequence = frames added so far) captured at `timestamp_ns`, hands
   /// it to tap(), and publishes results for it unless `publish_results` is false.
@@ -60,6 +65,7 @@ class TestServer {
   const std::vector<std::shared_ptr<const Frame>>& added() const { return added_; }
 
  private:
+  std::filesystem::path record_root_;
   std::unique_ptr<FrameCache> cache_;
   SummaryHub hub_;
   FrameTap tap_;

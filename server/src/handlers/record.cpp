@@ -1,9 +1,11 @@
-// Record: the frames the source delivers for a while, written on the daemon's machine in the TUM
-// layout (TumRecordingWriter) with camera.json, depth at the layout's 5000 units per metre
-// (replays bit-identically up to 13.1 m, far past any Kinect-class reading). Frames come from the
-// FrameTap (every delivered frame, processed or not) into a bounded queue this handler's thread
-// drains, so a slow disk never slows the capture thread: it loses frames instead, counted in
-// frames_dropped.
+// Record: the frames the source delivers for a while, written under the daemon's recordings root
+// (recording_root.h) in the TUM layout (TumRecordingWriter) with camera.json, depth at the layout's
+// 5000 units per metre (replays bit-identically up to 13.1 m, far past any Kinect-class reading).
+// Frames come from the FrameTap (every delivered frame, processed or not) into a bounded queue this
+// handler's thread drains, so a slow disk never slows the capture thread: it loses frames instead,
+// counted in frames_dropped. The free space of the root's file system is checked before the first
+// frame and then at every progress message: below the floor the recording stops with what it has,
+// while the disk still has room for the index files to be complete.
 
 #include <cmath>
 #include <condition_variable>
@@ -24,7 +26,6 @@ using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxQueuedFrames = 64;
 constexpr auto kProgressInterval = std::chrono::milliseconds(100);
-constexpr double kMaxSeconds = 86400.0;
 
 bool sourceFinished(SourceState state) {
   return state == SourceState::kEnded || state == SourceState::kFailed ||
@@ -77,20 +78,20 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
   if (context.frame_tap == nullptr) {
     return {grpc::StatusCode::UNIMPLEMENTED, "this server has no frame source to record from"};
   }
+  const RecordLimits& limits = context.record;
+  if (limits.root.empty()) {
+    return {grpc::StatusCode::FAILED_PRECONDITION,
+            "this daemon has no recordings root: it does not record"};
+  }
   if (request.dir().empty()) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
-            "dir is empty: give an absolute directory path on the daemon's machine"};
-  }
-  const fs::path dir(request.dir());
-  if (!dir.is_absolute()) {
-    return {grpc::StatusCode::INVALID_ARGUMENT,
-            "dir '" + request.dir() +
-                "' is relative: the daemon writes on its own machine, give an absolute path"};
+            "dir is empty: name a new directory under the daemon's recordings root"};
   }
   const double seconds = request.seconds();
-  if (!std::isfinite(seconds) || seconds <= 0.0 || seconds > kMaxSeconds) {
+  if (!std::isfinite(seconds) || seconds <= 0.0 || seconds > limits.max_seconds) {
     std::ostringstream message;
-    message << "seconds must be more than 0 and at most " << kMaxSeconds << ", got " << seconds;
+    message << "seconds must be more than 0 and at most " << limits.max_seconds
+            << " (shapesensed --record-max-seconds), got " << seconds;
     return {grpc::StatusCode::INVALID_ARGUMENT, message.str()};
   }
   const PipelineStatus status = context.pipeline_status();
@@ -106,22 +107,27 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
   }
   RecordingFlag clear_flag{*context.recording};
 
-  std::error_code error;
-  if (fs::exists(dir, error)) {
-    if (!fs::is_directory(dir, error)) {
-      return {grpc::StatusCode::FAILED_PRECONDITION,
-              "'" + dir.string() + "' exists and is not a directory"};
+  // A file system whose free space cannot be read counts as full.
+  const auto free_bytes = [&limits]() -> std::uintmax_t {
+    try {
+      return limits.free_bytes(limits.root);
+    } catch (const std::exception&) {
+      return 0;
     }
-    if (!fs::is_empty(dir, error)) {
-      return {grpc::StatusCode::FAILED_PRECONDITION,
-              "'" + dir.string() + "' is not empty: choose a new directory (or empty this one)"};
-    }
+  };
+  const auto below_floor = [&](std::uintmax_t free) {
+    std::ostringstream message;
+    message << "the recordings root's file system has " << free / (1 << 20)
+            << " MB free, below the floor of " << limits.min_free_bytes / (1 << 20)
+            << " MB (shapesensed --record-min-free-mb)";
+    return message.str();
+  };
+  if (const auto free = free_bytes(); free < limits.min_free_bytes) {
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED, below_floor(free) + "; nothing recorded"};
   }
-  fs::create_directories(dir, error);
-  if (error) {
-    return {error == std::errc::permission_denied ? grpc::StatusCode::PERMISSION_DENIED
-                                                  : grpc::StatusCode::FAILED_PRECONDITION,
-            "cannot create '" + dir.string() + "' on the daemon's machine: " + error.message()};
+  fs::path dir;
+  if (grpc::Status made = makeRecordingDir(limits.root, request.dir(), dir); !made.ok()) {
+    return made;
   }
 
   FrameQueue queue;
@@ -178,8 +184,14 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
     if (context.shuttingDown()) {
       return {grpc::StatusCode::UNAVAILABLE, "the daemon is shutting down; " + stopped_after()};
     }
-    if (Clock::now() - last_sent >= kProgressInterval && !progress(false)) {
-      return {grpc::StatusCode::CANCELLED, "the client went away; " + stopped_after()};
+    if (Clock::now() - last_sent >= kProgressInterval) {
+      if (const auto free = free_bytes(); free < limits.min_free_bytes) {
+        return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+                "recording stopped: " + below_floor(free) + "; " + stopped_after()};
+      }
+      if (!progress(false)) {
+        return {grpc::StatusCode::CANCELLED, "the client went away; " + stopped_after()};
+      }
     }
   }
   progress(true);

@@ -11,8 +11,11 @@
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
+#include "shapesense/server/pipeline_health.h"
+#include "shapesense/server/recording_root.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/server/summary_hub.h"
+#include "shapesense/server/transport_security.h"
 
 namespace shapesense {
 
@@ -29,6 +32,13 @@ struct DaemonOptions {
   std::size_t cache_frames = FrameCache::kDefaultCapacity;
   /// gRPC listen address; port 0 picks a free one.
   std::string listen = kDefaultListenAddress;
+  /// TLS, tokens, reflection; checked against `listen` (checkTransportOptions).
+  TransportSecurity security;
+  /// Where Record writes (created at start when missing); an empty root disables Record.
+  RecordLimits record;
+  /// How long the source may deliver nothing, or the detectors take on one frame, before
+  /// health() says the pipeline hangs.
+  std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);
   DetectorConfig detectors;
 };
 
@@ -38,11 +48,14 @@ std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, 
 
 class Daemon {
  public:
-  /// Opens the source, starts the pipeline and the gRPC server. Throws on bad options.
+  /// Opens the source, starts the pipeline and the gRPC server. Throws on bad options:
+  /// std::invalid_argument for options that contradict each other or the listen policy.
   explicit Daemon(const DaemonOptions& options);
   ~Daemon();
 
   int port() const { return server_->port(); }
+  /// Whether the pipeline is alive now (pipeline_health.h): the watchdog's question.
+  HealthVerdict health() const;
   /// Stops serving (open streams end), then stops the pipeline.
   void shutdown();
 
@@ -55,6 +68,7 @@ class Daemon {
   FrameTap tap_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<RpcServer> server_;
+  std::chrono::steady_clock::duration stall_limit_;
 };
 
 }  // namespace shapesense

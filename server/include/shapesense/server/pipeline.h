@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -40,6 +41,16 @@ struct PipelineStatus {
   SourceHealth health;  ///< the source's sensor state (FrameSource::health())
 };
 
+/// When each thread last moved, for the watchdog (pipeline_health.h).
+struct PipelineProgress {
+  std::string source;
+  SourceState state = SourceState::kStreaming;
+  /// The last frame, error or end from the source; the start while there was none.
+  std::chrono::steady_clock::time_point last_source_event;
+  /// Set while the detector thread runs the chain on a frame: when it began.
+  std::optional<std::chrono::steady_clock::time_point> detecting_since;
+};
+
 class Pipeline {
  public:
   Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
@@ -53,6 +64,7 @@ class Pipeline {
   void stop();
 
   PipelineStatus status() const;
+  PipelineProgress progress() const;
 
   /// Waits until the capture thread has finished (source ended or failed) and the detector
   /// thread has drained. For tests and offline runs; false on timeout.
@@ -62,6 +74,9 @@ class Pipeline {
   void captureLoop(std::stop_token stop);
   void detectLoop(std::stop_token stop);
   void setState(SourceState state, std::string message = {});
+  void noteSourceEvent();
+  /// The state as status() reports it: a live sensor that is not connected is reconnecting.
+  SourceState reportedState(SourceState state) const;
 
   std::unique_ptr<FrameSource> source_;
   const std::string source_name_;
@@ -76,6 +91,8 @@ class Pipeline {
   std::shared_ptr<const Frame> waiting_;  // newest frame not yet taken by the detector thread
   bool capture_done_ = false;
   bool detecting_ = false;
+  std::chrono::steady_clock::time_point detecting_since_;
+  std::chrono::steady_clock::time_point last_source_event_ = std::chrono::steady_clock::now();
   SourceState state_ = SourceState::kStreaming;
   std::string last_error_;
 

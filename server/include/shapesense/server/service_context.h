@@ -12,6 +12,7 @@
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
+#include "shapesense/server/recording_root.h"
 #include "shapesense/server/summary_hub.h"
 
 namespace shapesense {
@@ -27,6 +28,8 @@ struct ServiceContext {
   /// Every frame the source delivers (Record); null when nothing feeds one (Record then
   /// answers UNIMPLEMENTED).
   FrameTap* frame_tap = nullptr;
+  /// Where and how much Record may write.
+  RecordLimits record = {};
   /// Set while a Record call runs; shared by the copies of this context.
   std::shared_ptr<std::atomic<bool>> recording = std::make_shared<std::atomic<bool>>(false);
 

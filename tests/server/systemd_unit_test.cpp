@@ -1,0 +1,86 @@
+// systemd/shapesensed.service as systemd itself judges it: `systemd-analyze verify` accepts it
+// (run on a copy whose ExecStart names the binary just built, since verify checks that it
+// exists) and `systemd-analyze security --offline=true` scores its sandbox at most 2.0. Both
+// work without a running systemd (in a container too); systemd-analyze comes with Debian's
+// systemd package (scripts/deps).
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <regex>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "test_paths.h"
+#include "test_pki.h"
+
+namespace shapesense {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+struct CommandResult {
+  int code;
+  std::string output;
+};
+
+CommandResult runCommand(const std::string& command, const fs::path& log) {
+  const int status = std::system((command + " >'" + log.string() + "' 2>&1").c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};
+}
+
+/// The unit with ExecStart pointing at the built daemon, as <scratch>/shapesensed.service.
+fs::path unitUnderTest(const std::string& scratch_name) {
+  const fs::path dir = testing::scratchDir(scratch_name);
+  std::string unit =
+      testing::readText(fs::path(SHAPESENSE_SOURCE_DIR) / "systemd" / "shapesensed.service");
+  const std::string installed = "/usr/local/bin/shapesensed";
+  const std::string built = std::string(SHAPESENSE_BINARY_DIR) + "/server/shapesensed";
+  for (auto at = unit.find(installed); at != std::string::npos; at = unit.find(installed, at)) {
+    unit.replace(at, installed.size(), built);
+    at += built.size();
+  }
+  const fs::path copy = dir / "shapesensed.service";
+  std::ofstream(copy) << unit;
+  return copy;
+}
+
+TEST(SystemdUnit, IsANotifyServiceWithAWatchdog) {
+  const std::string unit =
+      testing::readText(fs::path(SHAPESENSE_SOURCE_DIR) / "systemd" / "shapesensed.service");
+  EXPECT_THAT(unit, HasSubstr("\nType=notify\n"));
+  EXPECT_TRUE(std::regex_search(unit, std::regex("\nWatchdogSec=[1-9][0-9]*\n"))) << unit;
+  EXPECT_THAT(unit, HasSubstr("\nStateDirectory=shapesense\n"));
+}
+
+TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
+  const fs::path unit = unitUnderTest("systemd_unit_verify");
+  const CommandResult verify = runCommand("systemd-analyze verify '" + unit.string() + "'",
+                                          unit.parent_path() / "verify.log");
+  EXPECT_EQ(verify.code, 0) << verify.output;
+  // Unknown or misspelt settings are only warnings for verify; none are allowed here.
+  EXPECT_THAT(verify.output, Not(HasSubstr("shapesensed.service"))) << verify.output;
+}
+
+TEST(SystemdUnit, SandboxExposureIsAtMostTwo) {
+  const fs::path unit = unitUnderTest("systemd_unit_security");
+  const CommandResult security =
+      runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
+                 unit.parent_path() / "security.log");
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(security.output, match,
+                                std::regex("Overall exposure level for shapesensed\\.service: "
+                                           "([0-9]+\\.[0-9])")))
+      << "systemd-analyze security said:\n"
+      << security.output;
+  const double exposure = std::stod(match[1].str());
+  EXPECT_LE(exposure, 2.0) << security.output;
+}
+
+}  // namespace
+}  // namespace shapesense
