@@ -38,6 +38,7 @@
 #include "shapesense/core/bowl_detector.h"
 #include "shapesense/core/bowl_eval.h"
 #include "shapesense/core/depth_preprocess.h"
+#include "shapesense/core/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/driver/tum_recording.h"
 
@@ -151,6 +152,43 @@ void BM_BowlDetectReal(benchmark::State& state) {
   state.counters["frames"] = static_cast<double>(frames.size());
 }
 BENCHMARK(BM_BowlDetectReal)->Unit(benchmark::kMillisecond);
+
+// The bowl stage as the daemon runs it: the classifier, then the 3D check of its detections
+// (keepBowlShaped) on the planes of the same frame. The planes are computed outside the timed
+// loop: they are the plane stage's product, which the bowl stage reuses.
+void runBowlStage(benchmark::State& state, const std::vector<RealFrame>& frames) {
+  cv::setNumThreads(1);
+  if (frames.empty()) {
+    state.SkipWithError("no frames: expected ../shared/data/real beside the repository");
+    return;
+  }
+  const auto detector = shapesense::BowlDetector::load(shippedModels());
+  shapesense::HoughPlaneDetector plane_detector;
+  std::vector<shapesense::PlaneDetection> planes;
+  for (const auto& f : frames) planes.push_back(plane_detector.detect(f.depth_mm, f.intrinsics));
+  const double unverified = detector.operatingPoint().unverified_score_threshold;
+  std::size_t i = 0, kept = 0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % frames.size();
+    const auto& f = frames[k];
+    auto bowls = shapesense::keepBowlShaped(detector.detect(f.depth_mm, f.intrinsics), f.depth_mm,
+                                            f.intrinsics, planes[k], {}, unverified);
+    kept += bowls.size();
+    benchmark::DoNotOptimize(bowls);
+  }
+  state.counters["frames"] = static_cast<double>(frames.size());
+  state.counters["bowls_per_frame"] =
+      static_cast<double>(kept) / static_cast<double>(std::max<std::size_t>(1, i));
+}
+
+void BM_BowlStage(benchmark::State& state) {
+  const auto& f = frame();
+  runBowlStage(state, {{f.frame.depth, f.frame.intrinsics}});
+}
+BENCHMARK(BM_BowlStage)->Unit(benchmark::kMillisecond);
+
+void BM_BowlStageReal(benchmark::State& state) { runBowlStage(state, realFrames()); }
+BENCHMARK(BM_BowlStageReal)->Unit(benchmark::kMillisecond);
 
 // ---- Held-out test set: ours beside WBDetector ----
 

@@ -45,9 +45,15 @@ nlohmann::json writeFrameResults(const Frame& frame, const FrameResults& results
   if (results.bowls) {
     for (const auto& bowl : *results.bowls) {
       const cv::Rect& box = bowl.detection.box;
-      json["bowls"].push_back({{"box", {box.x, box.y, box.width, box.height}},
-                               {"score", bowl.detection.score},
-                               {"view", bowl.detection.view}});
+      nlohmann::json entry = {{"box", {box.x, box.y, box.width, box.height}},
+                              {"score", bowl.detection.score},
+                              {"view", bowl.detection.view}};
+      if (const auto& g = bowl.detection.geometry) {
+        entry["rim_diameter_m"] = g->rim_diameter_m;
+        entry["height_m"] = g->height_m;
+        entry["support_plane_id"] = g->support_plane_id;
+      }
+      json["bowls"].push_back(std::move(entry));
     }
   }
   nlohmann::json timings = nlohmann::json::object();

@@ -41,14 +41,19 @@ void addBowlsCommand(CLI::App& app, const GlobalOptions& global) {
               << response.info().sequence() << "): " << response.bowls_size() << " bowls ("
               << response.compute_ms() << " ms)\n";
     if (response.bowls_size() > 0) {
-      std::printf("%3s %6s %-6s %-18s %s\n", "#", "score", "view", "box", "3D box centre (m)");
+      std::printf("%3s %6s %-6s %-18s %-14s %s\n", "#", "score", "view", "box", "rim/height cm",
+                  "3D box centre (m)");
     }
     for (int i = 0; i < response.bowls_size(); ++i) {
       const auto& bowl = response.bowls(i);
       const auto& b = bowl.box();
       char box[32];
       std::snprintf(box, sizeof box, "%d,%d %dx%d", b.x(), b.y(), b.width(), b.height());
-      std::printf("%3d %6.1f %-6s %-18s", i, bowl.score(), bowl.view().c_str(), box);
+      char size[32] = "-";  // a confident detection the depth could not settle has no rim
+      if (bowl.rim_diameter_m() > 0)
+        std::snprintf(size, sizeof size, "%.1f/%.1f", 100 * bowl.rim_diameter_m(),
+                      100 * bowl.height_m());
+      std::printf("%3d %6.1f %-6s %-18s %-14s", i, bowl.score(), bowl.view().c_str(), box, size);
       if (bowl.corners_size() == 8) {
         // Opposite corners 0 (front top-left) and 6 (back bottom-right) average to the centre.
         const auto& a = bowl.corners(0);

@@ -148,8 +148,8 @@ std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
   auto joined = [&](int u0, int v0, int u1, int v1) {
     const double z0 = depth_mm.at<std::uint16_t>(box.y + v0, box.x + u0) * 1e-3;
     const double z1 = depth_mm.at<std::uint16_t>(box.y + v1, box.x + u1) * 1e-3;
-    const double step =
-        std::max(params.max_step_floor_m, params.max_step_steps * noise.depthStep(std::max(z0, z1)));
+    const double step = std::max(params.max_step_floor_m,
+                                 params.max_step_steps * noise.depthStep(std::max(z0, z1)));
     return std::abs(z0 - z1) <= step;
   };
   cv::Mat component(box.size(), CV_32SC1, cv::Scalar(0));
@@ -169,7 +169,8 @@ std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
         stack.pop_back();
         ++size;
         central = central || centre.contains(p);
-        const cv::Point neighbours[4] = {{p.x - 1, p.y}, {p.x + 1, p.y}, {p.x, p.y - 1}, {p.x, p.y + 1}};
+        const cv::Point neighbours[4] = {
+            {p.x - 1, p.y}, {p.x + 1, p.y}, {p.x, p.y - 1}, {p.x, p.y + 1}};
         for (const cv::Point& q : neighbours) {
           if (q.x < 0 || q.y < 0 || q.x >= box.width || q.y >= box.height) continue;
           if (!standing.at<std::uint8_t>(q) || component.at<int>(q) != 0) continue;
@@ -190,8 +191,8 @@ std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
   for (int v = 0; v < box.height; ++v)
     for (int u = 0; u < box.width; ++u)
       if (component.at<int>(v, u) == best_label)
-        points.push_back(intrinsics.backproject(box.x + u, box.y + v,
-                                                depth_mm.at<std::uint16_t>(box.y + v, box.x + u) * 1e-3));
+        points.push_back(intrinsics.backproject(
+            box.x + u, box.y + v, depth_mm.at<std::uint16_t>(box.y + v, box.x + u) * 1e-3));
   return points;
 }
 
@@ -234,7 +235,8 @@ double quantile(std::vector<double>& values, double q) {
 double bandWidth(const Profile& profile, double low, double high) {
   std::vector<double> across;
   for (std::size_t i = 0; i < profile.heights.size(); ++i)
-    if (profile.heights[i] >= low && profile.heights[i] <= high) across.push_back(profile.across[i]);
+    if (profile.heights[i] >= low && profile.heights[i] <= high)
+      across.push_back(profile.across[i]);
   if (across.size() < static_cast<std::size_t>(kMinBandPoints)) return 0;
   const double lo = quantile(across, 0.03);
   return quantile(across, 0.97) - lo;
@@ -257,8 +259,8 @@ double bandMiddle(const std::vector<double>& values, const std::vector<std::size
 /// tin's lid, a box's top, a ball's or an upside-down bowl's crown are the top itself. -1 when
 /// no reading lies that near the axis (a tin's wall from the side).
 double dishDepth(const Profile& profile, const std::vector<Eigen::Vector3d>& box_readings,
-                 const SupportPlane& support, double bottom, double top, double band,
-                 double rim, const BowlGeometryParams& params) {
+                 const SupportPlane& support, double bottom, double top, double band, double rim,
+                 const BowlGeometryParams& params) {
   std::vector<std::size_t> rim_band;
   for (std::size_t i = 0; i < profile.heights.size(); ++i)
     if (profile.heights[i] >= top - band) rim_band.push_back(i);
@@ -311,8 +313,8 @@ void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& bo
   geometry.rim_diameter_m = bandWidth(profile, top - band, top);
   const double foot = bandWidth(profile, bottom, bottom + band);
   geometry.rim_to_foot_width = foot > 0 ? geometry.rim_diameter_m / foot : 0;
-  geometry.dish_depth = dishDepth(profile, box_readings, support, bottom, top, band,
-                                  geometry.rim_diameter_m, params);
+  geometry.dish_depth =
+      dishDepth(profile, box_readings, support, bottom, top, band, geometry.rim_diameter_m, params);
   const double rim = std::max(1e-6, geometry.rim_diameter_m);
   const bool wider_at_rim = foot > 0 && geometry.rim_to_foot_width >= params.min_rim_to_foot_width;
   if (geometry.rim_diameter_m < params.min_rim_diameter_m)

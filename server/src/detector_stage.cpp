@@ -146,6 +146,9 @@ void BowlStage::run(const Frame& frame, FrameResults& results) {
   if (!own_planes_) own_planes_.emplace();
   const PlaneDetection planes = own_planes_->detect(frame.depth, frame.intrinsics);
   results.bowls = detectBowls(frame, *detector_, planes, geometry_params_, box_params_);
+  // These planes are the stage's own, which no client sees: no support id to refer to.
+  for (auto& bowl : *results.bowls)
+    if (bowl.detection.geometry) bowl.detection.geometry->support_plane_id = 0;
 }
 
 namespace {

@@ -163,6 +163,16 @@ int main(int argc, char** argv) {
                  "Bowl detector run on every frame (needs the models of --models): on or off")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  auto& bowl_geometry = options.detectors.bowl_geometry_params;
+  std::vector<double> bowl_rim_cm = {100 * bowl_geometry.min_rim_diameter_m,
+                                     100 * bowl_geometry.max_rim_diameter_m};
+  app.add_option("--bowl-rim-cm", bowl_rim_cm,
+                 "Rim diameters a reported bowl may have, MIN,MAX in centimetres (the 3D check "
+                 "of every detection)")
+      ->expected(2)
+      ->delimiter(',')
+      ->check(CLI::Range(1.0, 200.0))
+      ->capture_default_str();
   std::string models;
   app.add_option("--models", models,
                  "Folder of the bowl models (bowl_*.json); default: " +
@@ -198,6 +208,12 @@ int main(int argc, char** argv) {
   options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
   options.detectors.bowls = bowls == "on";
   options.detectors.bowl_models = models;  // empty -> the default folder
+  if (bowl_rim_cm[0] >= bowl_rim_cm[1]) {
+    std::cerr << "--bowl-rim-cm: MIN must be below MAX\n";
+    return 2;
+  }
+  bowl_geometry.min_rim_diameter_m = bowl_rim_cm[0] / 100;
+  bowl_geometry.max_rim_diameter_m = bowl_rim_cm[1] / 100;
   options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(stall_seconds));
   options.record.root = record_root;

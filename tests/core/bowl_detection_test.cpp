@@ -43,10 +43,10 @@ TEST(BowlDetection, HeldOutSyntheticFramesReachApFloor) {
     const auto r = scene.render(0, 0);
     BowlEvalFrame f;
     const auto& depth = r.frame.depth;
-    f.detections = keepBowlShaped(detector.detect(depth, r.frame.intrinsics), depth,
-                                  r.frame.intrinsics,
-                                  plane_detector.detect(depth, r.frame.intrinsics), {},
-                                  detector.operatingPoint().unverified_score_threshold);
+    f.detections =
+        keepBowlShaped(detector.detect(depth, r.frame.intrinsics), depth, r.frame.intrinsics,
+                       plane_detector.detect(depth, r.frame.intrinsics), {},
+                       detector.operatingPoint().unverified_score_threshold);
     for (const auto& o : r.truth.objects)
       if (o.kind == "bowl" && o.upright && !o.image_box.empty())
         f.truth.push_back(

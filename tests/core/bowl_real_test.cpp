@@ -65,10 +65,16 @@ TEST(BowlReal, EveryUprightBowlFoundAtMostTwoFalseOnAllRealFrames) {
   // Upright bowls by recording and frame index (0-based), from SOURCES.md.
   const std::vector<std::pair<std::string, std::vector<std::pair<std::size_t, cv::Rect>>>>
       recordings = {
-          {"mosd_tabletop", {{4, inclusive(55, 173, 151, 243)}, {5, inclusive(154, 125, 252, 197)}}},
-          {"mosd_learn", {}},        {"mosd_test", {}},   {"pcl_room_sweep", {}},
-          {"pcl_desk_sequence", {}}, {"pcl_office", {}},  {"pcl_tabletop_milk", {}},
-          {"tum_fr2_desk", {}},      {"cape_room", {}},
+          {"mosd_tabletop",
+           {{4, inclusive(55, 173, 151, 243)}, {5, inclusive(154, 125, 252, 197)}}},
+          {"mosd_learn", {}},
+          {"mosd_test", {}},
+          {"pcl_room_sweep", {}},
+          {"pcl_desk_sequence", {}},
+          {"pcl_office", {}},
+          {"pcl_tabletop_milk", {}},
+          {"tum_fr2_desk", {}},
+          {"cape_room", {}},
       };
   int frames_seen = 0, false_bowls = 0, bowls_found = 0, bowls_total = 0;
   std::string false_list;

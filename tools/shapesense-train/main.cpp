@@ -329,10 +329,11 @@ void countRejectedBowls(const std::vector<BowlDetection>& candidates, const Data
     if (const auto& reason = measured.rejection) {
       const auto& g = measured.geometry;
       ++counts[toString(*reason)];
-      spdlog::debug("{} [{} {} {} {}] {} score {:.1f}: {} (rim {:.3f} height {:.3f} widening {:.2f} dish {:.2f})",
-                    f.file, d.box.x, d.box.y, d.box.width, d.box.height, d.view, d.score,
-                    toString(*reason), g.rim_diameter_m, g.height_m, g.rim_to_foot_width,
-                    g.dish_depth);
+      spdlog::debug(
+          "{} [{} {} {} {}] {} score {:.1f}: {} (rim {:.3f} height {:.3f} widening {:.2f} dish "
+          "{:.2f})",
+          f.file, d.box.x, d.box.y, d.box.width, d.box.height, d.view, d.score, toString(*reason),
+          g.rim_diameter_m, g.height_m, g.rim_to_foot_width, g.dish_depth);
     }
   }
 }
@@ -347,7 +348,7 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
   const auto frames = readDataset(data);
   std::vector<BowlEvalFrame> eval;
   std::map<std::string, std::pair<int, int>> per_view;  // found, total
-  std::map<std::string, int> rejected_bowls;             // by the 3D check's reason
+  std::map<std::string, int> rejected_bowls;            // by the 3D check's reason
   double secs = 0;
   for (const auto& f : frames) {
     const cv::Mat depth = readDepth(data, f);
@@ -359,10 +360,10 @@ int runEval(const fs::path& models, const fs::path& data, const BowlDetectorPara
       const auto planes = plane_detector.detect(depth, f.intrinsics);
       const auto t_verify = std::chrono::steady_clock::now();
       auto candidates = e.detections;
-      e.detections = keepBowlShaped(
-          std::move(e.detections), depth, f.intrinsics, planes, verification.params,
-          verification.min_unverified_score.value_or(
-              detector.operatingPoint().unverified_score_threshold));
+      e.detections =
+          keepBowlShaped(std::move(e.detections), depth, f.intrinsics, planes, verification.params,
+                         verification.min_unverified_score.value_or(
+                             detector.operatingPoint().unverified_score_threshold));
       secs += elapsed(t_verify);
       countRejectedBowls(candidates, f, depth, planes, verification.params, rejected_bowls);
     }
@@ -609,7 +610,8 @@ int main(int argc, char** argv) {
   BowlVerification verification;
   for (auto* a : {ev, re}) {
     auto& g = verification.params;
-    a->add_flag("!--no-verify", verification.on, "the classifier's detections, without the 3D check");
+    a->add_flag("!--no-verify", verification.on,
+                "the classifier's detections, without the 3D check");
     a->add_option("--unverified-score", verification.min_unverified_score,
                   "3D check: score keeping a detection the depth cannot settle");
     a->add_option("--min-rim-to-foot", g.min_rim_to_foot_width, "3D check: rim over foot width");

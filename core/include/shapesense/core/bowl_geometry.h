@@ -26,8 +26,8 @@
 //   if (result.isBowl()) ... result.geometry.rim_diameter_m ...
 
 #include <cstdint>
-#include <string>
 #include <optional>
+#include <string>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -88,9 +88,9 @@ struct BowlGeometryParams {
 
 /// A bowl's measured geometry.
 struct BowlGeometry {
-  double rim_diameter_m = 0;  ///< width of the rim band across the line of sight
-  double height_m = 0;        ///< from the object's lowest to its highest visible point
-  double top_m = 0;           ///< its highest point above the support
+  double rim_diameter_m = 0;     ///< width of the rim band across the line of sight
+  double height_m = 0;           ///< from the object's lowest to its highest visible point
+  double top_m = 0;              ///< its highest point above the support
   double rim_to_foot_width = 0;  ///< rim band width over foot band width
   double dish_depth = 0;  ///< depth of the middle below the top, share of the height (-1: none)
   /// The support plane n.X + d = 0 (n towards the camera, so heights above it are positive).
@@ -102,12 +102,12 @@ struct BowlGeometry {
 
 /// Why a box is not bowl-shaped.
 enum class BowlGeometryRejection {
-  kNoSupport,        ///< no detected plane under the box
-  kNoObject,         ///< nothing stands on the support at the box's centre
-  kRimTooSmall,      ///< rim band narrower than min_rim_diameter_m (or only part of it seen)
-  kRimTooLarge,      ///< rim band wider than max_rim_diameter_m
-  kHeight,           ///< height out of proportion to the rim
-  kNotBowlShaped,    ///< neither wider at the rim than at the foot nor dished
+  kNoSupport,      ///< no detected plane under the box
+  kNoObject,       ///< nothing stands on the support at the box's centre
+  kRimTooSmall,    ///< rim band narrower than min_rim_diameter_m (or only part of it seen)
+  kRimTooLarge,    ///< rim band wider than max_rim_diameter_m
+  kHeight,         ///< height out of proportion to the rim
+  kNotBowlShaped,  ///< neither wider at the rim than at the foot nor dished
 };
 
 /// A short English reason ("no supporting plane under the box", ...).
@@ -128,8 +128,8 @@ struct BowlGeometryResult {
 
 /// Measures the object behind `box` (pixels of depth_mm, clipped to the image) standing on
 /// one of `planes`, the plane detection of the same frame.
-BowlGeometryResult measureBowlGeometry(
-    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, const cv::Rect& box,
-    const PlaneDetection& planes, const BowlGeometryParams& params = {});
+BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                       const cv::Rect& box, const PlaneDetection& planes,
+                                       const BowlGeometryParams& params = {});
 
 }  // namespace shapesense
