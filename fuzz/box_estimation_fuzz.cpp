@@ -11,7 +11,9 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzedDataProvider input(data, size);
-  const auto raw_double = [&] { return std::bit_cast<double>(input.ConsumeIntegral<std::uint64_t>()); };
+  const auto raw_double = [&] {
+    return std::bit_cast<double>(input.ConsumeIntegral<std::uint64_t>());
+  };
   shapesense::CameraIntrinsics k;
   k.fx = raw_double();
   k.fy = raw_double();
@@ -26,7 +28,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto mode = static_cast<shapesense::BoxMode>(input.ConsumeIntegralInRange(0, 4));
   cv::Mat depth(rows, cols, CV_16UC1, cv::Scalar(0));
   for (int v = 0; v < rows; ++v) {
-    for (int u = 0; u < cols; ++u) depth.at<std::uint16_t>(v, u) = input.ConsumeIntegral<std::uint16_t>();
+    for (int u = 0; u < cols; ++u)
+      depth.at<std::uint16_t>(v, u) = input.ConsumeIntegral<std::uint16_t>();
   }
   const auto result = shapesense::estimateBox(depth, k, p1, p2, mode);
   (void)result;

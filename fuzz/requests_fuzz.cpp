@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <memory>
 
+#include <google/protobuf/stubs/logging.h>
+
 #include "shapesense/server/handlers.h"
 
 namespace {
@@ -31,6 +33,9 @@ struct Service {
   SummaryHub hub;
   ServiceContext context{cache, hub};
   Service() {
+    // Invalid UTF-8 in a string field is a parse failure the fuzzer meets constantly; protobuf
+    // would log each one.
+    google::protobuf::SetLogHandler(nullptr);
     constexpr TimestampNs kT0 = 1'700'000'000'000'000'000LL;
     cache.insert(makeFrame(kT0, 0));
     cache.insert(makeFrame(kT0 + 33'333'333, 1));
@@ -77,8 +82,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                                             handleGetSegments);
       break;
     case 6:
-      call<v1::GetPlanesRequest, v1::GetPlanesResponse>(service, body, body_size,
-                                                        handleGetPlanes);
+      call<v1::GetPlanesRequest, v1::GetPlanesResponse>(service, body, body_size, handleGetPlanes);
       break;
     case 7:
       call<v1::GetBowlsRequest, v1::GetBowlsResponse>(service, body, body_size, handleGetBowls);

@@ -10,8 +10,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   std::vector<std::string> problems;
   const bool in_time_order = size > 0 && (data[0] & 1);
-  const auto entries =
-      shapesense::parseTumIndexText(text, "depth.txt", in_time_order, problems);
+  const auto entries = shapesense::parseTumIndexText(text, "depth.txt", in_time_order, problems);
   for (const auto& problem : problems) {
     if (problem.size() > 512) std::abort();  // a bad line is quoted short
   }

@@ -55,8 +55,7 @@ std::string readRegularFile(const fs::path& file, std::size_t max_bytes) {
     throw InputFileError(file.string() + ": cannot stat (" + std::strerror(errno) + ")");
   }
   if (!S_ISREG(info.st_mode)) {
-    throw InputFileError(file.string() + ": is " + fileKind(info.st_mode) +
-                         ", not a regular file");
+    throw InputFileError(file.string() + ": is " + fileKind(info.st_mode) + ", not a regular file");
   }
   if (static_cast<std::uintmax_t>(info.st_size) > max_bytes) {
     throw InputFileError(tooLarge(file, max_bytes));

@@ -23,8 +23,8 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateWithFocal(double focal, 
 }
 
 void expectRefused(double focal) {
-  for (BoxMode mode : {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained,
-                       BoxMode::kAxisAlignedFrontFace}) {
+  for (BoxMode mode :
+       {BoxMode::kFrustumAligned, BoxMode::kAxisAlignedContained, BoxMode::kAxisAlignedFrontFace}) {
     SCOPED_TRACE("fx = fy = " + std::to_string(focal) + ", mode " +
                  std::to_string(static_cast<int>(mode)));
     const auto result = estimateWithFocal(focal, mode);

@@ -79,9 +79,9 @@ TEST(BoundedCameraFile, PrincipalPointAndDepthScaleMustBePhysical) {
 }
 
 TEST(BoundedCameraFile, EveryRealRecordingsCameraIsAccepted) {
-  for (const char* name : {"cape_room", "mosd_learn", "mosd_tabletop", "mosd_test",
-                           "pcl_desk_sequence", "pcl_office", "pcl_room_sweep",
-                           "pcl_tabletop_milk", "tum_fr2_desk"}) {
+  for (const char* name :
+       {"cape_room", "mosd_learn", "mosd_tabletop", "mosd_test", "pcl_desk_sequence", "pcl_office",
+        "pcl_room_sweep", "pcl_tabletop_milk", "tum_fr2_desk"}) {
     const auto dir = testing::realRecording(name);
     if (!fs::exists(dir / "camera.json")) GTEST_SKIP() << "no shared/ recordings here";
     EXPECT_NO_THROW(readRecordingCamera(dir)) << name;
@@ -124,9 +124,8 @@ TEST(BoundedIndexFile, FifoDepthIndexIsRefusedWithoutBlocking) {
 TEST(BoundedIndexFile, FifoCameraFileIsRefusedWithoutBlocking) {
   const auto dir = scratchDir("camera_fifo");
   ASSERT_EQ(::mkfifo((dir / "camera.json").c_str(), 0600), 0);
-  expectNoHangOnFifo(dir / "camera.json", [&] {
-    EXPECT_THROW(readRecordingCamera(dir), CameraFileError);
-  });
+  expectNoHangOnFifo(dir / "camera.json",
+                     [&] { EXPECT_THROW(readRecordingCamera(dir), CameraFileError); });
 }
 
 TEST(BoundedIndexFile, IndexLinkedToDevZeroIsRefused) {
@@ -197,7 +196,8 @@ TEST(RecordingPaths, EntriesOutsideTheRecordingAreProblemsNotFiles) {
   const TumIndex index = readTumIndex(dir);
   ASSERT_EQ(index.problems.size(), 3u);
   EXPECT_THAT(index.problems[0], HasSubstr("/etc/passwd"));
-  for (const auto& problem : index.problems) EXPECT_THAT(problem, HasSubstr("out of the recording"));
+  for (const auto& problem : index.problems)
+    EXPECT_THAT(problem, HasSubstr("out of the recording"));
   EXPECT_EQ(index.depth.size(), 1u);
 }
 
