@@ -82,6 +82,14 @@ std::string readRegularFile(const fs::path& file, std::size_t max_bytes) {
 
 bool isPlainRelativePath(const fs::path& relative) {
   if (relative.empty() || relative.has_root_path()) return false;
+  // Paths are echoed into logs and statuses: no terminal escapes or other control bytes.
+  const std::string& text = relative.native();
+  if (std::any_of(text.begin(), text.end(), [](char c) {
+        const auto byte = static_cast<unsigned char>(c);
+        return byte < 0x20 || byte == 0x7f;
+      })) {
+    return false;
+  }
   for (const auto& part : relative) {
     if (part == "..") return false;
   }
@@ -91,8 +99,9 @@ bool isPlainRelativePath(const fs::path& relative) {
 fs::path pathInside(const fs::path& root, const fs::path& relative) {
   const fs::path joined = root / relative;
   if (!isPlainRelativePath(relative)) {
-    throw InputFileError(root.string() + ": the path " + quoteExcerpt(relative.string()) +
-                         " leads out of the recording (absolute or with '..')");
+    throw InputFileError(
+        root.string() + ": the path " + quoteExcerpt(relative.string()) +
+        " is not a plain path inside the recording (absolute, with '..' or control characters)");
   }
   std::error_code ec;
   const fs::path real_root = fs::weakly_canonical(root, ec);

@@ -93,8 +93,9 @@ FakenectIndex parseFakenectIndexText(std::string_view text, const std::string& l
       return;
     }
     if (!isPlainRelativePath(entry->file_name)) {
-      index.problems.push_back(where + ": " + quoteExcerpt(line) +
-                               " leads out of the dump (absolute or with '..')");
+      index.problems.push_back(
+          where + ": " + quoteExcerpt(line) +
+          " is not a plain path inside the dump (absolute, with '..' or control characters)");
       return;
     }
     entry->line = number;

@@ -25,7 +25,8 @@ std::variant<TumIndexEntry, std::string> parseIndexLine(std::string_view line) {
   const auto ns = parseSecondsToNs(stamp);
   if (!ns || path.empty()) return "expected '<seconds> <path>', got " + quoteExcerpt(line);
   if (!isPlainRelativePath(path)) {
-    return "the path " + quoteExcerpt(path) + " leads out of the recording (absolute or with '..')";
+    return "the path " + quoteExcerpt(path) +
+           " is not a plain path inside the recording (absolute, with '..' or control characters)";
   }
   return TumIndexEntry{*ns, stamp, path};
 }

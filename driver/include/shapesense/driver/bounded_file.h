@@ -25,7 +25,7 @@ class InputFileError : public std::runtime_error {
 std::string readRegularFile(const std::filesystem::path& file, std::size_t max_bytes);
 
 /// Whether `relative` is a non-empty relative path without ".." components (lexically inside
-/// whatever folder it is resolved against).
+/// whatever folder it is resolved against) and without control characters.
 bool isPlainRelativePath(const std::filesystem::path& relative);
 
 /// `root` / `relative`, checked to stay inside `root` once symlinks are resolved: throws
