@@ -1,6 +1,8 @@
 #include "shapesense/core/bowl_model.h"
 
+#include <cstdint>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -8,6 +10,26 @@
 namespace shapesense {
 
 using nlohmann::json;
+
+namespace {
+
+// A JSON integer that fits T. nlohmann's get<int>() converts a float such as 1e300 with
+// undefined behaviour; a model file holding one is malformed instead.
+template <typename T>
+T integerOf(const json& value) {
+  if (!value.is_number_integer()) {
+    throw std::runtime_error(std::string("expected an integer, got ") + value.type_name());
+  }
+  constexpr auto kMin = static_cast<std::int64_t>(std::numeric_limits<T>::min());
+  constexpr auto kMax = static_cast<std::int64_t>(std::numeric_limits<T>::max());
+  const bool fits = value.is_number_unsigned()
+                        ? value.get<std::uint64_t>() <= static_cast<std::uint64_t>(kMax)
+                        : value.get<std::int64_t>() >= kMin && value.get<std::int64_t>() <= kMax;
+  if (!fits) throw std::runtime_error("integer " + value.dump() + " out of range");
+  return static_cast<T>(value.get<std::int64_t>());
+}
+
+}  // namespace
 
 void saveBowlModel(const BowlViewModel& m, const std::filesystem::path& file) {
   json j;
@@ -68,22 +90,22 @@ BowlViewModel loadBowlModel(const std::filesystem::path& file) {
     const json j = json::parse(in);
     if (j.at("format").get<std::string>() != "shapesense-bowl-model")
       throw std::runtime_error("not a shapesense-bowl-model");
-    if (j.at("version").get<int>() != kBowlModelVersion)
+    if (integerOf<int>(j.at("version")) != kBowlModelVersion)
       throw std::runtime_error("unsupported version " + j.at("version").dump());
     BowlViewModel m;
     m.view = j.at("view").get<std::string>();
-    m.classifier.win_w = j.at("window").at("width").get<int>();
-    m.classifier.win_h = j.at("window").at("height").get<int>();
+    m.classifier.win_w = integerOf<int>(j.at("window").at("width"));
+    m.classifier.win_h = integerOf<int>(j.at("window").at("height"));
     m.object_margin = j.at("object_margin").get<double>();
     m.min_object_width_m = j.at("object_width_m").at(0).get<double>();
     m.max_object_width_m = j.at("object_width_m").at(1).get<double>();
     const auto& p = j.at("preprocess");
     m.preprocess.near_m = p.at("near_m").get<double>();
     m.preprocess.far_m = p.at("far_m").get<double>();
-    m.preprocess.low = p.at("low").get<int>();
-    m.preprocess.high = p.at("high").get<int>();
-    m.preprocess.fill_passes = p.at("fill_passes").get<int>();
-    m.preprocess.unfilled_value = p.at("unfilled_value").get<int>();
+    m.preprocess.low = integerOf<int>(p.at("low"));
+    m.preprocess.high = integerOf<int>(p.at("high"));
+    m.preprocess.fill_passes = integerOf<int>(p.at("fill_passes"));
+    m.preprocess.unfilled_value = integerOf<int>(p.at("unfilled_value"));
     if (j.at("score_unit").get<double>() != kWaldBoostScoreUnit)
       throw std::runtime_error("unsupported score_unit");
     m.training_json = j.contains("training") ? j["training"].dump() : "{}";
@@ -96,17 +118,19 @@ BowlViewModel loadBowlModel(const std::filesystem::path& file) {
     }
     for (const auto& js : j.at("stages")) {
       WaldBoostStage s;
-      s.feature = {js.at("x").get<int>(), js.at("y").get<int>(), js.at("cw").get<int>(),
-                   js.at("ch").get<int>()};
+      s.feature = {integerOf<int>(js.at("x")), integerOf<int>(js.at("y")),
+                   integerOf<int>(js.at("cw")), integerOf<int>(js.at("ch"))};
       const auto& f = s.feature;
-      if (f.x < 0 || f.y < 0 || f.cw < 1 || f.ch < 1 || f.x + 3 * f.cw > m.classifier.win_w ||
-          f.y + 3 * f.ch > m.classifier.win_h)
+      // In 64 bits: x + 3 * cw of two ints does not overflow there.
+      if (f.x < 0 || f.y < 0 || f.cw < 1 || f.ch < 1 ||
+          f.x + 3 * std::int64_t{f.cw} > m.classifier.win_w ||
+          f.y + 3 * std::int64_t{f.ch} > m.classifier.win_h)
         throw std::runtime_error("stage feature outside the window");
       s.threshold =
-          js.at("threshold").is_null() ? INT32_MIN : js.at("threshold").get<std::int32_t>();
+          js.at("threshold").is_null() ? INT32_MIN : integerOf<std::int32_t>(js.at("threshold"));
       const auto& lut = js.at("lut");
       if (lut.size() != 256) throw std::runtime_error("lut must have 256 entries");
-      for (int k = 0; k < 256; ++k) s.lut[k] = lut.at(k).get<std::int16_t>();
+      for (int k = 0; k < 256; ++k) s.lut[k] = integerOf<std::int16_t>(lut.at(k));
       m.classifier.stages.push_back(s);
     }
     return m;

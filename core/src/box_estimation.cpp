@@ -16,6 +16,10 @@ namespace {
 constexpr double kMadToSigma = 1.4826;
 // Even with the near-limit rule disabled, a box must stay in front of the camera.
 constexpr double kMinPositiveDepthM = 1e-3;
+// Longest pixel ray (z = 1) of a camera: 88.2 degrees off the optical axis, past any pinhole
+// lens (a 160-degree field of view with the principal point at an image corner reaches 16).
+// It bounds mode 1's ranges, hence its histogram, to 32 times the depths: 2 million bins at most.
+constexpr double kMaxRayNorm = 32.0;
 
 BoxEstimationFailure fail(BoxEstimationError code, std::string message) {
   return BoxEstimationFailure{code, std::move(message)};
@@ -94,8 +98,12 @@ RoiDepthStatistics windowStatistics(const MillimetreHistogram& histogram,
     const double floor_sigma =
         std::max(params.min_sigma_m, params.min_sigma_steps * params.noise.depthStep(center));
     const double window = params.inlier_sigmas * std::max(sigma, floor_sigma);
-    // A reading exactly on the window's edge is kept (hence the rounding slack).
-    const int half_bins = static_cast<int>(std::floor(window / 0.001 + 1e-6));
+    // A reading exactly on the window's edge is kept (hence the rounding slack). A window wider
+    // than the histogram keeps everything; capping it first keeps the int conversion defined.
+    const double window_bins = std::floor(window / 0.001 + 1e-6);
+    const int half_bins = !(window_bins > 0.0)                ? 0
+                          : window_bins < histogram.lastBin() ? static_cast<int>(window_bins)
+                                                              : histogram.lastBin();
     const int next_lo = std::max(0, center_bin - half_bins);
     const int next_hi = std::min(histogram.lastBin(), center_bin + half_bins);
     // The centre is one of the readings, so the window is never empty.
@@ -272,6 +280,19 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
                                            "x" + std::to_string(depth_mm.rows) + " image");
   }
 
+  // |ray| is largest at one of the ROI's corners.
+  const auto ray_norm = [&](int u, int v) { return intrinsics.ray(u, v).norm(); };
+  const double max_norm =
+      std::max({ray_norm(u0, v0), ray_norm(u1, v0), ray_norm(u0, v1), ray_norm(u1, v1)});
+  if (!(max_norm <= kMaxRayNorm)) {
+    return fail(Err::kInvalidArgument,
+                "the intrinsics (fx " + std::to_string(intrinsics.fx) + ", fy " +
+                    std::to_string(intrinsics.fy) + ", cx " + std::to_string(intrinsics.cx) +
+                    ", cy " + std::to_string(intrinsics.cy) +
+                    ") put the ROI's corners more than 88 degrees off the optical axis: no "
+                    "camera sees that");
+  }
+
   // Mode 1 works on distances from the optical centre, modes 2 and 3 on Z (the design).
   const bool use_range = mode == BoxMode::kFrustumAligned;
   const int max_valid = static_cast<int>(
@@ -305,10 +326,7 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
   BoxEstimate out;
   out.mode = mode;
   if (use_range) {
-    // Range = Z * |ray|; |ray| is at least 1 and largest at one of the ROI's corners.
-    const auto ray_norm = [&](int u, int v) { return intrinsics.ray(u, v).norm(); };
-    const double max_norm =
-        std::max({ray_norm(u0, v0), ray_norm(u1, v0), ray_norm(u0, v1), ray_norm(u1, v1)});
+    // Range = Z * |ray|, with 1 <= |ray| <= max_norm.
     MillimetreHistogram histogram(min_mm, static_cast<int>(std::ceil(max_mm * max_norm)) + 1);
     std::vector<double> column_sq(static_cast<std::size_t>(u1 - u0 + 1));
     for (int u = u0; u <= u1; ++u) {

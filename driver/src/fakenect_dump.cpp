@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shapesense/core/timestamp.h"
+#include "shapesense/driver/bounded_file.h"
 
 namespace shapesense {
 namespace fs = std::filesystem;
@@ -17,37 +18,37 @@ constexpr std::size_t kDepthBytes = std::size_t{kFakenectWidth} * kFakenectHeigh
 constexpr std::size_t kRgbBytes = std::size_t{kFakenectWidth} * kFakenectHeight * 3;
 constexpr double kDeviceTicksPerNs = 60e6 / 1e9;
 
-std::string readWholeFile(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw std::runtime_error(file.string() + ": cannot open");
-  std::ostringstream out;
-  out << in.rdbuf();
-  if (in.bad()) throw std::runtime_error(file.string() + ": read error");
-  return out.str();
-}
+// A frame file is its header line and payload; anything much larger is not one.
+constexpr std::size_t kHeaderSlack = 4096;
 
 /// Splits "P5 640 480 65535\n<payload>"; checks the header and the payload size.
-std::string_view payloadOf(const std::string& data, const fs::path& file, const char* magic,
+std::string_view payloadOf(std::string_view data, const std::string& label, const char* magic,
                            int maxval, std::size_t bytes) {
   const auto newline = data.find('\n');
   if (newline == std::string::npos) {
-    throw std::runtime_error(file.string() + ": no header line");
+    throw std::runtime_error(label + ": no header line");
   }
-  std::istringstream header(data.substr(0, newline));
+  std::istringstream header{std::string(data.substr(0, std::min(newline, kHeaderSlack)))};
   std::string got_magic;
   int width = 0, height = 0, got_max = 0;
   header >> got_magic >> width >> height >> got_max;
   if (!header || got_magic != magic || width != kFakenectWidth || height != kFakenectHeight ||
       got_max != maxval) {
-    throw std::runtime_error(file.string() + ": header '" + data.substr(0, newline) + "' is not '" +
-                             magic + " 640 480 " + std::to_string(maxval) + "' on one line");
+    throw std::runtime_error(label + ": header " + quoteExcerpt(data.substr(0, newline)) +
+                             " is not '" + magic + " 640 480 " + std::to_string(maxval) +
+                             "' on one line");
   }
   const std::size_t available = data.size() - newline - 1;
   if (available < bytes) {
-    throw std::runtime_error(file.string() + ": payload has " + std::to_string(available) +
+    throw std::runtime_error(label + ": payload has " + std::to_string(available) +
                              " bytes, expected " + std::to_string(bytes));
   }
-  return std::string_view(data).substr(newline + 1, bytes);
+  return data.substr(newline + 1, bytes);
+}
+
+// A malformed INDEX.txt line, quoted short and escaped.
+std::string malformedLine(const std::string& where, std::string_view line) {
+  return where + ": malformed line " + quoteExcerpt(line);
 }
 
 void writeFileOrThrow(const fs::path& file, const std::string& header, const std::string& payload) {
@@ -80,63 +81,77 @@ std::optional<FakenectIndexEntry> parseFakenectName(const std::string& name) {
   return entry;
 }
 
-FakenectIndex readFakenectIndex(const fs::path& dir) {
-  const fs::path index_path = dir / "INDEX.txt";
-  std::ifstream in(index_path);
-  if (!in) throw std::runtime_error(index_path.string() + ": cannot open");
+FakenectIndex parseFakenectIndexText(std::string_view text, const std::string& label) {
   FakenectIndex index;
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    auto entry = parseFakenectName(line);
+  forEachLine(text, [&](std::string_view line, int number) {
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    const std::string where = label + ":" + std::to_string(number);
+    auto entry =
+        line.size() <= kMaxFakenectLineBytes ? parseFakenectName(std::string(line)) : std::nullopt;
     if (!entry) {
-      index.problems.push_back(index_path.string() + ":" + std::to_string(number) +
-                               ": malformed line '" + line + "'");
-      continue;
+      index.problems.push_back(malformedLine(where, line));
+      return;
+    }
+    if (!isPlainRelativePath(entry->file_name)) {
+      index.problems.push_back(
+          where + ": " + quoteExcerpt(line) +
+          " is not a plain path inside the dump (absolute, with '..' or control characters)");
+      return;
     }
     entry->line = number;
     index.entries.push_back(std::move(*entry));
-  }
+  });
   return index;
+}
+
+FakenectIndex readFakenectIndex(const fs::path& dir) {
+  const fs::path index_path = dir / "INDEX.txt";
+  return parseFakenectIndexText(readRegularFile(index_path, kMaxFakenectIndexBytes),
+                                index_path.string());
 }
 
 std::vector<std::string> validateFakenectDump(const fs::path& dir) {
   std::vector<std::string> problems;
   const fs::path index_path = dir / "INDEX.txt";
-  std::ifstream in(index_path, std::ios::binary);
-  if (!in) return {index_path.string() + ": cannot open"};
-  std::string line;
-  int number = 0;
+  std::string text;
+  try {
+    text = readRegularFile(index_path, kMaxFakenectIndexBytes);
+  } catch (const InputFileError& e) {
+    return {e.what()};
+  }
+  int lines = 0;
   bool any_depth = false;
-  while (std::getline(in, line)) {
-    ++number;
+  forEachLine(text, [&](std::string_view line, int number) {
+    lines = number;
     const std::string where = index_path.string() + ":" + std::to_string(number);
     // fakenect reads up to '\n' and treats an empty line as the end of the dump.
-    const auto entry = parseFakenectName(line);
-    if (line.empty() || !entry) {
-      problems.push_back(where + ": malformed line '" + line + "'");
-      continue;
-    }
-    const fs::path file = dir / line;
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) {
-      problems.push_back(file.string() + ": missing (listed at " + where + ")");
-      continue;
+    const auto entry = line.empty() || line.size() > kMaxFakenectLineBytes
+                           ? std::nullopt
+                           : parseFakenectName(std::string(line));
+    if (!entry) {
+      problems.push_back(malformedLine(where, line));
+      return;
     }
     try {
+      const fs::path file = pathInside(dir, entry->file_name);
+      std::error_code ec;
+      if (!fs::exists(fs::symlink_status(file, ec))) {
+        problems.push_back(file.string() + ": missing (listed at " + where + ")");
+        return;
+      }
       if (entry->type == 'd') {
         readFakenectDepth(file);
         any_depth = true;
       } else if (entry->type == 'r') {
         readFakenectRgb(file);
+      } else if (!fs::is_regular_file(file, ec)) {
+        problems.push_back(file.string() + ": not a regular file (listed at " + where + ")");
       }
     } catch (const std::exception& e) {
       problems.push_back(e.what());
     }
-  }
-  if (number == 0)
+  });
+  if (lines == 0)
     problems.push_back(index_path.string() + ": empty");
   else if (!any_depth && problems.empty())
     problems.push_back(index_path.string() + ": no depth file");
@@ -144,8 +159,15 @@ std::vector<std::string> validateFakenectDump(const fs::path& dir) {
 }
 
 cv::Mat readFakenectDepth(const fs::path& file) {
-  const std::string data = readWholeFile(file);
-  const auto payload = payloadOf(data, file, "P5", 65535, kDepthBytes);
+  return decodeFakenectDepth(readRegularFile(file, kDepthBytes + kHeaderSlack), file.string());
+}
+
+cv::Mat readFakenectRgb(const fs::path& file) {
+  return decodeFakenectRgb(readRegularFile(file, kRgbBytes + kHeaderSlack), file.string());
+}
+
+cv::Mat decodeFakenectDepth(std::string_view data, const std::string& label) {
+  const auto payload = payloadOf(data, label, "P5", 65535, kDepthBytes);
   cv::Mat raw(kFakenectHeight, kFakenectWidth, CV_16UC1);
   const auto* bytes = reinterpret_cast<const unsigned char*>(payload.data());
   for (int y = 0; y < raw.rows; ++y) {
@@ -154,7 +176,7 @@ cv::Mat readFakenectDepth(const fs::path& file) {
       const std::size_t i = 2 * (static_cast<std::size_t>(y) * kFakenectWidth + x);
       const auto value = static_cast<std::uint16_t>(bytes[i] | (bytes[i + 1] << 8));
       if (value > kKinectRawNoReading) {
-        throw std::runtime_error(file.string() + ": pixel (" + std::to_string(x) + ", " +
+        throw std::runtime_error(label + ": pixel (" + std::to_string(x) + ", " +
                                  std::to_string(y) + ") = " + std::to_string(value) +
                                  " is not an 11-bit value");
       }
@@ -164,9 +186,8 @@ cv::Mat readFakenectDepth(const fs::path& file) {
   return raw;
 }
 
-cv::Mat readFakenectRgb(const fs::path& file) {
-  const std::string data = readWholeFile(file);
-  const auto payload = payloadOf(data, file, "P6", 255, kRgbBytes);
+cv::Mat decodeFakenectRgb(std::string_view data, const std::string& label) {
+  const auto payload = payloadOf(data, label, "P6", 255, kRgbBytes);
   const cv::Mat rgb(kFakenectHeight, kFakenectWidth, CV_8UC3, const_cast<char*>(payload.data()));
   cv::Mat bgr;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
@@ -291,13 +312,13 @@ SourceEvent FakenectDumpSource::next(std::stop_token stop) {
   if (!waitUntil(depth.entry.host_ns, stop)) return EndOfStream{};
   Frame frame;
   try {
-    frame.depth = to_mm_.convert(readFakenectDepth(dir_ / depth.entry.file_name));
+    frame.depth = to_mm_.convert(readFakenectDepth(pathInside(dir_, depth.entry.file_name)));
   } catch (const std::exception& e) {
     return SourceError{e.what()};
   }
   if (const Stamped* rgb = nearestRgb(depth)) {
     try {
-      frame.rgb = readFakenectRgb(dir_ / rgb->entry.file_name);
+      frame.rgb = readFakenectRgb(pathInside(dir_, rgb->entry.file_name));
     } catch (const std::exception& e) {
       problems_.push_back(e.what());  // the depth frame still goes out, without colour
     }

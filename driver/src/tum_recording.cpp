@@ -3,57 +3,83 @@
 #include <algorithm>
 #include <sstream>
 #include <stdexcept>
+#include <variant>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "shapesense/core/timestamp.h"
+#include "shapesense/driver/bounded_file.h"
 
 namespace shapesense {
 namespace {
 
-// Reads "<seconds> <path>" lines; '#' starts a comment line.
-std::vector<TumIndexEntry> readIndexFile(const std::filesystem::path& file,
-                                         std::vector<std::string>& problems) {
-  std::vector<TumIndexEntry> entries;
-  std::ifstream in(file);
-  std::string line;
-  int line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream fields(line);
-    std::string stamp, path;
-    fields >> stamp >> path;
-    const auto ns = parseSecondsToNs(stamp);
-    if (!ns || path.empty()) {
-      problems.push_back(file.string() + ":" + std::to_string(line_number) +
-                         ": expected '<seconds> <path>', got '" + line + "'");
-      continue;
-    }
-    entries.push_back({*ns, stamp, path});
+// One "<seconds> <path>" line, or the reason it is not one.
+std::variant<TumIndexEntry, std::string> parseIndexLine(std::string_view line) {
+  if (line.size() > kMaxIndexLineBytes) {
+    return "line of " + std::to_string(line.size()) + " bytes, longer than " +
+           std::to_string(kMaxIndexLineBytes) + ": " + quoteExcerpt(line);
   }
-  return entries;
+  std::istringstream fields{std::string(line)};
+  std::string stamp, path;
+  fields >> stamp >> path;
+  const auto ns = parseSecondsToNs(stamp);
+  if (!ns || path.empty()) return "expected '<seconds> <path>', got " + quoteExcerpt(line);
+  if (!isPlainRelativePath(path)) {
+    return "the path " + quoteExcerpt(path) +
+           " is not a plain path inside the recording (absolute, with '..' or control characters)";
+  }
+  return TumIndexEntry{*ns, stamp, path};
+}
+
+std::vector<TumIndexEntry> readIndexFile(const std::filesystem::path& file, bool in_time_order,
+                                         std::vector<std::string>& problems) {
+  return parseTumIndexText(readRegularFile(file, kMaxIndexFileBytes), file.string(), in_time_order,
+                           problems);
 }
 
 }  // namespace
+
+std::vector<TumIndexEntry> parseTumIndexText(std::string_view text, const std::string& label,
+                                             bool in_time_order,
+                                             std::vector<std::string>& problems) {
+  std::vector<TumIndexEntry> entries;
+  forEachLine(text, [&](std::string_view line, int number) {
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string_view::npos || line[first] == '#') return;
+    const std::string where = label + ":" + std::to_string(number) + ": ";
+    auto parsed = parseIndexLine(line);
+    if (auto* reason = std::get_if<std::string>(&parsed)) {
+      problems.push_back(where + *reason);
+      return;
+    }
+    auto& entry = std::get<TumIndexEntry>(parsed);
+    if (in_time_order && !entries.empty() && entry.timestamp_ns < entries.back().timestamp_ns) {
+      problems.push_back(where + "stamp " + entry.seconds_text + " is before the earlier line's " +
+                         entries.back().seconds_text + " (time cannot go back); skipped");
+      return;
+    }
+    entries.push_back(std::move(entry));
+  });
+  return entries;
+}
 
 TumIndex readTumIndex(const std::filesystem::path& dir) {
   if (!std::filesystem::is_directory(dir)) {
     throw std::runtime_error(dir.string() + ": no such recording directory");
   }
   const auto depth_file = dir / "depth.txt";
-  if (!std::filesystem::exists(depth_file)) {
+  std::error_code ec;
+  if (!std::filesystem::exists(std::filesystem::symlink_status(depth_file, ec))) {
     throw std::runtime_error(depth_file.string() +
                              ": missing; a TUM recording lists its depth "
                              "images there");
   }
   TumIndex index;
   index.camera = readRecordingCamera(dir);
-  index.depth = readIndexFile(depth_file, index.problems);
-  if (std::filesystem::exists(dir / "rgb.txt")) {
-    index.rgb = readIndexFile(dir / "rgb.txt", index.problems);
+  index.depth = readIndexFile(depth_file, true, index.problems);
+  if (std::filesystem::exists(std::filesystem::symlink_status(dir / "rgb.txt", ec))) {
+    index.rgb = readIndexFile(dir / "rgb.txt", false, index.problems);
     std::stable_sort(index.rgb.begin(), index.rgb.end(),
                      [](const auto& a, const auto& b) { return a.timestamp_ns < b.timestamp_ns; });
   }

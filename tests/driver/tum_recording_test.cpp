@@ -101,7 +101,7 @@ void roundTrip(const std::string& name, const RecordingCamera& camera, int max_m
 
 TEST(TumRecording, RoundTripIsBitIdenticalAtFiveThousandUnitsPerMetre) {
   RecordingCamera camera;
-  camera.intrinsics = CameraIntrinsics{517.3, 516.5, 318.6, 255.3, 64, 48};
+  camera.intrinsics = CameraIntrinsics{517.3, 516.5, 31.86, 25.53, 64, 48};
   // 13107 mm is the most 5000 units/m can hold in 16 bits.
   roundTrip("tum_roundtrip_5000", camera, 13107);
 }
@@ -116,8 +116,7 @@ TEST(TumRecording, RoundTripIsBitIdenticalInMillimetreUnits) {
 TEST(TumRecording, NonMicrosecondStampsReplayRoundedToTheMicrosecond) {
   const auto dir = testing::scratchDir("tum_rounding") / "recording";
   RecordingCamera camera;
-  camera.intrinsics.width = 4;
-  camera.intrinsics.height = 3;
+  camera.intrinsics = CameraIntrinsics{525.0, 525.0, 1.5, 1.0, 4, 3};
   {
     TumRecordingWriter writer(dir, camera);
     Frame f;

@@ -78,13 +78,16 @@ cv::Mat RecordingBuilder::addRgb(const std::string& stamp, int seed, cv::Mat bgr
   return bgr;
 }
 
-void RecordingBuilder::writeCamera(double depth_scale, double fx, double fy, double cx, double cy) {
-  writeTextFile(dir_ / "camera.json",
-                "{\"fx\": " + std::to_string(fx) + ", \"fy\": " + std::to_string(fy) +
-                    ", \"cx\": " + std::to_string(cx) + ", \"cy\": " + std::to_string(cy) +
-                    ", \"width\": " + std::to_string(width_) +
-                    ", \"height\": " + std::to_string(height_) +
-                    ", \"depth_scale\": " + std::to_string(depth_scale) + "}\n");
+void RecordingBuilder::writeCamera(double depth_scale, double fx, double fy,
+                                   std::optional<double> cx, std::optional<double> cy) {
+  const double centre_x = cx.value_or(0.5 * (width_ - 1));
+  const double centre_y = cy.value_or(0.5 * (height_ - 1));
+  writeTextFile(
+      dir_ / "camera.json",
+      "{\"fx\": " + std::to_string(fx) + ", \"fy\": " + std::to_string(fy) +
+          ", \"cx\": " + std::to_string(centre_x) + ", \"cy\": " + std::to_string(centre_y) +
+          ", \"width\": " + std::to_string(width_) + ", \"height\": " + std::to_string(height_) +
+          ", \"depth_scale\": " + std::to_string(depth_scale) + "}\n");
 }
 
 void RecordingBuilder::writeCameraText(const std::string& text) {

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,9 +51,11 @@ class RecordingBuilder {
   void rawDepthLine(const std::string& line) { depth_lines_.push_back(line); }
   void rawRgbLine(const std::string& line) { rgb_lines_.push_back(line); }
 
-  /// camera.json: by default intrinsics matching the image size at `depth_scale`.
+  /// camera.json: by default intrinsics matching the image size at `depth_scale` (the principal
+  /// point at the image centre).
   void writeCamera(double depth_scale = 5000.0, double fx = 100.0, double fy = 101.0,
-                   double cx = 3.5, double cy = 2.5);
+                   std::optional<double> cx = std::nullopt,
+                   std::optional<double> cy = std::nullopt);
   /// camera.json with arbitrary text.
   void writeCameraText(const std::string& text);
 

@@ -168,7 +168,9 @@ enum class BoxEstimationError {
   kEmptyRoi,
   /// No pixel of the ROI has a depth reading (all zero or beyond max_valid_depth_m).
   kNoValidDepth,
-  /// Not CV_16UC1, non-positive/non-finite focal lengths, or an unknown BoxMode value.
+  /// Not CV_16UC1, non-positive/non-finite focal lengths, intrinsics that put a corner of the
+  /// ROI more than 88 degrees off the optical axis (no camera sees there; it would also make
+  /// mode 1's range histogram unbounded), or an unknown BoxMode value.
   kInvalidArgument,
 };
 

@@ -24,6 +24,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "shapesense/core/frame.h"
@@ -35,6 +36,10 @@ namespace shapesense {
 
 inline constexpr int kFakenectWidth = 640;
 inline constexpr int kFakenectHeight = 480;
+/// INDEX.txt is read as untrusted input (see bounded_file.h): at most this large, names at most
+/// this long, and inside the dump directory.
+inline constexpr std::size_t kMaxFakenectIndexBytes = 64 * 1024 * 1024;
+inline constexpr std::size_t kMaxFakenectLineBytes = 4096;
 
 /// One INDEX.txt line.
 struct FakenectIndexEntry {
@@ -53,8 +58,12 @@ struct FakenectIndex {
   std::vector<std::string> problems;        ///< malformed lines, with path and line number
 };
 
-/// Reads dir/INDEX.txt. Throws std::runtime_error when it cannot be opened.
+/// Reads dir/INDEX.txt. Throws std::runtime_error when it cannot be opened, is not a regular
+/// file or is larger than kMaxFakenectIndexBytes. Names that are absolute or climb out with
+/// ".." are problems.
 FakenectIndex readFakenectIndex(const std::filesystem::path& dir);
+/// Parses the text of an INDEX.txt (`label` names it in problems).
+FakenectIndex parseFakenectIndexText(std::string_view text, const std::string& label);
 
 /// Every reason Debian's fakenect library would exit() or misbehave on this dump: missing or
 /// unreadable INDEX.txt, empty or malformed lines (an empty line ends fakenect's replay), files
@@ -67,6 +76,9 @@ std::vector<std::string> validateFakenectDump(const std::filesystem::path& dir);
 cv::Mat readFakenectDepth(const std::filesystem::path& file);
 /// Reads one RGB file: returns CV_8UC3 BGR 640x480, or throws std::runtime_error naming the path.
 cv::Mat readFakenectRgb(const std::filesystem::path& file);
+/// The same from a file's bytes; `label` names it in errors.
+cv::Mat decodeFakenectDepth(std::string_view data, const std::string& label);
+cv::Mat decodeFakenectRgb(std::string_view data, const std::string& label);
 
 struct FakenectWriteOptions {
   KinectRawParams raw{};  ///< mm -> raw conversion. Default: kinect_raw.h defaults.

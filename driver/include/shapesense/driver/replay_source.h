@@ -15,7 +15,8 @@ struct ReplayOptions {
   /// kRecorded sleeps so frames come at their recorded spacing; kAsFastAsPossible does not.
   Pacing pacing = Pacing::kRecorded;
   /// Start again at the end; each pass shifts timestamps by the recording's length (last minus
-  /// first stamp plus one typical frame period) so time keeps increasing.
+  /// first stamp plus one typical frame period) so time keeps increasing. The replay ends, with
+  /// one SourceError, where the stamps would pass the 64-bit nanosecond range (year 2262).
   bool loop = false;
   /// An RGB image is paired with a depth image when their stamps differ by at most this.
   std::chrono::milliseconds max_rgb_offset{20};
@@ -30,7 +31,10 @@ class ReplaySource : public FrameSource {
   std::string describe() const override;
 
   /// Delivers the next depth frame. A missing, unreadable, truncated or wrong-sized file is
-  /// reported as SourceError naming its path, and the replay moves on to the next frame.
+  /// reported as SourceError naming its path, and the replay moves on to the next frame; so is a
+  /// file that is not regular, is larger than a PNG of the camera's size can be, leads out of
+  /// the recording through a symlink, or whose PNG header disagrees with camera.json (checked
+  /// before decoding).
   SourceEvent next(std::stop_token stop) override;
 
   /// Number of depth frames in one pass.

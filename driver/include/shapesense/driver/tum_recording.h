@@ -2,17 +2,27 @@
 // Recordings in the TUM RGB-D layout: `depth.txt` and `rgb.txt` index files ("<seconds>
 // <relative path>" per line, '#' comments), 16-bit PNG depth at `depth_scale` units per metre
 // (5000 by default, 0 = no reading), 8-bit colour PNG, and an optional camera.json.
+//
+// Recordings are read as untrusted input (see bounded_file.h): index files of at most
+// kMaxIndexFileBytes with lines of at most kMaxIndexLineBytes, listed paths relative and inside
+// the recording (a line naming /etc/passwd or ../x is a problem, not a file to open).
 
 #include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "shapesense/core/frame.h"
 #include "shapesense/driver/camera_file.h"
 
 namespace shapesense {
+
+/// 1.4 million frames, 13 hours at 30 frames per second.
+inline constexpr std::size_t kMaxIndexFileBytes = 64 * 1024 * 1024;
+/// A TUM line is ~50 bytes; a path is at most PATH_MAX.
+inline constexpr std::size_t kMaxIndexLineBytes = 4096;
 
 /// One line of depth.txt or rgb.txt.
 struct TumIndexEntry {
@@ -22,7 +32,9 @@ struct TumIndexEntry {
 };
 
 /// Parsed depth.txt / rgb.txt of a recording. Malformed lines are reported in `problems`
-/// (with file and line number) and skipped.
+/// (with file and line number) and skipped, and so are depth lines stamped before an earlier
+/// depth line: time never goes back in a replay, whoever replays it (the daemon's cache would
+/// drop such frames, `analyze` would not).
 struct TumIndex {
   RecordingCamera camera;
   std::vector<TumIndexEntry> depth;  ///< in file order
@@ -31,8 +43,15 @@ struct TumIndex {
 };
 
 /// Reads the index files and camera.json of `dir`. Throws std::runtime_error when the
-/// directory or its depth.txt is missing (rgb.txt is optional), or camera.json is malformed.
+/// directory or its depth.txt is missing or unreadable (not a regular file, past its size
+/// limit; rgb.txt is optional), or camera.json is malformed.
 TumIndex readTumIndex(const std::filesystem::path& dir);
+
+/// Parses the text of an index file (`label` names it in problems). With `in_time_order`,
+/// lines stamped before the latest kept line are problems too.
+std::vector<TumIndexEntry> parseTumIndexText(std::string_view text, const std::string& label,
+                                             bool in_time_order,
+                                             std::vector<std::string>& problems);
 
 /// Appends frames to a recording directory in the TUM layout. File names are the capture time
 /// in seconds with 6 decimals, so a recording replays with the same stamps (to the microsecond).
