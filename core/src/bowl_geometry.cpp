@@ -92,9 +92,8 @@ double clearance(double z, const BowlGeometryParams& params) {
 /// The plane the object stands on. Candidates: detected planes that face up in the image
 /// (max_support_angle_from_image_up_deg), show beside and below the box and reach beyond it,
 /// and hold the object's central point above them (within the clearance's noise, up to a
-/// bowl's height). The largest of them (the table, the floor) gives "up"; the support is the
-/// nearest candidate under the object that is parallel to it within max_support_tilt_deg, so a
-/// bowl on a box stands on the box's top, never on a tilted face.
+/// bowl's height). Of those, the one that shows most around the box's lower half: the surface
+/// the bowl's foot meets, rather than the top of a box beside it or the floor far below.
 std::optional<SupportPlane> chooseSupport(const PlaneDetection& planes, const cv::Rect& box,
                                           const Eigen::Vector3d& object_point,
                                           const BowlGeometryParams& params) {

@@ -617,7 +617,6 @@ int main(int argc, char** argv) {
     a->add_option("--min-rim-to-foot", g.min_rim_to_foot_width, "3D check: rim over foot width");
     a->add_option("--height-ratio-min", g.min_height_to_diameter, "3D check: height / rim, min");
     a->add_option("--height-ratio-max", g.max_height_to_diameter, "3D check: height / rim, max");
-    a->add_option("--support-tilt", g.max_support_tilt_deg, "3D check: support tilt (deg)");
     a->add_option("--band-fraction", g.band_fraction, "3D check: rim / foot band share");
   }
 

@@ -5,8 +5,8 @@
 // The WaldBoost/LBP classifier (bowl_detector.h) sees an 8-bit depth texture and is fooled by
 // round things of any shape: tins seen from the side, upside-down bowls, parts of furniture in
 // a room. Metric depth separates them. The check, in one pass over the box:
-//   1. the support: of the detected planes that show beside and below the box and hold the
-//      object above them, the nearest one under it that is parallel to the largest of them;
+//   1. the support: of the detected planes that face up, show beside and below the box and
+//      hold the object above them, the one that shows most there;
 //   2. the object: the connected surface above that plane that holds the box's centre
 //      (connectivity broken at depth steps, so neighbours and the background fall away);
 //   3. its profile in the support's frame: height above the plane, and the width across the
@@ -81,9 +81,6 @@ struct BowlGeometryParams {
   /// +-15 deg) and pitched down by up to ~70 deg. Walls and vertical box faces, which a bowl can
   /// stand in front of but not on, fall outside. Default 75.
   double max_support_angle_from_image_up_deg = 75.0;
-  /// The support may be tilted from the largest candidate (which gives "up") by at most this
-  /// (degrees). Default 20.
-  double max_support_tilt_deg = 20.0;
 };
 
 /// A bowl's measured geometry.
