@@ -40,7 +40,7 @@ struct BowlDetection {
   double score = 0;
   std::string view;  ///< the view class of the classifier that fired
   /// The bowl measured in 3D; set by keepBowlShaped.
-  std::optional<BowlGeometry> geometry;
+  std::optional<BowlGeometry> geometry = std::nullopt;
 };
 
 /// Parameters of BowlDetector. Defaults are what the shipped models were evaluated with.
