@@ -36,7 +36,8 @@ void addGlobalOptions(CLI::App& app, GlobalOptions& global) {
                  "--tls-ca)");
 }
 
-std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options) {
+std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options,
+                                           const grpc::ChannelArguments& args) {
   if (options.tls_ca.empty()) {
     if (!options.tls_cert.empty()) {
       throw std::runtime_error("--tls-cert needs --tls-ca (the CA of the daemon's certificate)");
@@ -46,7 +47,7 @@ std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options) {
           "--token-file needs --tls-ca: a token is never sent in clear text (the daemon takes "
           "tokens only over TLS)");
     }
-    return grpc::CreateChannel(options.server, grpc::InsecureChannelCredentials());
+    return grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
   }
   if (options.tls_cert.empty() != options.tls_key.empty()) {
     throw std::runtime_error("--tls-cert and --tls-key go together: give both or neither");
@@ -63,7 +64,7 @@ std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options) {
     credentials = grpc::CompositeChannelCredentials(
         credentials, grpc::AccessTokenCredentials(readClientToken(options.token_file)));
   }
-  return grpc::CreateChannel(options.server, credentials);
+  return grpc::CreateCustomChannel(options.server, credentials, args);
 }
 
 std::string statusCodeName(grpc::StatusCode code) {

@@ -26,8 +26,9 @@ struct GlobalOptions {
 
 /// The channel `options` describe: plain, or TLS when tls_ca is set, sending the token of
 /// token_file with every call (only over TLS). Throws std::runtime_error for a file that cannot
-/// be read or options that do not go together.
-std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options);
+/// be read or options that do not go together. `args`: gRPC channel arguments (default none).
+std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options,
+                                           const grpc::ChannelArguments& args = {});
 
 /// Thrown for a failed RPC; main() prints it to stderr and exits non-zero.
 class RpcError : public std::runtime_error {

@@ -1,0 +1,238 @@
+// shapesense-load: load and soak test of a running daemon. N clients send mixed queries
+// (EstimateBox 70%, GetBowls 15%, GetPlanes 15%, each for the newest frame) as fast as they are
+// answered, M slow subscribers read Watch one summary per --slow-read-ms, for --seconds. At the
+// end it prints requests per second, latency percentiles per method, errors by status code,
+// the daemon's skipped frames over the run, what the slow subscribers saw, and the daemon's
+// resident memory at start and end (with --daemon-pid).
+//
+//   build/tools/shapesense-load --server 127.0.0.1:50551 --clients 64 --slow-watchers 16
+//       --seconds 600 --daemon-pid "$(pidof shapesensed)"   (one command line)
+//
+// Each client and subscriber has its own connection. Only for a daemon on this machine or a test
+// network: every request loop is bounded by --seconds.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <grpcpp/support/channel_arguments.h>
+
+#include "commands.h"
+#include "connection.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// gRPC deadlines are wall-clock times.
+std::chrono::system_clock::time_point deadlineAt(Clock::time_point when) {
+  return std::chrono::system_clock::now() +
+         std::chrono::duration_cast<std::chrono::system_clock::duration>(when - Clock::now());
+}
+namespace v1 = shapesense::v1;
+
+struct LoadOptions {
+  int clients = 64;
+  int slow_watchers = 16;
+  double seconds = 60;
+  int slow_read_ms = 1000;
+  int daemon_pid = 0;
+};
+
+/// What one client thread measured.
+struct ClientStats {
+  std::map<std::string, std::vector<double>> latency_ms;  ///< by method, successful calls
+  std::map<grpc::StatusCode, std::uint64_t> errors;
+};
+
+struct WatcherStats {
+  std::uint64_t summaries = 0;
+  std::uint64_t dropped_before = 0;  ///< sum of the stream's dropped_before
+  grpc::StatusCode end = grpc::StatusCode::OK;
+};
+
+/// VmRSS of a process in MiB, or -1.
+double residentMiB(int pid) {
+  if (pid <= 0) return -1;
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      double kib = 0;
+      status >> kib;
+      return kib / 1024.0;
+    }
+    status.ignore(1 << 20, '\n');
+  }
+  return -1;
+}
+
+std::uint64_t skippedFrames(v1::ShapeSense::Stub& stub) {
+  grpc::ClientContext context;
+  context.set_deadline(deadlineAt(Clock::now() + std::chrono::seconds(10)));
+  v1::GetStatusResponse status;
+  const auto result = stub.GetStatus(&context, v1::GetStatusRequest(), &status);
+  if (!result.ok()) throw shapesense::cli::RpcError(result);
+  return status.frames_skipped();
+}
+
+/// One query, chosen by `turn` (7 of 10 EstimateBox, then GetBowls, GetPlanes).
+std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, unsigned turn) {
+  grpc::ClientContext context;
+  context.set_deadline(deadlineAt(Clock::now() + std::chrono::seconds(10)));
+  switch (turn % 10) {
+    case 7: {
+      v1::GetBowlsResponse response;
+      return {"GetBowls", stub.GetBowls(&context, v1::GetBowlsRequest(), &response)};
+    }
+    case 8: {
+      v1::GetPlanesResponse response;
+      return {"GetPlanes", stub.GetPlanes(&context, v1::GetPlanesRequest(), &response)};
+    }
+    default: {
+      v1::EstimateBoxRequest request;
+      request.mutable_p1()->set_x(220 + static_cast<int>(turn % 7) * 10);
+      request.mutable_p1()->set_y(160);
+      request.mutable_p2()->set_x(420);
+      request.mutable_p2()->set_y(340);
+      request.set_mode(v1::BOX_MODE_AXIS_ALIGNED_CONTAINED);
+      v1::EstimateBoxResponse response;
+      return {"EstimateBox", stub.EstimateBox(&context, request, &response)};
+    }
+  }
+}
+
+/// A channel of its own, on its own connection, as a separate client process would have.
+std::shared_ptr<grpc::Channel> ownChannel(const shapesense::cli::GlobalOptions& global) {
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  return shapesense::cli::makeChannel(global, args);
+}
+
+void runClient(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
+               unsigned seed, ClientStats& stats) {
+  const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
+  for (unsigned turn = seed; Clock::now() < end; ++turn) {
+    const auto start = Clock::now();
+    const auto [method, status] = query(*stub, turn);
+    const std::chrono::duration<double, std::milli> took = Clock::now() - start;
+    if (status.ok())
+      stats.latency_ms[method].push_back(took.count());
+    else
+      ++stats.errors[status.error_code()];
+  }
+}
+
+void runSlowWatcher(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
+                    int read_ms, WatcherStats& stats) {
+  const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
+  grpc::ClientContext context;
+  context.set_deadline(deadlineAt(end));
+  auto stream = stub->Watch(&context, v1::WatchRequest());
+  v1::FrameSummary summary;
+  while (stream->Read(&summary)) {
+    ++stats.summaries;
+    stats.dropped_before += summary.dropped_before();
+    if (Clock::now() >= end) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(read_ms));
+  }
+  context.TryCancel();
+  const auto status = stream->Finish();
+  stats.end = status.error_code();
+}
+
+double percentile(std::vector<double>& values, double q) {
+  if (values.empty()) return 0;
+  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[static_cast<std::size_t>(k)];
+}
+
+void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& watchers,
+            double seconds, std::uint64_t skipped, double rss_start, double rss_end) {
+  std::map<std::string, std::vector<double>> latency;
+  std::map<grpc::StatusCode, std::uint64_t> errors;
+  for (auto& c : clients) {
+    for (auto& [method, values] : c.latency_ms)
+      latency[method].insert(latency[method].end(), values.begin(), values.end());
+    for (const auto& [code, n] : c.errors) errors[code] += n;
+  }
+  std::vector<double> all;
+  for (const auto& [method, values] : latency) all.insert(all.end(), values.begin(), values.end());
+  std::uint64_t failed = 0;
+  for (const auto& [code, n] : errors) failed += n;
+  std::printf("requests %zu ok, %llu failed in %.1f s: %.0f req/s\n", all.size(),
+              static_cast<unsigned long long>(failed), seconds,
+              static_cast<double>(all.size() + failed) / seconds);
+  std::printf("latency ms   p50 %.2f  p99 %.2f  (all methods)\n", percentile(all, 0.5),
+              percentile(all, 0.99));
+  for (auto& [method, values] : latency)
+    std::printf("  %-12s n %zu  p50 %.2f  p99 %.2f\n", method.c_str(), values.size(),
+                percentile(values, 0.5), percentile(values, 0.99));
+  for (const auto& [code, n] : errors)
+    std::printf("errors: %s x %llu\n", shapesense::cli::statusCodeName(code).c_str(),
+                static_cast<unsigned long long>(n));
+  std::uint64_t summaries = 0, dropped = 0;
+  int ended_early = 0;
+  for (const auto& w : watchers) {
+    summaries += w.summaries;
+    dropped += w.dropped_before;
+    ended_early += w.end != grpc::StatusCode::OK && w.end != grpc::StatusCode::CANCELLED &&
+                   w.end != grpc::StatusCode::DEADLINE_EXCEEDED;
+  }
+  std::printf("slow watchers %zu: %llu summaries read, dropped_before sum %llu, %d ended by error\n",
+              watchers.size(), static_cast<unsigned long long>(summaries),
+              static_cast<unsigned long long>(dropped), ended_early);
+  std::printf("daemon frames skipped during the run: %llu\n",
+              static_cast<unsigned long long>(skipped));
+  if (rss_start >= 0)
+    std::printf("daemon RSS MiB: start %.1f, end %.1f\n", rss_start, rss_end);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"shapesense-load: load and soak test of a running shapesensed"};
+  shapesense::cli::GlobalOptions global;
+  shapesense::cli::addGlobalOptions(app, global);
+  LoadOptions o;
+  app.add_option("--clients", o.clients, "query clients")->check(CLI::Range(1, 1024));
+  app.add_option("--slow-watchers", o.slow_watchers, "slow Watch subscribers")
+      ->check(CLI::Range(0, 1024));
+  app.add_option("--seconds", o.seconds, "duration")->check(CLI::Range(1.0, 86400.0));
+  app.add_option("--slow-read-ms", o.slow_read_ms, "pause of a slow subscriber per summary")
+      ->check(CLI::Range(1, 60000));
+  app.add_option("--daemon-pid", o.daemon_pid, "the daemon's pid, for its resident memory");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const auto channel = shapesense::cli::makeChannel(global);
+    const auto stub = v1::ShapeSense::NewStub(channel);
+    const std::uint64_t skipped_start = skippedFrames(*stub);
+    const double rss_start = residentMiB(o.daemon_pid);
+    const auto start = Clock::now();
+    const auto end = start + std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(o.seconds));
+    std::vector<ClientStats> clients(static_cast<std::size_t>(o.clients));
+    std::vector<WatcherStats> watchers(static_cast<std::size_t>(o.slow_watchers));
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < watchers.size(); ++i)
+      threads.emplace_back(runSlowWatcher, std::cref(global), end, o.slow_read_ms,
+                           std::ref(watchers[i]));
+    for (std::size_t i = 0; i < clients.size(); ++i)
+      threads.emplace_back(runClient, std::cref(global), end, static_cast<unsigned>(i),
+                           std::ref(clients[i]));
+    for (auto& t : threads) t.join();
+    const std::chrono::duration<double> took = Clock::now() - start;
+    report(clients, watchers, took.count(), skippedFrames(*stub) - skipped_start, rss_start,
+           residentMiB(o.daemon_pid));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "shapesense-load: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
