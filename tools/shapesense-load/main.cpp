@@ -19,8 +19,8 @@
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <grpcpp/support/channel_arguments.h>
+#include <CLI/CLI.hpp>
 
 #include "commands.h"
 #include "connection.h"
@@ -114,8 +114,8 @@ std::shared_ptr<grpc::Channel> ownChannel(const shapesense::cli::GlobalOptions& 
   return shapesense::cli::makeChannel(global, args);
 }
 
-void runClient(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
-               unsigned seed, ClientStats& stats) {
+void runClient(const shapesense::cli::GlobalOptions& global, Clock::time_point end, unsigned seed,
+               ClientStats& stats) {
   const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
   for (unsigned turn = seed; Clock::now() < end; ++turn) {
     const auto start = Clock::now();
@@ -185,13 +185,13 @@ void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& 
     ended_early += w.end != grpc::StatusCode::OK && w.end != grpc::StatusCode::CANCELLED &&
                    w.end != grpc::StatusCode::DEADLINE_EXCEEDED;
   }
-  std::printf("slow watchers %zu: %llu summaries read, dropped_before sum %llu, %d ended by error\n",
-              watchers.size(), static_cast<unsigned long long>(summaries),
-              static_cast<unsigned long long>(dropped), ended_early);
+  std::printf(
+      "slow watchers %zu: %llu summaries read, dropped_before sum %llu, %d ended by error\n",
+      watchers.size(), static_cast<unsigned long long>(summaries),
+      static_cast<unsigned long long>(dropped), ended_early);
   std::printf("daemon frames skipped during the run: %llu\n",
               static_cast<unsigned long long>(skipped));
-  if (rss_start >= 0)
-    std::printf("daemon RSS MiB: start %.1f, end %.1f\n", rss_start, rss_end);
+  if (rss_start >= 0) std::printf("daemon RSS MiB: start %.1f, end %.1f\n", rss_start, rss_end);
 }
 
 }  // namespace
