@@ -124,29 +124,56 @@ double heightAbove(const SupportPlane& support, const Eigen::Vector3d& point) {
   return support.normal.dot(point) + support.d;
 }
 
-/// The connected surface standing on the support that holds the box's centre: readings above
-/// the support's clearance, joined across neighbouring pixels without a depth step; of the
-/// components reaching the central half of the box, the largest.
-std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
-                                             const CameraIntrinsics& intrinsics,
-                                             const cv::Rect& box, const SupportPlane& support,
-                                             const BowlGeometryParams& params) {
-  const double max_height = maxObjectHeight(params);
-  cv::Mat standing(box.size(), CV_8UC1, cv::Scalar(0));
+/// The box's readings in the camera frame and their heights above the support, row by row
+/// (z = 0: no reading), computed once for the object and the dish.
+struct BoxReadings {
+  cv::Rect box;
+  std::vector<double> z;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> heights;
+
+  std::size_t at(int u, int v) const { return static_cast<std::size_t>(v * box.width + u); }
+};
+
+BoxReadings readBox(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                    const cv::Rect& box, const SupportPlane& support) {
+  BoxReadings readings{box, {}, {}, {}};
+  const auto n = static_cast<std::size_t>(box.area());
+  readings.z.assign(n, 0.0);
+  readings.points.assign(n, Eigen::Vector3d::Zero());
+  readings.heights.assign(n, 0.0);
   for (int v = 0; v < box.height; ++v) {
     const auto* row = depth_mm.ptr<std::uint16_t>(box.y + v);
     for (int u = 0; u < box.width; ++u) {
-      const std::uint16_t mm = row[box.x + u];
-      if (mm == 0) continue;
-      const double z = mm * 1e-3;
-      const double h = heightAbove(support, intrinsics.backproject(box.x + u, box.y + v, z));
-      if (h > clearance(z, params) && h < max_height) standing.at<std::uint8_t>(v, u) = 1;
+      if (row[box.x + u] == 0) continue;
+      const std::size_t i = readings.at(u, v);
+      readings.z[i] = row[box.x + u] * 1e-3;
+      readings.points[i] = intrinsics.backproject(box.x + u, box.y + v, readings.z[i]);
+      readings.heights[i] = heightAbove(support, readings.points[i]);
+    }
+  }
+  return readings;
+}
+
+/// The connected surface standing on the support that holds the box's centre: readings above
+/// the support's clearance, joined across neighbouring pixels without a depth step; of the
+/// components reaching the central half of the box, the largest.
+std::vector<Eigen::Vector3d> objectOnSupport(const BoxReadings& readings,
+                                             const BowlGeometryParams& params) {
+  const cv::Rect& box = readings.box;
+  const double max_height = maxObjectHeight(params);
+  cv::Mat standing(box.size(), CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < box.height; ++v) {
+    for (int u = 0; u < box.width; ++u) {
+      const std::size_t i = readings.at(u, v);
+      const double z = readings.z[i], h = readings.heights[i];
+      if (z > 0 && h > clearance(z, params) && h < max_height) standing.at<std::uint8_t>(v, u) = 1;
     }
   }
   const KinectNoiseModel& noise = params.noise;
   auto joined = [&](int u0, int v0, int u1, int v1) {
-    const double z0 = depth_mm.at<std::uint16_t>(box.y + v0, box.x + u0) * 1e-3;
-    const double z1 = depth_mm.at<std::uint16_t>(box.y + v1, box.x + u1) * 1e-3;
+    const double z0 = readings.z[readings.at(u0, v0)];
+    const double z1 = readings.z[readings.at(u1, v1)];
     const double step = std::max(params.max_step_floor_m,
                                  params.max_step_steps * noise.depthStep(std::max(z0, z1)));
     return std::abs(z0 - z1) <= step;
@@ -190,8 +217,7 @@ std::vector<Eigen::Vector3d> objectOnSupport(const cv::Mat& depth_mm,
   for (int v = 0; v < box.height; ++v)
     for (int u = 0; u < box.width; ++u)
       if (component.at<int>(v, u) == best_label)
-        points.push_back(intrinsics.backproject(
-            box.x + u, box.y + v, depth_mm.at<std::uint16_t>(box.y + v, box.x + u) * 1e-3));
+        points.push_back(readings.points[readings.at(u, v)]);
   return points;
 }
 
@@ -279,23 +305,16 @@ double dishDepth(const Profile& profile, const std::vector<Eigen::Vector3d>& box
 
 /// The box's readings that may belong to an object on the support: from just under it (its
 /// noise) up to a bowl's height.
-std::vector<Eigen::Vector3d> readingsOnSupport(const cv::Mat& depth_mm,
-                                               const CameraIntrinsics& intrinsics,
-                                               const cv::Rect& box, const SupportPlane& support,
+std::vector<Eigen::Vector3d> readingsOnSupport(const BoxReadings& readings,
                                                const BowlGeometryParams& params) {
-  std::vector<Eigen::Vector3d> readings;
+  std::vector<Eigen::Vector3d> on_support;
   const double max_height = maxObjectHeight(params);
-  for (int v = box.y; v < box.br().y; ++v) {
-    const auto* row = depth_mm.ptr<std::uint16_t>(v);
-    for (int u = box.x; u < box.br().x; ++u) {
-      if (row[u] == 0) continue;
-      const double z = row[u] * 1e-3;
-      const Eigen::Vector3d p = intrinsics.backproject(u, v, z);
-      const double h = heightAbove(support, p);
-      if (h > -clearance(z, params) && h < max_height) readings.push_back(p);
-    }
+  for (std::size_t i = 0; i < readings.z.size(); ++i) {
+    const double z = readings.z[i], h = readings.heights[i];
+    if (z > 0 && h > -clearance(z, params) && h < max_height)
+      on_support.push_back(readings.points[i]);
   }
-  return readings;
+  return on_support;
 }
 
 /// Measures the profile into `result.geometry` and judges it.
@@ -374,13 +393,13 @@ BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntr
   result.geometry.support_normal = support->normal;
   result.geometry.support_d = support->d;
   result.geometry.support_plane_id = support->id;
-  const auto points = objectOnSupport(depth_mm, intrinsics, clipped, *support, params);
+  const BoxReadings readings = readBox(depth_mm, intrinsics, clipped, *support);
+  const auto points = objectOnSupport(readings, params);
   if (points.size() < static_cast<std::size_t>(4 * kMinBandPoints)) {
     result.rejection = BowlGeometryRejection::kNoObject;
     return result;
   }
-  judgeProfile(profileOf(points, *support),
-               readingsOnSupport(depth_mm, intrinsics, clipped, *support, params), *support, params,
+  judgeProfile(profileOf(points, *support), readingsOnSupport(readings, params), *support, params,
                result);
   return result;
 }
