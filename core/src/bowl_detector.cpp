@@ -501,13 +501,15 @@ std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
                                           double min_unverified_score) {
   std::erase_if(detections, [&](BowlDetection& detection) {
     const auto measured = measureBowlGeometry(depth_mm, intrinsics, detection.box, planes, params);
-    if (measured.isBowl()) {
-      detection.geometry = measured.geometry;
-      return false;
-    }
-    return !isInconclusive(*measured.rejection) || detection.score < min_unverified_score;
+    if (measured.isBowl()) detection.geometry = measured.geometry;
+    return !reportsBowl(measured, detection.score, min_unverified_score);
   });
   return detections;
+}
+
+bool reportsBowl(const BowlGeometryResult& measured, double score, double min_unverified_score) {
+  return measured.isBowl() ||
+         (isInconclusive(*measured.rejection) && score >= min_unverified_score);
 }
 
 }  // namespace shapesense

@@ -489,6 +489,8 @@ int runDiagnose(const fs::path& models, const fs::path& data, const BowlDetector
 int runReal(const fs::path& models, const std::vector<fs::path>& recordings,
             const BowlDetectorParams& p, const BowlVerification& verification) {
   const auto detector = BowlDetector::load(models, p);
+  const double min_unverified_score = verification.min_unverified_score.value_or(
+      detector.operatingPoint().unverified_score_threshold);
   HoughPlaneDetector plane_detector;
   int total_frames = 0, total_bowls = 0;
   for (const auto& tum : recordings) {
@@ -513,20 +515,15 @@ int runReal(const fs::path& models, const std::vector<fs::path>& recordings,
                     d.box.y + d.box.height - 1, d.score, d.view.c_str());
         const auto measured =
             measureBowlGeometry(mm, index.camera.intrinsics, d.box, planes, verification.params);
-        const BowlGeometry* g = &measured.geometry;
-        if (measured.isBowl()) {
-          ++bowls;
+        const BowlGeometry& g = measured.geometry;
+        const bool reported = reportsBowl(measured, d.score, min_unverified_score);
+        bowls += reported || !verification.on;
+        if (measured.isBowl())
           std::printf(" BOWL rim %.1f cm height %.1f cm widening %.2f dish %.2f]",
-                      100 * g->rim_diameter_m, 100 * g->height_m, g->rim_to_foot_width,
-                      g->dish_depth);
-        } else if (isInconclusive(*measured.rejection) &&
-                   d.score >= detector.operatingPoint().unverified_score_threshold) {
-          ++bowls;
-          std::printf(" BOWL, unverified: %s]", toString(*measured.rejection).c_str());
-        } else {
-          bowls += !verification.on;
-          std::printf(" rejected: %s]", toString(*measured.rejection).c_str());
-        }
+                      100 * g.rim_diameter_m, 100 * g.height_m, g.rim_to_foot_width, g.dish_depth);
+        else
+          std::printf(" %s: %s]", reported ? "BOWL, unverified" : "rejected",
+                      toString(*measured.rejection).c_str());
       }
       std::printf("\n");
     }

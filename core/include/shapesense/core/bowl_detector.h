@@ -174,6 +174,10 @@ std::vector<BowlDetection> keepBowlShaped(std::vector<BowlDetection> detections,
                                           const BowlGeometryParams& params,
                                           double min_unverified_score);
 
+/// keepBowlShaped's rule for one detection: a bowl in 3D, or inconclusive with a score of at
+/// least min_unverified_score.
+bool reportsBowl(const BowlGeometryResult& measured, double score, double min_unverified_score);
+
 /// Windows one classifier accepts on one pyramid level (shared by the detector and the
 /// trainer's bootstrapping); a stage reads its code from level.codes when the image of its
 /// cell size is there, from the integral image otherwise, with the same result. `filled_mm` (the
