@@ -11,7 +11,7 @@
 #include <benchmark/benchmark.h>
 #include <grpcpp/grpcpp.h>
 
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"

@@ -18,8 +18,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "shapesense/core/camera.h"
-#include "shapesense/core/planes.h"
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/planes/planes.h"
 
 #ifdef SHAPESENSE_BENCH_OPENCV_RGBD
 #include <opencv2/rgbd.hpp>

@@ -25,8 +25,8 @@
 
 #include "plane_peers.h"
 #include "plane_scoring.h"
-#include "shapesense/core/plane_ransac.h"
-#include "shapesense/core/planes.h"
+#include "shapesense/core/planes/plane_ransac.h"
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {

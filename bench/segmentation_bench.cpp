@@ -34,10 +34,10 @@
 #endif
 
 #include "plane_peers.h"
-#include "shapesense/core/normals.h"
-#include "shapesense/core/segment_statistics.h"
-#include "shapesense/core/segmentation.h"
-#include "shapesense/core/segmentation_scoring.h"
+#include "shapesense/core/normals/normals.h"
+#include "shapesense/core/segmentation/segment_statistics.h"
+#include "shapesense/core/segmentation/segmentation.h"
+#include "shapesense/core/segmentation/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "shapesense/core/bowl_model.h"
+#include "shapesense/core/bowls/bowl_model.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const int fd = memfd_create("bowl_model.json", 0);

@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzedDataProvider input(data, size);

@@ -6,8 +6,8 @@
 
 #include "commands.h"
 #include "overlay.h"
-#include "shapesense/core/box_estimation.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "time_arg.h"
 
 namespace shapesense::cli {

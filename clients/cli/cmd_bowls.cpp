@@ -3,7 +3,7 @@
 
 #include "commands.h"
 #include "overlay.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "time_arg.h"
 
 namespace shapesense::cli {

@@ -4,7 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "commands.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/tum_recording.h"
 #include "time_arg.h"
 

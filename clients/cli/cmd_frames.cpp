@@ -1,7 +1,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "time_arg.h"
 
 namespace shapesense::cli {

@@ -3,7 +3,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/synthetic_scene.h"

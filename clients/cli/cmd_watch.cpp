@@ -2,7 +2,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 
 namespace shapesense::cli {
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 
 namespace shapesense::cli {
 namespace {

@@ -7,8 +7,8 @@
 #include <opencv2/core.hpp>
 
 #include "connection.h"
-#include "shapesense/core/camera.h"
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense::cli {
 

@@ -2,7 +2,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 
 namespace shapesense::cli {
 

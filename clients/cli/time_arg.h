@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense::cli {
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/bounded_file.h"
 
 namespace shapesense {

@@ -4,7 +4,7 @@
 #include <mutex>
 #include <stdexcept>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 
 namespace shapesense {
 namespace {

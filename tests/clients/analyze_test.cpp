@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "recording_fixture.h"
-#include "shapesense/core/bowl_eval.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/bowls/bowl_eval.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
 #include "shapesense/server/detector_stage.h"

@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-#include "shapesense/core/camera.h"
+#include "shapesense/core/geometry/camera.h"
 
 namespace shapesense {
 namespace {

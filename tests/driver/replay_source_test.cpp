@@ -15,7 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "recording_fixture.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "test_paths.h"
 
 namespace shapesense {

@@ -11,7 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "recording_fixture.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/replay_source.h"
 #include "test_paths.h"
 

@@ -15,7 +15,7 @@
 
 #include "recording_fixture.h"
 #include "server_fixture.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
 #include "test_paths.h"
 

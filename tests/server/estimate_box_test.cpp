@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "server_fixture.h"
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::testing {

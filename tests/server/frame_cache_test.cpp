@@ -11,7 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 
 namespace shapesense {
 namespace {

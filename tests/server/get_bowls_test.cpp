@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "server_fixture.h"
-#include "shapesense/core/bowl_eval.h"
+#include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/detector_stage.h"
 

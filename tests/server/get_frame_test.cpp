@@ -6,7 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "server_fixture.h"
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/server/detector_stage.h"
 
 namespace shapesense {

@@ -10,8 +10,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/planes.h"
-#include "shapesense/core/segmentation_scoring.h"
+#include "shapesense/core/planes/planes.h"
+#include "shapesense/core/segmentation/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::planetest {

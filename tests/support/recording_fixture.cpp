@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/replay_source.h"
 
 namespace shapesense::testing {

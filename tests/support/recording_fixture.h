@@ -9,8 +9,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/camera.h"
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense::testing {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "shapesense/core/timestamp.h"
+#include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::testing {

@@ -22,8 +22,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/box_estimation.h"
-#include "shapesense/core/normals.h"
+#include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/normals/normals.h"
 #include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/detector_stage.h"

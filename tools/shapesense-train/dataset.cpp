@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "shapesense/core/bowl_eval.h"
+#include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::train {

@@ -22,7 +22,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/camera.h"
+#include "shapesense/core/geometry/camera.h"
 
 namespace shapesense::train {
 

@@ -28,11 +28,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dataset.h"
-#include "shapesense/core/bowl_detector.h"
-#include "shapesense/core/bowl_eval.h"
-#include "shapesense/core/bowl_model.h"
-#include "shapesense/core/depth_preprocess.h"
-#include "shapesense/core/planes.h"
+#include "shapesense/core/bowls/bowl_detector.h"
+#include "shapesense/core/bowls/bowl_eval.h"
+#include "shapesense/core/bowls/bowl_model.h"
+#include "shapesense/core/bowls/depth_preprocess.h"
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/tum_recording.h"
 #include "wbdetector_export.h"
 

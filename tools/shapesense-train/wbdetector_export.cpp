@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dataset.h"
-#include "shapesense/core/depth_preprocess.h"
+#include "shapesense/core/bowls/depth_preprocess.h"
 
 namespace shapesense::train {
 

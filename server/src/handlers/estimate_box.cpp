@@ -1,4 +1,4 @@
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/server/handlers.h"
 #include "shapesense/server/proto_convert.h"
 

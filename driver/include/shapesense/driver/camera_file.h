@@ -13,7 +13,7 @@
 #include <string>
 #include <string_view>
 
-#include "shapesense/core/camera.h"
+#include "shapesense/core/geometry/camera.h"
 
 namespace shapesense {
 

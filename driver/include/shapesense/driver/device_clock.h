@@ -25,7 +25,7 @@
 #include <optional>
 #include <vector>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense {
 

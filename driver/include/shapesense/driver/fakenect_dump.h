@@ -27,7 +27,7 @@
 #include <string_view>
 #include <vector>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 #include "shapesense/driver/device_clock.h"
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/driver/kinect_raw.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <variant>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense {
 

@@ -18,7 +18,7 @@
 #include <optional>
 #include <string>
 
-#include "shapesense/core/camera.h"
+#include "shapesense/core/geometry/camera.h"
 #include "shapesense/driver/device_clock.h"
 #include "shapesense/driver/kinect_raw.h"
 #include "shapesense/driver/live_sources_device.h"

@@ -29,7 +29,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/camera.h"
+#include "shapesense/core/geometry/camera.h"
 #include "shapesense/driver/device_clock.h"
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/driver/live_sources_pairing.h"

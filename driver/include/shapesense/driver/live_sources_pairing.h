@@ -12,7 +12,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense {
 

@@ -31,7 +31,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::synthetic {

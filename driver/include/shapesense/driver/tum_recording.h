@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 #include "shapesense/driver/camera_file.h"
 
 namespace shapesense {

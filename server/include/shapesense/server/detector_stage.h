@@ -9,12 +9,12 @@
 #include <string_view>
 #include <vector>
 
-#include "shapesense/core/bowl_detector.h"
-#include "shapesense/core/box_estimation.h"
-#include "shapesense/core/frame.h"
-#include "shapesense/core/plane_accumulator.h"
-#include "shapesense/core/plane_ransac.h"
-#include "shapesense/core/planes.h"
+#include "shapesense/core/bowls/bowl_detector.h"
+#include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/geometry/frame.h"
+#include "shapesense/core/planes/plane_accumulator.h"
+#include "shapesense/core/planes/plane_ransac.h"
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/server/frame_results.h"
 
 namespace shapesense {

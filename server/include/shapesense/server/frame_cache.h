@@ -17,7 +17,7 @@
 #include <variant>
 #include <vector>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 #include "shapesense/server/frame_results.h"
 
 namespace shapesense {

@@ -9,12 +9,12 @@
 
 #include <opencv2/core.hpp>
 
-#include "shapesense/core/bowl_detector.h"
-#include "shapesense/core/box_estimation.h"
-#include "shapesense/core/object_boxes.h"
-#include "shapesense/core/planes.h"
-#include "shapesense/core/segment_statistics.h"
-#include "shapesense/core/segmentation.h"
+#include "shapesense/core/bowls/bowl_detector.h"
+#include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/boxes/object_boxes.h"
+#include "shapesense/core/planes/planes.h"
+#include "shapesense/core/segmentation/segment_statistics.h"
+#include "shapesense/core/segmentation/segmentation.h"
 
 namespace shapesense {
 

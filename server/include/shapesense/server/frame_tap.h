@@ -9,7 +9,7 @@
 #include <memory>
 #include <mutex>
 
-#include "shapesense/core/frame.h"
+#include "shapesense/core/geometry/frame.h"
 
 namespace shapesense {
 

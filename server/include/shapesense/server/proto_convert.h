@@ -3,7 +3,7 @@
 
 #include <Eigen/Core>
 
-#include "shapesense/core/box_estimation.h"
+#include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/v1/shapesense.pb.h"

@@ -1,0 +1,127 @@
+#pragma once
+// Per-pixel surface normals of an organised depth image from integral images (O(1) per pixel
+// whatever the window size). Three estimators, as in the SRS "but_segmentation" design and PCL's
+// IntegralImageNormalEstimation:
+//  - kCovariance: smallest eigenvector of the covariance of the 3D points in a square window
+//    (slowest, most precise; robust to holes),
+//  - kAverage3dGradient: cross product of the horizontal and vertical 3D gradients of the
+//    window-averaged point cloud,
+//  - kAverageDepthChange: normal from the window-averaged depth derivatives dz/du, dz/dv and the
+//    pinhole model (fastest, least precise: holes bias it).
+// The window half-size grows with range (Kinect noise grows with z^2) and is clipped so that the
+// window never contains a depth step: a step is a depth change between neighbouring valid pixels
+// above max(max_depth_change_factor * z, depth_change_noise_steps *
+// KinectNoiseModel::depthStep(z)); pixels within `min_radius_px` of a step, or without depth, get
+// NaN normals.
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/camera.h"
+
+namespace shapesense {
+
+enum class NormalMethod { kCovariance, kAverage3dGradient, kAverageDepthChange };
+
+struct NormalParams {
+  /// Estimator (see file comment). kAverage3dGradient is the default: within ~1 deg of the
+  /// covariance method on planes at a fraction of its cost.
+  NormalMethod method = NormalMethod::kAverage3dGradient;
+  /// Window half-size in pixels at 1 m range (window is (2r+1)^2 pixels). Default 5.
+  double smoothing_radius_px = 5.0;
+  /// Scale the half-size linearly with range (r = smoothing_radius_px * z / 1 m) so the noise of
+  /// the normal stays roughly constant with range. Default true.
+  bool depth_dependent_smoothing = true;
+  /// Bounds on the half-size after range scaling; windows smaller than min_radius_px (because a
+  /// depth step or the image border is closer) give NaN. Defaults 2 and 20.
+  int min_radius_px = 2;
+  int max_radius_px = 20;
+  /// Relative depth change between neighbouring pixels that counts as a depth step (PCL's
+  /// "max depth change factor"): 0.02 = 2 cm per pixel at 1 m. Default 0.02.
+  double max_depth_change_factor = 0.02;
+  /// ...but never less than this many sensor quantisation steps (KinectNoiseModel), so that the
+  /// 2.6 cm disparity steps of a far wall are not taken for depth steps. Default 3.
+  double depth_change_noise_steps = 3.0;
+  /// Steps are also detected across runs of up to this many invalid pixels (Kinect shadows
+  /// separate foreground and background by a band of holes). Default 8.
+  int max_gap_px = 8;
+  /// Minimum fraction of valid pixels in a window. Default 0.3.
+  double min_valid_fraction = 0.3;
+  /// Sensor noise model used for the step threshold. Default Kinect v1.
+  KinectNoiseModel noise{};
+};
+
+/// Reusable estimator: keeps the point, distance and integral-image buffers between frames, so
+/// repeated calls on same-size frames allocate nothing.
+class NormalEstimator {
+ public:
+  explicit NormalEstimator(NormalParams params = {}) : params_(params) {}
+
+  const NormalParams& params() const { return params_; }
+  void setParams(const NormalParams& params) { params_ = params; }
+
+  /// `input` is a CV_16UC1 depth image in millimetres (0 = no reading) or a CV_32FC3 organised
+  /// point cloud in metres (NaN or z <= 0 = invalid). Writes CV_32FC3 unit normals facing the
+  /// camera (n . X < 0), NaN where invalid, into `normals` (reallocated only on size change).
+  void compute(const cv::Mat& input, const CameraIntrinsics& intrinsics, cv::Mat& normals);
+
+  /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call (for depth
+  /// input built on the first call after compute(): the gradient modes do not need them). The
+  /// image is reused by the next compute(): copy it to keep it.
+  const cv::Mat& points() {
+    buildPoints();
+    return points_;
+  }
+
+  /// Tests only: false runs the depth-step marking and the gradient modes' windows one pixel at
+  /// a time instead of four or eight per SIMD step, and no AVX2 step anywhere (the results are
+  /// bit-identical; the tests check that).
+  void setSimd(bool on) { simd_ = on; }
+  /// Tests only: false keeps the SIMD paths to SSE2 on CPUs with AVX2, where those steps
+  /// otherwise run eight (step distance: sixteen) pixels per AVX2 step (same bits).
+  void setAvx2(bool on) { avx2_ = on; }
+
+ private:
+  void buildPoints();
+  void markSteps();
+  void stepDistance(int cap);
+  void runCovariance(cv::Mat& normals);
+  template <int Mode>
+  void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
+
+  NormalParams params_;
+  int rows_ = 0, cols_ = 0;              // size of the last input
+  cv::Mat points_;                       // CV_32FC3 (depth input: built by buildPoints())
+  bool points_built_ = false;            // depth input: points_ holds this frame's points
+  cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
+  std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
+  std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
+  std::vector<double> integral_;       // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
+  std::vector<std::uint32_t> packed_;  // gradients: ring of rows of the packed integral of
+                                       // (sums, valid count)
+  std::vector<std::uint32_t*> integral_rows_;  // gradients: each integral row's place in packed_
+  std::vector<float> zplane_;                  // z of points_ (contiguous), NaN invalid
+  std::vector<float> ray_x_;                   // (u - cx) / fx per column
+  std::vector<float> ray_y_;                   // (v - cy) / fy per row
+  bool points_from_depth_ = false;             // points_ = z * (ray_x_, ray_y_, 1) (depth input)
+  std::vector<int> rad_;                       // one row of window radii
+  std::vector<int> min_count_;                 // fewest valid pixels per window radius
+  std::vector<float> col_bound_;  // largest window radius the image width allows per column
+  std::vector<float> row_n_;      // one row of unnormalised normals (x, y, z planes)
+  std::vector<float> inv_count_;  // 1 / n for every window pixel count n
+  std::vector<float> win_mean_;   // window means (and counts) of three rows of centres, planar
+  std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
+  std::vector<float> last_z_;     // per-column scratch for the vertical step scan
+  std::vector<int> last_v_;
+  std::vector<int> after_hole_;  // markSteps(), AVX2: the pixels of a row that follow a hole
+  bool simd_ = true;             // see setSimd()
+  bool avx2_ = true;             // see setAvx2()
+};
+
+/// One-shot convenience wrapper around NormalEstimator.
+cv::Mat computeNormals(const cv::Mat& points_or_depth, const CameraIntrinsics& intrinsics,
+                       const NormalParams& params = {});
+
+}  // namespace shapesense

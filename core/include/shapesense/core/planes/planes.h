@@ -1,0 +1,203 @@
+#pragma once
+// Plane detection in Kinect depth images: the Hough detector of SRS D4.6.2 section 2.2
+// (issue 4). Related headers: hough_accumulator.h (the sparse hierarchical space),
+// plane_fitting.h (least squares, noise tolerance), plane_labeling.h (samples -> full-resolution
+// label image, connected regions), plane_polygon.h (boundary polygons), plane_ransac.h (the
+// RANSAC baseline), plane_accumulator.h (accumulation over time).
+//
+// Pipeline of HoughPlaneDetector::detect:
+//  1. Samples: every `sample_step`-th pixel of each `sample_step`-th row; normals from the shared
+//     NormalEstimator run on that subsampled depth image (its windows then span
+//     sample_step x more pixels of the original, which is what the noise needs anyway).
+//  2. Votes: each sample whose normal agrees with its 4 grid neighbours within
+//     `vote_max_normal_spread_deg` (a planarity test: curved surfaces and creases do not vote)
+//     votes once for (n, d = -n.X). Votes are counted, then smoothed (Gaussian, sigmas in degrees
+//     and metres), maxima are found with a sliding window.
+//  3. Refinement: strongest maximum first, samples within PlaneTolerance of the plane whose
+//     normal is within `inlier_max_normal_deg` are fitted by least squares (shrinking gates,
+//     `refine_iterations` times); accepted planes take their samples. Unclaimed samples vote
+//     again in the next round (`rounds`), which finds planes hidden next to bigger parallel ones
+//     (a box top 5 cm above the table shares the table's smoothed peak).
+//  4. Near-duplicate planes are merged (angle and distance gates). Depth-continuous components
+//     of samples no plane took (thin strips, small faces without reliable normals) are fitted
+//     by least squares, or split by sequential RANSAC when they hold several faces.
+//  5. Labelling (plane_labeling.h): region growing on the sample grid, connected regions (a
+//     region = one physical surface: two box tops at the same height get two ids), every
+//     full-resolution pixel takes the closest plane among the regions of its neighbouring
+//     samples within that plane's tolerance (tightened from the plane's own residuals), each
+//     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge.
+//
+// Output: one DetectedPlane per connected region; `group` tells which regions share a
+// supporting plane. See DetectedPlane.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/geometry/plane_fitting.h"
+#include "shapesense/core/normals/normals.h"
+#include "shapesense/core/planes/hough_accumulator.h"
+
+namespace shapesense {
+
+/// One detected planar region.
+struct DetectedPlane {
+  std::uint16_t id = 0;  ///< value of this region in PlaneDetection::labels (1, 2, ...)
+  /// Index of the supporting plane found by the detector; regions with the same group lie on one
+  /// detected plane (e.g. two box tops at the same height) but are separate surfaces.
+  int group = 0;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  ///< unit, towards the camera
+  double d = 0.0;                                    ///< n.X + d = 0, d > 0 (metres)
+  std::size_t inliers = 0;                           ///< full-resolution pixels labelled `id`
+  double rms_m = 0.0;  ///< RMS orthogonal distance of the inliers to the plane
+  cv::Rect box;        ///< image bounds of the inliers
+  /// Boundary of the region on the plane (camera frame, metres): the outer contour of the
+  /// label region (a concave hull), simplified, with its vertices cast onto the plane.
+  std::vector<Eigen::Vector3d> polygon;
+  /// Triangulation of `polygon` (indices into it) for display.
+  std::vector<std::array<int, 3>> triangles;
+  std::optional<cv::Vec3b> mean_bgr;  ///< mean colour of the inliers when BGR was given
+};
+
+struct PlaneDetection {
+  std::vector<DetectedPlane> planes;  ///< ordered by id
+  cv::Mat labels;                     ///< CV_16UC1, 0 = no plane, k = DetectedPlane::id
+};
+
+/// Sampling, labelling and output options shared by the Hough and RANSAC detectors.
+struct PlaneLabelingParams {
+  /// Sample grid step (pixels). Votes, fits and region growing run on every step-th pixel;
+  /// the final label image and the per-region fits use every pixel. Default 4 (19 200 samples
+  /// on VGA; a 0.5%-of-image box face still has ~95).
+  int sample_step = 4;
+  /// Inlier tolerance (orthogonal distance) as a function of range. Default 3 steps, >= 4 mm.
+  PlaneTolerance tolerance{};
+  /// Regions smaller than this many full-resolution pixels are dropped. Default 300 (0.1% of VGA).
+  int min_region_pixels = 300;
+  /// Region growing does not take samples with a reliable normal further off the plane than
+  /// this (see growSampleLabels). Default 15 deg.
+  double grow_max_normal_deg = 15.0;
+  /// ...nor samples whose normal is valid but unreliable (blurred by an edge) further off than
+  /// this: without it a plane grows over a narrow perpendicular strip (a table's front edge)
+  /// whenever the strip's depth stays within the range-dependent tolerance. Default 45 deg
+  /// (the blurred samples right at the fold are ~45 deg off either surface).
+  double grow_max_unreliable_normal_deg = 45.0;
+  /// Per-plane inlier tolerance for region growing and pixel labelling: this factor times the
+  /// RMS residual (in sensor depth steps) of the plane's samples, clamped to
+  /// [min_tolerance_steps, tolerance.noise_steps]. Clean planes get a tighter band, so a plane
+  /// stops claiming the first centimetres of every surface that meets it (a table top the
+  /// front edge, a leg front the leg side) where the fixed tolerance is several cm at range.
+  /// 0 = always the fixed tolerance. Defaults 3 and 1.5 steps.
+  double adaptive_tolerance_factor = 3.0;
+  double min_tolerance_steps = 1.5;
+  /// Split planes into connected regions (one id per physical surface, SegComp-style). Default
+  /// true.
+  bool split_connected_regions = true;
+  /// ...but re-join pieces of one plane that are separated only by occluders, holes or the
+  /// plane itself (floor between table legs): one id per physical surface. Default true.
+  bool merge_occluded_pieces = true;
+  /// Merge adjacent, depth-continuous regions whose full-resolution fits are within
+  /// merge_coplanar_max_angle_deg and whose joint fit has RMS <= max(merge_coplanar_rms_factor
+  /// x the worse of the two, tolerance / 3): one surface found as two pieces of two nearly
+  /// identical hypotheses. Defaults true, 10 deg, 1.3.
+  bool merge_coplanar_regions = true;
+  double merge_coplanar_max_angle_deg = 10.0;
+  double merge_coplanar_rms_factor = 1.3;
+  /// Compute polygon and triangles. Default true.
+  bool compute_polygons = true;
+  /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.
+  double polygon_epsilon_cells = 1.0;
+  /// Tests only: false keeps the per-pixel labelling loops to their SSE2 / scalar versions on
+  /// CPUs with AVX2 (the AVX2 loops give the same labels and counts; tests compare the two).
+  /// Default true.
+  bool labeling_avx2 = true;
+};
+
+struct HoughPlaneParams {
+  PlaneLabelingParams labeling{};
+  /// Normal estimation on the sample grid. Defaults (see defaultSampleNormalParams): 3D
+  /// gradient, 2-sample half-window at 1 m (8 px at step 4), 1..5 samples.
+  NormalParams normals = defaultSampleNormalParams(4);
+  /// Resolution of the per-frame Hough space. Default 1.5 deg x 2 cm.
+  HoughSpaceParams space{};
+  /// Smoothing kernel sigmas. The vote spread of one Kinect plane is the normal noise (~1-2 deg
+  /// at 0.5-3 m with the sample windows) in angle, and in d the depth noise (0.5 mm at 0.5 m to
+  /// 3.7 cm at 4.5 m) plus range x normal noise (2-8 cm at 2-4.5 m); sigma_d 3 cm with its
+  /// 2.5-sigma truncation covers that to 4.5 m; closer planes are sharper than the kernel, which
+  /// only costs resolution (the refinement restores it). Defaults 2 deg, 0.03 m.
+  double sigma_angle_deg = 2.0;
+  double sigma_d_m = 0.03;
+  /// Sliding window half-size (cells) of the maxima search, >= 0 (a negative value counts as
+  /// 0: no neighbours compared along that axis). Default 2 (+-3 deg, +-4 cm).
+  int maxima_window_a = 2;
+  int maxima_window_d = 2;
+  /// A sample votes only if its 4 grid neighbours have normals within this angle. Default 6 deg.
+  double vote_max_normal_spread_deg = 6.0;
+  /// Normal gate of refinement inliers. Default 12 deg (sample normals near edges are blurred;
+  /// the distance gate does most of the work).
+  double inlier_max_normal_deg = 12.0;
+  /// Least-squares refinement iterations per candidate. Default 4.
+  int refine_iterations = 4;
+  /// Minimum samples for a plane (votes and refined inliers). Default 18 (~290 px at step 4).
+  int min_plane_samples = 18;
+  /// Vote / refine / remove rounds. Default 3.
+  int rounds = 3;
+  /// Candidate maxima tried per round. Default 40.
+  int max_candidates_per_round = 40;
+  /// Merging of near-duplicate planes (see step 5 in the .cpp): candidates within this angle
+  /// (default 15 deg: thin strips fitted in pieces disagree by several degrees)...
+  double merge_angle_deg = 15.0;
+  /// ...merge when the RMS of their joint fit is <= max(merge_rms_factor x the worse RMS,
+  /// merge_tolerance_factor x tolerance / 3 at their range). Defaults 1.3 and 1.0.
+  double merge_rms_factor = 1.3;
+  double merge_tolerance_factor = 1.0;
+  /// Fit depth-continuous components of samples left unassigned by the Hough stage (thin and
+  /// small surfaces without reliable normals, see the pipeline step 6 comment). Default true.
+  bool fit_leftover_components = true;
+  /// ...accepting a component when this fraction of its samples fits one plane. Default 0.8.
+  double leftover_min_inlier_fraction = 0.8;
+  /// Components that are not one plane are split by sequential RANSAC with this many
+  /// hypotheses per extracted plane (0 = off). Default 64.
+  int leftover_ransac_hypotheses = 64;
+  /// ...keeping a RANSAC plane only when leftover_min_inlier_fraction of its inliers that have a
+  /// normal agree with it within this angle. Default 30 deg.
+  double leftover_normal_agreement_deg = 30.0;
+
+  /// NormalParams suited to a grid subsampled by `step` (windows and gaps in grid cells).
+  static NormalParams defaultSampleNormalParams(int step);
+};
+
+/// Reusable Hough plane detector; keeps its buffers (normals, Hough spaces) between frames.
+class HoughPlaneDetector {
+ public:
+  explicit HoughPlaneDetector(HoughPlaneParams params = {});
+  ~HoughPlaneDetector();
+  HoughPlaneDetector(HoughPlaneDetector&&) noexcept;
+  HoughPlaneDetector& operator=(HoughPlaneDetector&&) noexcept;
+
+  const HoughPlaneParams& params() const { return params_; }
+
+  /// depth_mm: CV_16UC1 millimetres (0 = none). bgr: optional CV_8UC3 registered colour.
+  PlaneDetection detect(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                        const cv::Mat& bgr = {});
+
+  /// The smoothed Hough space of the last round of the last frame (for inspection / tests),
+  /// evaluated only around the cells that can reach the peak threshold (zero elsewhere). The
+  /// cells around every peak are exact; farther blocks whose neighbourhood mass lies within
+  /// float rounding of the pruning threshold may be evaluated or zero depending on the order
+  /// the masses are summed in (the detected planes never depend on it).
+  const HoughAccumulator& lastSmoothedSpace() const;
+
+ private:
+  struct Impl;
+  HoughPlaneParams params_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace shapesense

@@ -1,0 +1,190 @@
+#pragma once
+// Depth image segmentation into regions (SRS "but_segmentation" design, D4.6.2 section 2.4).
+//
+// Four methods compute an edge-strength image E (small integer per pixel) and grow regions by
+// immersion (a bucket-queue watershed ordered by E, first-in first-out within a level) from
+// markers = connected components of low-edge areas:
+//  - kDepthStep:       E = number of window neighbours whose depth differs by more than the
+//                      range-dependent step threshold (occlusion / step edges),
+//  - kNormalEdges:     E = number of window neighbours whose normal differs by more than an angle
+//                      (roof edges); normals from NormalEstimator,
+//  - kFused:           E = E_depth + weight * E_normal,
+//  - kPlanePrediction: each neighbour's inverse depth is predicted from the centre's local
+//                      inverse-depth gradient (planes are affine in inverse depth); E = number of
+//                      anomalous neighbours in a dense window plus a sparse long-range ring (far
+//                      creases bend inverse depth too little to show within a few pixels).
+//                      Curved surfaces, anomalous at long range everywhere, keep markers from
+//                      the dense window alone. No explicit normals.
+// and one is a plane segmenter:
+//  - kTiledRansac:     a RANSAC plane per tile (in inverse-depth space, where Kinect noise is
+//                      range-independent), tile planes merged across tile borders and flooded
+//                      pixel by pixel so that tiles leave no seams; non-planar leftovers become
+//                      regions of their own.
+//
+// All methods work at 1/`downsample` resolution (default 2, i.e. 320x240 for a Kinect frame) and
+// upsample the labels with nearest neighbour; region borders are then accurate to 1-2 full-res
+// pixels. Set downsample = 1 for full resolution (about 3-4x slower).
+//
+// Range-dependent thresholds follow KinectNoiseModel: a threshold of k "steps" is
+// k * depthStep(z) in depth, i.e. k * disparity_step / focal_baseline in inverse depth.
+//
+// Output: CV_16UC1, 0 = unassigned (no depth, or a region below min_region_px), regions 1..N
+// with compact ids, numbered in raster order of their first pixel.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/normals/normals.h"
+
+namespace shapesense {
+
+enum class SegmentationMethod { kDepthStep, kNormalEdges, kFused, kPlanePrediction, kTiledRansac };
+
+/// "depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac".
+std::string_view formatSegmentationMethod(SegmentationMethod method);
+/// Inverse of formatSegmentationMethod; nullopt for an unknown name.
+std::optional<SegmentationMethod> parseSegmentationMethod(std::string_view name);
+
+/// Region growing shared by every method (all sizes in full-resolution pixels).
+struct RegionParams {
+  /// Work at 1/downsample resolution (1 or 2; 2x2 blocks are averaged, see file comment).
+  /// Default 2.
+  int downsample = 2;
+  /// Pixels with edge strength <= this seed the watershed markers. Default 0.
+  int marker_max_edge = 0;
+  /// Marker components smaller than this are dropped (their pixels are flooded). Default 64.
+  int min_marker_px = 64;
+  /// Final regions smaller than this are set to 0 (unassigned). Default 64.
+  int min_region_px = 64;
+  /// Merge regions that lie on one plane, even when they do not touch (a table split by the
+  /// objects on it is one surface): regions are fitted with a plane in inverse depth (where Kinect
+  /// noise is range-independent) and two are merged when the plane fitted to their union has an
+  /// RMS residual <= coplanar_rms_steps quantisation steps. Greedy, best pair first. Default true.
+  bool merge_coplanar = true;
+  /// Default 2 steps (a synthetic plane measures ~0.3-0.5 steps RMS, a real Kinect table 1.2-1.5).
+  double coplanar_rms_steps = 2.0;
+  /// Only regions of at least this many full-resolution pixels take part. Default 200.
+  int coplanar_min_px = 200;
+  /// Sensor noise model for range-dependent thresholds. Default Kinect v1.
+  KinectNoiseModel noise{};
+};
+
+struct DepthStepParams {
+  /// Window half-size (working-resolution pixels); E counts all (2r+1)^2-1 neighbours. Default 2.
+  int window_radius = 2;
+  /// Step threshold in sensor quantisation steps at the centre's range. Default 3.
+  double noise_steps = 3.0;
+  /// Plus this fraction of the range per full-resolution pixel of offset, so that steep but
+  /// continuous surfaces (a floor seen at grazing angles) are not steps. Default 0.01.
+  double slope_factor = 0.01;
+  /// Never below this many millimetres. Default 10.
+  double min_threshold_mm = 10.0;
+  RegionParams region{};
+};
+
+struct NormalEdgeParams {
+  /// Window half-size (working-resolution pixels). Default 2.
+  int window_radius = 2;
+  /// Two normals differ when the angle between them exceeds this. Default 15 deg.
+  double max_angle_deg = 15.0;
+  /// Normal estimation at working resolution (smoothing radius is in working pixels).
+  /// Default: average 3D gradient, radius 3 px at 1 m (less makes real Kinect tables noisy),
+  /// windows down to 1 px next to steps.
+  NormalParams normals = defaultNormals();
+  RegionParams region{};
+
+  static NormalParams defaultNormals() {
+    NormalParams p;
+    p.smoothing_radius_px = 3.0;
+    p.min_radius_px = 1;
+    p.max_radius_px = 10;
+    return p;
+  }
+};
+
+struct FusedParams {
+  DepthStepParams depth{};
+  NormalEdgeParams normal{};
+  /// E = E_depth + normal_weight * E_normal (the seed found 1 best). Default 1.
+  double normal_weight = 1.0;
+  /// Whether a pixel without a normal (normals are NaN within a few pixels of a depth step and on
+  /// surfaces seen so obliquely that neighbours differ by more than the normal estimator's step
+  /// threshold) counts as a normal edge. true (default): the NaN band also marks creases of
+  /// obliquely seen faces, which the angle test alone finds only with gaps (synthetic scenes:
+  /// pixel accuracy 0.70 with false, see tests). The depth term still contributes: it adds
+  /// relief where the surface really steps, so the immersion flood puts region borders on the
+  /// step instead of the middle of the NaN band, and it catches steps smaller than the normal
+  /// estimator's threshold (max_depth_change_factor, 2% of range per pixel).
+  bool invalid_normal_is_edge = true;
+  RegionParams region{};  ///< used instead of depth.region / normal.region
+};
+
+struct PlanePredictionParams {
+  /// Half-size (working pixels) of the box filter smoothing inverse depth before the gradient.
+  /// Default 2.
+  int smoothing_radius = 2;
+  /// Gradient = central difference of smoothed inverse depth over +-this many pixels. Default 2.
+  int gradient_step = 2;
+  /// Window half-size (working pixels) of the predicted neighbours. Default 3.
+  int window_radius = 3;
+  /// Also predict 16 neighbours at this distance (working pixels; the outer ring of a grid with
+  /// spacing long_range / 2). A crease between two far surfaces bends inverse depth by only
+  /// ~1 quantisation step per 2-3 pixels, below the noise within the dense window; farther
+  /// neighbours see it. 0 disables. Default 6.
+  int long_range = 6;
+  /// Anomaly threshold of the long-range neighbours (quantisation steps). Default 3.
+  double long_noise_steps = 3.0;
+  /// Curved surfaces (bowls, balls) are anomalous at long range everywhere and would have no
+  /// marker: a connected area without dense-window anomalies that holds no marker pixel becomes
+  /// a marker of its own. Default true.
+  bool curved_fallback_markers = true;
+  /// A neighbour is anomalous when its inverse depth differs from the prediction by more than
+  /// this many sensor quantisation steps (range-independent in inverse depth). Default 2.5.
+  double noise_steps = 2.5;
+  RegionParams region{};
+};
+
+struct TiledRansacParams {
+  /// Tile size in working-resolution pixels. Default 16 (32 full-resolution pixels).
+  int tile_size = 16;
+  /// RANSAC hypotheses per tile. Default 24.
+  int iterations = 24;
+  /// Inlier threshold in sensor quantisation steps of inverse depth. Default 2.5.
+  double inlier_noise_steps = 2.5;
+  /// A tile plane is accepted when at least this fraction of its valid pixels are inliers.
+  /// Default 0.6.
+  double min_inlier_fraction = 0.6;
+  /// Two neighbouring tile planes are merged when each explains at least this fraction of the
+  /// other's inliers (checked on a sample). Default 0.8.
+  double merge_fraction = 0.8;
+  /// Seed of the deterministic RANSAC sampler. Default 1.
+  std::uint32_t seed = 1;
+  /// Depth-step threshold for grouping the non-planar leftovers (as DepthStepParams). Default.
+  DepthStepParams leftovers{};
+  RegionParams region{};
+};
+
+struct SegmentationParams {
+  DepthStepParams depth_step{};
+  NormalEdgeParams normal_edges{};
+  FusedParams fused{};
+  PlanePredictionParams plane_prediction{};
+  TiledRansacParams tiled_ransac{};
+};
+
+/// Segments a CV_16UC1 millimetre depth image; returns CV_16UC1 regions (0 = unassigned,
+/// 1..N compact).
+cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                     SegmentationMethod method, const SegmentationParams& params = {});
+
+/// The edge-strength image a watershed method floods (CV_8UC1 at working resolution, 255 where
+/// there is no depth); for inspection and tests. Not defined for kTiledRansac (returns empty).
+cv::Mat segmentationEdgeStrength(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                 SegmentationMethod method, const SegmentationParams& params = {});
+
+}  // namespace shapesense
