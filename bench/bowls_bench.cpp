@@ -38,6 +38,7 @@
 #include "shapesense/core/bowls/bowl_detector.h"
 #include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/core/bowls/depth_preprocess.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/driver/tum_recording.h"

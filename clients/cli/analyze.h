@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "shapesense/server/detector_stage.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 
 namespace shapesense::cli {
 

@@ -3,15 +3,17 @@
 // daemon); without it the daemon records what its source delivers (Record RPC), on its machine.
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <optional>
 #include <thread>
 
 #include "commands.h"
+#include "shapesense/driver/open_source.h"
 #include "shapesense/driver/tum_recording.h"
-#include "shapesense/server/daemon.h"
 
 namespace shapesense::cli {
 namespace {
@@ -147,10 +149,8 @@ void addRecordCommand(CLI::App& app, const GlobalOptions& global) {
                   "Wall-clock duration; with --source, 0 = until the source ends")
       ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();
-  cmd->add_option(
-      "--source", args->source,
-      "Record this source without a daemon: synthetic[:SEED], tum:DIR, freenect[:SERIAL|INDEX], "
-      "openni2[:URI], fakenect:DIR");
+  cmd->add_option("--source", args->source,
+                  std::string("Record this source without a daemon: ") + kSourceSpecs);
   cmd->add_option("--rate", args->rate,
                   "With --source, for recorded sources: recorded (real time) or max")
       ->check(CLI::IsMember({"recorded", "max"}))

@@ -14,9 +14,9 @@
 #include "recording_fixture.h"
 #include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/core/geometry/timestamp.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
-#include "shapesense/server/detector_stage.h"
 #include "test_paths.h"
 
 namespace shapesense::cli {

@@ -11,8 +11,8 @@
 
 #include "commands.h"
 #include "server_fixture.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/synthetic_scene.h"
-#include "shapesense/server/detector_stage.h"
 #include "test_paths.h"
 
 namespace shapesense {

@@ -1,6 +1,7 @@
 // The whole daemon in-process over a small recording in a scratch directory.
 
 #include "shapesense/server/daemon.h"
+#include "shapesense/driver/open_source.h"
 
 #include <chrono>
 #include <fstream>
@@ -16,6 +17,7 @@
 #include "recording_fixture.h"
 #include "server_fixture.h"
 #include "shapesense/core/geometry/timestamp.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
 #include "test_paths.h"
 

@@ -5,8 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "server_fixture.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/synthetic_scene.h"
-#include "shapesense/server/detector_stage.h"
 
 namespace shapesense::testing {
 namespace {

@@ -10,8 +10,9 @@
 
 #include "server_fixture.h"
 #include "shapesense/core/bowls/bowl_eval.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/driver/synthetic_scene.h"
-#include "shapesense/server/detector_stage.h"
 
 namespace shapesense::testing {
 namespace {

@@ -7,7 +7,8 @@
 
 #include "server_fixture.h"
 #include "shapesense/core/geometry/timestamp.h"
-#include "shapesense/server/detector_stage.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 
 namespace shapesense {
 namespace {

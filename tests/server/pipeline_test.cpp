@@ -17,6 +17,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/server/latency_tracker.h"
 
 namespace shapesense {

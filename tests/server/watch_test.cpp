@@ -8,7 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "server_fixture.h"
-#include "shapesense/server/detector_stage.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 
 namespace shapesense {
 namespace {

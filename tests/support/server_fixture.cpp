@@ -8,7 +8,8 @@
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
 
-#include "shapesense/server/detector_stage.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "test_paths.h"
 
 namespace shapesense::testing {

@@ -24,9 +24,9 @@
 
 #include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/core/normals/normals.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_scene.h"
-#include "shapesense/server/detector_stage.h"
 
 namespace fs = std::filesystem;
 using namespace shapesense;

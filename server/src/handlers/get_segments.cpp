@@ -2,6 +2,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/server/handlers.h"
 #include "shapesense/server/proto_convert.h"
 

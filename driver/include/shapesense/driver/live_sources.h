@@ -1,5 +1,5 @@
 #pragma once
-// Factory for the live-sensor and fakenect --source specs, called by the daemon's openSource:
+// Factory for the live-sensor and fakenect --source specs, called by openSource (open_source.h):
 //   freenect[:SERIAL|INDEX]   Kinect v1 via libfreenect (INDEX = up to 3 digits; default 0)
 //   openni2[:URI]             OpenNI2 device (default: the first one), e.g. openni2:Dummy
 //   fakenect:DIR              a libfreenect `record` dump, replayed by this project's reader
@@ -17,9 +17,5 @@ namespace shapesense {
 /// `argument`; nullptr for any other kind. Throws std::invalid_argument for a bad argument
 /// (fakenect without a directory) and std::runtime_error when a dump cannot be read.
 std::unique_ptr<FrameSource> openLiveSource(const std::string& kind, const std::string& argument);
-
-/// Help text for the kinds above, for the daemon's "unknown source" message.
-inline constexpr const char* kLiveSourceSpecs =
-    "freenect[:SERIAL|INDEX], openni2[:URI], fakenect:DIR";
 
 }  // namespace shapesense

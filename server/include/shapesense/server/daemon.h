@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/frame_source.h"
-#include "shapesense/server/detector_stage.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
@@ -22,7 +22,7 @@ namespace shapesense {
 inline constexpr const char* kDefaultListenAddress = "127.0.0.1:50551";
 
 struct DaemonOptions {
-  /// "synthetic[:SEED]", "tum:DIR", "freenect[:SERIAL|INDEX]", "openni2[:URI]", "fakenect:DIR".
+  /// A source spec as openSource takes it (driver/open_source.h: kSourceSpecs).
   std::string source = "synthetic";
   /// Recorded sources: at the recorded rate, or as fast as the pipeline takes frames.
   Pacing pacing = Pacing::kRecorded;
@@ -41,10 +41,6 @@ struct DaemonOptions {
   std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);
   DetectorConfig detectors;
 };
-
-/// Opens the source a --source spec names. Throws std::invalid_argument for an unknown spec and
-/// std::runtime_error when the source cannot be opened, with a message a person can act on.
-std::unique_ptr<FrameSource> openSource(const std::string& spec, Pacing pacing, bool loop);
 
 class Daemon {
  public:

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "shapesense/core/geometry/frame.h"
-#include "shapesense/server/frame_results.h"
+#include "shapesense/core/pipeline/frame_results.h"
 
 namespace shapesense {
 

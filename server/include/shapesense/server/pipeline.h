@@ -15,8 +15,8 @@
 #include <thread>
 #include <vector>
 
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/frame_source.h"
-#include "shapesense/server/detector_stage.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/latency_tracker.h"

@@ -1,47 +1,21 @@
 #pragma once
-// A detector stage: one algorithm of core/ adapted to the pipeline. Each stage reads the frame
-// and writes its own member of FrameResults.
+// The stages of the standard chain: each adapts one capability of core/ to a frame and writes
+// its own member of FrameResults. Their pure functions (computeDepthStatistics, segmentFrame,
+// detectBowls) are what on-request queries share with the stages.
 
-#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "shapesense/core/bowls/bowl_detector.h"
 #include "shapesense/core/boxes/box_estimation.h"
-#include "shapesense/core/geometry/frame.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
-#include "shapesense/server/frame_results.h"
 
 namespace shapesense {
-
-class DetectorStage {
- public:
-  virtual ~DetectorStage() = default;
-  /// Stable name used in status, timings and configuration, e.g. "depth_stats".
-  virtual std::string name() const = 0;
-  /// Runs on one frame; may read results of stages that ran before it.
-  virtual void run(const Frame& frame, FrameResults& results) = 0;
-};
-
-/// The ordered stages run on every frame, shared by the daemon and `shapesense analyze` so
-/// both compute the same thing.
-class DetectorChain {
- public:
-  void add(std::unique_ptr<DetectorStage> stage) { stages_.push_back(std::move(stage)); }
-
-  /// Runs every stage in order and records each one's wall time in results.timings_ms.
-  FrameResults process(const Frame& frame) const;
-
-  std::vector<std::string> stageNames() const;
-
- private:
-  std::vector<std::unique_ptr<DetectorStage>> stages_;
-};
 
 /// Computes DepthStatistics: the trivial statistic every frame gets.
 class DepthStatsStage : public DetectorStage {
@@ -65,9 +39,6 @@ class SegmentationStage : public DetectorStage {
   SegmentationMethod method_;
   SegmentationParams params_;
 };
-
-/// Which plane detector the plane stage runs.
-enum class PlaneDetectorKind { kHough, kRansac };
 
 /// Detects the frame's planes and adds them to the accumulated planes. Holds the accumulator,
 /// so one instance must see the frames in order (the pipeline's detector thread does).
@@ -125,48 +96,8 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
                                       const BowlGeometryParams& geometry_params = {},
                                       const BoxEstimationParams& box_params = {});
 
-/// Where the bowl models are when nobody says: the first folder holding bowl_*.json of
-/// <binary's dir>/../share/shapesense/models, <configured prefix>/share/shapesense/models, and
-/// the source tree's models/ (a build that was never installed).
-std::filesystem::path defaultBowlModelsDir();
-
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
                                 const SegmentationParams& params = {});
-
-/// Options that select and configure the stages; filled from the daemon's config or the CLI.
-struct DetectorConfig {
-  /// Method of the segmentation stage; nullopt leaves the stage out.
-  std::optional<SegmentationMethod> segmentation = SegmentationMethod::kDepthStep;
-  SegmentationParams segmentation_params;
-  /// Plane detector of the plane stage; nullopt leaves the stage out.
-  std::optional<PlaneDetectorKind> planes = PlaneDetectorKind::kHough;
-  HoughPlaneParams hough_params;
-  RansacPlaneParams ransac_params;
-  PlaneAccumulatorParams accumulator_params;
-  /// Boxes for segments standing on planes; only when both stages above are on.
-  bool object_boxes = true;
-  ObjectBoxParams object_box_params;
-  /// The bowl stage; on by default. makeDetectorChain loads its models and throws when they
-  /// do not load, so a daemon started with bowls on and no usable models fails at startup.
-  bool bowls = true;
-  /// Folder of bowl_*.json models (or one model file); empty = defaultBowlModelsDir().
-  std::filesystem::path bowl_models;
-  /// Default: the parameters the shipped models were evaluated with. `parallel` is ignored:
-  /// the stage always runs single-threaded on the pipeline's detector thread.
-  BowlDetectorParams bowl_params;
-  /// The 3D check of each detection (rim diameter range and shape). Default: defaults.
-  BowlGeometryParams bowl_geometry_params;
-  /// How each bowl's 3D box is estimated (always mode 2, see detectBowls). Default: defaults.
-  BoxEstimationParams bowl_box_params;
-};
-
-/// "hough" / "ransac" <-> PlaneDetectorKind.
-std::optional<PlaneDetectorKind> parsePlaneDetector(std::string_view name);
-const char* toString(PlaneDetectorKind kind);
-
-/// The standard chain for `config`. Throws std::runtime_error naming the folder when the bowl
-/// stage is on and its models do not load.
-DetectorChain makeDetectorChain(const DetectorConfig& config);
 
 }  // namespace shapesense
