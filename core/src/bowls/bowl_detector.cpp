@@ -9,9 +9,9 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/core/bowls/depth_preprocess.h"
 #include "shapesense/core/bowls/lbp.h"
+#include "shapesense/core/geometry/image_boxes.h"
 
 namespace shapesense {
 

@@ -4,12 +4,6 @@
 
 namespace shapesense {
 
-double boxIoU(const cv::Rect& a, const cv::Rect& b) {
-  const double inter = (a & b).area();
-  const double uni = static_cast<double>(a.area()) + b.area() - inter;
-  return uni > 0 ? inter / uni : 0.0;
-}
-
 bool isTinyOrSparseBowl(const cv::Rect& box, std::size_t pixel_count) {
   return box.width < 20 || box.height < 12 || static_cast<double>(pixel_count) < 0.25 * box.area();
 }

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "shapesense/core/bowls/bowl_detector.h"
+#include "shapesense/core/geometry/image_boxes.h"
 
 namespace shapesense {
 
@@ -49,9 +50,6 @@ struct BowlEvalResult {
   int true_positives = 0;  ///< at the lowest score (all detections)
   int false_positives = 0;
 };
-
-/// Intersection over union of two boxes (0 when either is empty).
-double boxIoU(const cv::Rect& a, const cv::Rect& b);
 
 /// Greedy VOC matching per frame in decreasing score: a detection is a true positive when its
 /// best-IoU unmatched truth box has IoU >= iou (a difficult one: ignored), else a false positive.
