@@ -88,15 +88,16 @@ std::uint64_t sequenceAt(testing::TestServer& server, TimestampNs t) {
 }
 
 TEST(Faults, CacheOrderLookupsAndStatusSurviveAFaultySensor) {
-  // Frames 0-4, the sensor is lost until resumed, frames 5-6, frame 7 stamped three periods
-  // back (at frame 3's time), frame 8 repeating that stamp, frames 9-10, three errors, frame 11.
+  // Frames 0-4, the sensor is lost until resumed, frames 5-6, frame 7 repeating frame 6's
+  // stamp, frame 8 stamped three periods before that (at frame 3's time), frames 9-10, three
+  // errors, frame 11.
   auto faulty = std::make_unique<FaultInjectingSource>(std::make_unique<SensorLikeSource>(12),
                                                        FaultPlan()
                                                            .pass(5)
                                                            .disconnect(kUntilResumed)
                                                            .pass(2)
-                                                           .stampBack(3 * kFramePeriodNs)
                                                            .stampRepeat()
+                                                           .stampBack(3 * kFramePeriodNs)
                                                            .pass(2)
                                                            .error(3));
   FaultInjectingSource& source = *faulty;
@@ -144,8 +145,9 @@ TEST(Faults, CacheOrderLookupsAndStatusSurviveAFaultySensor) {
   for (std::size_t i = 1; i < cached.size(); ++i) {
     EXPECT_GT(cached[i].frame->timestamp_ns, cached[i - 1].frame->timestamp_ns);
   }
-  // At frame 3's time it is frame 3, not the frames stamped back onto it; where frame 7 would
-  // have been, the latest frame before it.
+  // At frame 6's and frame 3's times it is frames 6 and 3, not the frames stamped onto them;
+  // where frame 7 would have been, the latest frame before it.
+  EXPECT_EQ(sequenceAt(server, stampOf(6)), 6u);
   EXPECT_EQ(sequenceAt(server, stampOf(3)), 3u);
   EXPECT_EQ(sequenceAt(server, stampOf(7)), 6u);
   EXPECT_EQ(sequenceAt(server, stampOf(9)), 9u);
