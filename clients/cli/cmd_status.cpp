@@ -26,14 +26,18 @@ void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
     if (status.source_live()) {
       std::cout << "sensor     "
                 << (status.source_connected() ? "connected" : "not connected (reconnecting)")
-                << ", " << status.source_reconnects() << " reconnect(s), "
-                << status.source_dropped_frames() << " frame(s) dropped by the driver\n";
+                << ", lost " << status.source_disconnects() << " time(s), "
+                << status.source_reconnects() << " reconnect(s), " << status.source_dropped_frames()
+                << " frame(s) dropped by the driver\n";
     }
     if (!status.source_message().empty())
       std::cout << "last error " << status.source_message() << "\n";
     std::cout << "frames     " << status.frames_received() << " received, "
               << status.frames_processed() << " processed, " << status.frames_skipped()
-              << " skipped, " << status.source_errors() << " source errors\n"
+              << " skipped, " << status.source_errors() << " source errors";
+    if (status.frames_out_of_order() > 0)
+      std::cout << ", " << status.frames_out_of_order() << " dropped out of order";
+    std::cout << "\n"
               << "cache      " << cache.frames() << "/" << cache.capacity() << " frames";
     if (cache.frames() > 0) {
       std::cout << ", " << formatNsAsSeconds(cache.oldest_ns()) << " .. "

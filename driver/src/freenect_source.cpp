@@ -171,6 +171,7 @@ class FreenectConnector final : public DeviceConnector {
 
   std::string describe() const override { return "freenect:" + options_.device.toString(); }
   DeviceClockParams clockParams() const override { return options_.clock; }
+  std::span<const UsbId> usbIds() const override { return kKinectUsbIds; }
 
   std::unique_ptr<DeviceSession> open(std::string& why_not) override {
     freenect_context* ctx = nullptr;

@@ -32,6 +32,13 @@ LiveSource::LiveSource(std::unique_ptr<DeviceConnector> connector, LiveSourceOpt
       clock_(connector_->clockParams()),
       colour_clock_(connector_->clockParams()),
       pairer_(options_.pairing) {
+  if (options_.usb_hotplug && !connector_->usbIds().empty()) {
+    auto events = options_.usb_arrivals ? options_.usb_arrivals : makeLibusbArrivalEvents();
+    watcher_ = std::make_unique<DeviceWatcher>(std::move(events), connector_->usbIds());
+    spdlog::info("{}: {}", description_,
+                 watcher_->hotplug() ? "reopens when the sensor is plugged in (USB hotplug)"
+                                     : watcher_->describe() + "; polling");
+  }
   thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
 }
 
@@ -47,6 +54,7 @@ SourceHealth LiveSource::health() const {
   return SourceHealth{.live = true,
                       .connected = connected_.load(),
                       .reconnects = connections > 0 ? connections - 1 : 0,
+                      .disconnects = disconnects_.load(),
                       .dropped_frames = dropped_.load()};
 }
 
@@ -92,6 +100,22 @@ void LiveSource::sleepFor(std::chrono::milliseconds duration, const std::stop_to
   sleep_cv_.wait_for(lock, stop, duration, [] { return false; });
 }
 
+void LiveSource::waitToReopen(std::chrono::milliseconds interval, const std::stop_token& stop) {
+  if (watcher_) {
+    watcher_->waitForArrival(interval, stop);
+  } else {
+    sleepFor(interval, stop);
+  }
+}
+
+std::string LiveSource::reopenPolicy() const {
+  if (hotplug()) {
+    return "reopening when it is plugged in (USB hotplug), else every " +
+           seconds(options_.hotplug_poll_interval);
+  }
+  return "retrying every " + seconds(options_.reopen_interval);
+}
+
 void LiveSource::run(std::stop_token stop) {
   bool reported_absent = false;
   while (!stop.stop_requested()) {
@@ -99,14 +123,16 @@ void LiveSource::run(std::stop_token stop) {
     std::unique_ptr<DeviceSession> session = connector_->open(why_not);
     if (!session) {
       if (!reported_absent) {
-        postError(description_ + ": sensor not available: " + why_not +
-                  "; waiting for it (retrying every " + seconds(options_.reopen_interval) + ")");
+        postError(description_ + ": sensor not available: " + why_not + "; waiting for it (" +
+                  reopenPolicy() + ")");
         reported_absent = true;
       }
-      sleepFor(options_.reopen_interval, stop);
+      waitToReopen(hotplug() ? options_.hotplug_poll_interval : options_.reopen_interval, stop);
       continue;
     }
     reported_absent = false;
+    // Arrivals so far (the motor before the camera) led here; only later ones mean a return.
+    if (watcher_) watcher_->forget();
     clock_.reset();
     colour_clock_.reset();
     pairer_.reset();
@@ -119,9 +145,11 @@ void LiveSource::run(std::stop_token stop) {
     connected_ = false;
     session.reset();  // stops the streams and closes the device
     if (stop.stop_requested()) break;
+    ++disconnects_;
     postError(description_ + ": sensor lost: " + failure + "; reopening every " +
               seconds(options_.reopen_interval));
-    sleepFor(options_.reopen_interval, stop);
+    // A sensor that went silent may still be plugged in and send no arrival: try again soon.
+    waitToReopen(options_.reopen_interval, stop);
   }
 }
 

@@ -270,6 +270,13 @@ class OpenNI2Connector final : public DeviceConnector {
     return options_.uri.empty() ? "openni2" : "openni2:" + options_.uri;
   }
   DeviceClockParams clockParams() const override { return options_.clock; }
+  /// The first device, or a USB URI ("1d27/0600@1/5"): a PrimeSense sensor. Dummy and .oni
+  /// files are not on USB.
+  std::span<const UsbId> usbIds() const override {
+    if (options_.uri.empty() || options_.uri.find('@') != std::string::npos)
+      return kPrimeSenseUsbIds;
+    return {};
+  }
 
   std::unique_ptr<DeviceSession> open(std::string& why_not) override {
     try {

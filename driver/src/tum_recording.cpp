@@ -54,9 +54,11 @@ std::vector<TumIndexEntry> parseTumIndexText(std::string_view text, const std::s
       return;
     }
     auto& entry = std::get<TumIndexEntry>(parsed);
-    if (in_time_order && !entries.empty() && entry.timestamp_ns < entries.back().timestamp_ns) {
-      problems.push_back(where + "stamp " + entry.seconds_text + " is before the earlier line's " +
-                         entries.back().seconds_text + " (time cannot go back); skipped");
+    if (in_time_order && !entries.empty() &&
+        !stampFollows(entries.back().timestamp_ns, entry.timestamp_ns)) {
+      problems.push_back(where + "stamp " + entry.seconds_text + " is not after the kept line's " +
+                         entries.back().seconds_text +
+                         " (time cannot go back or stand still); skipped");
       return;
     }
     entries.push_back(std::move(entry));

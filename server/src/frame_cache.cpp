@@ -23,7 +23,8 @@ FrameCache::FrameCache(std::size_t capacity) : capacity_(capacity) {
 
 bool FrameCache::insert(std::shared_ptr<const Frame> frame) {
   std::lock_guard lock(mutex_);
-  if (!entries_.empty() && frame->timestamp_ns < entries_.back().frame->timestamp_ns) {
+  if (!entries_.empty() &&
+      !stampFollows(entries_.back().frame->timestamp_ns, frame->timestamp_ns)) {
     return false;
   }
   if (entries_.size() == capacity_) entries_.pop_front();

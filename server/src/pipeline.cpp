@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "shapesense/core/geometry/timestamp.h"
+
 namespace shapesense {
 
 const char* toString(SourceState state) {
@@ -80,13 +82,22 @@ void Pipeline::captureLoop(std::stop_token stop) {
     }
     auto frame = std::make_shared<const Frame>(std::move(std::get<Frame>(event)));
     if (!cache_.insert(frame)) {
-      ++source_errors_;
-      const std::string message = "frame " + std::to_string(frame->sequence) +
-                                  " is older than the newest cached frame; dropped";
-      spdlog::warn("{}", message);
+      ++out_of_order_;
+      std::string message = "frame " + std::to_string(frame->sequence) + " stamped " +
+                            formatNsAsSeconds(frame->timestamp_ns) +
+                            " s is not after the newest cached frame (" +
+                            formatNsAsSeconds(cache_.range().newest_ns) + " s); dropped";
+      // A clock that went back refuses every frame until it passes the newest again: one line
+      // when that starts and one when it ends, not one per frame.
+      if (out_of_order_run_++ == 0) spdlog::warn("{}", message);
       std::lock_guard lock(mutex_);
-      last_error_ = message;
+      last_error_ = std::move(message);
       continue;
+    }
+    if (out_of_order_run_ > 0) {
+      spdlog::info("{}: stamps increase again; {} frame(s) were dropped out of order", source_name_,
+                   out_of_order_run_);
+      out_of_order_run_ = 0;
     }
     ++received_;
     if (tap_) tap_->publish(frame);
@@ -182,6 +193,7 @@ PipelineStatus Pipeline::status() const {
   s.frames_processed = processed_;
   s.frames_skipped = skipped_;
   s.source_errors = source_errors_;
+  s.frames_out_of_order = out_of_order_;
   s.stages = latency_.summaries();
   s.detectors = chain_.stageNames();
   s.health = source_->health();

@@ -1,6 +1,7 @@
 #include "shapesense/server/recording_root.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -17,12 +18,29 @@ bool isInside(const fs::path& path, const fs::path& root) {
   return std::mismatch(root.begin(), root.end(), path.begin(), path.end()).first == root.end();
 }
 
-grpc::Status cannotCreate(const fs::path& dir, const std::error_code& error) {
-  return {error == std::errc::permission_denied || error == std::errc::read_only_file_system
-              ? grpc::StatusCode::PERMISSION_DENIED
-              : grpc::StatusCode::FAILED_PRECONDITION,
-          "cannot create '" + dir.string() + "' on the daemon's machine: " + error.message()};
+/// EACCES (mode bits), EPERM (an immutable directory, a sandbox, an ACL) and EROFS all mean the
+/// daemon's user may not write there: what the client can fix is where it records, or the
+/// directory's permissions, so PERMISSION_DENIED; anything else is the machine's state.
+bool notPermitted(const std::error_code& error) {
+  return error == std::errc::permission_denied || error == std::errc::operation_not_permitted ||
+         error == std::errc::read_only_file_system;
 }
+
+grpc::Status cannotUse(const std::string& what, const fs::path& dir, const std::error_code& error) {
+  if (notPermitted(error)) {
+    return {grpc::StatusCode::PERMISSION_DENIED,
+            "the daemon may not " + what + " '" + dir.string() + "' (" + error.message() +
+                "): check the permissions of its recordings root (shapesensed --record-root)"};
+  }
+  return {grpc::StatusCode::FAILED_PRECONDITION,
+          "cannot " + what + " '" + dir.string() + "' on the daemon's machine: " + error.message()};
+}
+
+grpc::Status cannotCreate(const fs::path& dir, const std::error_code& error) {
+  return cannotUse("create", dir, error);
+}
+
+std::error_code lastError() { return {errno, std::generic_category()}; }
 
 }  // namespace
 
@@ -72,15 +90,11 @@ grpc::Status makeRecordingDir(const fs::path& root, const std::string& name, fs:
     const fs::path next = current / part;
     struct stat info {};
     if (::lstat(next.c_str(), &info) != 0) {
-      if (errno != ENOENT)
-        return cannotCreate(next, std::error_code(errno, std::generic_category()));
+      if (errno != ENOENT) return cannotCreate(next, lastError());
       // mkdir, not create_directories: exactly this one directory, inside the root.
-      if (::mkdir(next.c_str(), 0750) != 0 && errno != EEXIST) {
-        return cannotCreate(next, std::error_code(errno, std::generic_category()));
-      }
-      if (::lstat(next.c_str(), &info) != 0) {
-        return cannotCreate(next, std::error_code(errno, std::generic_category()));
-      }
+      if (::mkdir(next.c_str(), 0750) != 0 && errno != EEXIST)
+        return cannotCreate(next, lastError());
+      if (::lstat(next.c_str(), &info) != 0) return cannotCreate(next, lastError());
     }
     fs::path resolved = next;
     if (S_ISLNK(info.st_mode)) {
@@ -101,10 +115,16 @@ grpc::Status makeRecordingDir(const fs::path& root, const std::string& name, fs:
     return {grpc::StatusCode::INVALID_ARGUMENT,
             "dir '" + name + "' names the recordings root itself: name a directory under it"};
   }
-  if (!fs::is_empty(current, error)) {
+  const bool empty = fs::is_empty(current, error);
+  if (error) return cannotUse("read", current, error);
+  if (!empty) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "'" + current.string() + "' is not empty: choose a new directory (or empty this one)"};
   }
+  // An existing directory the daemon may not write would fail at the first frame, or never
+  // (no frame came): refuse it now.
+  if (::access(current.c_str(), W_OK | X_OK) != 0)
+    return cannotUse("write into", current, lastError());
   dir = current;
   return grpc::Status::OK;
 }

@@ -15,8 +15,10 @@
 #include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/core/geometry/timestamp.h"
 #include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
+#include "shapesense/server/pipeline.h"
 #include "test_paths.h"
 
 namespace shapesense::cli {
@@ -131,6 +133,44 @@ TEST(Analyze, SmallScratchRecordingWithAMissingFile) {
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_EQ(rawTimestamp(lines[0]), "1700000000.000001");
   EXPECT_EQ(canonicalDecimal(rawTimestamp(lines[1])), "1700000000.1");
+}
+
+TEST(Analyze, KeepsTheFramesADaemonReplayingTheRecordingKeeps) {
+  // Stamps that go back (line 3) or repeat (line 4): the daemon's cache refuses such frames, so
+  // analyze must leave them out too, or its results list frames no daemon ever served.
+  const auto dir = shapesense::testing::scratchDir("analyze_time_back");
+  shapesense::testing::RecordingBuilder builder(dir / "rec");
+  builder.writeCamera();
+  for (const char* stamp : {"1700000000.000000", "1700000000.100000", "1700000000.050000",
+                            "1700000000.100000", "1700000000.200000"}) {
+    builder.addDepth(stamp);
+  }
+  builder.finish();
+  DetectorChain analyze_chain;
+  analyze_chain.add(std::make_unique<DepthStatsStage>());
+  const AnalyzeSummary summary = analyzeRecording(dir / "rec", dir / "out", analyze_chain);
+  std::vector<std::string> analyzed;
+  for (const auto& line : readLines(dir / "out" / "results.jsonl"))
+    analyzed.push_back(canonicalDecimal(rawTimestamp(line)));
+
+  FrameCache cache(16);
+  SummaryHub hub;
+  DetectorChain daemon_chain;
+  daemon_chain.add(std::make_unique<DepthStatsStage>());
+  Pipeline pipeline(std::make_unique<ReplaySource>(
+                        dir / "rec", ReplayOptions{.pacing = Pacing::kAsFastAsPossible}),
+                    std::move(daemon_chain), cache, hub);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.waitUntilDrained(std::chrono::seconds(10)));
+  EXPECT_EQ(pipeline.status().frames_out_of_order, 0u);
+  std::vector<std::string> served;
+  for (const auto& entry : cache.list())
+    served.push_back(canonicalDecimal(formatNsAsSeconds(entry.frame->timestamp_ns, 6)));
+
+  EXPECT_EQ(summary.frames, 3u);
+  EXPECT_EQ(summary.bad_frames, 2u);  // the two skipped lines, reported
+  EXPECT_THAT(analyzed, ::testing::ElementsAre("1700000000.0", "1700000000.1", "1700000000.2"));
+  EXPECT_EQ(served, analyzed);
 }
 
 TEST(Analyze, MissingRecordingThrows) {

@@ -331,7 +331,7 @@ TEST(RecordingImages, ImageFileLargerThanItsCameraAllowsIsRefused) {
   EXPECT_THAT(std::get<SourceError>(event).message, HasSubstr("limit"));
 }
 
-TEST(ReplayTime, DepthStampsThatGoBackAreSkippedForEveryReplayer) {
+TEST(ReplayTime, DepthStampsThatGoBackOrRepeatAreSkippedForEveryReplayer) {
   const auto dir = scratchDir("index_time_back");
   RecordingBuilder builder(dir);
   builder.writeCamera();
@@ -341,12 +341,15 @@ TEST(ReplayTime, DepthStampsThatGoBackAreSkippedForEveryReplayer) {
   }
   builder.finish();
   const TumIndex index = readTumIndex(dir);
-  ASSERT_EQ(index.problems.size(), 1u);
+  // Line 5 goes back; line 6 repeats the kept 0.2 (the daemon's cache refuses both).
+  ASSERT_EQ(index.problems.size(), 2u);
   EXPECT_THAT(index.problems[0], HasSubstr("depth.txt:5"));
-  ASSERT_EQ(index.depth.size(), 4u);  // a repeated stamp is kept: it does not go back
-  EXPECT_EQ(index.depth[2].seconds_text, "1600000000.200000");
+  EXPECT_THAT(index.problems[1], HasSubstr("depth.txt:6"));
+  EXPECT_THAT(index.problems[1], HasSubstr("not after the kept line's 1600000000.200000"));
+  ASSERT_EQ(index.depth.size(), 3u);
+  EXPECT_EQ(index.depth[2].seconds_text, "1600000000.300000");
   ReplaySource source(dir, fast());
-  EXPECT_EQ(source.frameCount(), 4u);
+  EXPECT_EQ(source.frameCount(), 3u);
 }
 
 TEST(ReplayTime, LoopingPastTheClockEndsWithOneError) {

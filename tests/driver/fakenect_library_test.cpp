@@ -95,6 +95,7 @@ TEST(FakenectLibrary, InnerFreenectSourceUnderFakenect) {
   FreenectOptions options;
   options.live.frame_timeout = 2s;
   options.live.reopen_interval = 200ms;
+  options.live.usb_hotplug = false;     // fakenect is no USB device: it is polled
   options.live.max_queued_frames = 64;  // the test reads more slowly than fakenect replays
   FreenectSource source(options);
   EXPECT_EQ(source.describe(), "freenect:0");

@@ -2,6 +2,7 @@
 // device: waiting for a sensor that is not plugged in, loss (error return and silence),
 // reopening, stamping across counter wraps and reconnects, queue overflow and stopping.
 
+#include "scripted_arrivals.h"
 #include "shapesense/driver/live_sources_device.h"
 #include "source_wait.h"
 
@@ -31,6 +32,7 @@ struct Script {
   std::vector<SessionScript> sessions;
   std::atomic<int> opens{0};
   std::atomic<int> sessions_alive{0};
+  std::vector<UsbId> usb_ids;  ///< the connector's usbIds()
 };
 
 class ScriptedSession final : public DeviceSession {
@@ -75,6 +77,7 @@ class ScriptedConnector final : public DeviceConnector {
   explicit ScriptedConnector(Script& script) : script_(script) {}
   std::string describe() const override { return "scripted"; }
   DeviceClockParams clockParams() const override { return {}; }
+  std::span<const UsbId> usbIds() const override { return script_.usb_ids; }
   std::unique_ptr<DeviceSession> open(std::string& why_not) override {
     const int attempt = script_.opens++;
     if (attempt < script_.absent_opens) {
@@ -221,6 +224,58 @@ TEST(LiveSource, StopsPromptlyWhileWaitingForTheSensor) {
   const auto start = std::chrono::steady_clock::now();
   source.reset();
   EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+}
+
+TEST(LiveSource, AnAbsentSensorIsReopenedWhenItIsPluggedIn) {
+  Script script;
+  script.absent_opens = 1;
+  script.sessions = {SessionScript{.frames = 2, .fail_at_end = false}};
+  script.usb_ids.assign(kKinectUsbIds.begin(), kKinectUsbIds.end());
+  auto arrivals = std::make_shared<testing::ScriptedArrivals>(true);
+  LiveSourceOptions options = fastOptions();
+  options.usb_arrivals = arrivals;
+  options.hotplug_poll_interval = std::chrono::hours(1);  // only an arrival can reopen it
+  LiveSource source(std::make_unique<ScriptedConnector>(script), options);
+  EXPECT_TRUE(source.hotplug());
+
+  auto absent = nextWithin(source, 2s);
+  ASSERT_TRUE(std::holds_alternative<SourceError>(absent));
+  EXPECT_NE(std::get<SourceError>(absent).message.find("when it is plugged in (USB hotplug)"),
+            std::string::npos)
+      << std::get<SourceError>(absent).message;
+  arrivals->plugIn({0x046d, 0xc52b});  // another device: the wait goes on
+  arrivals->plugIn({0x045e, 0x02ae});  // the Kinect's camera
+  ASSERT_TRUE(std::holds_alternative<Frame>(nextWithin(source, 5s)));
+  EXPECT_EQ(script.opens, 2);
+  EXPECT_EQ(source.connections(), 1u);
+}
+
+TEST(LiveSource, WithoutHotplugTheSensorIsPolled) {
+  Script script;
+  script.absent_opens = 2;
+  script.sessions = {SessionScript{.frames = 2, .fail_at_end = false}};
+  script.usb_ids.assign(kKinectUsbIds.begin(), kKinectUsbIds.end());
+  LiveSourceOptions options = fastOptions();
+  options.usb_arrivals = std::make_shared<testing::ScriptedArrivals>(false);
+  options.hotplug_poll_interval = std::chrono::hours(1);  // not used without hotplug
+  LiveSource source(std::make_unique<ScriptedConnector>(script), options);
+  EXPECT_FALSE(source.hotplug());
+  auto absent = nextWithin(source, 2s);
+  ASSERT_TRUE(std::holds_alternative<SourceError>(absent));
+  EXPECT_NE(std::get<SourceError>(absent).message.find("retrying every 50 ms"), std::string::npos)
+      << std::get<SourceError>(absent).message;
+  ASSERT_TRUE(std::holds_alternative<Frame>(nextWithin(source, 5s)));
+  EXPECT_EQ(script.opens, 3);
+}
+
+TEST(LiveSource, CountsLosses) {
+  Script script;
+  script.sessions = {SessionScript{.frames = 1}, SessionScript{.frames = 1}};
+  LiveSource source(std::make_unique<ScriptedConnector>(script), fastOptions());
+  for (int event = 0; event < 4; ++event) nextWithin(source, 2s);  // frame, loss, frame, loss
+  const SourceHealth health = source.health();
+  EXPECT_EQ(health.disconnects, 2u);
+  EXPECT_EQ(health.reconnects, 1u);
 }
 
 }  // namespace

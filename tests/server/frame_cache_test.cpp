@@ -114,13 +114,17 @@ TEST(FrameCache, SingleFrame) {
   EXPECT_EQ(std::get<LookupError>(before).kind, LookupError::Kind::kBeforeCache);
 }
 
-TEST(FrameCache, EqualTimestampsAreAcceptedAndTheLaterWins) {
+TEST(FrameCache, RepeatedTimestampIsRefusedAndTheFirstFrameStays) {
+  // Two frames at one T would make "the frame at T" ambiguous and hide the first from lookups.
   FrameCache cache(5);
   ASSERT_TRUE(cache.insert(frameAt(kT0, 0)));
   ASSERT_TRUE(cache.insert(frameAt(kT0 + kStep, 1)));
-  ASSERT_TRUE(cache.insert(frameAt(kT0 + kStep, 2)));  // non-decreasing is allowed
-  EXPECT_EQ(sequenceAt(cache, kT0 + kStep), 2u);
+  EXPECT_FALSE(cache.insert(frameAt(kT0 + kStep, 2)));
+  EXPECT_EQ(cache.range().frames, 2u);
+  EXPECT_FALSE(cache.bySequence(2).has_value());
+  EXPECT_EQ(sequenceAt(cache, kT0 + kStep), 1u);
   EXPECT_EQ(sequenceAt(cache, kT0 + kStep - 1), 0u);
+  EXPECT_TRUE(cache.insert(frameAt(kT0 + kStep + 1, 3)));
 }
 
 TEST(FrameCache, EvictsTheOldestAtCapacity) {

@@ -24,6 +24,8 @@ PipelineStatus knownStatus(SourceState state) {
   s.frames_processed = 1000;
   s.frames_skipped = 234;
   s.source_errors = 7;
+  s.frames_out_of_order = 5;
+  s.health.disconnects = 3;
   s.stages = {{"depth_stats", 1000, 1.5, 1.25, 2.75}, {"total", 1000, 1.75, 1.5, 3.0}};
   s.detectors = {"depth_stats"};
   return s;
@@ -45,6 +47,8 @@ TEST(GetStatus, ReportsThePipelineCountersAndTheCacheRange) {
   EXPECT_EQ(response.frames_processed(), 1000u);
   EXPECT_EQ(response.frames_skipped(), 234u);
   EXPECT_EQ(response.source_errors(), 7u);
+  EXPECT_EQ(response.frames_out_of_order(), 5u);
+  EXPECT_EQ(response.source_disconnects(), 3u);
   EXPECT_EQ(response.cache().frames(), 8u);
   EXPECT_EQ(response.cache().capacity(), 8u);
   EXPECT_EQ(response.cache().oldest_ns(), kServerT0 + 2 * kFramePeriodNs);

@@ -3,6 +3,12 @@
 // stamps to the microsecond, intrinsics); bad requests get the documented statuses; names that
 // would lead out of the root write nothing anywhere; a recording stops before the disk fills.
 
+#include <fcntl.h>
+#include <linux/fs.h>
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -161,6 +167,69 @@ TEST(Record, RefusesNamesThatLeadOutOfTheRecordingsRootAndWritesNothingOutside) 
   EXPECT_THAT(contents(scratch),
               ::testing::ElementsAre("outside", "root", "root/out-link", "root/slash"));
   EXPECT_FALSE(fs::exists("/tmp/escaped"));
+}
+
+/// Makes a directory unwritable for the daemon's user while it lives: immutable (mkdir in it
+/// fails with EPERM, even for root) where the file system and capabilities allow, else mode
+/// 0555 (EACCES, for users other than root). locked() is false when neither works.
+class UnwritableDir {
+ public:
+  explicit UnwritableDir(fs::path dir) : dir_(std::move(dir)) {
+    if (setImmutable(true)) {
+      how_ = How::kImmutable;
+    } else if (::geteuid() != 0 && ::chmod(dir_.c_str(), 0555) == 0) {
+      how_ = How::kMode;
+    }
+  }
+  ~UnwritableDir() {
+    if (how_ == How::kImmutable) setImmutable(false);
+    if (how_ == How::kMode) ::chmod(dir_.c_str(), 0755);
+  }
+  bool locked() const { return how_ != How::kNone; }
+
+ private:
+  enum class How { kNone, kImmutable, kMode };
+  bool setImmutable(bool on) {
+    const int fd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY);
+    if (fd < 0) return false;
+    int flags = 0;
+    bool done = ::ioctl(fd, FS_IOC_GETFLAGS, &flags) == 0;
+    if (done) {
+      flags = on ? flags | FS_IMMUTABLE_FL : flags & ~FS_IMMUTABLE_FL;
+      done = ::ioctl(fd, FS_IOC_SETFLAGS, &flags) == 0;
+    }
+    ::close(fd);
+    return done;
+  }
+  fs::path dir_;
+  How how_ = How::kNone;
+};
+
+TEST(Record, DirectoriesTheDaemonMayNotWriteArePermissionDenied) {
+  const fs::path scratch = testing::scratchDir("record_rpc_not_permitted");
+  RecordLimits limits;
+  limits.root = scratch / "root";
+  fs::create_directories(limits.root / "frozen");
+  fs::create_directories(limits.root / "open");
+  fs::create_directories(limits.root / "open" / "frozen-inside");
+  TestServer srv(4, {}, limits);
+  {
+    // A new directory under an unwritable one, and an existing empty one the daemon cannot
+    // write into (which used to be accepted and then fail at the first frame, or never).
+    UnwritableDir frozen(limits.root / "frozen");
+    UnwritableDir frozen_inside(limits.root / "open" / "frozen-inside");
+    if (!frozen.locked() || !frozen_inside.locked())
+      GTEST_SKIP() << "cannot make a directory unwritable here (root without FS_IMMUTABLE_FL)";
+    for (const std::string name : {"frozen/take-1", "open/frozen-inside"}) {
+      const grpc::Status status = recordOnce(srv, name, 0.2);
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::PERMISSION_DENIED)
+          << name << ": " << status.error_message();
+      EXPECT_THAT(status.error_message(), HasSubstr("the daemon may not")) << name;
+      EXPECT_THAT(status.error_message(), HasSubstr("--record-root")) << name;
+    }
+  }
+  EXPECT_FALSE(fs::exists(limits.root / "frozen" / "take-1"));
+  EXPECT_TRUE(fs::is_empty(limits.root / "open" / "frozen-inside"));
 }
 
 /// Records into `name` while one frame is added; the frames written, or -1 on an error status.

@@ -14,6 +14,7 @@ grpc::Status handleGetStatus(const ServiceContext& context, const v1::GetStatusR
   response->set_frames_processed(status.frames_processed);
   response->set_frames_skipped(status.frames_skipped);
   response->set_source_errors(status.source_errors);
+  response->set_frames_out_of_order(status.frames_out_of_order);
   toProto(context.cache.range(), response->mutable_cache());
   for (const auto& stage : status.stages) {
     auto* out = response->add_stages();
@@ -29,6 +30,7 @@ grpc::Status handleGetStatus(const ServiceContext& context, const v1::GetStatusR
   response->set_source_live(status.health.live);
   response->set_source_connected(status.health.connected);
   response->set_source_reconnects(status.health.reconnects);
+  response->set_source_disconnects(status.health.disconnects);
   response->set_source_dropped_frames(status.health.dropped_frames);
   return grpc::Status::OK;
 }

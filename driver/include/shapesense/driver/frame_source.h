@@ -34,6 +34,7 @@ struct SourceHealth {
   bool live = false;                 ///< a sensor that can be lost and reopened
   bool connected = true;             ///< open and delivering
   std::uint64_t reconnects = 0;      ///< times reopened after a loss
+  std::uint64_t disconnects = 0;     ///< times lost after being open (unplugged, failed, silent)
   std::uint64_t dropped_frames = 0;  ///< dropped because next() was not called fast enough
 };
 

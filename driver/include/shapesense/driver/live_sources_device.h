@@ -33,6 +33,7 @@
 #include "shapesense/driver/device_clock.h"
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/driver/live_sources_pairing.h"
+#include "shapesense/driver/usb_hotplug.h"
 
 namespace shapesense {
 
@@ -73,13 +74,25 @@ class DeviceConnector {
   virtual std::unique_ptr<DeviceSession> open(std::string& why_not) = 0;
   /// The device counter of DeviceImage::device_ticks.
   virtual DeviceClockParams clockParams() const = 0;
+  /// USB ids whose arrival may be this device coming back; empty: not a USB device (a file,
+  /// OpenNI2's Dummy), reopened by polling only.
+  virtual std::span<const UsbId> usbIds() const { return {}; }
 };
 
 struct LiveSourceOptions {
   /// No frame for this long from an open device counts as loss. Default 3 s.
   std::chrono::milliseconds frame_timeout{3000};
-  /// Pause between attempts to (re)open the device. Default 1 s.
+  /// Pause between attempts to (re)open the device, and the first pause after a loss. Default 1 s.
   std::chrono::milliseconds reopen_interval{1000};
+  /// Reopen an absent device when one of the connector's usbIds() is plugged in, at once. While
+  /// arrivals are reported, an absent device is also polled every hotplug_poll_interval (a
+  /// device the ids do not name); without them (see usb_hotplug.h) every reopen_interval.
+  /// Default on.
+  bool usb_hotplug = true;
+  /// Where arrivals come from (tests); null: libusb hotplug. Give each source its own.
+  std::shared_ptr<UsbArrivalEvents> usb_arrivals;
+  /// Default 10 s.
+  std::chrono::milliseconds hotplug_poll_interval{10000};
   /// Longest single wait inside DeviceSession::pump (bounds stop latency). Default 100 ms.
   std::chrono::milliseconds pump_budget{100};
   /// Frames queued for next(); when full the oldest is dropped (and counted). Default 4.
@@ -111,9 +124,11 @@ class LiveSource : public FrameSource {
   std::uint64_t connections() const { return connections_.load(); }
   /// Frames dropped because next() was not called fast enough.
   std::uint64_t droppedFrames() const { return dropped_.load(); }
+  /// Whether USB arrivals reopen the device (false: it is polled).
+  bool hotplug() const { return watcher_ && watcher_->hotplug(); }
   /// Last error reported (empty if none), for status displays.
   std::string lastError() const;
-  /// live, connected(), connections() - 1 (reopenings), droppedFrames().
+  /// live, connected(), connections() - 1 (reopenings), losses, droppedFrames().
   SourceHealth health() const override;
 
  private:
@@ -123,6 +138,9 @@ class LiveSource : public FrameSource {
   void emitFrames(std::vector<PairedImages> pairs, const CameraIntrinsics& intrinsics);
   void postError(std::string message);
   void sleepFor(std::chrono::milliseconds duration, const std::stop_token& stop);
+  /// Pauses before the next open attempt: `interval`, cut short by a watched USB arrival.
+  void waitToReopen(std::chrono::milliseconds interval, const std::stop_token& stop);
+  std::string reopenPolicy() const;
 
   std::unique_ptr<DeviceConnector> connector_;
   LiveSourceOptions options_;
@@ -142,9 +160,11 @@ class LiveSource : public FrameSource {
   std::uint64_t next_sequence_ = 0;  // assigned in next()
   std::atomic<bool> connected_{false};
   std::atomic<std::uint64_t> connections_{0};
+  std::atomic<std::uint64_t> disconnects_{0};
   std::atomic<std::uint64_t> dropped_{0};
   std::mutex sleep_mutex_;  // only for the device thread's stop-aware pauses
   std::condition_variable_any sleep_cv_;
+  std::unique_ptr<DeviceWatcher> watcher_;  // null: no USB ids, or hotplug off
 
   std::jthread thread_;  // last: stopped and joined first on destruction
 };

@@ -32,9 +32,9 @@ struct TumIndexEntry {
 };
 
 /// Parsed depth.txt / rgb.txt of a recording. Malformed lines are reported in `problems`
-/// (with file and line number) and skipped, and so are depth lines stamped before an earlier
-/// depth line: time never goes back in a replay, whoever replays it (the daemon's cache would
-/// drop such frames, `analyze` would not).
+/// (with file and line number) and skipped, and so are depth lines not stamped after the last
+/// kept depth line (stampFollows, core/timestamp.h, the daemon cache's rule): time never goes
+/// back or stands still in a replay, so the daemon and `shapesense analyze` see the same frames.
 struct TumIndex {
   RecordingCamera camera;
   std::vector<TumIndexEntry> depth;  ///< in file order
@@ -48,7 +48,7 @@ struct TumIndex {
 TumIndex readTumIndex(const std::filesystem::path& dir);
 
 /// Parses the text of an index file (`label` names it in problems). With `in_time_order`,
-/// lines stamped before the latest kept line are problems too.
+/// lines not stamped after the latest kept line are problems too.
 std::vector<TumIndexEntry> parseTumIndexText(std::string_view text, const std::string& label,
                                              bool in_time_order,
                                              std::vector<std::string>& problems);

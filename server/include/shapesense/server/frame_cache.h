@@ -53,8 +53,9 @@ class FrameCache {
 
   explicit FrameCache(std::size_t capacity = kDefaultCapacity);
 
-  /// Adds the newest frame, evicting the oldest when full. Frames must arrive in
-  /// non-decreasing capture time; an older one is rejected (returns false).
+  /// Adds the newest frame, evicting the oldest when full. Capture times must increase: a
+  /// frame stamped at or before the newest cached one is rejected (returns false), so "the
+  /// frame at T" is always one frame and what is cached is never reordered or replaced.
   bool insert(std::shared_ptr<const Frame> frame);
 
   /// Attaches detector results to the cached frame with this sequence number. Returns false
@@ -76,7 +77,7 @@ class FrameCache {
  private:
   std::size_t capacity_;
   mutable std::mutex mutex_;
-  std::deque<CachedFrame> entries_;  // oldest first; capture times non-decreasing
+  std::deque<CachedFrame> entries_;  // oldest first; capture times strictly increasing
 };
 
 }  // namespace shapesense

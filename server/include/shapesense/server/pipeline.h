@@ -36,6 +36,9 @@ struct PipelineStatus {
   std::uint64_t frames_processed = 0;
   std::uint64_t frames_skipped = 0;
   std::uint64_t source_errors = 0;
+  /// Frames the cache refused: stamped at or before the newest cached frame (a clock that
+  /// jumped back or repeated). Not in frames_received.
+  std::uint64_t frames_out_of_order = 0;
   std::vector<LatencySummary> stages;  ///< per stage, plus "total" for the whole chain
   std::vector<std::string> detectors;
   SourceHealth health;  ///< the source's sensor state (FrameSource::health())
@@ -100,6 +103,8 @@ class Pipeline {
   std::atomic<std::uint64_t> processed_{0};
   std::atomic<std::uint64_t> skipped_{0};
   std::atomic<std::uint64_t> source_errors_{0};
+  std::atomic<std::uint64_t> out_of_order_{0};
+  std::uint64_t out_of_order_run_ = 0;  // capture thread only: consecutive refused frames
 
   std::jthread capture_thread_;
   std::jthread detect_thread_;

@@ -35,9 +35,10 @@ std::filesystem::path defaultRecordRoot();
 /// Resolves the client's `name` under `root` and creates the directories it names that do not
 /// exist yet (inside the root only). On OK `dir` is the recording's directory, absolute,
 /// existing and empty. INVALID_ARGUMENT: name empty, absolute, with a `..` component, or naming
-/// the root itself; PERMISSION_DENIED: a symbolic link on the way leads out of the root, or a
-/// directory cannot be created; FAILED_PRECONDITION: the root is missing, or something on the
-/// way exists and is not a directory, or the directory is not empty.
+/// the root itself; PERMISSION_DENIED: a symbolic link on the way leads out of the root, or the
+/// daemon's user may not create, read or write a directory on the way (EACCES, EPERM, EROFS);
+/// FAILED_PRECONDITION: the root is missing, or something on the way exists and is not a
+/// directory, or the directory is not empty, or another file-system error.
 grpc::Status makeRecordingDir(const std::filesystem::path& root, const std::string& name,
                               std::filesystem::path& dir);
 
