@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "segmentation/segmentation_kernels.h"
+#include "shapesense/core/geometry/units.h"
 
 namespace shapesense::segmentation {
 
@@ -78,7 +79,7 @@ cv::Mat normalEdges(const WorkingImage& w, const NormalAngleEdgeParams& p, bool 
   cv::Mat normals;
   est.compute(w.depth, w.intr, normals);
   const int r = std::clamp(p.window_radius, 1, 7);
-  const float cos_t = static_cast<float>(std::cos(p.max_angle_deg * CV_PI / 180.0));
+  const float cos_t = static_cast<float>(std::cos(degToRad(p.max_angle_deg)));
   const int full = (2 * r + 1) * (2 * r + 1) - 1;
   cv::Mat edges(rows, cols, CV_8UC1);
   std::vector<std::uint8_t> acc(cols);
