@@ -149,9 +149,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   std::string segmentation = "depth_step";
   app.add_option("--segmentation", segmentation,
-                 "Segmentation run on every frame: " + listSegmentationMethods(", ") + " or none")
+                 "Segmentation run on every frame: " + shapesense::listSegmentationMethods(", ") +
+                     " or none")
       ->check(CLI::IsMember([] {
-        auto choices = segmentationMethodNames();
+        auto choices = shapesense::segmentationMethodNames();
         choices.emplace_back("none");
         return choices;
       }()))
