@@ -23,10 +23,12 @@ void addAnalyzeCommand(CLI::App& app) {
   cmd->add_option("--out", args->out, "Output directory")->required();
   cmd->add_flag("--quiet", args->quiet, "No progress line");
   cmd->add_option("--segmentation", args->segmentation,
-                  "Segmentation method: depth_step, normal_edges, fused, plane_prediction, "
-                  "tiled_ransac or none")
-      ->check(CLI::IsMember(
-          {"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
+                  "Segmentation method: " + listSegmentationMethods(", ") + " or none")
+      ->check(CLI::IsMember([] {
+        auto choices = segmentationMethodNames();
+        choices.emplace_back("none");
+        return choices;
+      }()))
       ->capture_default_str();
   cmd->add_option("--planes", args->planes, "Plane detector: hough, ransac or none")
       ->check(CLI::IsMember({"hough", "ransac", "none"}))

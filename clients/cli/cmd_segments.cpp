@@ -6,6 +6,7 @@
 #include "commands.h"
 #include "overlay.h"
 #include "shapesense/core/geometry/timestamp.h"
+#include "shapesense/core/segmentation/segmentation.h"
 #include "time_arg.h"
 
 namespace shapesense::cli {
@@ -21,9 +22,7 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<Args>();
   cmd->add_option("--at", args->at,
                   "T in seconds (default: the newest frame the detectors processed)");
-  cmd->add_option("--method", args->method,
-                  "depth_step, normal_edges, fused, plane_prediction or tiled_ransac "
-                  "(default: the daemon's)");
+  cmd->add_option("--method", args->method, listSegmentationMethods() + " (default: the daemon's)");
   cmd->add_option("--out", args->out,
                   "Write the region image (16-bit PNG) here, and a colour overlay beside it as "
                   "<name>.overlay.png");

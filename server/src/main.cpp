@@ -149,10 +149,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   std::string segmentation = "depth_step";
   app.add_option("--segmentation", segmentation,
-                 "Segmentation run on every frame: depth_step, normal_edges, fused, "
-                 "plane_prediction, tiled_ransac or none")
-      ->check(CLI::IsMember(
-          {"depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac", "none"}))
+                 "Segmentation run on every frame: " + shapesense::listSegmentationMethods(", ") +
+                     " or none")
+      ->check(CLI::IsMember([] {
+        auto choices = shapesense::segmentationMethodNames();
+        choices.emplace_back("none");
+        return choices;
+      }()))
       ->capture_default_str();
   std::string planes = "hough";
   app.add_option("--planes", planes, "Plane detector run on every frame: hough, ransac or none")

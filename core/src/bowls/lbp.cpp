@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include <emmintrin.h>
-
 #include <opencv2/imgproc.hpp>
+
+#include "bowls/bowl_preprocess_kernels.h"
 
 namespace shapesense {
 
@@ -45,55 +45,6 @@ cv::Mat lbpIntegral(const cv::Mat& image8) {
 
 namespace {
 
-/// Codes of 8 consecutive grid positions (SSE2, 16-bit lanes): bit k of lane i is set when
-/// neighbour k of position i has a sum >= its centre's.
-template <int CW>
-__m128i codesOfEight(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2) {
-  auto load = [](const std::int16_t* p) {
-    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
-  };
-  const __m128i centre = load(r1 + CW);
-  auto bit = [&centre](const __m128i neighbour, int k) {
-    // not (neighbour < centre) = neighbour >= centre
-    return _mm_andnot_si128(_mm_cmplt_epi16(neighbour, centre),
-                            _mm_set1_epi16(static_cast<short>(1 << k)));
-  };
-  const __m128i top =
-      _mm_or_si128(_mm_or_si128(bit(load(r0), 0), bit(load(r0 + CW), 1)),
-                   _mm_or_si128(bit(load(r0 + 2 * CW), 2), bit(load(r1 + 2 * CW), 3)));
-  const __m128i bottom =
-      _mm_or_si128(_mm_or_si128(bit(load(r2 + 2 * CW), 4), bit(load(r2 + CW), 5)),
-                   _mm_or_si128(bit(load(r2), 6), bit(load(r1), 7)));
-  return _mm_or_si128(top, bottom);
-}
-
-/// Codes of one row of grid positions from the cell sums of the grid's three cell rows (`r0`,
-/// `r1`, `r2`: sums of cells starting at each x), for `out_cols` positions.
-template <int CW>
-void codeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2,
-             std::uint8_t* out, int out_cols) {
-  int x = 0;
-  // 16 positions per step by hand: the compiler's vectorisation packed every comparison to
-  // bytes and shifted it into place with k additions, about a third more instructions.
-  for (; x + 16 <= out_cols; x += 16) {
-    const __m128i low = codesOfEight<CW>(r0 + x, r1 + x, r2 + x);
-    const __m128i high = codesOfEight<CW>(r0 + x + 8, r1 + x + 8, r2 + x + 8);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + x), _mm_packus_epi16(low, high));
-  }
-  for (; x < out_cols; ++x) {
-    const std::int16_t c = r1[x + CW];
-    // Bit k for neighbour k, clockwise from the top-left (see the header).
-    const unsigned code =
-        static_cast<unsigned>(r0[x] >= c) | static_cast<unsigned>(r0[x + CW] >= c) << 1 |
-        static_cast<unsigned>(r0[x + 2 * CW] >= c) << 2 |
-        static_cast<unsigned>(r1[x + 2 * CW] >= c) << 3 |
-        static_cast<unsigned>(r2[x + 2 * CW] >= c) << 4 |
-        static_cast<unsigned>(r2[x + CW] >= c) << 5 | static_cast<unsigned>(r2[x] >= c) << 6 |
-        static_cast<unsigned>(r1[x] >= c) << 7;
-    out[x] = static_cast<std::uint8_t>(code);
-  }
-}
-
 /// Sums of the CW x CH cells starting at each x of pixel row `y` (cols - CW + 1 of them).
 template <int CW, int CH>
 void cellSumRowFromPixels(const cv::Mat& image8, int y, std::int16_t* out) {
@@ -132,7 +83,7 @@ void codesFromPixels(const cv::Mat& image8, cv::Mat& codes, const std::uint8_t* 
     next_sum_row = std::max(next_sum_row, y);
     for (; next_sum_row <= y + 2 * CH; ++next_sum_row)
       cellSumRowFromPixels<CW, CH>(image8, next_sum_row, ringRow(next_sum_row));
-    codeRow<CW>(ringRow(y), ringRow(y + CH), ringRow(y + 2 * CH), out, out_cols);
+    bowls::lbpCodeRow(ringRow(y), ringRow(y + CH), ringRow(y + 2 * CH), CW, out, out_cols);
     std::fill(out + out_cols, out + codes.cols, std::uint8_t{0});
   }
   for (int y = std::max(out_rows, 0); y < codes.rows; ++y) codes.row(y).setTo(0);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <unordered_map>
 
@@ -13,12 +14,15 @@ namespace {
 // an object and the wall behind it only meet across a depth step). Pairs are collected flat and
 // deduplicated once: most pixel pairs lie inside one segment, and the boundary pairs repeat.
 std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
-    const cv::Mat& labels, const cv::Mat& depth_mm, const KinectNoiseModel& noise) {
+    const cv::Mat& labels, const cv::Mat& depth_mm, const ObjectBoxParams& params) {
+  const KinectNoiseModel& noise = params.estimation.noise;
   std::vector<std::uint32_t> pairs;
   const auto consider = [&](std::uint16_t a, std::uint16_t b, std::uint16_t za, std::uint16_t zb) {
     if (a == b || a == 0 || b == 0 || za == 0 || zb == 0) return;
     const double z = 1e-3 * std::min(za, zb);
-    if (std::abs(za - zb) * 1e-3 > 0.01 + 3 * noise.depthStep(z)) return;
+    const double max_step_m =
+        params.continuity_floor_m + params.continuity_noise_steps * noise.depthStep(z);
+    if (std::abs(za - zb) * 1e-3 > max_step_m) return;
     pairs.push_back(static_cast<std::uint32_t>(std::min(a, b)) << 16 | std::max(a, b));
   };
   for (int v = 0; v + 1 < labels.rows; ++v) {
@@ -43,26 +47,33 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
   return neighbours;
 }
 
-}  // namespace
-
-std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
-                                              const CameraIntrinsics& intrinsics,
-                                              const cv::Mat& segment_labels,
-                                              const std::vector<SegmentStatistics>& segments,
-                                              const PlaneDetection& planes,
-                                              const ObjectBoxParams& params) {
-  CV_Assert(segment_labels.type() == CV_16UC1 && planes.labels.type() == CV_16UC1);
-  CV_Assert(segment_labels.size() == depth_mm.size() && planes.labels.size() == depth_mm.size());
-  const double image_pixels = static_cast<double>(depth_mm.total());
+// What the steps below share: the inputs and the lookups by id.
+struct ObjectSearch {
+  const cv::Mat& depth_mm;
+  const cv::Mat& segment_labels;
+  const std::vector<SegmentStatistics>& segments;
+  const PlaneDetection& planes;
+  const ObjectBoxParams& params;
+  double image_pixels = 0;
   std::unordered_map<std::uint16_t, const DetectedPlane*> plane_by_id;
-  for (const auto& plane : planes.planes) plane_by_id[plane.id] = &plane;
   std::unordered_map<std::uint16_t, const SegmentStatistics*> segment_by_id;
-  for (const auto& segment : segments) segment_by_id[segment.id] = &segment;
+
+  ObjectSearch(const cv::Mat& depth, const cv::Mat& labels,
+               const std::vector<SegmentStatistics>& segment_stats, const PlaneDetection& detection,
+               const ObjectBoxParams& p)
+      : depth_mm(depth),
+        segment_labels(labels),
+        segments(segment_stats),
+        planes(detection),
+        params(p),
+        image_pixels(static_cast<double>(depth.total())) {
+    for (const auto& plane : planes.planes) plane_by_id[plane.id] = &plane;
+    for (const auto& segment : segments) segment_by_id[segment.id] = &segment;
+  }
 
   // Whether a segment can be part of an object above `support`: not too big, in front of the
   // plane, and not mostly the plane itself.
-  const auto partOfObjectAbove = [&](const SegmentStatistics& segment,
-                                     const DetectedPlane& support) {
+  bool partOfObjectAbove(const SegmentStatistics& segment, const DetectedPlane& support) const {
     if (segment.pixels > params.max_image_fraction * image_pixels) return false;
     if (support.normal.dot(segment.centroid) + support.d < params.min_height_m) return false;
     int on_support = 0;
@@ -74,102 +85,147 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
         on_support += seg[u] == segment.id && pl[u] == support.id;
     }
     return on_support <= params.max_support_overlap * segment.pixels;
-  };
-
-  // 1. Segments whose bottom edge rests on a plane region: the seeds of objects. The planes the
-  //    segment itself lies on (a box face is a plane too, and its region may reach past the
-  //    segment's edge) are looked through, not taken as support.
-  std::map<std::uint16_t, const DetectedPlane*> standing;
-  for (const auto& segment : segments) {
-    // Structure (walls, floor, the table itself) is never an object; checking first spares
-    // scanning its large bounding box.
-    if (segment.pixels > params.max_image_fraction * image_pixels) continue;
-    const cv::Rect r = segment.box;
-    std::map<std::uint16_t, int> own_overlap;
-    for (int v = r.y; v < r.y + r.height; ++v) {
-      const auto* seg = segment_labels.ptr<std::uint16_t>(v);
-      const auto* pl = planes.labels.ptr<std::uint16_t>(v);
-      for (int u = r.x; u < r.x + r.width; ++u) {
-        if (seg[u] == segment.id && pl[u] != 0) ++own_overlap[pl[u]];
-      }
-    }
-    const auto isOwnPlane = [&](std::uint16_t plane) {
-      const auto it = own_overlap.find(plane);
-      return it != own_overlap.end() && it->second > params.max_support_overlap * segment.pixels;
-    };
-    std::map<std::uint16_t, int> support_votes;
-    int columns = 0;
-    for (int u = r.x; u < r.x + r.width; ++u) {
-      int lowest = -1;
-      for (int v = r.y + r.height - 1; v >= r.y; --v) {
-        if (segment_labels.at<std::uint16_t>(v, u) == segment.id) {
-          lowest = v;
-          break;
-        }
-      }
-      if (lowest < 0) continue;
-      ++columns;
-      const int last = std::min(depth_mm.rows - 1, lowest + params.support_search_px);
-      for (int v = lowest + 1; v <= last; ++v) {
-        const std::uint16_t plane = planes.labels.at<std::uint16_t>(v, u);
-        if (plane != 0 && !isOwnPlane(plane) &&
-            segment_labels.at<std::uint16_t>(v, u) != segment.id) {
-          ++support_votes[plane];
-          break;
-        }
-      }
-    }
-    if (columns == 0 || support_votes.empty()) continue;
-    const auto best =
-        std::max_element(support_votes.begin(), support_votes.end(),
-                         [](const auto& a, const auto& b) { return a.second < b.second; });
-    if (best->second < params.min_support_fraction * columns) continue;
-    const auto plane_it = plane_by_id.find(best->first);
-    if (plane_it == plane_by_id.end() || !partOfObjectAbove(segment, *plane_it->second)) continue;
-    standing[segment.id] = plane_it->second;
   }
+};
 
-  // 2. An object is a seed plus the segments joined to it without a depth step that also lie
-  //    above the same plane (a box's top face rests on its front face, not on the table).
-  const auto neighbours = continuousNeighbours(segment_labels, depth_mm, params.estimation.noise);
+// Pixels of each plane region inside the segment.
+std::map<std::uint16_t, int> ownPlaneOverlap(const ObjectSearch& s,
+                                             const SegmentStatistics& segment) {
+  std::map<std::uint16_t, int> own_overlap;
+  const cv::Rect r = segment.box;
+  for (int v = r.y; v < r.y + r.height; ++v) {
+    const auto* seg = s.segment_labels.ptr<std::uint16_t>(v);
+    const auto* pl = s.planes.labels.ptr<std::uint16_t>(v);
+    for (int u = r.x; u < r.x + r.width; ++u) {
+      if (seg[u] == segment.id && pl[u] != 0) ++own_overlap[pl[u]];
+    }
+  }
+  return own_overlap;
+}
+
+// The plane the segment's columns reach first below its lowest pixel (within
+// support_search_px), looking through the planes the segment itself lies on (a box face is a
+// plane too, and its region may reach past the segment's edge); nullptr when too few reach one.
+const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentStatistics& segment) {
+  const ObjectBoxParams& params = s.params;
+  const std::map<std::uint16_t, int> own_overlap = ownPlaneOverlap(s, segment);
+  const auto isOwnPlane = [&](std::uint16_t plane) {
+    const auto it = own_overlap.find(plane);
+    return it != own_overlap.end() && it->second > params.max_support_overlap * segment.pixels;
+  };
+  const cv::Rect r = segment.box;
+  std::map<std::uint16_t, int> support_votes;
+  int columns = 0;
+  for (int u = r.x; u < r.x + r.width; ++u) {
+    int lowest = -1;
+    for (int v = r.y + r.height - 1; v >= r.y; --v) {
+      if (s.segment_labels.at<std::uint16_t>(v, u) == segment.id) {
+        lowest = v;
+        break;
+      }
+    }
+    if (lowest < 0) continue;
+    ++columns;
+    const int last = std::min(s.depth_mm.rows - 1, lowest + params.support_search_px);
+    for (int v = lowest + 1; v <= last; ++v) {
+      const std::uint16_t plane = s.planes.labels.at<std::uint16_t>(v, u);
+      if (plane != 0 && !isOwnPlane(plane) &&
+          s.segment_labels.at<std::uint16_t>(v, u) != segment.id) {
+        ++support_votes[plane];
+        break;
+      }
+    }
+  }
+  if (columns == 0 || support_votes.empty()) return nullptr;
+  const auto best =
+      std::max_element(support_votes.begin(), support_votes.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  if (best->second < params.min_support_fraction * columns) return nullptr;
+  const auto plane_it = s.plane_by_id.find(best->first);
+  return plane_it == s.plane_by_id.end() ? nullptr : plane_it->second;
+}
+
+// Step 1: segments whose bottom edge rests on a plane region, the seeds of objects, with their
+// support plane. Structure (walls, floor, the table itself) is never an object; checking size
+// first spares scanning its large bounding box.
+std::map<std::uint16_t, const DetectedPlane*> standingSegments(const ObjectSearch& s) {
+  std::map<std::uint16_t, const DetectedPlane*> standing;
+  for (const auto& segment : s.segments) {
+    if (segment.pixels > s.params.max_image_fraction * s.image_pixels) continue;
+    const DetectedPlane* support = supportBelow(s, segment);
+    if (support && s.partOfObjectAbove(segment, *support)) standing[segment.id] = support;
+  }
+  return standing;
+}
+
+// Step 2: the seed plus the segments joined to it without a depth step that also lie above the
+// same plane (a box's top face rests on its front face, not on the table).
+std::vector<std::uint16_t> objectGroup(
+    const ObjectSearch& s, std::uint16_t seed, const DetectedPlane* support,
+    const std::map<std::uint16_t, const DetectedPlane*>& standing,
+    const std::map<std::uint16_t, std::set<std::uint16_t>>& neighbours,
+    std::set<std::uint16_t>& taken) {
+  std::vector<std::uint16_t> group{seed}, frontier{seed};
+  taken.insert(seed);
+  while (!frontier.empty()) {
+    const std::uint16_t id = frontier.back();
+    frontier.pop_back();
+    const auto it = neighbours.find(id);
+    if (it == neighbours.end()) continue;
+    for (std::uint16_t next : it->second) {
+      if (taken.count(next) || !s.segment_by_id.count(next)) continue;
+      const auto standing_it = standing.find(next);
+      if (standing_it != standing.end() && standing_it->second != support) continue;
+      if (!s.partOfObjectAbove(*s.segment_by_id.at(next), *support)) continue;
+      taken.insert(next);
+      group.push_back(next);
+      frontier.push_back(next);
+    }
+  }
+  return group;
+}
+
+// Step 3: the box of a group's joint bounds, if the group and its box have an object's size.
+std::optional<ObjectBox> boxOfGroup(const ObjectSearch& s, const CameraIntrinsics& intrinsics,
+                                    const std::vector<std::uint16_t>& group,
+                                    const DetectedPlane& support) {
+  cv::Rect roi;
+  int pixels = 0;
+  for (std::uint16_t id : group) {
+    roi = roi.area() == 0 ? s.segment_by_id.at(id)->box : (roi | s.segment_by_id.at(id)->box);
+    pixels += s.segment_by_id.at(id)->pixels;
+  }
+  const double fraction = pixels / s.image_pixels;
+  if (fraction < s.params.min_image_fraction || fraction > s.params.max_image_fraction) return {};
+  auto estimate = estimateBox(s.depth_mm, intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
+                              s.params.mode, s.params.estimation);
+  auto* box = std::get_if<BoxEstimate>(&estimate);
+  if (!box) return {};
+  const auto& c = box->corners;
+  const double size = std::max({(c[1] - c[0]).norm(), (c[3] - c[0]).norm(), (c[4] - c[0]).norm()});
+  if (size > s.params.max_size_m) return {};
+  return ObjectBox{group.front(), support.id, roi, *box};
+}
+
+}  // namespace
+
+std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
+                                              const CameraIntrinsics& intrinsics,
+                                              const cv::Mat& segment_labels,
+                                              const std::vector<SegmentStatistics>& segments,
+                                              const PlaneDetection& planes,
+                                              const ObjectBoxParams& params) {
+  CV_Assert(segment_labels.type() == CV_16UC1 && planes.labels.type() == CV_16UC1);
+  CV_Assert(segment_labels.size() == depth_mm.size() && planes.labels.size() == depth_mm.size());
+  const ObjectSearch search(depth_mm, segment_labels, segments, planes, params);
+  const auto standing = standingSegments(search);
+  const auto neighbours = continuousNeighbours(segment_labels, depth_mm, params);
   std::set<std::uint16_t> taken;
   std::vector<ObjectBox> boxes;
   for (const auto& [seed, support] : standing) {
     if (taken.count(seed)) continue;
-    std::vector<std::uint16_t> group{seed}, frontier{seed};
-    taken.insert(seed);
-    while (!frontier.empty()) {
-      const std::uint16_t id = frontier.back();
-      frontier.pop_back();
-      const auto it = neighbours.find(id);
-      if (it == neighbours.end()) continue;
-      for (std::uint16_t next : it->second) {
-        if (taken.count(next) || !segment_by_id.count(next)) continue;
-        const auto standing_it = standing.find(next);
-        if (standing_it != standing.end() && standing_it->second != support) continue;
-        if (!partOfObjectAbove(*segment_by_id.at(next), *support)) continue;
-        taken.insert(next);
-        group.push_back(next);
-        frontier.push_back(next);
-      }
-    }
-    cv::Rect roi;
-    int pixels = 0;
-    for (std::uint16_t id : group) {
-      roi = roi.area() == 0 ? segment_by_id.at(id)->box : (roi | segment_by_id.at(id)->box);
-      pixels += segment_by_id.at(id)->pixels;
-    }
-    const double fraction = pixels / image_pixels;
-    if (fraction < params.min_image_fraction || fraction > params.max_image_fraction) continue;
-    auto estimate = estimateBox(depth_mm, intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
-                                params.mode, params.estimation);
-    auto* box = std::get_if<BoxEstimate>(&estimate);
-    if (!box) continue;
-    const auto& c = box->corners;
-    const double size =
-        std::max({(c[1] - c[0]).norm(), (c[3] - c[0]).norm(), (c[4] - c[0]).norm()});
-    if (size > params.max_size_m) continue;
-    boxes.push_back({seed, support->id, roi, *box});
+    const auto group = objectGroup(search, seed, support, standing, neighbours, taken);
+    if (auto box = boxOfGroup(search, intrinsics, group, *support)) boxes.push_back(*box);
   }
   return boxes;
 }

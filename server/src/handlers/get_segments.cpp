@@ -14,9 +14,9 @@ grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegme
   if (!request.method().empty()) {
     wanted = parseSegmentationMethod(request.method());
     if (!wanted) {
-      return {grpc::StatusCode::INVALID_ARGUMENT,
-              "unknown segmentation method '" + request.method() +
-                  "': use depth_step, normal_edges, fused, plane_prediction or tiled_ransac"};
+      return {grpc::StatusCode::INVALID_ARGUMENT, "unknown segmentation method '" +
+                                                      request.method() + "': use " +
+                                                      listSegmentationMethods()};
     }
   }
   CachedFrame entry;

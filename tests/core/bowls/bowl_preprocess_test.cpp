@@ -1,4 +1,6 @@
 // Depth preprocessing of the bowl detector: recursive median fill and the 8-bit mapping.
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shapesense/core/bowls/depth_preprocess.h"
+#include "simd_targets.h"
 
 namespace shapesense {
 namespace {
@@ -103,86 +106,93 @@ int referenceFill(cv::Mat& d, int passes) {
 }
 
 TEST(BowlPreprocess, FillEqualsTheReferenceOnRandomHoles) {
-  std::mt19937 rng(7);
-  for (int trial = 0; trial < 40; ++trial) {
-    // Odd sizes (row tails shorter than a SIMD block), a view into a larger image (rows not
-    // contiguous), values up to 65535, holes from single pixels to most of the image.
-    const int rows = 1 + static_cast<int>(rng() % 40), cols = 1 + static_cast<int>(rng() % 45);
-    cv::Mat big(rows + 2, cols + 5, CV_16UC1);
-    cv::Mat d = big(cv::Rect(3, 1, cols, rows));
-    const double hole_fraction = (trial % 5) * 0.22;
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (int r = 0; r < big.rows; ++r)
-      for (int c = 0; c < big.cols; ++c) {
-        const bool extreme = rng() % 10 == 0;
-        big.at<std::uint16_t>(r, c) =
-            static_cast<std::uint16_t>(extreme ? 65535 - rng() % 2 : 400 + rng() % 40);
+  testing::forEachSimdTarget([&](const std::string& target) {
+    SCOPED_TRACE(target);
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 40; ++trial) {
+      // Odd sizes (row tails shorter than a SIMD block), a view into a larger image (rows not
+      // contiguous), values up to 65535, holes from single pixels to most of the image.
+      const int rows = 1 + static_cast<int>(rng() % 40), cols = 1 + static_cast<int>(rng() % 45);
+      cv::Mat big(rows + 2, cols + 5, CV_16UC1);
+      cv::Mat d = big(cv::Rect(3, 1, cols, rows));
+      const double hole_fraction = (trial % 5) * 0.22;
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      for (int r = 0; r < big.rows; ++r)
+        for (int c = 0; c < big.cols; ++c) {
+          const bool extreme = rng() % 10 == 0;
+          big.at<std::uint16_t>(r, c) =
+              static_cast<std::uint16_t>(extreme ? 65535 - rng() % 2 : 400 + rng() % 40);
+        }
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c)
+          if (u(rng) < hole_fraction) d.at<std::uint16_t>(r, c) = 0;
+      if (trial % 2 == 1) {  // a large empty region too, like a room that reads no depth
+        const int x0 = static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                  y0 = static_cast<int>(rng() % static_cast<unsigned>(rows));
+        d(cv::Rect(x0, y0, cols - x0, rows - y0)).setTo(0);
       }
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c)
-        if (u(rng) < hole_fraction) d.at<std::uint16_t>(r, c) = 0;
-    if (trial % 2 == 1) {  // a large empty region too, like a room that reads no depth
-      const int x0 = static_cast<int>(rng() % static_cast<unsigned>(cols)),
-                y0 = static_cast<int>(rng() % static_cast<unsigned>(rows));
-      d(cv::Rect(x0, y0, cols - x0, rows - y0)).setTo(0);
+      for (const int passes : {1, 2, 3}) {
+        cv::Mat want = d.clone(), got_big = big.clone();
+        cv::Mat got = got_big(cv::Rect(3, 1, cols, rows));
+        const int want_left = referenceFill(want, passes);
+        EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
+        EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
+        // Outside the view untouched.
+        got(cv::Rect(0, 0, cols, rows)).setTo(0);
+        cv::Mat orig_outside = big.clone();
+        orig_outside(cv::Rect(3, 1, cols, rows)).setTo(0);
+        EXPECT_EQ(cv::countNonZero(got_big != orig_outside), 0) << trial << " " << passes;
+      }
     }
-    for (const int passes : {1, 2, 3}) {
-      cv::Mat want = d.clone(), got_big = big.clone();
-      cv::Mat got = got_big(cv::Rect(3, 1, cols, rows));
-      const int want_left = referenceFill(want, passes);
-      EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
-      EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
-      // Outside the view untouched.
-      got(cv::Rect(0, 0, cols, rows)).setTo(0);
-      cv::Mat orig_outside = big.clone();
-      orig_outside(cv::Rect(3, 1, cols, rows)).setTo(0);
-      EXPECT_EQ(cv::countNonZero(got_big != orig_outside), 0) << trial << " " << passes;
-    }
-  }
+  });
 }
 
 // Larger frames than above (many 8-pixel blocks per row, interior and border blocks) with
 // Kinect-like content: smooth surfaces with noise, scattered dropouts, large shadow and
 // out-of-range regions, rows and columns that read nothing, and extreme values.
 TEST(BowlPreprocess, FillEqualsTheReferenceOnLargeFramesWithLargeHoles) {
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int trial = 0; trial < 24; ++trial) {
-    const int rows = 20 + static_cast<int>(rng() % 100), cols = 20 + static_cast<int>(rng() % 150);
-    cv::Mat d(rows, cols, CV_16UC1);
-    const double gx = u(rng) * 20 - 10, gy = u(rng) * 20 - 10;
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c) {
-        double v = 1500 + gx * c + gy * r + static_cast<double>(rng() % 7);
-        if (trial % 4 == 3 && rng() % 8 == 0) v = 65535 - rng() % 3;  // extreme readings
-        if (trial % 4 == 2 && rng() % 8 == 0) v = 1 + rng() % 3;
-        d.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(std::clamp(v, 1.0, 65535.0));
+  testing::forEachSimdTarget([&](const std::string& target) {
+    SCOPED_TRACE(target);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int trial = 0; trial < 24; ++trial) {
+      const int rows = 20 + static_cast<int>(rng() % 100),
+                cols = 20 + static_cast<int>(rng() % 150);
+      cv::Mat d(rows, cols, CV_16UC1);
+      const double gx = u(rng) * 20 - 10, gy = u(rng) * 20 - 10;
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c) {
+          double v = 1500 + gx * c + gy * r + static_cast<double>(rng() % 7);
+          if (trial % 4 == 3 && rng() % 8 == 0) v = 65535 - rng() % 3;  // extreme readings
+          if (trial % 4 == 2 && rng() % 8 == 0) v = 1 + rng() % 3;
+          d.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(std::clamp(v, 1.0, 65535.0));
+        }
+      // A few step edges between surfaces.
+      d(cv::Rect(0, rows / 3, cols, rows / 3)) += 400;
+      // Scattered dropouts, then large holes of random shape (rectangles and discs).
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c)
+          if (u(rng) < 0.05 * (trial % 3)) d.at<std::uint16_t>(r, c) = 0;
+      for (int k = 0; k < 1 + trial % 4; ++k) {
+        const int x = static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                  y = static_cast<int>(rng() % static_cast<unsigned>(rows));
+        const int w = 1 + static_cast<int>(rng() % static_cast<unsigned>(cols)),
+                  h = 1 + static_cast<int>(rng() % static_cast<unsigned>(rows));
+        if (k % 2 == 0)
+          d(cv::Rect(x, y, std::min(w, cols - x), std::min(h, rows - y))).setTo(0);
+        else
+          cv::circle(d, {x, y}, std::max(w, h) / 3, cv::Scalar(0), -1);
       }
-    // A few step edges between surfaces.
-    d(cv::Rect(0, rows / 3, cols, rows / 3)) += 400;
-    // Scattered dropouts, then large holes of random shape (rectangles and discs).
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c)
-        if (u(rng) < 0.05 * (trial % 3)) d.at<std::uint16_t>(r, c) = 0;
-    for (int k = 0; k < 1 + trial % 4; ++k) {
-      const int x = static_cast<int>(rng() % static_cast<unsigned>(cols)),
-                y = static_cast<int>(rng() % static_cast<unsigned>(rows));
-      const int w = 1 + static_cast<int>(rng() % static_cast<unsigned>(cols)),
-                h = 1 + static_cast<int>(rng() % static_cast<unsigned>(rows));
-      if (k % 2 == 0)
-        d(cv::Rect(x, y, std::min(w, cols - x), std::min(h, rows - y))).setTo(0);
-      else
-        cv::circle(d, {x, y}, std::max(w, h) / 3, cv::Scalar(0), -1);
+      if (trial % 5 == 0) d.rowRange(0, rows / 2).setTo(0);  // a room that reads nothing
+      if (trial % 6 == 1) d.col(cols - 1).setTo(0), d.col(0).setTo(0);
+      for (const int passes : {1, 2, 3}) {
+        cv::Mat want = d.clone(), got = d.clone();
+        const int want_left = referenceFill(want, passes);
+        EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
+        EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
+      }
     }
-    if (trial % 5 == 0) d.rowRange(0, rows / 2).setTo(0);  // a room that reads nothing
-    if (trial % 6 == 1) d.col(cols - 1).setTo(0), d.col(0).setTo(0);
-    for (const int passes : {1, 2, 3}) {
-      cv::Mat want = d.clone(), got = d.clone();
-      const int want_left = referenceFill(want, passes);
-      EXPECT_EQ(fillInvalidRecursiveMedian(got, passes), want_left) << trial << " " << passes;
-      EXPECT_EQ(cv::countNonZero(got != want), 0) << trial << " " << passes;
-    }
-  }
+  });
 }
 
 // The table a DepthTo8BitMap builds once (and the detector keeps) maps every depth value as the

@@ -1,8 +1,11 @@
 // LBP codes over 3x3 cell grids: hand-made patterns, and integral-image codes equal to the
 // direct summation for every feature of a window.
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include "shapesense/core/bowls/lbp.h"
+#include "simd_targets.h"
 
 namespace shapesense {
 namespace {
@@ -43,67 +46,73 @@ TEST(Lbp, IntegralCodesEqualDirectCodesForEveryFeature) {
 }
 
 TEST(Lbp, CodeImagesEqualDirectCodesAtEveryPositionAndZeroWhereTheGridDoesNotFit) {
-  cv::RNG rng(11);
-  // Odd sizes (the borders of 2-pixel cells do not divide evenly), tiny ones (no grid fits,
-  // exactly one fits), and views into a larger image whose rows are not contiguous.
-  const cv::Size sizes[] = {{37, 45}, {45, 37}, {2, 2},  {3, 3},   {6, 6},
-                            {5, 7},   {64, 1},  {1, 64}, {533, 17}};
-  for (const cv::Size size : sizes) {
-    cv::Mat big(size.height + 3, size.width + 5, CV_8UC1);
-    rng.fill(big, cv::RNG::UNIFORM, 0, 256);
-    const cv::Mat img = big(cv::Rect(2, 1, size.width, size.height));
-    if (size.width > 20 && size.height > 20) {
-      img(cv::Rect(10, 10, 8, 6)).setTo(100);  // ties (>=) inside a flat patch
-      img(cv::Rect(2, 20, 6, 8)).setTo(255);   // ties at the top of the range
-    }
-    for (int ch = 1; ch <= 2; ++ch)
-      for (int cw = 1; cw <= 2; ++cw) {
-        const cv::Mat codes = lbpCodeImage(img, cw, ch);
-        ASSERT_EQ(codes.type(), CV_8UC1);
-        ASSERT_EQ(codes.size(), img.size());
-        for (int y = 0; y < img.rows; ++y)
-          for (int x = 0; x < img.cols; ++x) {
-            const bool fits = x + 3 * cw <= img.cols && y + 3 * ch <= img.rows;
-            const int want = fits ? lbpCodeDirect(img, x, y, cw, ch) : 0;
-            ASSERT_EQ(codes.at<std::uint8_t>(y, x), want)
-                << "cell " << cw << "x" << ch << " at " << x << "," << y << " image " << size;
-          }
+  testing::forEachSimdTarget([&](const std::string& target) {
+    SCOPED_TRACE(target);
+    cv::RNG rng(11);
+    // Odd sizes (the borders of 2-pixel cells do not divide evenly), tiny ones (no grid fits,
+    // exactly one fits), and views into a larger image whose rows are not contiguous.
+    const cv::Size sizes[] = {{37, 45}, {45, 37}, {2, 2},  {3, 3},   {6, 6},
+                              {5, 7},   {64, 1},  {1, 64}, {533, 17}};
+    for (const cv::Size size : sizes) {
+      cv::Mat big(size.height + 3, size.width + 5, CV_8UC1);
+      rng.fill(big, cv::RNG::UNIFORM, 0, 256);
+      const cv::Mat img = big(cv::Rect(2, 1, size.width, size.height));
+      if (size.width > 20 && size.height > 20) {
+        img(cv::Rect(10, 10, 8, 6)).setTo(100);  // ties (>=) inside a flat patch
+        img(cv::Rect(2, 20, 6, 8)).setTo(255);   // ties at the top of the range
       }
-  }
-  EXPECT_THROW(lbpCodeImage(cv::Mat(8, 8, CV_8UC1), 1, 3), std::invalid_argument);
+      for (int ch = 1; ch <= 2; ++ch)
+        for (int cw = 1; cw <= 2; ++cw) {
+          const cv::Mat codes = lbpCodeImage(img, cw, ch);
+          ASSERT_EQ(codes.type(), CV_8UC1);
+          ASSERT_EQ(codes.size(), img.size());
+          for (int y = 0; y < img.rows; ++y)
+            for (int x = 0; x < img.cols; ++x) {
+              const bool fits = x + 3 * cw <= img.cols && y + 3 * ch <= img.rows;
+              const int want = fits ? lbpCodeDirect(img, x, y, cw, ch) : 0;
+              ASSERT_EQ(codes.at<std::uint8_t>(y, x), want)
+                  << "cell " << cw << "x" << ch << " at " << x << "," << y << " image " << size;
+            }
+        }
+    }
+    EXPECT_THROW(lbpCodeImage(cv::Mat(8, 8, CV_8UC1), 1, 3), std::invalid_argument);
+  });
 }
 
 // Only some rows computed (the detector skips rows no gated window covers): those rows equal the
 // full code image, whatever rows were skipped before them (the cell-sum ring restarts), and the
 // others are 0.
 TEST(Lbp, CodeImageOfSelectedRowsEqualsTheFullImageThereAndZeroElsewhere) {
-  cv::RNG rng(5);
-  cv::Mat img(61, 53, CV_8UC1);
-  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
-  for (int pattern = 0; pattern < 6; ++pattern) {
-    std::vector<std::uint8_t> rows(static_cast<std::size_t>(img.rows));
-    for (std::size_t y = 0; y < rows.size(); ++y)
-      rows[y] = pattern == 0   ? 1
-                : pattern == 1 ? 0
-                : pattern == 2 ? (y / 3) % 2  // short runs and gaps
-                : pattern == 3 ? (y >= 20 && y < 27) || y == 40
-                : pattern == 4 ? y + 2 >= rows.size()  // only rows where no grid fits
-                               : static_cast<std::uint8_t>(rng.uniform(0, 2));
-    for (int ch = 1; ch <= 2; ++ch)
-      for (int cw = 1; cw <= 2; ++cw) {
-        const cv::Mat full = lbpCodeImage(img, cw, ch);
-        const cv::Mat some = lbpCodeImage(img, cw, ch, rows);
-        ASSERT_EQ(some.size(), img.size());
-        for (int y = 0; y < img.rows; ++y) {
-          const cv::Mat want = rows[static_cast<std::size_t>(y)]
-                                   ? full.row(y)
-                                   : cv::Mat::zeros(1, img.cols, CV_8UC1);
-          ASSERT_EQ(cv::countNonZero(some.row(y) != want), 0)
-              << "pattern " << pattern << " cell " << cw << "x" << ch << " row " << y;
+  testing::forEachSimdTarget([&](const std::string& target) {
+    SCOPED_TRACE(target);
+    cv::RNG rng(5);
+    cv::Mat img(61, 53, CV_8UC1);
+    rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+    for (int pattern = 0; pattern < 6; ++pattern) {
+      std::vector<std::uint8_t> rows(static_cast<std::size_t>(img.rows));
+      for (std::size_t y = 0; y < rows.size(); ++y)
+        rows[y] = pattern == 0   ? 1
+                  : pattern == 1 ? 0
+                  : pattern == 2 ? (y / 3) % 2  // short runs and gaps
+                  : pattern == 3 ? (y >= 20 && y < 27) || y == 40
+                  : pattern == 4 ? y + 2 >= rows.size()  // only rows where no grid fits
+                                 : static_cast<std::uint8_t>(rng.uniform(0, 2));
+      for (int ch = 1; ch <= 2; ++ch)
+        for (int cw = 1; cw <= 2; ++cw) {
+          const cv::Mat full = lbpCodeImage(img, cw, ch);
+          const cv::Mat some = lbpCodeImage(img, cw, ch, rows);
+          ASSERT_EQ(some.size(), img.size());
+          for (int y = 0; y < img.rows; ++y) {
+            const cv::Mat want = rows[static_cast<std::size_t>(y)]
+                                     ? full.row(y)
+                                     : cv::Mat::zeros(1, img.cols, CV_8UC1);
+            ASSERT_EQ(cv::countNonZero(some.row(y) != want), 0)
+                << "pattern " << pattern << " cell " << cw << "x" << ch << " row " << y;
+          }
         }
-      }
-  }
-  EXPECT_THROW(lbpCodeImage(img, 2, 2, std::vector<std::uint8_t>(3, 1)), std::invalid_argument);
+    }
+    EXPECT_THROW(lbpCodeImage(img, 2, 2, std::vector<std::uint8_t>(3, 1)), std::invalid_argument);
+  });
 }
 
 TEST(Lbp, EnumerationCoversAllFittingGrids) {

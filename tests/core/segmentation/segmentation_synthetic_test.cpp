@@ -48,11 +48,11 @@ TEST(SegmentationSynthetic, SegCompAgainstSurfaceLabels) {
   // ISSUE 3 TARGET, KNOWN UNMET (depth_step reaches 0.67): depth-step edges only see depth
   // discontinuities, and many truth surfaces here meet their neighbours at creases (wall/wall,
   // wall/floor, box faces/table top, table edge/top), where the depth is continuous.
-  // SegmentationStepCeiling (segmentation_step_ceiling_test.cpp) merges the truth surfaces that
-  // touch along >= 150 step-free pixel pairs of noise-free depth: that partition scores 0.77 on
-  // these seeds, so no step-only criterion reaches 0.9; the disabled
-  // SegmentationSyntheticDiag.PerRegionLoss lists the lost surfaces per seed (all merged at
-  // creases, 0% unassigned). Variants measured (DISABLED_Sweep) stay within +-0.02 of the default:
+  // `shapesense-segdiag ceiling` merges the truth surfaces that touch along >= 150 step-free
+  // pixel pairs of noise-free depth: that partition scores 0.77 on these seeds, so no step-only
+  // criterion reaches 0.9; `shapesense-segdiag loss` lists the lost surfaces per seed (all merged
+  // at creases, 0% unassigned). Variants measured (`shapesense-segdiag sweep`) stay within +-0.02
+  // of the default:
   // noise_steps 2, min_threshold_mm 4, slope_factor 0.005 / 0.02, window radius 1 / 3, full
   // resolution, and a first-difference slope test (a step = a jump larger than 1.5-4x the
   // one-sided differences beside it; not kept). So the issue's 0.9 is not asserted for depth_step;

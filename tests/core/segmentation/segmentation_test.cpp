@@ -11,7 +11,6 @@
 #include <string>
 
 #include <gtest/gtest.h>
-#include <time.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "mosd_table.h"
@@ -22,15 +21,7 @@ namespace shapesense {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-const SegmentationMethod kAll[] = {SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges,
-                                   SegmentationMethod::kFused, SegmentationMethod::kPlanePrediction,
-                                   SegmentationMethod::kTiledRansac};
-
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+constexpr auto kAll = kSegmentationMethods;
 
 // --- A tiny ray caster: infinite planes and y-rotated boxes, nearest hit wins. ---
 struct PlaneObj {
@@ -153,6 +144,9 @@ TEST(Segmentation, MethodNamesRoundTrip) {
   }
   EXPECT_EQ(formatSegmentationMethod(SegmentationMethod::kPlanePrediction), "plane_prediction");
   EXPECT_FALSE(parseSegmentationMethod("watershed").has_value());
+  EXPECT_EQ(segmentationMethodNames().size(), kSegmentationMethods.size());
+  EXPECT_EQ(listSegmentationMethods(),
+            "depth_step, normal_edges, fused, plane_prediction or tiled_ransac");
 }
 
 TEST(Segmentation, OutputIsCompactAndZeroWithoutDepth) {
@@ -284,20 +278,6 @@ TEST(Segmentation, MosdTabletopTablePlaneIsOneRegion) {
   ASSERT_GT(frames, 0);
   EXPECT_GE(worst[SegmentationMethod::kFused], 0.9);
   EXPECT_GE(worst[SegmentationMethod::kPlanePrediction], 0.9);
-}
-
-TEST(Segmentation, TimingPrint) {
-  const CameraIntrinsics K;
-  cv::Mat depth, truth;
-  render(roomWithBox(), K, 0.3, depth, truth);
-  for (auto m : kAll) {
-    segmentDepth(depth, K, m);
-    const int reps = 10;
-    const double t0 = threadCpuMs();
-    for (int i = 0; i < reps; ++i) segmentDepth(depth, K, m);
-    std::printf("[seg timing] %-16s %.2f ms cpu / 640x480 frame\n", methodName(m).c_str(),
-                (threadCpuMs() - t0) / reps);
-  }
 }
 
 }  // namespace

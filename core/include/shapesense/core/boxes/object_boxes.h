@@ -37,6 +37,12 @@ struct ObjectBoxParams {
   double min_height_m = 0.01;
   /// Boxes with any side longer than this (m) are not objects. Default 1.0.
   double max_size_m = 1.0;
+  /// Two touching segments are neighbours (faces of one object) where their depths differ by at
+  /// most continuity_floor_m + continuity_noise_steps sensor depth steps at the nearer of the
+  /// two pixels (estimation.noise); an object and the wall behind it only meet across a larger
+  /// step. Defaults 0.01 m and 3 steps.
+  double continuity_floor_m = 0.01;
+  double continuity_noise_steps = 3.0;
   /// How the segment's bounds are read (the segment's silhouette: the ROI contains the box).
   BoxMode mode = BoxMode::kAxisAlignedContained;
   BoxEstimationParams estimation{};

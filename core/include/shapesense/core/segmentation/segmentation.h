@@ -31,10 +31,12 @@
 // Output: CV_16UC1, 0 = unassigned (no depth, or a region below min_region_px), regions 1..N
 // with compact ids, numbered in raster order of their first pixel.
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -45,10 +47,21 @@ namespace shapesense {
 
 enum class SegmentationMethod { kDepthStep, kNormalEdges, kFused, kPlanePrediction, kTiledRansac };
 
-/// "depth_step", "normal_edges", "fused", "plane_prediction", "tiled_ransac".
+/// Every method, in the order of the enum.
+inline constexpr std::array<SegmentationMethod, 5> kSegmentationMethods = {
+    SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges, SegmentationMethod::kFused,
+    SegmentationMethod::kPlanePrediction, SegmentationMethod::kTiledRansac};
+
+/// The one name of each method: "depth_step", "normal_edges", "fused", "plane_prediction",
+/// "tiled_ransac" (command lines, requests and reports all use these).
 std::string_view formatSegmentationMethod(SegmentationMethod method);
 /// Inverse of formatSegmentationMethod; nullopt for an unknown name.
 std::optional<SegmentationMethod> parseSegmentationMethod(std::string_view name);
+/// The names of every method (kSegmentationMethods), for a command line's choices.
+std::vector<std::string> segmentationMethodNames();
+/// The names joined for a sentence: "depth_step, normal_edges, ..., plane_prediction" followed
+/// by `last_separator` and the last name, e.g. " or tiled_ransac".
+std::string listSegmentationMethods(std::string_view last_separator = " or ");
 
 /// Region growing shared by every method (all sizes in full-resolution pixels).
 struct RegionParams {
@@ -74,7 +87,8 @@ struct RegionParams {
   KinectNoiseModel noise{};
 };
 
-struct DepthStepParams {
+/// The depth-step edge rule: how many window neighbours of a pixel lie across a depth step.
+struct DepthStepEdgeParams {
   /// Window half-size (working-resolution pixels); E counts all (2r+1)^2-1 neighbours. Default 2.
   int window_radius = 2;
   /// Step threshold in sensor quantisation steps at the centre's range. Default 3.
@@ -84,10 +98,15 @@ struct DepthStepParams {
   double slope_factor = 0.01;
   /// Never below this many millimetres. Default 10.
   double min_threshold_mm = 10.0;
+};
+
+/// kDepthStep: the depth-step edges and the region growing over them.
+struct DepthStepParams : DepthStepEdgeParams {
   RegionParams region{};
 };
 
-struct NormalEdgeParams {
+/// The roof-edge rule: how many window neighbours of a pixel have a normal at a different angle.
+struct NormalAngleEdgeParams {
   /// Window half-size (working-resolution pixels). Default 2.
   int window_radius = 2;
   /// Two normals differ when the angle between them exceeds this. Default 15 deg.
@@ -96,7 +115,6 @@ struct NormalEdgeParams {
   /// Default: average 3D gradient, radius 3 px at 1 m (less makes real Kinect tables noisy),
   /// windows down to 1 px next to steps.
   NormalParams normals = defaultNormals();
-  RegionParams region{};
 
   static NormalParams defaultNormals() {
     NormalParams p;
@@ -107,9 +125,15 @@ struct NormalEdgeParams {
   }
 };
 
+/// kNormalEdges: the roof edges and the region growing over them.
+struct NormalEdgeParams : NormalAngleEdgeParams {
+  RegionParams region{};
+};
+
+/// kFused: depth-step and roof edges added, and the region growing over their sum.
 struct FusedParams {
-  DepthStepParams depth{};
-  NormalEdgeParams normal{};
+  DepthStepEdgeParams depth{};
+  NormalAngleEdgeParams normal{};
   /// E = E_depth + normal_weight * E_normal (the seed found 1 best). Default 1.
   double normal_weight = 1.0;
   /// Whether a pixel without a normal (normals are NaN within a few pixels of a depth step and on
@@ -121,7 +145,7 @@ struct FusedParams {
   /// step instead of the middle of the NaN band, and it catches steps smaller than the normal
   /// estimator's threshold (max_depth_change_factor, 2% of range per pixel).
   bool invalid_normal_is_edge = true;
-  RegionParams region{};  ///< used instead of depth.region / normal.region
+  RegionParams region{};
 };
 
 struct PlanePredictionParams {
@@ -164,8 +188,8 @@ struct TiledRansacParams {
   double merge_fraction = 0.8;
   /// Seed of the deterministic RANSAC sampler. Default 1.
   std::uint32_t seed = 1;
-  /// Depth-step threshold for grouping the non-planar leftovers (as DepthStepParams). Default.
-  DepthStepParams leftovers{};
+  /// Depth-step edges that group the non-planar leftovers into regions. Default.
+  DepthStepEdgeParams leftovers{};
   RegionParams region{};
 };
 
