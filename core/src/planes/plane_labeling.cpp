@@ -12,16 +12,10 @@
 
 #include "shapesense/core/planes/plane_polygon.h"
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
-#include "cpu_dispatch.h"
+#include "planes/planes_kernels.h"
 
 namespace shapesense {
 namespace {
-
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 int findRoot(int* parent, int i) {
   while (parent[i] != i) {
@@ -201,24 +195,11 @@ std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& 
   return coef;
 }
 
-// Labels the pixels [u0, u1) of a run with a single candidate: `label` where the pixel is within
-// the tolerance of the plane, 0 elsewhere. Branch-free so that it vectorises. Returns the
-// number of pixels labelled.
-int labelSingleCandidateRun(const std::uint16_t* drow, std::uint16_t* lrow, int u0, int u1,
-                            const float* q, float qv, float tol_coef, float tol_floor,
-                            std::uint16_t label) {
-  const float qa = q[0], qc = q[2], qd = q[3];
-  int n = 0;
-  for (int u = u0; u < u1; ++u) {
-    const float z = static_cast<float>(drow[u]) * 0.001f;
-    const float dd = std::fabs(z * (qa * static_cast<float>(u) + qv + qc) + qd);
-    // Bitwise, not &&: a branch would keep the loop from vectorising.
-    const int inside = static_cast<int>(drow[u] != 0) &
-                       static_cast<int>(dd <= std::max(tol_floor, tol_coef * (z * z)));
-    lrow[u] = static_cast<std::uint16_t>(label * inside);
-    n += inside;
-  }
-  return n;
+// Region reg's plane in the pinhole form of the labelling kernels, for pixel row fv.
+planes_kernels::PixelPlane pixelPlane(const std::vector<float>& coef,
+                                      const std::vector<float>& region_tol, int reg, float fv) {
+  const float* q = &coef[4 * reg];
+  return {q[0], q[1] * fv, q[2], q[3], region_tol[reg]};
 }
 
 // Pixel count and bounds of one region in one row.
@@ -235,245 +216,27 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
   reg.v1 = std::max(reg.v1, v);
 }
 
-// The same for K >= 2 candidates (run.list[0..K)): the closest within its tolerance (ties to the
-// later one). Branch-free over the K slots so that it vectorises; K is a template parameter
-// because most ambiguous runs have two candidates, and a fixed 4 slots doubled their cost.
-// Adds the number of pixels labelled with each candidate to counts[0..K).
-template <int K>
-void labelCandidatesRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
-                        const std::vector<float>& coef, float fv,
-                        const std::vector<float>& region_tol, float tol_floor, int* counts) {
-  int n[K] = {};
-  float qa[K], qv[K], qc[K], qd[K], tk[K];
-  std::uint16_t label[K];
-  for (int k = 0; k < K; ++k) {
-    const int reg = run.list[k];
-    const float* q = &coef[4 * reg];
-    qa[k] = q[0];
-    qv[k] = q[1] * fv;
-    qc[k] = q[2];
-    qd[k] = q[3];
-    tk[k] = region_tol[reg];
-    label[k] = static_cast<std::uint16_t>(reg + 1);
-  }
-  for (int u = run.u0; u < run.u1; ++u) {
-    const float z = static_cast<float>(drow[u]) * 0.001f;
-    const float fu = static_cast<float>(u), z2 = z * z;
-    float best = std::numeric_limits<float>::max();
-    std::uint16_t best_label = 0;
-    for (int k = 0; k < K; ++k) {
-      const float dd = std::fabs(z * (qa[k] * fu + qv[k] + qc[k]) + qd[k]);
-      const bool take = (dd <= best) & (dd <= std::max(tol_floor, tk[k] * z2));
-      best = take ? dd : best;
-      best_label = take ? label[k] : best_label;
-    }
-    const auto out = static_cast<std::uint16_t>(best_label * (drow[u] != 0));
-    lrow[u] = out;
-    for (int k = 0; k < K; ++k) n[k] += out == label[k];
-  }
-  for (int k = 0; k < K; ++k) counts[k] += n[k];
-}
-
-#if defined(SHAPESENSE_AVX2_PATHS)
-// The pixel loops in AVX2, eight pixels per step, with the operations of the scalar loops in the
-// same order lane for lane (never FMA: a fused multiply-add would round differently; the build has
-// -ffp-contract=off and no FMA intrinsic is used), so the same labels and counts. A run's last
-// partial step (or all of a run shorter than eight pixels) is a window of eight pixels of the row
-// that holds the rest (see storeLabels): the run's pixels take their labels, the other lanes are
-// stored back as they were read. Lanes before the run's pixels were written earlier in the row;
-// lanes past u1 are read before being written and are overwritten later in the row; runs of a
-// row must be processed left to right. Compiled for AVX2 whatever the build flags; called only
-// where the CPU has it, on rows of >= 8 pixels.
-#pragma GCC push_options
-#pragma GCC target("avx2")
-
-// Depths (m) of pixels u..u+7, as static_cast<float>(d) * 0.001f.
-inline __m256 depthOctet(const std::uint16_t* drow, int u) {
-  const __m128i d = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + u));
-  return _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(d)), _mm256_set1_ps(0.001f));
-}
-
-// Pixel columns u..u+7 as floats.
-inline __m256 columnOctet(int u) {
-  return _mm256_cvtepi32_ps(
-      _mm256_add_epi32(_mm256_set1_epi32(u), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
-}
-
-// |z (qa u + qv + qc) + qd|, rounded as in the scalar loops.
-inline __m256 planeDistanceOctet(__m256 z, __m256 fu, __m256 qa, __m256 qv, __m256 qc, __m256 qd) {
-  const __m256 bracket = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(qa, fu), qv), qc);
-  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
-  return _mm256_and_ps(abs_mask, _mm256_add_ps(_mm256_mul_ps(z, bracket), qd));
-}
-
-// The first pixel of the eight-pixel window of a partial step starting at u: u, or the row's
-// last eight pixels (rows of >= 8 pixels only: labelPixels uses the AVX2 loops on those alone).
-inline int windowStart(int u, int cols) {
-  assert(cols >= 8);
-  return std::min(u, cols - 8);
-}
-
-// Lanes w + k with lo <= w + k < hi, as 32-bit masks.
-inline __m256i laneRange(int w, int lo, int hi) {
-  const __m256i k = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  return _mm256_and_si256(_mm256_cmpgt_epi32(k, _mm256_set1_epi32(lo - w - 1)),
-                          _mm256_cmpgt_epi32(_mm256_set1_epi32(hi - w), k));
-}
-
-// Eight 32-bit values (each <= 65535) packed to uint16.
-inline __m128i packLabels(__m256i labels) {
-  return _mm_packus_epi32(_mm256_castsi256_si128(labels), _mm256_extracti128_si256(labels, 1));
-}
-
-// Stores the labels of the lanes in `lanes` (32-bit masks) at lrow + w and stores the other
-// lanes back as they were read: lanes past the run are read before being written and are
-// overwritten later in the row (runs of a row must be processed left to right).
-inline void storeLabels(std::uint16_t* lrow, int w, __m256i labels, __m256i lanes) {
-  auto* p = reinterpret_cast<__m128i*>(lrow + w);
-  const __m128i take = _mm_packs_epi32(_mm256_castsi256_si128(lanes),
-                                       _mm256_extracti128_si256(lanes, 1));  // 16-bit masks
-  _mm_storeu_si128(p, _mm_blendv_epi8(_mm_loadu_si128(p), packLabels(labels), take));
-}
-
-inline int laneSum(__m256i v) {
-  __m128i s = _mm_add_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
-  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(1, 0, 3, 2)));
-  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, _MM_SHUFFLE(2, 3, 0, 1)));
-  return _mm_cvtsi128_si32(s);
-}
-
-// The loop of both AVX2 runs over pixels [u0, u1): step(u, fu, counted) returns the labels of
-// pixels u..u+7 (32-bit lanes; fu: their columns as floats) and counts those of the lanes in
-// `counted`. Whole steps of eight, then the partial step as a window (see storeLabels).
-template <typename Step>
-inline void labelRunOctets(std::uint16_t* lrow, int cols, int u0, int u1, Step&& step) {
-  const __m256i all = _mm256_set1_epi32(-1);
-  __m256 fu = columnOctet(u0);
-  int u = u0;
-  for (; u + 8 <= u1; u += 8) {
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(lrow + u), packLabels(step(u, fu, all)));
-    fu = _mm256_add_ps(fu, _mm256_set1_ps(8.0f));  // exact: columns are small integers
-  }
-  if (u < u1) {
-    const int w = windowStart(u, cols);
-    const __m256i lanes = laneRange(w, u, u1);
-    storeLabels(lrow, w, step(w, columnOctet(w), lanes), lanes);
-  }
-}
-
-// labelSingleCandidateRun in AVX2.
-int labelSingleCandidateRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
-                                int u1, const float* q, float qv, float tol_coef, float tol_floor,
-                                std::uint16_t label) {
-  const __m256 qa = _mm256_set1_ps(q[0]), vqv = _mm256_set1_ps(qv), qc = _mm256_set1_ps(q[2]),
-               qd = _mm256_set1_ps(q[3]), coef = _mm256_set1_ps(tol_coef),
-               floor = _mm256_set1_ps(tol_floor);
-  const __m256i vlabel = _mm256_set1_epi32(label);
-  __m256i count = _mm256_setzero_si256();
-  // The labels of pixels u..u+7 (32-bit lanes); counts those in `counted`.
-  auto step = [&](int u, __m256 fu, __m256i counted) {
-    const __m256 z = depthOctet(drow, u);
-    const __m256 dd = planeDistanceOctet(z, fu, qa, vqv, qc, qd);
-    const __m256 tol = _mm256_max_ps(_mm256_mul_ps(coef, _mm256_mul_ps(z, z)), floor);
-    const __m256i inside = _mm256_castps_si256(_mm256_and_ps(
-        _mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ)));
-    count = _mm256_sub_epi32(count, _mm256_and_si256(inside, counted));
-    return _mm256_and_si256(inside, vlabel);
-  };
-  labelRunOctets(lrow, cols, u0, u1, step);
-  return laneSum(count);
-}
-
-// labelCandidatesRun<K> in AVX2.
-template <int K>
-void labelCandidatesRunAvx2(const std::uint16_t* drow, std::uint16_t* lrow, int cols,
-                            const PixelRun& run, const std::vector<float>& coef, float fv,
-                            const std::vector<float>& region_tol, float tol_floor, int* counts) {
-  __m256 qa[K], qv[K], qc[K], qd[K], tk[K];
-  __m256i label[K], n[K];
-  for (int k = 0; k < K; ++k) {
-    const int reg = run.list[k];
-    const float* q = &coef[4 * reg];
-    qa[k] = _mm256_set1_ps(q[0]);
-    qv[k] = _mm256_set1_ps(q[1] * fv);
-    qc[k] = _mm256_set1_ps(q[2]);
-    qd[k] = _mm256_set1_ps(q[3]);
-    tk[k] = _mm256_set1_ps(region_tol[reg]);
-    label[k] = _mm256_set1_epi32(static_cast<std::uint16_t>(reg + 1));
-    n[k] = _mm256_setzero_si256();
-  }
-  const __m256 floor = _mm256_set1_ps(tol_floor);
-  auto step = [&](int u, __m256 fu, __m256i counted) {
-    const __m256 z = depthOctet(drow, u);
-    const __m256 z2 = _mm256_mul_ps(z, z);
-    __m256 best = _mm256_set1_ps(std::numeric_limits<float>::max());
-    __m256i best_label = _mm256_setzero_si256();
-    for (int k = 0; k < K; ++k) {
-      const __m256 dd = planeDistanceOctet(z, fu, qa[k], qv[k], qc[k], qd[k]);
-      const __m256 tol = _mm256_max_ps(_mm256_mul_ps(tk[k], z2), floor);
-      const __m256 take =
-          _mm256_and_ps(_mm256_cmp_ps(dd, best, _CMP_LE_OQ), _mm256_cmp_ps(dd, tol, _CMP_LE_OQ));
-      best = _mm256_blendv_ps(best, dd, take);
-      best_label = _mm256_blendv_epi8(best_label, label[k], _mm256_castps_si256(take));
-    }
-    const __m256i valid = _mm256_castps_si256(_mm256_cmp_ps(z, _mm256_setzero_ps(), _CMP_NEQ_OQ));
-    const __m256i out = _mm256_and_si256(best_label, valid);
-    for (int k = 0; k < K; ++k)
-      n[k] = _mm256_sub_epi32(n[k], _mm256_and_si256(_mm256_cmpeq_epi32(out, label[k]), counted));
-    return out;
-  };
-  labelRunOctets(lrow, cols, run.u0, run.u1, step);
-  for (int k = 0; k < K; ++k) counts[k] += laneSum(n[k]);
-}
-
-#pragma GCC pop_options
-
-using detail::cpuHasAvx2;
-#endif
-
-// Labels a run with a single candidate (see labelSingleCandidateRun), with AVX2 if `avx2` (which
-// needs rows of >= 8 pixels; `cols` pixels here).
-int labelSingleRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols, int u0,
-                   int u1, const float* q, float qv, float tol_coef, float tol_floor,
-                   std::uint16_t label) {
-#if defined(SHAPESENSE_AVX2_PATHS)
-  if (avx2)
-    return labelSingleCandidateRunAvx2(drow, lrow, cols, u0, u1, q, qv, tol_coef, tol_floor, label);
-#else
-  (void)avx2;
-  (void)cols;
-#endif
-  return labelSingleCandidateRun(drow, lrow, u0, u1, q, qv, tol_coef, tol_floor, label);
-}
-
-template <int K>
-void labelKRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
-               const PixelRun& run, const std::vector<float>& coef, float fv,
-               const std::vector<float>& region_tol, float tol_floor, int* counts) {
-#if defined(SHAPESENSE_AVX2_PATHS)
-  if (avx2)
-    return labelCandidatesRunAvx2<K>(drow, lrow, cols, run, coef, fv, region_tol, tol_floor,
-                                     counts);
-#else
-  (void)avx2;
-  (void)cols;
-#endif
-  labelCandidatesRun<K>(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
-}
-
-// Dispatches a run with at least two candidates (the list is -1 terminated) to its K.
-// counts[k]: pixels labelled with candidate k (the runs' spans need them).
-void labelMultiCandidateRun(bool avx2, const std::uint16_t* drow, std::uint16_t* lrow, int cols,
-                            const PixelRun& run, const std::vector<float>& coef, float fv,
-                            const std::vector<float>& region_tol, float tol_floor,
-                            std::array<int, 4>& counts) {
+// Labels the pixels of a run (the closest candidate plane within its tolerance, 0 where there
+// is none); counts[k]: pixels labelled with candidate k (the runs' spans need them).
+void labelRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+              const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
+              float tol_floor, std::array<int, 4>& counts) {
   counts.fill(0);
-  if (run.list[2] < 0)
-    labelKRun<2>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
-  else if (run.list[3] < 0)
-    labelKRun<3>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
-  else
-    labelKRun<4>(avx2, drow, lrow, cols, run, coef, fv, region_tol, tol_floor, counts.data());
+  if (run.list[1] < 0) {
+    counts[0] = planes_kernels::labelSingleCandidateRun(
+        drow, lrow, run.u0, run.u1, pixelPlane(coef, region_tol, run.list[0], fv), tol_floor,
+        static_cast<std::uint16_t>(run.list[0] + 1));
+    return;
+  }
+  planes_kernels::PixelPlane candidates[4];
+  std::uint16_t labels[4];
+  int k = 0;
+  for (; k < 4 && run.list[k] >= 0; ++k) {
+    candidates[k] = pixelPlane(coef, region_tol, run.list[k], fv);
+    labels[k] = static_cast<std::uint16_t>(run.list[k] + 1);
+  }
+  planes_kernels::labelCandidatesRun(drow, lrow, run.u0, run.u1, candidates, labels, k, tol_floor,
+                                     counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -583,17 +346,10 @@ void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const c
 LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const int* region_of,
                       const std::vector<PlaneHypothesis>& planes,
-                      const std::vector<float>& region_tol, float tol_floor, bool allow_avx2,
+                      const std::vector<float>& region_tol, float tol_floor,
                       std::vector<RegionAccumulator>& regions, cv::Mat& labels) {
   const int R = grid.points.rows, C = grid.points.cols, step = grid.step, off = grid.offset;
   const std::vector<float> coef = pixelPlaneCoefficients(regions, planes, K);
-  // AVX2 loops where the CPU has them (tests: PlaneLabelingParams::labeling_avx2 = false).
-#if defined(SHAPESENSE_AVX2_PATHS)
-  const bool avx2 = allow_avx2 && cpuHasAvx2() && depth_mm.cols >= 8;
-#else
-  const bool avx2 = false;
-  (void)allow_avx2;
-#endif
   labels.create(depth_mm.size(), CV_16UC1);  // every pixel is written below: by a run or as a gap
   // The nearest sample, halves rounded up (lround((x - off) / step), clamped; integer arithmetic:
   // below the first sample both give 0 after the clamp).
@@ -620,22 +376,12 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
         !bgr.empty() && v % kMomentStride == 0 ? bgr.ptr<cv::Vec3b>(v) : nullptr;
     const double yr = (v - K.cy) / K.fy;
     int gap_u0 = 0;
-    // Runs left to right: an AVX2 partial window reads and stores back pixels past its run
-    // before they are written (see storeLabels); the later run or gap overwrites them.
     for (int k = lr.row_begin[r]; k < lr.row_begin[r + 1]; ++k) {
       const PixelRun& run = lr.runs[k];
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
       gap_u0 = run.u1;
-      std::array<int, 4> counts{};  // pixels labelled with each candidate
-      if (run.list[1] < 0) {
-        const float* q = &coef[4 * run.list[0]];
-        counts[0] = labelSingleRun(avx2, drow, lrow, depth_mm.cols, run.u0, run.u1, q, q[1] * fv,
-                                   region_tol[run.list[0]], tol_floor,
-                                   static_cast<std::uint16_t>(run.list[0] + 1));
-      } else {
-        labelMultiCandidateRun(avx2, drow, lrow, depth_mm.cols, run, coef, fv, region_tol,
-                               tol_floor, counts);
-      }
+      std::array<int, 4> counts;  // pixels labelled with each candidate
+      labelRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];
@@ -728,49 +474,6 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
   return coef;
 }
 
-namespace {
-
-#if defined(__SSE2__)
-// Four samples per step of a row of PlaneSampleGrid::build, with the operations of its scalar loop
-// lane for lane (the same points); returns the first column not done. prow: the row of points as
-// floats (x, y, z of each sample).
-int buildGridRowSse2(const std::uint16_t* src, std::uint16_t* d, float* prow, const float* rx,
-                     float ry, int offset, int step, int cols) {
-  const __m128 k001 = _mm_set1_ps(0.001f), vry = _mm_set1_ps(ry), nan = _mm_set1_ps(kNaN);
-  int c = 0;
-  for (; c + 4 <= cols; c += 4) {
-    const std::uint16_t* s = src + offset + c * step;
-    const std::uint16_t d0 = s[0], d1 = s[step], d2 = s[2 * step], d3 = s[3 * step];
-    d[c] = d0;
-    d[c + 1] = d1;
-    d[c + 2] = d2;
-    d[c + 3] = d3;
-    const __m128i di = _mm_setr_epi32(d0, d1, d2, d3);
-    const __m128 z = _mm_mul_ps(_mm_cvtepi32_ps(di), k001);
-    const __m128 valid = _mm_castsi128_ps(_mm_cmpgt_epi32(di, _mm_setzero_si128()));
-    auto select = [&](__m128 v) {  // valid ? v : NaN
-      return _mm_or_ps(_mm_and_ps(valid, v), _mm_andnot_ps(valid, nan));
-    };
-    const __m128 x = select(_mm_mul_ps(_mm_loadu_ps(rx + c), z));
-    const __m128 y = select(_mm_mul_ps(vry, z));
-    const __m128 zs = select(z);
-    // x0..x3, y0..y3, z0..z3 -> x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
-    const __m128 xy_lo = _mm_unpacklo_ps(x, y), xy_hi = _mm_unpackhi_ps(x, y);
-    const __m128 z0x1 = _mm_shuffle_ps(zs, xy_lo, _MM_SHUFFLE(2, 2, 0, 0));
-    const __m128 y1z1 = _mm_shuffle_ps(xy_lo, zs, _MM_SHUFFLE(1, 1, 3, 3));
-    const __m128 z2x3 = _mm_shuffle_ps(zs, xy_hi, _MM_SHUFFLE(2, 2, 2, 2));
-    const __m128 y3z3 = _mm_shuffle_ps(xy_hi, zs, _MM_SHUFFLE(3, 3, 3, 3));
-    float* out = prow + 3 * c;
-    _mm_storeu_ps(out, _mm_shuffle_ps(xy_lo, z0x1, _MM_SHUFFLE(2, 0, 1, 0)));
-    _mm_storeu_ps(out + 4, _mm_shuffle_ps(y1z1, xy_hi, _MM_SHUFFLE(1, 0, 2, 0)));
-    _mm_storeu_ps(out + 8, _mm_shuffle_ps(z2x3, y3z3, _MM_SHUFFLE(2, 0, 2, 0)));
-  }
-  return c;
-}
-#endif
-
-}  // namespace
-
 void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full,
                             int sample_step) {
   CV_Assert(depth_full_mm.type() == CV_16UC1);
@@ -796,21 +499,9 @@ void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics
     const int v = offset + r * step;
     const auto* src = depth_full_mm.ptr<std::uint16_t>(v);
     auto* d = depth_mm.ptr<std::uint16_t>(r);
-    auto* p = points.ptr<cv::Vec3f>(r);
     const float ry = (static_cast<float>(v) - static_cast<float>(full.cy)) * ify;
-    int c = 0;
-#if defined(__SSE2__)
-    c = buildGridRowSse2(src, d, points.ptr<float>(r), rx.data(), ry, offset, step, cols);
-#endif
-    // Selects, not a branch: holes make the test unpredictable.
-    for (; c < cols; ++c) {
-      const int u = offset + c * step;
-      d[c] = src[u];
-      const bool valid = src[u] != 0;
-      const float z = static_cast<float>(src[u]) * 0.001f;
-      const float x = rx[c] * z;
-      p[c] = cv::Vec3f(valid ? x : kNaN, valid ? ry * z : kNaN, valid ? z : kNaN);
-    }
+    for (int c = 0; c < cols; ++c) d[c] = src[offset + c * step];
+    planes_kernels::sampleRowPoints(d, rx.data(), ry, cols, points.ptr<float>(r));
   }
 }
 
@@ -1176,7 +867,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   PlaneDetection out;
   const LabelRuns label_runs =
       labelPixels(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, planes, region_tol,
-                  tol_floor, params.labeling_avx2, regions, out.labels);
+                  tol_floor, regions, out.labels);
 
   // 4b. One surface can come out as two adjacent regions of two nearly identical hypotheses (a
   //     strip fitted in pieces, a face found once by the Hough stage and once among the
