@@ -156,14 +156,15 @@ void addRowSpan(RegionAccumulator& reg, const RowSpan& span, int v) {
 }
 
 // Labels the pixels of a run (the closest candidate plane within its tolerance, 0 where there
-// is none); counts[k]: pixels labelled with candidate k (the runs' spans need them).
-void labelRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& run,
+// is none); counts[k]: pixels labelled with candidate k (the runs' spans need them). The runs of
+// a row of `cols` pixels go left to right (the kernels may store back pixels past a run's end).
+void labelRun(const std::uint16_t* drow, std::uint16_t* lrow, int cols, const PixelRun& run,
               const std::vector<float>& coef, float fv, const std::vector<float>& region_tol,
               float tol_floor, std::array<int, 4>& counts) {
   counts.fill(0);
   if (run.list[1] < 0) {
     counts[0] = planes_kernels::labelSingleCandidateRun(
-        drow, lrow, run.u0, run.u1, pixelPlane(coef, region_tol, run.list[0], fv), tol_floor,
+        drow, lrow, cols, run.u0, run.u1, pixelPlane(coef, region_tol, run.list[0], fv), tol_floor,
         static_cast<std::uint16_t>(run.list[0] + 1));
     return;
   }
@@ -174,8 +175,8 @@ void labelRun(const std::uint16_t* drow, std::uint16_t* lrow, const PixelRun& ru
     candidates[k] = pixelPlane(coef, region_tol, run.list[k], fv);
     labels[k] = static_cast<std::uint16_t>(run.list[k] + 1);
   }
-  planes_kernels::labelCandidatesRun(drow, lrow, run.u0, run.u1, candidates, labels, k, tol_floor,
-                                     counts.data());
+  planes_kernels::labelCandidatesRun(drow, lrow, cols, run.u0, run.u1, candidates, labels, k,
+                                     tol_floor, counts.data());
 }
 
 // Pixel span of the pixels labelled `label` in lrow[u0, u1); `count` of them when known (-1:
@@ -322,7 +323,7 @@ LabelRuns labelPixels(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
       std::fill(lrow + gap_u0, lrow + run.u0, std::uint16_t{0});  // pixels without a candidate
       gap_u0 = run.u1;
       std::array<int, 4> counts;  // pixels labelled with each candidate
-      labelRun(drow, lrow, run, coef, fv, region_tol, tol_floor, counts);
+      labelRun(drow, lrow, depth_mm.cols, run, coef, fv, region_tol, tol_floor, counts);
       for (int slot = 0; slot < 4 && run.list[slot] >= 0; ++slot) {
         const auto label = static_cast<std::uint16_t>(run.list[slot] + 1);
         auto& reg = regions[run.list[slot]];

@@ -17,7 +17,9 @@ namespace shapesense::planes_kernels {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-using DF = hn::ScalableTag<float>;
+// Eight floats at most: the per-sample and per-pixel loops run over short stretches (runs of a
+// row, candidate sets), where wider registers leave more of the work to the last partial step.
+using DF = hn::CappedTag<float, 8>;
 using DI = hn::RebindToSigned<DF>;
 using DU8 = hn::Rebind<std::uint8_t, DF>;
 using DU16 = hn::Rebind<std::uint16_t, DF>;
@@ -143,24 +145,49 @@ float ScalarPixelDistance(float z, float fu, const PixelPlane& p) {
   return std::fabs(z * (p.a * fu + p.bv + p.c) + p.d);
 }
 
-int LabelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0,
-                            int u1, const PixelPlane& plane, float tol_floor, std::uint16_t label) {
+// The vector loop of both labelling kernels over pixels [u0, u1) of a row of `cols` pixels:
+// step(w, counted) returns the labels of pixels w.. (32-bit lanes) and counts those of the lanes
+// in `counted`. Whole registers first; the rest of the run, when the row holds a register's
+// worth of pixels, as one register ending at the run's end or the row's end: its lanes outside
+// the run are stored back as they were read (lanes before the run were written earlier in the
+// row, lanes past it are written later: the runs of a row go left to right). Returns the first
+// pixel left for the scalar loop (u1 when none).
+template <class Step>
+HWY_INLINE int LabelRunSteps(std::uint16_t* label_row, int cols, int u0, int u1, Step&& step) {
+  const DI di;
+  const DU16 du16;
+  const int lanes = static_cast<int>(hn::Lanes(di));
+  int u = u0;
+  for (; u + lanes <= u1; u += lanes)
+    hn::StoreU(hn::DemoteTo(du16, step(u, hn::FirstN(di, lanes))), du16, label_row + u);
+  if (u == u1 || cols < lanes) return u;
+  const int w = std::min(u, cols - lanes);
+  const auto column = hn::Iota(di, w);
+  const auto in_run = hn::And(hn::Gt(column, hn::Set(di, u - 1)), hn::Lt(column, hn::Set(di, u1)));
+  const auto kept = hn::PromoteTo(di, hn::LoadU(du16, label_row + w));
+  hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_run, step(w, in_run), kept)), du16,
+             label_row + w);
+  return u1;
+}
+
+int LabelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols,
+                            int u0, int u1, const PixelPlane& plane, float tol_floor,
+                            std::uint16_t label) {
   const DF d;
   const DI di;
-  const int lanes = static_cast<int>(hn::Lanes(d));
   const auto coef = hn::Set(d, plane.tol_coef), floor = hn::Set(d, tol_floor);
   const auto vlabel = hn::Set(di, label);
-  int n = 0, u = u0;
-  for (; u + lanes <= u1; u += lanes) {
-    const auto z = DepthMetres(depth_row + u);
-    const auto fu = hn::Iota(d, static_cast<float>(u));  // exact: columns are small integers
+  int n = 0;
+  auto step = [&](int w, hn::Mask<DI> counted) {
+    const auto z = DepthMetres(depth_row + w);
+    const auto fu = hn::Iota(d, static_cast<float>(w));  // exact: columns are small integers
     const auto tol = hn::Max(hn::Mul(coef, hn::Mul(z, z)), floor);
-    const auto inside = hn::And(hn::Ne(z, hn::Zero(d)), hn::Le(PixelDistance(z, fu, plane), tol));
-    n += static_cast<int>(hn::CountTrue(d, inside));
-    hn::StoreU(hn::DemoteTo(DU16(), hn::IfThenElseZero(hn::RebindMask(di, inside), vlabel)), DU16(),
-               label_row + u);
-  }
-  for (; u < u1; ++u) {
+    const auto inside = hn::RebindMask(
+        di, hn::And(hn::Ne(z, hn::Zero(d)), hn::Le(PixelDistance(z, fu, plane), tol)));
+    n += static_cast<int>(hn::CountTrue(di, hn::And(inside, counted)));
+    return hn::IfThenElseZero(inside, vlabel);
+  };
+  for (int u = LabelRunSteps(label_row, cols, u0, u1, step); u < u1; ++u) {
     const float z = static_cast<float>(depth_row[u]) * 0.001f;
     const float dd = ScalarPixelDistance(z, static_cast<float>(u), plane);
     const int inside = static_cast<int>(depth_row[u] != 0) &
@@ -172,18 +199,16 @@ int LabelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label
 }
 
 template <int K>
-void LabelCandidatesRunK(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0, int u1,
-                         const PixelPlane* planes, const std::uint16_t* labels, float tol_floor,
-                         int* counts) {
+void LabelCandidatesRunK(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols, int u0,
+                         int u1, const PixelPlane* planes, const std::uint16_t* labels,
+                         float tol_floor, int* counts) {
   const DF d;
   const DI di;
-  const int lanes = static_cast<int>(hn::Lanes(d));
   const auto floor = hn::Set(d, tol_floor), far = hn::Set(d, std::numeric_limits<float>::max());
   int n[K] = {};
-  int u = u0;
-  for (; u + lanes <= u1; u += lanes) {
-    const auto z = DepthMetres(depth_row + u);
-    const auto fu = hn::Iota(d, static_cast<float>(u));
+  auto step = [&](int w, hn::Mask<DI> counted) {
+    const auto z = DepthMetres(depth_row + w);
+    const auto fu = hn::Iota(d, static_cast<float>(w));
     const auto z2 = hn::Mul(z, z);
     auto best = far;
     auto best_label = hn::Zero(di);
@@ -196,10 +221,11 @@ void LabelCandidatesRunK(const std::uint16_t* depth_row, std::uint16_t* label_ro
     }
     const auto out = hn::IfThenElseZero(hn::RebindMask(di, hn::Ne(z, hn::Zero(d))), best_label);
     for (int k = 0; k < K; ++k)
-      n[k] += static_cast<int>(hn::CountTrue(di, hn::Eq(out, hn::Set(di, labels[k]))));
-    hn::StoreU(hn::DemoteTo(DU16(), out), DU16(), label_row + u);
-  }
-  for (; u < u1; ++u) {
+      n[k] += static_cast<int>(
+          hn::CountTrue(di, hn::And(hn::Eq(out, hn::Set(di, labels[k])), counted)));
+    return out;
+  };
+  for (int u = LabelRunSteps(label_row, cols, u0, u1, step); u < u1; ++u) {
     const float z = static_cast<float>(depth_row[u]) * 0.001f;
     const float fu = static_cast<float>(u), z2 = z * z;
     float best = std::numeric_limits<float>::max();
@@ -217,15 +243,15 @@ void LabelCandidatesRunK(const std::uint16_t* depth_row, std::uint16_t* label_ro
   for (int k = 0; k < K; ++k) counts[k] += n[k];
 }
 
-void LabelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0, int u1,
-                        const PixelPlane* planes, const std::uint16_t* labels, int k,
+void LabelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols, int u0,
+                        int u1, const PixelPlane* planes, const std::uint16_t* labels, int k,
                         float tol_floor, int* counts) {
   if (k == 2)
-    LabelCandidatesRunK<2>(depth_row, label_row, u0, u1, planes, labels, tol_floor, counts);
+    LabelCandidatesRunK<2>(depth_row, label_row, cols, u0, u1, planes, labels, tol_floor, counts);
   else if (k == 3)
-    LabelCandidatesRunK<3>(depth_row, label_row, u0, u1, planes, labels, tol_floor, counts);
+    LabelCandidatesRunK<3>(depth_row, label_row, cols, u0, u1, planes, labels, tol_floor, counts);
   else
-    LabelCandidatesRunK<4>(depth_row, label_row, u0, u1, planes, labels, tol_floor, counts);
+    LabelCandidatesRunK<4>(depth_row, label_row, cols, u0, u1, planes, labels, tol_floor, counts);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -258,16 +284,17 @@ void sampleRowPoints(const std::uint16_t* depth_mm, const float* rx, float ry, i
                      float* points) {
   HWY_DYNAMIC_DISPATCH(SampleRowPoints)(depth_mm, rx, ry, cols, points);
 }
-int labelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0,
-                            int u1, const PixelPlane& plane, float tol_floor, std::uint16_t label) {
-  return HWY_DYNAMIC_DISPATCH(LabelSingleCandidateRun)(depth_row, label_row, u0, u1, plane,
+int labelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols,
+                            int u0, int u1, const PixelPlane& plane, float tol_floor,
+                            std::uint16_t label) {
+  return HWY_DYNAMIC_DISPATCH(LabelSingleCandidateRun)(depth_row, label_row, cols, u0, u1, plane,
                                                        tol_floor, label);
 }
-void labelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0, int u1,
-                        const PixelPlane* planes, const std::uint16_t* labels, int k,
+void labelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols, int u0,
+                        int u1, const PixelPlane* planes, const std::uint16_t* labels, int k,
                         float tol_floor, int* counts) {
   HWY_DYNAMIC_DISPATCH(LabelCandidatesRun)
-  (depth_row, label_row, u0, u1, planes, labels, k, tol_floor, counts);
+  (depth_row, label_row, cols, u0, u1, planes, labels, k, tol_floor, counts);
 }
 
 }  // namespace shapesense::planes_kernels

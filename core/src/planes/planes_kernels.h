@@ -50,17 +50,20 @@ struct PixelPlane {
   float tol_coef;
 };
 
-/// Labels the pixels [u0, u1) of a row with a single candidate plane: `label` where the depth is
-/// not 0 and the pixel is within tolerance (z = depth * 0.001f), 0 elsewhere. Returns the number
-/// of pixels labelled.
-int labelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0,
-                            int u1, const PixelPlane& plane, float tol_floor, std::uint16_t label);
+/// Labels the pixels [u0, u1) of a row of `cols` pixels with a single candidate plane: `label`
+/// where the depth is not 0 and the pixel is within tolerance (z = depth * 0.001f), 0 elsewhere.
+/// Returns the number of pixels labelled. Pixels of the row outside the run may be read and
+/// stored back unchanged (the last partial register): the runs of a row must be labelled left to
+/// right, and no other thread may write the row meanwhile.
+int labelSingleCandidateRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols,
+                            int u0, int u1, const PixelPlane& plane, float tol_floor,
+                            std::uint16_t label);
 
 /// The same for 2 <= k <= 4 candidates: each pixel takes the label of the closest candidate
 /// within its tolerance (ties to the later one), or 0. Adds the number of pixels labelled with
 /// each candidate to counts[0..k).
-void labelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int u0, int u1,
-                        const PixelPlane* planes, const std::uint16_t* labels, int k,
+void labelCandidatesRun(const std::uint16_t* depth_row, std::uint16_t* label_row, int cols, int u0,
+                        int u1, const PixelPlane* planes, const std::uint16_t* labels, int k,
                         float tol_floor, int* counts);
 
 }  // namespace shapesense::planes_kernels

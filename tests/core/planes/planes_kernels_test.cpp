@@ -174,11 +174,11 @@ TEST(PlanesKernels, LabelRunsAreTheirDefinitionOnEveryTarget) {
           std::vector<std::uint16_t> got(kMaxCount, 7);
           int counts[4] = {0, 0, 0, 0};
           if (k == 1)
-            counts[0] = pk::labelSingleCandidateRun(row.depth.data(), got.data(), u0, u1,
+            counts[0] = pk::labelSingleCandidateRun(row.depth.data(), got.data(), kMaxCount, u0, u1,
                                                     row.planes[0], floor, row.labels[0]);
           else
-            pk::labelCandidatesRun(row.depth.data(), got.data(), u0, u1, row.planes, row.labels, k,
-                                   floor, counts);
+            pk::labelCandidatesRun(row.depth.data(), got.data(), kMaxCount, u0, u1, row.planes,
+                                   row.labels, k, floor, counts);
           int want_counts[4] = {0, 0, 0, 0};
           for (int u = 0; u < kMaxCount; ++u) {
             if (u < u0 || u >= u1) {
