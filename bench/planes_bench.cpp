@@ -88,6 +88,21 @@ void BM_NormalsHoughPlanes(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
 
+// The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
+// coplanar region merging, the growth limit on unreliable normals): what those steps cost and
+// what they gain, beside BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
+  HoughPlaneParams off;
+  off.leftover_ransac_hypotheses = 0;
+  off.labeling.adaptive_tolerance_factor = 0.0;
+  off.labeling.merge_coplanar_regions = false;
+  off.labeling.grow_max_unreliable_normal_deg = 180.0;
+  HoughPlaneDetector det(off);
+  run(state, "hough-basic",
+      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+}
+BENCHMARK(BM_NormalsHoughPlanesAccuracyStepsOff)->Unit(benchmark::kMillisecond);
+
 void BM_RansacPlanes(benchmark::State& state) {
   run(state, "ransac",
       [&](const Frame& f) { return detectPlanesRansac(f.depth, f.intrinsics, f.rgb); });

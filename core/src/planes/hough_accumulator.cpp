@@ -9,16 +9,11 @@
 #include <type_traits>
 #include <utility>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
-#include "cpu_dispatch.h"  // SHAPESENSE_AVX2_PATHS: the AVX2 smoothing passes (GCC only)
+#include "planes/hough_kernels.h"
+#include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
 namespace {
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 // Normalised 1D Gaussian taps for sigma in cells, radius min(ceil(2.5 sigma), max_radius).
 std::vector<float> gaussianTaps(double sigma_cells, int max_radius) {
@@ -40,7 +35,7 @@ inline int cellInBlock(int li, int lj, int lk) {
 }
 
 constexpr int kB = HoughAccumulator::kBlock;
-constexpr int kTaps = 2 * kB + 1;
+static_assert(hough_kernels::kBlock == kB && hough_kernels::kBlockCells == kB * kB * kB);
 
 // Block coordinates (bi, bj, bk) of a top-level key (bi fastest) in a space nba blocks wide
 // along each Lambert axis: the inverse of HoughAccumulator::blockIndex.
@@ -95,249 +90,6 @@ class BlockNeighbourhood {
   std::array<int, 27> offsets_{};
 };
 
-// Four floats, one per lane: an SSE2 register, or an array without SSE2 (the same IEEE
-// operations either way: separate multiply and add, no FMA).
-#if defined(__SSE2__)
-using Quad = __m128;
-inline Quad quadZero() { return _mm_setzero_ps(); }
-inline Quad quadSplat(float v) { return _mm_set1_ps(v); }
-inline Quad quadLoad(const float* p) { return _mm_loadu_ps(p); }
-inline void quadStore(float* p, Quad q) { _mm_storeu_ps(p, q); }
-inline Quad quadMulAdd(Quad acc, Quad w, Quad x) { return _mm_add_ps(acc, _mm_mul_ps(w, x)); }
-inline void quadTranspose(Quad (&q)[kB]) { _MM_TRANSPOSE4_PS(q[0], q[1], q[2], q[3]); }
-#else
-struct Quad {
-  float v[4];
-};
-inline Quad quadZero() { return {}; }
-inline Quad quadSplat(float v) { return {{v, v, v, v}}; }
-inline Quad quadLoad(const float* p) {
-  Quad q;
-  std::copy_n(p, 4, q.v);
-  return q;
-}
-inline void quadStore(float* p, const Quad& q) { std::copy_n(q.v, 4, p); }
-inline Quad quadMulAdd(Quad acc, const Quad& w, const Quad& x) {
-  for (int i = 0; i < 4; ++i) acc.v[i] += w.v[i] * x.v[i];
-  return acc;
-}
-inline void quadTranspose(Quad (&q)[kB]) {
-  for (int r = 0; r < 4; ++r)
-    for (int c = r + 1; c < 4; ++c) std::swap(q[r].v[c], q[c].v[r]);
-}
-#endif
-
-// Bit c set when cells[c] >= min_value (a block of kBlockCells = 64 cells): an ordered
-// compare, so a NaN cell is never a candidate.
-inline std::uint64_t cellsAtLeast(const float* cells, float min_value) {
-  static_assert(HoughAccumulator::kBlockCells == 64);
-  std::uint64_t bits = 0;
-#if defined(__SSE2__)
-  const __m128 m = _mm_set1_ps(min_value);
-  for (int q = 0; q < 16; ++q) {
-    const int mask = _mm_movemask_ps(_mm_cmpge_ps(_mm_loadu_ps(cells + 4 * q), m));
-    bits |= static_cast<std::uint64_t>(mask) << (4 * q);
-  }
-#else
-  for (int c = 0; c < 64; ++c) bits |= static_cast<std::uint64_t>(cells[c] >= min_value) << c;
-#endif
-  return bits;
-}
-
-// Bit c set when a direct neighbour of cell c inside the block rules it out as a findMaxima
-// maximum: a larger one, or an equal one that comes earlier in (k, j, i) order (the plateau
-// tie-break). Only neighbours inside the window count: along x and y with `lambert` (window_a
-// >= 1), along z with `depth` (window_d >= 1). Exact whatever the order of the tests, so it
-// only saves look-ups; without SSE2 it rules nothing out.
-inline std::uint64_t cellsBeatenInBlock(const float* cells, bool lambert, bool depth) {
-  std::uint64_t bits = 0;
-#if defined(__SSE2__)
-  // Rows of 4 x-cells: row q = k * 4 + j.
-  __m128 row[kB * kB];
-  for (int q = 0; q < kB * kB; ++q) row[q] = _mm_loadu_ps(cells + kB * q);
-  // x - 1 / x + 1 of each lane (lane 0 / lane 3 has none: masked).
-  const __m128 has_prev = _mm_castsi128_ps(_mm_set_epi32(-1, -1, -1, 0));
-  const __m128 has_next = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
-  for (int q = 0; q < kB * kB; ++q) {
-    const int j = q % kB, k = q / kB;
-    const __m128 v = row[q];
-    const __m128i vi = _mm_castps_si128(v);
-    const __m128 prev = _mm_castsi128_ps(_mm_slli_si128(vi, 4));  // lane i: cell i - 1
-    const __m128 next = _mm_castsi128_ps(_mm_srli_si128(vi, 4));  // lane i: cell i + 1
-    __m128 beaten = _mm_setzero_ps();
-    if (lambert) {
-      beaten = _mm_or_ps(_mm_and_ps(has_prev, _mm_cmpge_ps(prev, v)),
-                         _mm_and_ps(has_next, _mm_cmpgt_ps(next, v)));
-      if (j > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - 1], v));
-      if (j + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + 1], v));
-    }
-    if (depth) {
-      if (k > 0) beaten = _mm_or_ps(beaten, _mm_cmpge_ps(row[q - kB], v));
-      if (k + 1 < kB) beaten = _mm_or_ps(beaten, _mm_cmpgt_ps(row[q + kB], v));
-    }
-    bits |= static_cast<std::uint64_t>(_mm_movemask_ps(beaten)) << (kB * q);
-  }
-#else
-  (void)cells, (void)lambert, (void)depth;
-#endif
-  return bits;
-}
-
-// One output block of a smoothing pass, four independent lines at once (the lanes):
-// out[t] = sum over u in [-kB, kB], ascending, of w[u + kB] * in[kB + t + u], from 0, where
-// in[g] = row(g / kB, g % kB) is row g % kB of the previous (0), own (1) or next (2) block
-// along the axis. Each row is loaded once and added to the outputs it reaches; every output
-// still receives its terms in ascending u. Blocks that are absent or known to be zero
-// (present[s] false) are skipped: their terms are exact zeros, so the sums keep their bits.
-template <class Row>
-[[gnu::always_inline]] inline void convolveRows(const bool (&present)[3], const Row& row,
-                                                const Quad (&w)[kTaps], Quad (&out)[kB]) {
-#pragma GCC unroll 4
-  for (int t = 0; t < kB; ++t) out[t] = quadZero();
-#pragma GCC unroll 3
-  for (int s = 0; s < 3; ++s) {
-    if (!present[s]) continue;
-#pragma GCC unroll 4
-    for (int r = 0; r < kB; ++r) {
-      const Quad x = row(s, r);
-#pragma GCC unroll 4
-      for (int t = 0; t < kB; ++t) {
-        const int u = s * kB + r - kB - t;  // the tap of in[s kB + r] for output t
-        if (u >= -kB && u <= kB) out[t] = quadMulAdd(out[t], w[u + kB], x);
-      }
-    }
-  }
-}
-
-// The y (kAlong = kB) or z (kAlong = kB^2) pass of one output block o from its previous, own
-// and next source blocks along the axis: for each position p of the other axis, the 4 lines
-// that differ only in x at once.
-template <int kAlong>
-void smoothBlockAlong(const float* const (&blocks)[3], const bool (&present)[3],
-                      const Quad (&w)[kTaps], float* o) {
-  constexpr int kAcross = kAlong == kB ? kB * kB : kB;  // stride of the other axis
-  for (int p = 0; p < kB; ++p) {
-    Quad acc[kB];
-    convolveRows(
-        present, [&](int s, int r) { return quadLoad(blocks[s] + p * kAcross + r * kAlong); }, w,
-        acc);
-    for (int t = 0; t < kB; ++t) quadStore(o + p * kAcross + t * kAlong, acc[t]);
-  }
-}
-
-// The x pass of one output block o: a block line's 4 cells are contiguous, so the 4 lines of
-// one z (the 4 y) are loaded and transposed, each register then holding one x position of four
-// lines; the results are transposed back.
-void smoothBlockX(const float* const (&blocks)[3], const bool (&present)[3], const Quad (&w)[kTaps],
-                  float* o) {
-  for (int k = 0; k < kB; ++k) {
-    const int plane = k * kB * kB;
-    Quad in[3][kB];
-    for (int s = 0; s < 3; ++s) {
-      if (!present[s]) continue;
-      for (int j = 0; j < kB; ++j) in[s][j] = quadLoad(blocks[s] + plane + j * kB);
-      quadTranspose(in[s]);
-    }
-    Quad acc[kB];
-    convolveRows(
-        present, [&](int s, int r) { return in[s][r]; }, w, acc);
-    quadTranspose(acc);
-    for (int j = 0; j < kB; ++j) quadStore(o + plane + j * kB, acc[j]);
-  }
-}
-
-#if defined(SHAPESENSE_AVX2_PATHS)
-#pragma GCC push_options
-#pragma GCC target("avx2")  // no FMA contraction: the build has -ffp-contract=off
-
-// convolveRows with eight lanes: positions p and p + 1 of the other axis in one register,
-// lane for lane the same operations (the same bits).
-template <class Row>
-[[gnu::always_inline]] inline void convolveRows8(const bool (&present)[3], const Row& row,
-                                                 const __m256 (&w)[kTaps], __m256 (&out)[kB]) {
-#pragma GCC unroll 4
-  for (int t = 0; t < kB; ++t) out[t] = _mm256_setzero_ps();
-#pragma GCC unroll 3
-  for (int s = 0; s < 3; ++s) {
-    if (!present[s]) continue;
-#pragma GCC unroll 4
-    for (int r = 0; r < kB; ++r) {
-      const __m256 x = row(s, r);
-#pragma GCC unroll 4
-      for (int t = 0; t < kB; ++t) {
-        const int u = s * kB + r - kB - t;
-        if (u >= -kB && u <= kB) out[t] = _mm256_add_ps(out[t], _mm256_mul_ps(w[u + kB], x));
-      }
-    }
-  }
-}
-
-// smoothBlockAlong, two positions of the other axis per register (contiguous along z's other
-// axis y; two halves along y's other axis z).
-template <int kAlong>
-void smoothBlockAlongAvx2(const float* const (&blocks)[3], const bool (&present)[3],
-                          const float* taps, float* o) {
-  constexpr int kAcross = kAlong == kB ? kB * kB : kB;
-  __m256 w[kTaps];
-  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
-  for (int p = 0; p < kB; p += 2) {
-    __m256 acc[kB];
-    convolveRows8(
-        present,
-        [&](int s, int r) {
-          const float* a = blocks[s] + p * kAcross + r * kAlong;
-          return kAcross == kB ? _mm256_loadu_ps(a) : _mm256_loadu2_m128(a + kAcross, a);
-        },
-        w, acc);
-    for (int t = 0; t < kB; ++t) {
-      float* out = o + p * kAcross + t * kAlong;
-      if (kAcross == kB)
-        _mm256_storeu_ps(out, acc[t]);
-      else
-        _mm256_storeu2_m128(out + kAcross, out, acc[t]);
-    }
-  }
-}
-
-// Transposes each 128-bit half of four registers as 4x4 blocks (_MM_TRANSPOSE4_PS per half).
-inline void transposeHalves(__m256 (&q)[kB]) {
-  const __m256 t0 = _mm256_unpacklo_ps(q[0], q[1]), t1 = _mm256_unpackhi_ps(q[0], q[1]);
-  const __m256 t2 = _mm256_unpacklo_ps(q[2], q[3]), t3 = _mm256_unpackhi_ps(q[2], q[3]);
-  q[0] = _mm256_shuffle_ps(t0, t2, 0x44);
-  q[1] = _mm256_shuffle_ps(t0, t2, 0xEE);
-  q[2] = _mm256_shuffle_ps(t1, t3, 0x44);
-  q[3] = _mm256_shuffle_ps(t1, t3, 0xEE);
-}
-
-// smoothBlockX, two z positions per register (each half transposed on its own).
-void smoothBlockXAvx2(const float* const (&blocks)[3], const bool (&present)[3], const float* taps,
-                      float* o) {
-  constexpr int kPlane = kB * kB;
-  __m256 w[kTaps];
-  for (int u = 0; u < kTaps; ++u) w[u] = _mm256_set1_ps(taps[u]);
-  for (int k = 0; k < kB; k += 2) {
-    __m256 in[3][kB];
-    for (int s = 0; s < 3; ++s) {
-      if (!present[s]) continue;
-      for (int j = 0; j < kB; ++j) {
-        const float* line = blocks[s] + k * kPlane + j * kB;
-        in[s][j] = _mm256_loadu2_m128(line + kPlane, line);
-      }
-      transposeHalves(in[s]);
-    }
-    __m256 acc[kB];
-    convolveRows8(
-        present, [&](int s, int r) { return in[s][r]; }, w, acc);
-    transposeHalves(acc);
-    for (int j = 0; j < kB; ++j) {
-      float* line = o + k * kPlane + j * kB;
-      _mm256_storeu2_m128(line + kPlane, line, acc[j]);
-    }
-  }
-}
-
-#pragma GCC pop_options
-#endif
 }  // namespace
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
@@ -431,43 +183,18 @@ void HoughAccumulator::vote(const Eigen::Vector3d& n, double d, float w) {
 
 void HoughAccumulator::voteBatch(const float* nx, const float* ny, const float* nz, const float* d,
                                  int count, float w) {
-  int v = 0;
-#if defined(__SSE2__)
-  // One vote, from the continuous coordinates as cellOf computes them (ci = c + 0.5).
-  auto add = [&](double ci, double cj, double ck) {
-    int i, j, k;
-    if (roundedCell(ci, cj, ck, i, j, k)) addToCellInRange(i, j, k, w);
-  };
-  const double ext = params_.lambert_extent;
-  // cellCoordinates, two votes per SSE2 register: the same IEEE operations in the same order
-  // (division and square root are correctly rounded either way), so the same cells. A normal at
-  // or beyond the pole (den <= 1e-9) has no cell.
-  const __m128d one = _mm_set1_pd(1.0), two = _mm_set1_pd(2.0), half = _mm_set1_pd(0.5),
-                eps = _mm_set1_pd(1e-9), ext2 = _mm_set1_pd(ext), inv_a = _mm_set1_pd(inv_a_cell_),
-                inv_d = _mm_set1_pd(inv_d_cell_);
-  for (; v + 2 <= count; v += 2) {
-    const __m128d vx = _mm_set_pd(nx[v + 1], nx[v]), vy = _mm_set_pd(ny[v + 1], ny[v]),
-                  vz = _mm_set_pd(nz[v + 1], nz[v]), vd = _mm_set_pd(d[v + 1], d[v]);
-    const __m128d den = _mm_sub_pd(one, vz);
-    const __m128d valid = _mm_cmpgt_pd(den, eps);
-    // Invalid lanes divide 2 by 1 instead (then fail the range test below).
-    const __m128d sc =
-        _mm_sqrt_pd(_mm_div_pd(two, _mm_or_pd(_mm_and_pd(valid, den), _mm_andnot_pd(valid, one))));
-    const __m128d ci =
-        _mm_add_pd(_mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(sc, vx), ext2), inv_a), half), half);
-    const __m128d cj =
-        _mm_add_pd(_mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(sc, vy), ext2), inv_a), half), half);
-    const __m128d ck = _mm_add_pd(_mm_sub_pd(_mm_mul_pd(vd, inv_d), half), half);
-    alignas(16) double a[2], b[2], c[2];
-    _mm_store_pd(a, ci);
-    _mm_store_pd(b, cj);
-    _mm_store_pd(c, ck);
-    const int ok = _mm_movemask_pd(valid);
-    if (ok & 1) add(a[0], b[0], c[0]);
-    if (ok & 2) add(a[1], b[1], c[1]);
+  // The cells of a chunk of votes at once (the kernel), then the additions in vote order.
+  constexpr int kChunk = 256;
+  double ci[kChunk], cj[kChunk], ck[kChunk];
+  const hough_kernels::VoteSpace space{params_.lambert_extent, inv_a_cell_, inv_d_cell_};
+  for (int v = 0; v < count; v += kChunk) {
+    const int n = std::min(kChunk, count - v);
+    hough_kernels::voteCellCoordinates(nx + v, ny + v, nz + v, d + v, n, space, ci, cj, ck);
+    for (int t = 0; t < n; ++t) {
+      int i, j, k;
+      if (roundedCell(ci[t], cj[t], ck[t], i, j, k)) addToCellInRange(i, j, k, w);
+    }
   }
-#endif
-  for (; v < count; ++v) vote(Eigen::Vector3d(nx[v], ny[v], nz[v]), d[v], w);
 }
 
 float HoughAccumulator::at(int i, int j, int k) const {
@@ -575,40 +302,22 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
   constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
   std::vector<std::uint8_t>& live = smooth_live_;
   live.assign(count, 0);
-#if defined(SHAPESENSE_AVX2_PATHS)
-  const bool avx2 = detail::cpuHasAvx2();
-#endif
-  Quad w[3][kTaps];
-  for (int axis = 0; axis < 3; ++axis)
-    for (int u = 0; u < kTaps; ++u) w[axis][u] = quadSplat(taps[axis][u]);
 
-  // x: this space's block lines are contiguous 4-cell rows; four of them (the 4 y of one z) are
-  // loaded and transposed, so each register holds one x position of four lines.
+  // x: src -> cells_, from the source's blocks (light ones included).
   for (std::size_t b = 0; b < count; ++b) {
     const int key = block_keys_[b], bi = blockCoordsOf(key, nba_)[0];
     const float* blocks[3];
-    bool present[3];
     for (int s = 0; s < 3; ++s) {
       const int x = bi + s - 1;
       blocks[s] = x >= 0 && x < nba_ ? src.block(key + s - 1) : nullptr;
-      present[s] = blocks[s] != nullptr;
     }
-    if (!(present[0] || present[1] || present[2])) continue;
+    if (!(blocks[0] || blocks[1] || blocks[2])) continue;
     live[b] = kLiveX;
-    float* o = &cells_[b * kBlockCells];
-#if defined(SHAPESENSE_AVX2_PATHS)
-    if (avx2) {
-      smoothBlockXAvx2(blocks, present, taps[0].data(), o);
-      continue;
-    }
-#endif
-    smoothBlockX(blocks, present, w[0], o);
+    hough_kernels::smoothBlockX(blocks, taps[0].data(), &cells_[b * kBlockCells]);
   }
-  // y (cells_ -> scratch_) and z (scratch_ -> cells_): a block line's cells are kBlock (or
-  // kBlock^2) apart, but the 4 lines that differ only in x are contiguous: one register.
+  // y (cells_ -> scratch_) and z (scratch_ -> cells_), over the evaluated blocks only.
   auto passYZ = [&](auto axis_constant, const std::vector<float>& in, std::vector<float>& dst) {
     constexpr int axis = decltype(axis_constant)::value;
-    constexpr int along = axis == 1 ? kBlock : kBlock * kBlock;  // stride along the axis
     constexpr std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
     constexpr std::uint8_t reads = axis == 1 ? kLiveX : kLiveY;
     const int step = axis == 1 ? nba_ : nba_ * nba_;  // key offset of the next block
@@ -616,34 +325,29 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
     for (std::size_t b = 0; b < count; ++b) {
       float* o = &dst[b * kBlockCells];
       const int key = block_keys_[b];
-      const float* blocks[3] = {nullptr, &in[b * kBlockCells], nullptr};
-      bool present[3] = {false, (live[b] & reads) != 0, false};
+      const float* blocks[3] = {nullptr, nullptr, nullptr};
       if (need[b] >= needed) {
+        if (live[b] & reads) blocks[1] = &in[b * kBlockCells];
         const int pos = blockCoordsOf(key, nba_)[axis];
         for (int s = 0; s < 3; s += 2) {
           if (s == 0 ? pos == 0 : pos == last) continue;
           const int idx = index_[key + (s - 1) * step];
           if (idx < 0 || !(live[idx] & reads)) continue;
           blocks[s] = &in[static_cast<std::size_t>(idx) * kBlockCells];
-          present[s] = true;
         }
-      } else {
-        present[1] = false;
       }
-      if (!(present[0] || present[1] || present[2])) {
+      if (!(blocks[0] || blocks[1] || blocks[2])) {
         // After the z pass this is what findMaxima sees: a block that cannot hold a peak and is
         // no neighbour of one, or one without votes near it.
         if (axis == 2) std::fill_n(o, kBlockCells, 0.0f);
         continue;
       }
-      if (axis == 1) live[b] |= kLiveY;
-#if defined(SHAPESENSE_AVX2_PATHS)
-      if (avx2) {
-        smoothBlockAlongAvx2<along>(blocks, present, taps[axis].data(), o);
-        continue;
+      if (axis == 1) {
+        live[b] |= kLiveY;
+        hough_kernels::smoothBlockY(blocks, taps[axis].data(), o);
+      } else {
+        hough_kernels::smoothBlockZ(blocks, taps[axis].data(), o);
       }
-#endif
-      smoothBlockAlong<along>(blocks, present, w[axis], o);
     }
   };
   passYZ(std::integral_constant<int, 1>{}, cells_, scratch_);
@@ -761,7 +465,7 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
     // The cells >= min_value, as bits (most blocks have none).
     const float* cells = &cells_[b * kBlockCells];
-    std::uint64_t candidates = cellsAtLeast(cells, min_value);
+    std::uint64_t candidates = hough_kernels::cellsAtLeast(cells, min_value);
     if (!candidates) continue;
     const int key = block_keys_[b];
     const auto [bi, bj, bk] = blockCoordsOf(key, nba_);
@@ -780,7 +484,7 @@ std::vector<HoughMaximum> HoughAccumulator::findMaxima(float min_value, int wind
       candidates &= in_space;
       if (!candidates) continue;
     }
-    candidates &= ~cellsBeatenInBlock(cells, window_a >= 1, window_d >= 1);
+    candidates &= ~hough_kernels::cellsBeatenInBlock(cells, window_a >= 1, window_d >= 1);
     for (; candidates; candidates &= candidates - 1) {
       const int c = std::countr_zero(candidates);
       const float v = cells[c];

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "shapesense/core/geometry/units.h"
+
 namespace shapesense {
 namespace {
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 // A point on a detected plane near its inliers: the polygon's vertex mean, else the foot of
 // the perpendicular from the camera.

@@ -1,18 +1,20 @@
 // Sample grids and full-resolution labelling (plane_labeling.h) on small analytic frames of every
 // width from 1 to 41 pixels, so the vectorised loops meet runs that end at the row's end, runs
-// shorter than their step and rows shorter than one step; the AVX2 pixel loops against the
-// SSE2 / scalar ones (PlaneLabelingParams::labeling_avx2) on those widths and on VGA frames.
+// shorter than their step and rows shorter than one step; the pixel kernels of every SIMD target
+// against the scalar-equivalent one on those widths and on VGA frames.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 #include "shapesense/core/planes/plane_labeling.h"
+#include "simd_targets.h"
 
 namespace shapesense {
 namespace {
@@ -29,38 +31,40 @@ CameraIntrinsics smallCamera(int cols, int rows) {
 
 bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
-TEST(PlaneSampleGrid, PointsAreThoseOfTheScalarFormulaBitForBit) {
-  for (int step = 1; step <= 5; ++step)
-    for (int cols = 1; cols <= 41; cols += 4 + step) {
-      const int rows = 9;
-      cv::Mat depth(rows, cols, CV_16UC1);
-      for (int v = 0; v < rows; ++v)
-        for (int u = 0; u < cols; ++u)
-          depth.at<std::uint16_t>(v, u) =
-              (u * 7 + v * 3) % 5 == 0 ? 0 : static_cast<std::uint16_t>(600 + 37 * u + 11 * v);
-      const CameraIntrinsics K = smallCamera(cols, rows);
-      PlaneSampleGrid grid;
-      grid.build(depth, K, step);
-      ASSERT_EQ(grid.points.rows, (rows - grid.offset + step - 1) / step);
-      ASSERT_EQ(grid.points.cols, (cols - grid.offset + step - 1) / step);
-      const float ifx = static_cast<float>(1.0 / K.fx), ify = static_cast<float>(1.0 / K.fy);
-      for (int r = 0; r < grid.points.rows; ++r)
-        for (int c = 0; c < grid.points.cols; ++c) {
-          const int u = grid.offset + c * step, v = grid.offset + r * step;
-          const std::uint16_t d = depth.at<std::uint16_t>(v, u);
-          ASSERT_EQ(grid.depth_mm.at<std::uint16_t>(r, c), d);
-          const cv::Vec3f p = grid.points.at<cv::Vec3f>(r, c);
-          if (d == 0) {
-            EXPECT_TRUE(std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2]));
-            continue;
+TEST(PlaneSampleGrid, PointsAreThoseOfTheScalarFormulaBitForBitOnEveryTarget) {
+  testing::forEachSimdTarget([](const std::string& target) {
+    for (int step = 1; step <= 5; ++step)
+      for (int cols = 1; cols <= 41; cols += 4 + step) {
+        const int rows = 9;
+        cv::Mat depth(rows, cols, CV_16UC1);
+        for (int v = 0; v < rows; ++v)
+          for (int u = 0; u < cols; ++u)
+            depth.at<std::uint16_t>(v, u) =
+                (u * 7 + v * 3) % 5 == 0 ? 0 : static_cast<std::uint16_t>(600 + 37 * u + 11 * v);
+        const CameraIntrinsics K = smallCamera(cols, rows);
+        PlaneSampleGrid grid;
+        grid.build(depth, K, step);
+        ASSERT_EQ(grid.points.rows, (rows - grid.offset + step - 1) / step);
+        ASSERT_EQ(grid.points.cols, (cols - grid.offset + step - 1) / step);
+        const float ifx = static_cast<float>(1.0 / K.fx), ify = static_cast<float>(1.0 / K.fy);
+        for (int r = 0; r < grid.points.rows; ++r)
+          for (int c = 0; c < grid.points.cols; ++c) {
+            const int u = grid.offset + c * step, v = grid.offset + r * step;
+            const std::uint16_t d = depth.at<std::uint16_t>(v, u);
+            ASSERT_EQ(grid.depth_mm.at<std::uint16_t>(r, c), d);
+            const cv::Vec3f p = grid.points.at<cv::Vec3f>(r, c);
+            if (d == 0) {
+              EXPECT_TRUE(std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2]));
+              continue;
+            }
+            const float z = static_cast<float>(d) * 0.001f;
+            const float x = (static_cast<float>(u) - static_cast<float>(K.cx)) * ifx * z;
+            const float y = (static_cast<float>(v) - static_cast<float>(K.cy)) * ify * z;
+            EXPECT_TRUE(sameBits(p[0], x) && sameBits(p[1], y) && sameBits(p[2], z))
+                << target << " step " << step << " cols " << cols << " sample " << r << "," << c;
           }
-          const float z = static_cast<float>(d) * 0.001f;
-          const float x = (static_cast<float>(u) - static_cast<float>(K.cx)) * ifx * z;
-          const float y = (static_cast<float>(v) - static_cast<float>(K.cy)) * ify * z;
-          EXPECT_TRUE(sameBits(p[0], x) && sameBits(p[1], y) && sameBits(p[2], z))
-              << "step " << step << " cols " << cols << " sample " << r << "," << c;
-        }
-    }
+      }
+  });
 }
 
 // Vertical stripes of 10 pixels, alternately on a tilted plane and on another 0.5 m behind it, in
@@ -198,38 +202,42 @@ BlockFrame blockFrame(int cols, int rows, double f, int bw, int bh, int step, un
   return fr;
 }
 
-// Labels the frame with and without the AVX2 pixel loops (on a copy of its sample labels each):
-// the same label image and the same planes, field for field.
-void expectSameWithAndWithoutAvx2(const BlockFrame& fr, PlaneLabelingParams params,
-                                  const std::string& what) {
-  params.labeling_avx2 = true;
-  cv::Mat lab_a = fr.sample_labels.clone();
-  const PlaneDetection a = labelPlanes(fr.depth, fr.K, fr.bgr, fr.grid, lab_a, fr.planes, params);
-  params.labeling_avx2 = false;
-  cv::Mat lab_b = fr.sample_labels.clone();
-  const PlaneDetection b = labelPlanes(fr.depth, fr.K, fr.bgr, fr.grid, lab_b, fr.planes, params);
-  ASSERT_EQ(a.labels.size(), fr.depth.size()) << what;
-  ASSERT_EQ(b.labels.size(), fr.depth.size()) << what;
-  ASSERT_EQ(a.labels.type(), CV_16UC1) << what;
-  ASSERT_EQ(b.labels.type(), CV_16UC1) << what;
-  EXPECT_EQ(cv::countNonZero(a.labels != b.labels), 0) << what;
-  ASSERT_EQ(a.planes.size(), b.planes.size()) << what;
-  for (std::size_t k = 0; k < a.planes.size(); ++k) {
-    const DetectedPlane &p = a.planes[k], &q = b.planes[k];
-    EXPECT_EQ(p.id, q.id) << what << " plane " << k;
-    EXPECT_EQ(p.group, q.group) << what << " plane " << k;
-    EXPECT_EQ(p.normal, q.normal) << what << " plane " << k;
-    EXPECT_EQ(p.d, q.d) << what << " plane " << k;
-    EXPECT_EQ(p.inliers, q.inliers) << what << " plane " << k;
-    EXPECT_EQ(p.rms_m, q.rms_m) << what << " plane " << k;
-    EXPECT_EQ(p.box, q.box) << what << " plane " << k;
-    EXPECT_EQ(p.polygon, q.polygon) << what << " plane " << k;
-    EXPECT_EQ(p.triangles, q.triangles) << what << " plane " << k;
-    EXPECT_EQ(p.mean_bgr, q.mean_bgr) << what << " plane " << k;
+// Labels the frame with the kernels of every SIMD target (on a copy of its sample labels each):
+// the same label image and the same planes, field for field, as the last target (the
+// scalar-equivalent one).
+void expectSameOnEveryTarget(const BlockFrame& fr, const PlaneLabelingParams& params,
+                             const std::string& what) {
+  std::vector<std::pair<std::string, PlaneDetection>> results;
+  testing::forEachSimdTarget([&](const std::string& target) {
+    cv::Mat sample_labels = fr.sample_labels.clone();
+    results.emplace_back(
+        target, labelPlanes(fr.depth, fr.K, fr.bgr, fr.grid, sample_labels, fr.planes, params));
+  });
+  ASSERT_FALSE(results.empty());
+  const PlaneDetection& b = results.back().second;
+  for (const auto& [target, a] : results) {
+    const std::string where = what + " target " + target;
+    ASSERT_EQ(a.labels.size(), fr.depth.size()) << where;
+    ASSERT_EQ(a.labels.type(), CV_16UC1) << where;
+    EXPECT_EQ(cv::countNonZero(a.labels != b.labels), 0) << where;
+    ASSERT_EQ(a.planes.size(), b.planes.size()) << where;
+    for (std::size_t k = 0; k < a.planes.size(); ++k) {
+      const DetectedPlane &p = a.planes[k], &q = b.planes[k];
+      EXPECT_EQ(p.id, q.id) << where << " plane " << k;
+      EXPECT_EQ(p.group, q.group) << where << " plane " << k;
+      EXPECT_EQ(p.normal, q.normal) << where << " plane " << k;
+      EXPECT_EQ(p.d, q.d) << where << " plane " << k;
+      EXPECT_EQ(p.inliers, q.inliers) << where << " plane " << k;
+      EXPECT_EQ(p.rms_m, q.rms_m) << where << " plane " << k;
+      EXPECT_EQ(p.box, q.box) << where << " plane " << k;
+      EXPECT_EQ(p.polygon, q.polygon) << where << " plane " << k;
+      EXPECT_EQ(p.triangles, q.triangles) << where << " plane " << k;
+      EXPECT_EQ(p.mean_bgr, q.mean_bgr) << where << " plane " << k;
+    }
   }
 }
 
-TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersAtAnyWidth) {
+TEST(PlaneLabeling, EveryTargetGivesTheSameLabelsAtAnyWidth) {
   for (int step = 1; step <= 6; ++step)
     for (int cols = 1; cols <= 41; ++cols) {
       const BlockFrame fr = blockFrame(cols, 23, 60.0, 3 + cols % 7, 4 + step, step, 7u * cols);
@@ -237,20 +245,20 @@ TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersAtAnyWidth) {
       PlaneLabelingParams params;
       params.sample_step = step;
       params.min_region_pixels = 1;
-      expectSameWithAndWithoutAvx2(
-          fr, params, "step " + std::to_string(step) + " cols " + std::to_string(cols));
+      expectSameOnEveryTarget(fr, params,
+                              "step " + std::to_string(step) + " cols " + std::to_string(cols));
     }
 }
 
-TEST(PlaneLabeling, Avx2LoopsGiveTheLabelsOfTheOthersOnVga) {
+TEST(PlaneLabeling, EveryTargetGivesTheSameLabelsOnVga) {
   for (int step = 1; step <= 6; ++step)
     for (const int block : {5, 37}) {
       const BlockFrame fr = blockFrame(640, 480, 570.0, block, block + 2, step, 11u * step + block);
       PlaneLabelingParams params;
       params.sample_step = step;
       params.min_region_pixels = block < 10 ? 10 : 300;
-      expectSameWithAndWithoutAvx2(
-          fr, params, "step " + std::to_string(step) + " block " + std::to_string(block));
+      expectSameOnEveryTarget(fr, params,
+                              "step " + std::to_string(step) + " block " + std::to_string(block));
     }
 }
 

@@ -113,10 +113,6 @@ struct PlaneLabelingParams {
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.
   double polygon_epsilon_cells = 1.0;
-  /// Tests only: false keeps the per-pixel labelling loops to their SSE2 / scalar versions on
-  /// CPUs with AVX2 (the AVX2 loops give the same labels and counts; tests compare the two).
-  /// Default true.
-  bool labeling_avx2 = true;
 };
 
 struct HoughPlaneParams {

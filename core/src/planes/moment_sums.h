@@ -1,0 +1,53 @@
+#pragma once
+// The point-form plane moment sums of the Hough detector's hot loops, kept in locals.
+
+#include <cassert>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/plane_fitting.h"
+
+namespace shapesense {
+
+/// The sums of PlaneMoments (w = 1) in locals, for loops over many points: the additions
+/// PlaneMoments::add makes, in the same order, so moments() equals the PlaneMoments the same
+/// add() calls give (PlaneMoments keeps them in an Eigen vector and matrix, which a loop cannot
+/// hold in registers). Needs a reference (the first point, as add() takes it, or the caller's).
+class MomentSums {
+ public:
+  MomentSums() = default;
+  explicit MomentSums(const Eigen::Vector3d& ref) { setReference(ref); }
+  bool hasReference() const { return has_ref_; }
+  void setReference(const Eigen::Vector3d& ref) {
+    ref_ = ref;
+    has_ref_ = true;
+  }
+  /// Needs a reference (the constructor's or setReference's): without one the sums would be
+  /// taken relative to (0, 0, 0), unlike PlaneMoments::add.
+  void add(float x, float y, float z) {
+    assert(has_ref_);
+    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
+    n_ += 1.0;
+    s_[0] += a, s_[1] += b, s_[2] += c;
+    ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
+    ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
+  }
+  void add(const cv::Vec3f& p) { add(p[0], p[1], p[2]); }
+  /// PlaneMoments() when no reference was set.
+  PlaneMoments moments() const {
+    if (!has_ref_) return PlaneMoments();
+    Eigen::Matrix3d sq;
+    sq << ss_[0], ss_[1], ss_[2], 0.0, ss_[3], ss_[4], 0.0, 0.0, ss_[5];
+    return PlaneMoments::fromSums(ref_, n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), sq);
+  }
+
+ private:
+  Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
+  bool has_ref_ = false;
+  double n_ = 0.0;
+  double s_[3] = {0, 0, 0};
+  double ss_[6] = {0, 0, 0, 0, 0, 0};  // a a, a b, a c, b b, b c, c c
+};
+
+}  // namespace shapesense
