@@ -196,6 +196,12 @@ int main(int argc, char** argv) {
                  "Such queries that may wait for a worker; more are answered RESOURCE_EXHAUSTED")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  int query_max_wait_ms = static_cast<int>(limits.queries.max_wait.count());
+  app.add_option("--query-max-wait-ms", query_max_wait_ms,
+                 "Such a query that waited this long for a worker is answered "
+                 "RESOURCE_EXHAUSTED instead of being run late")
+      ->check(CLI::Range(1, 60000))
+      ->capture_default_str();
   app.add_option("--query-nice", limits.queries.nice,
                  "Nice value of the query workers (0-19), so the detectors win a busy core")
       ->check(CLI::Range(0, 19))
@@ -264,6 +270,7 @@ int main(int argc, char** argv) {
   bowl_geometry.max_rim_diameter_m = bowl_rim_cm[1] / 100;
   options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(stall_seconds));
+  limits.queries.max_wait = std::chrono::milliseconds(query_max_wait_ms);
   limits.keepalive_ms = static_cast<int>(keepalive_seconds * 1000);
   limits.keepalive_timeout_ms = static_cast<int>(keepalive_timeout_seconds * 1000);
   options.record.root = record_root;

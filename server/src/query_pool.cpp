@@ -14,7 +14,8 @@ int QueryPool::defaultWorkers() {
   return std::max(1, cores - 1);
 }
 
-QueryPool::QueryPool(const QueryPoolOptions& options) : capacity_(options.queue) {
+QueryPool::QueryPool(const QueryPoolOptions& options)
+    : capacity_(options.queue), max_wait_(options.max_wait) {
   const int workers = options.workers > 0 ? options.workers : defaultWorkers();
   threads_.reserve(static_cast<std::size_t>(workers));
   for (int i = 0; i < workers; ++i)
@@ -23,11 +24,12 @@ QueryPool::QueryPool(const QueryPoolOptions& options) : capacity_(options.queue)
 
 QueryPool::~QueryPool() { stop(); }
 
-bool QueryPool::trySubmit(std::function<void()> task) {
+bool QueryPool::trySubmit(Task task) {
+  const auto now = std::chrono::steady_clock::now();
   {
     std::lock_guard lock(mutex_);
     if (stopping_ || queue_.size() >= capacity_ + idle_) return false;
-    queue_.push_back(std::move(task));
+    queue_.push_back({std::move(task), now});
   }
   ready_.notify_one();
   return true;
@@ -57,10 +59,10 @@ void QueryPool::run(int nice) {
     ready_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
     --idle_;
     if (queue_.empty()) return;  // stopping, nothing left
-    auto task = std::move(queue_.front());
+    Queued next = std::move(queue_.front());
     queue_.pop_front();
     lock.unlock();
-    task();
+    next.task(std::chrono::steady_clock::now() - next.since <= max_wait_);
     lock.lock();
   }
 }

@@ -142,9 +142,14 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
   grpc::ServerUnaryReactor* onPool(grpc::CallbackServerContext* call, Handler handler) {
     auto* reactor = call->DefaultReactor();
     if (!admit(reactor)) return reactor;
-    const bool queued = queries_.trySubmit([this, call, reactor, handler] {
-      // A client that gave up while the call waited does not get the work done for nothing.
-      if (call->IsCancelled()) {
+    const bool queued = queries_.trySubmit([this, call, reactor, handler](bool run) {
+      if (!run) {
+        finish(reactor, {grpc::StatusCode::RESOURCE_EXHAUSTED,
+                         "the daemon's query workers are busy: this call waited " +
+                             std::to_string(queries_.maxWait().count()) +
+                             " ms for one (shapesensed --query-max-wait-ms); retry later"});
+      } else if (call->IsCancelled()) {
+        // A client that gave up while the call waited does not get the work done for nothing.
         finish(reactor, {grpc::StatusCode::CANCELLED, "cancelled while queued"});
       } else {
         finish(reactor, handler());

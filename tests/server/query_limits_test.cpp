@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <future>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -22,7 +23,7 @@ class PoolBlocker {
     for (int i = 0; i < pool.workers(); ++i) {
       auto started = std::make_shared<std::promise<void>>();
       auto running = started->get_future();
-      EXPECT_TRUE(pool.trySubmit([gate = gate_, started] {
+      EXPECT_TRUE(pool.trySubmit([gate = gate_, started](bool) {
         started->set_value();
         gate.wait();
       }));
@@ -44,6 +45,7 @@ class PoolBlocker {
 ServerLimits oneWorker(std::size_t queue, std::size_t max_calls = 128) {
   ServerLimits limits;
   limits.queries.workers = 1;
+  limits.queries.max_wait = 60s;  // held calls are answered, however long the test holds them
   limits.queries.queue = queue;
   limits.max_calls = max_calls;
   return limits;
@@ -74,19 +76,34 @@ struct PendingCall {
 };
 
 TEST(QueryPool, RefusesPastItsQueueAndRunsWhatItQueuedWhenStopped) {
-  QueryPool pool(QueryPoolOptions{.workers = 1, .queue = 2, .nice = 0});
+  QueryPool pool(QueryPoolOptions{.workers = 1, .queue = 2, .max_wait = 60s, .nice = 0});
   EXPECT_EQ(pool.workers(), 1);
   std::atomic<int> ran{0};
+  const auto count = [&](bool run) { ran += run ? 1 : 100; };
   {
     PoolBlocker blocker(pool);
-    EXPECT_TRUE(pool.trySubmit([&] { ++ran; }));
-    EXPECT_TRUE(pool.trySubmit([&] { ++ran; }));
-    EXPECT_FALSE(pool.trySubmit([&] { ++ran; })) << "a third task past a queue of 2";
+    EXPECT_TRUE(pool.trySubmit(count));
+    EXPECT_TRUE(pool.trySubmit(count));
+    EXPECT_FALSE(pool.trySubmit(count)) << "a third task past a queue of 2";
     EXPECT_EQ(ran, 0);
   }
   pool.stop();
   EXPECT_EQ(ran, 2);
-  EXPECT_FALSE(pool.trySubmit([&] { ++ran; })) << "a stopped pool takes nothing";
+  EXPECT_FALSE(pool.trySubmit(count)) << "a stopped pool takes nothing";
+}
+
+TEST(QueryPool, ATaskThatWaitedPastMaxWaitIsToldNotToRun) {
+  QueryPool pool(QueryPoolOptions{.workers = 1, .queue = 4, .max_wait = 20ms, .nice = 0});
+  std::promise<bool> told;
+  {
+    PoolBlocker blocker(pool);
+    ASSERT_TRUE(pool.trySubmit([&](bool run) { told.set_value(run); }));
+    std::this_thread::sleep_for(50ms);  // the only worker is held well past max_wait
+  }
+  EXPECT_FALSE(told.get_future().get());
+  std::promise<bool> prompt;
+  ASSERT_TRUE(pool.trySubmit([&](bool run) { prompt.set_value(run); }));
+  EXPECT_TRUE(prompt.get_future().get()) << "a task a free worker takes at once runs";
 }
 
 TEST(QueryPool, DefaultLeavesACoreToTheDetectors) {
@@ -127,6 +144,23 @@ TEST(QueryLimits, FullQueueAnswersResourceExhaustedAtOnceAndCheapCallsStillWork)
   EXPECT_TRUE(answered.ok()) << answered.error_message();
   EXPECT_EQ(queued.response.corners_size(), 8);
   EXPECT_TRUE(srv.stub().EstimateBox(clientContext().get(), request, &response).ok());
+}
+
+TEST(QueryLimits, ACallThatWaitedTooLongIsRefusedNotRunLate) {
+  ServerLimits limits = oneWorker(/*queue=*/4);
+  limits.queries.max_wait = 20ms;
+  TestServer srv(16, {}, {}, limits);
+  srv.addMany(2);
+  const auto request = boxRequest();
+  PoolBlocker blocker(srv.server().queryPool());
+  PendingCall late(srv.stub(), request);
+  std::this_thread::sleep_for(100ms);
+  blocker.release();
+  ASSERT_EQ(late.status.wait_for(5s), std::future_status::ready);
+  const grpc::Status status = late.status.get();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(status.error_message().find("--query-max-wait-ms"), std::string::npos)
+      << status.error_message();
 }
 
 TEST(QueryLimits, MaxCallsCountsQueuedCalls) {
