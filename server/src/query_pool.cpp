@@ -29,7 +29,7 @@ bool QueryPool::trySubmit(Task task) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_ || queue_.size() >= capacity_ + idle_) return false;
-    queue_.push_back({std::move(task), now});
+    queue_.push_back({std::move(task), now, queue_.size() >= idle_});
   }
   ready_.notify_one();
   return true;
@@ -62,7 +62,7 @@ void QueryPool::run(int nice) {
     Queued next = std::move(queue_.front());
     queue_.pop_front();
     lock.unlock();
-    next.task(std::chrono::steady_clock::now() - next.since <= max_wait_);
+    next.task(!next.behind_others || std::chrono::steady_clock::now() - next.since <= max_wait_);
     lock.lock();
   }
 }

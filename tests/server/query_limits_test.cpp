@@ -103,7 +103,7 @@ TEST(QueryPool, ATaskThatWaitedPastMaxWaitIsToldNotToRun) {
   EXPECT_FALSE(told.get_future().get());
   std::promise<bool> prompt;
   ASSERT_TRUE(pool.trySubmit([&](bool run) { prompt.set_value(run); }));
-  EXPECT_TRUE(prompt.get_future().get()) << "a task a free worker takes at once runs";
+  EXPECT_TRUE(prompt.get_future().get()) << "a task that found a worker idle runs";
 }
 
 TEST(QueryPool, DefaultLeavesACoreToTheDetectors) {

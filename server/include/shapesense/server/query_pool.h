@@ -38,7 +38,8 @@ class QueryPool {
   QueryPool& operator=(const QueryPool&) = delete;
 
   /// A queued task, called on a worker with true, or with false when it waited past max_wait
-  /// (then it should only answer that it was refused).
+  /// behind other tasks (then it should only answer that it was refused). A task that found a
+  /// worker idle always runs: a late start then is the machine's, not the queue's.
   using Task = std::function<void(bool run)>;
 
   /// Queues `task` for a worker; false (and `task` is dropped) when `queue` tasks already wait
@@ -60,6 +61,7 @@ class QueryPool {
   struct Queued {
     Task task;
     std::chrono::steady_clock::time_point since;
+    bool behind_others;  ///< no worker was idle for it when it came
   };
 
   const std::size_t capacity_;
