@@ -16,9 +16,10 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--json", args->json, "Print one JSON object per line");
   cmd->add_option("--count", args->count, "Stop after N summaries (0 = never)");
   cmd->callback([&global, args] {
-    Connection connection(global);
+    // A channel of its own: a terminal that scrolls slowly should show the newest frames.
+    const auto stub = v1::ShapeSense::NewStub(makeChannel(global, freshStreamArguments()));
     auto context = Connection::streamContext();
-    auto reader = connection.stub().Watch(context.get(), v1::WatchRequest{});
+    auto reader = stub->Watch(context.get(), v1::WatchRequest{});
     v1::FrameSummary summary;
     unsigned received = 0;
     while (reader->Read(&summary)) {

@@ -36,6 +36,15 @@ void addGlobalOptions(CLI::App& app, GlobalOptions& global) {
                  "--tls-ca)");
 }
 
+grpc::ChannelArguments freshStreamArguments() {
+  grpc::ChannelArguments args;
+  // The window the client grants the server: the smallest gRPC allows, never grown by
+  // bandwidth probing (which would let the server push seconds of summaries ahead).
+  args.SetInt(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  args.SetInt(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, 1);
+  return args;
+}
+
 std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options,
                                            const grpc::ChannelArguments& args) {
   if (options.tls_ca.empty()) {

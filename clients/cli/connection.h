@@ -30,6 +30,11 @@ struct GlobalOptions {
 std::shared_ptr<grpc::Channel> makeChannel(const GlobalOptions& options,
                                            const grpc::ChannelArguments& args = {});
 
+/// Channel arguments under which gRPC holds as little of a stream as it can (one message) for
+/// a reader that is slow: the daemon's Watch keeps the newest summary for it instead, so what it
+/// reads after a pause is fresh rather than what the transport's window buffered meanwhile.
+grpc::ChannelArguments freshStreamArguments();
+
 /// Thrown for a failed RPC; main() prints it to stderr and exits non-zero.
 class RpcError : public std::runtime_error {
  public:

@@ -20,6 +20,7 @@ Daemon::Daemon(const DaemonOptions& options)
   }
   server_options.credentials = makeServerCredentials(options.security, server_options.tokens);
   server_options.reflection = options.security.reflection;
+  server_options.limits = options.limits;
   if (!options.record.root.empty()) {
     std::error_code error;
     std::filesystem::create_directories(options.record.root, error);

@@ -187,6 +187,60 @@ int main(int argc, char** argv) {
                  "this long")
       ->check(CLI::Range(0.1, 3600.0))
       ->capture_default_str();
+  shapesense::ServerLimits& limits = options.limits;
+  app.add_option("--query-workers", limits.queries.workers,
+                 "Threads for EstimateBox, GetFrame and the detector queries; 0 = one fewer "
+                 "than the cores (" +
+                     std::to_string(shapesense::QueryPool::defaultWorkers()) +
+                     " here), so the detectors keep a core")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  app.add_option("--query-queue", limits.queries.queue,
+                 "Such queries that may wait for a worker; more are answered RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+  int query_max_wait_ms = static_cast<int>(limits.queries.max_wait.count());
+  app.add_option("--query-max-wait-ms", query_max_wait_ms,
+                 "Such a query that waited this long for a worker is answered "
+                 "RESOURCE_EXHAUSTED instead of being run late")
+      ->check(CLI::Range(1, 60000))
+      ->capture_default_str();
+  app.add_option("--query-nice", limits.queries.nice,
+                 "Nice value of the query workers (0-19), so the detectors win a busy core")
+      ->check(CLI::Range(0, 19))
+      ->capture_default_str();
+  app.add_option("--max-calls", limits.max_calls,
+                 "Calls (other than Watch and Record) answered at once, queued ones included; "
+                 "more are answered RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--max-watch-per-client", limits.max_watch_per_client,
+                 "Watch streams one client (address without port) may have open")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--max-watch-streams", limits.max_watch_streams,
+                 "Watch streams of all clients together")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--max-message-bytes", limits.max_receive_message_bytes,
+                 "Largest request the daemon reads")
+      ->check(CLI::Range(1024, 64 << 20))
+      ->capture_default_str();
+  app.add_option("--max-streams-per-connection", limits.max_streams_per_connection,
+                 "Calls one connection may have open at once (HTTP/2 streams)")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  double keepalive_seconds = limits.keepalive_ms / 1000.0;
+  app.add_option("--keepalive-seconds", keepalive_seconds,
+                 "Ping a connection idle this long; one that does not answer within "
+                 "--keepalive-timeout-seconds is closed with its streams")
+      ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
+  double keepalive_timeout_seconds = limits.keepalive_timeout_ms / 1000.0;
+  app.add_option("--keepalive-timeout-seconds", keepalive_timeout_seconds,
+                 "How long a keepalive ping may go unanswered")
+      ->check(CLI::Range(1.0, 3600.0))
+      ->capture_default_str();
   std::string check_fakenect;
   app.add_option(
       "--check-fakenect", check_fakenect,
@@ -219,6 +273,9 @@ int main(int argc, char** argv) {
   bowl_geometry.max_rim_diameter_m = bowl_rim_cm[1] / 100;
   options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(stall_seconds));
+  limits.queries.max_wait = std::chrono::milliseconds(query_max_wait_ms);
+  limits.keepalive_ms = static_cast<int>(keepalive_seconds * 1000);
+  limits.keepalive_timeout_ms = static_cast<int>(keepalive_timeout_seconds * 1000);
   options.record.root = record_root;
   options.record.min_free_bytes = record_min_free_mb << 20;
 

@@ -14,6 +14,15 @@ std::optional<Subscription::Item> Subscription::pop(std::chrono::milliseconds ti
   return item;
 }
 
+std::optional<Subscription::Item> Subscription::tryPop() {
+  std::lock_guard lock(mutex_);
+  if (pending_.empty()) return std::nullopt;
+  Item item{std::move(pending_.front()), dropped_};
+  pending_.pop_front();
+  dropped_ = 0;
+  return item;
+}
+
 bool Subscription::closed() const {
   std::lock_guard lock(mutex_);
   return closed_;
@@ -30,6 +39,7 @@ void Subscription::push(const CachedFrame& frame) {
     pending_.push_back(frame);
   }
   ready_.notify_one();
+  if (on_ready_) on_ready_();
 }
 
 void Subscription::close() {
@@ -38,10 +48,13 @@ void Subscription::close() {
     closed_ = true;
   }
   ready_.notify_all();
+  if (on_ready_) on_ready_();
 }
 
-std::shared_ptr<Subscription> SummaryHub::subscribe(std::size_t max_pending) {
-  auto subscription = std::make_shared<Subscription>(std::max<std::size_t>(1, max_pending));
+std::shared_ptr<Subscription> SummaryHub::subscribe(std::size_t max_pending,
+                                                    std::function<void()> on_ready) {
+  auto subscription =
+      std::make_shared<Subscription>(std::max<std::size_t>(1, max_pending), std::move(on_ready));
   std::lock_guard lock(mutex_);
   if (closed_) {
     subscription->close();

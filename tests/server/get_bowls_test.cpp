@@ -204,7 +204,9 @@ TEST_F(GetBowlsTest, DetectedBoxesListTheBowlsBesideTheSegments) {
 
 TEST_F(GetBowlsTest, WatchSummaryCountsTheBowls) {
   auto context = clientContext(10s);
-  auto reader = srv.stub().Watch(context.get(), v1::WatchRequest{});
+  v1::WatchRequest request;
+  request.set_max_pending(kScenes);  // every scene's summary, none replaced by the next
+  auto reader = srv.stub().Watch(context.get(), request);
   ASSERT_TRUE(waitFor([&] { return srv.hub().subscribers() == 1; })) << "Watch never subscribed";
   for (int k = 0; k < kScenes; ++k)
     srv.hub().publish(*srv.cache().bySequence(static_cast<std::uint64_t>(k)));

@@ -46,7 +46,7 @@ std::shared_ptr<const FrameResults> makeTestResults(const Frame& frame) {
 }
 
 TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus()> pipeline_status,
-                       RecordLimits record)
+                       RecordLimits record, ServerLimits limits)
     : cache_(std::make_unique<FrameCache>(cache_capacity)) {
   if (record.root.empty()) {
     static std::atomic<int> servers{0};
@@ -58,7 +58,9 @@ TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus(
   if (pipeline_status) context.pipeline_status = std::move(pipeline_status);
   context.frame_tap = &tap_;
   context.record = std::move(record);
-  server_ = std::make_unique<RpcServer>("127.0.0.1:0", std::move(context));
+  RpcServerOptions options;
+  options.limits = std::move(limits);
+  server_ = std::make_unique<RpcServer>("127.0.0.1:0", std::move(context), std::move(options));
   channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
                                  grpc::InsecureChannelCredentials());
   stub_ = v1::ShapeSense::NewStub(channel_);

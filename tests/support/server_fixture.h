@@ -39,7 +39,7 @@ class TestServer {
  public:
   explicit TestServer(std::size_t cache_capacity = 16,
                       std::function<PipelineStatus()> pipeline_status = {},
-                      RecordLimits record = {});
+                      RecordLimits record = {}, ServerLimits limits = {});
   ~TestServer();
   TestServer(const TestServer&) = delete;
   TestServer& operator=(const TestServer&) = delete;

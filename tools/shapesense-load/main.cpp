@@ -1,9 +1,13 @@
 // shapesense-load: load and soak test of a running daemon. N clients send mixed queries
-// (EstimateBox 70%, GetBowls 15%, GetPlanes 15%, each for the newest frame) as fast as they are
-// answered, M slow subscribers read Watch one summary per --slow-read-ms, for --seconds. At the
-// end it prints requests per second, latency percentiles per method, errors by status code,
-// the daemon's skipped frames over the run, what the slow subscribers saw, and the daemon's
-// resident memory at start and end (with --daemon-pid).
+// (EstimateBox 80% for the newest frame, GetBowls 10% and GetPlanes 10% for the newest frame
+// the detectors processed, which a Watch stream of the tool's own tracks) as fast as they are
+// answered; a client refused with RESOURCE_EXHAUSTED waits --backoff-ms before its next call,
+// as a well-behaved client would. M slow subscribers read Watch one summary per
+// --slow-read-ms, for --seconds. At the end it prints requests per second, latency
+// percentiles per method (answered calls), refusals and other errors by status code, the
+// daemon's skipped frames over the run, what the slow subscribers saw (dropped_before, and how
+// many frames behind the newest each summary was when read), and the daemon's resident memory
+// at start and end (with --daemon-pid).
 //
 //   build/tools/shapesense-load --server 127.0.0.1:50551 --clients 64 --slow-watchers 16
 //       --seconds 600 --daemon-pid "$(pidof shapesensed)"   (one command line)
@@ -11,6 +15,7 @@
 // Each client and subscriber has its own connection. Only for a daemon on this machine or a test
 // network: every request loop is bounded by --seconds.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -42,17 +47,27 @@ struct LoadOptions {
   double seconds = 60;
   int slow_read_ms = 1000;
   int daemon_pid = 0;
+  int backoff_ms = 5;
+};
+
+/// The newest frame the detectors processed, as the tool's own Watch stream last saw it.
+struct Newest {
+  std::atomic<std::int64_t> timestamp_ns{0};
+  std::atomic<std::uint64_t> sequence{0};
 };
 
 /// What one client thread measured.
 struct ClientStats {
   std::map<std::string, std::vector<double>> latency_ms;  ///< by method, successful calls
   std::map<grpc::StatusCode, std::uint64_t> errors;
+  std::map<std::string, std::vector<double>> error_ms;  ///< by status code name
 };
 
 struct WatcherStats {
   std::uint64_t summaries = 0;
   std::uint64_t dropped_before = 0;  ///< sum of the stream's dropped_before
+  std::uint64_t with_drops = 0;      ///< summaries with dropped_before > 0
+  std::vector<double> behind;        ///< frames between each summary read and the newest
   grpc::StatusCode end = grpc::StatusCode::OK;
 };
 
@@ -81,18 +96,24 @@ std::uint64_t skippedFrames(v1::ShapeSense::Stub& stub) {
   return status.frames_skipped();
 }
 
-/// One query, chosen by `turn` (7 of 10 EstimateBox, then GetBowls, GetPlanes).
-std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, unsigned turn) {
+/// One query, chosen by `turn` (8 of 10 EstimateBox, then GetBowls, GetPlanes at the newest
+/// processed frame: the newest frame itself is usually still in the detectors).
+std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, unsigned turn,
+                                           const Newest& newest) {
   grpc::ClientContext context;
   context.set_deadline(deadlineAt(Clock::now() + std::chrono::seconds(10)));
   switch (turn % 10) {
     case 7: {
+      v1::GetBowlsRequest request;
+      request.set_at_ns(newest.timestamp_ns.load());
       v1::GetBowlsResponse response;
-      return {"GetBowls", stub.GetBowls(&context, v1::GetBowlsRequest(), &response)};
+      return {"GetBowls", stub.GetBowls(&context, request, &response)};
     }
     case 8: {
+      v1::GetPlanesRequest request;
+      request.set_at_ns(newest.timestamp_ns.load());
       v1::GetPlanesResponse response;
-      return {"GetPlanes", stub.GetPlanes(&context, v1::GetPlanesRequest(), &response)};
+      return {"GetPlanes", stub.GetPlanes(&context, request, &response)};
     }
     default: {
       v1::EstimateBoxRequest request;
@@ -108,29 +129,50 @@ std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, unsigned 
 }
 
 /// A channel of its own, on its own connection, as a separate client process would have.
-std::shared_ptr<grpc::Channel> ownChannel(const shapesense::cli::GlobalOptions& global) {
-  grpc::ChannelArguments args;
+std::shared_ptr<grpc::Channel> ownChannel(const shapesense::cli::GlobalOptions& global,
+                                          grpc::ChannelArguments args = {}) {
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
   return shapesense::cli::makeChannel(global, args);
 }
 
 void runClient(const shapesense::cli::GlobalOptions& global, Clock::time_point end, unsigned seed,
-               ClientStats& stats) {
+               int backoff_ms, const Newest& newest, ClientStats& stats) {
   const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
   for (unsigned turn = seed; Clock::now() < end; ++turn) {
     const auto start = Clock::now();
-    const auto [method, status] = query(*stub, turn);
+    const auto [method, status] = query(*stub, turn, newest);
     const std::chrono::duration<double, std::milli> took = Clock::now() - start;
-    if (status.ok())
+    if (status.ok()) {
       stats.latency_ms[method].push_back(took.count());
-    else
-      ++stats.errors[status.error_code()];
+      continue;
+    }
+    ++stats.errors[status.error_code()];
+    stats.error_ms[shapesense::cli::statusCodeName(status.error_code())].push_back(took.count());
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED && backoff_ms > 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
   }
 }
 
-void runSlowWatcher(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
-                    int read_ms, WatcherStats& stats) {
+/// Reads every summary, to know the newest processed frame.
+void runTracker(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
+                Newest& newest) {
   const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
+  grpc::ClientContext context;
+  context.set_deadline(deadlineAt(end));
+  auto stream = stub->Watch(&context, v1::WatchRequest());
+  v1::FrameSummary summary;
+  while (stream->Read(&summary)) {
+    if (!summary.info().processed()) continue;
+    newest.timestamp_ns = summary.info().timestamp_ns();
+    newest.sequence = summary.info().sequence();
+  }
+  stream->Finish();
+}
+
+void runSlowWatcher(const shapesense::cli::GlobalOptions& global, Clock::time_point end,
+                    int read_ms, const Newest& newest, WatcherStats& stats) {
+  const auto stub =
+      v1::ShapeSense::NewStub(ownChannel(global, shapesense::cli::freshStreamArguments()));
   grpc::ClientContext context;
   context.set_deadline(deadlineAt(end));
   auto stream = stub->Watch(&context, v1::WatchRequest());
@@ -138,6 +180,12 @@ void runSlowWatcher(const shapesense::cli::GlobalOptions& global, Clock::time_po
   while (stream->Read(&summary)) {
     ++stats.summaries;
     stats.dropped_before += summary.dropped_before();
+    stats.with_drops += summary.dropped_before() > 0;
+    const std::uint64_t newest_sequence = newest.sequence.load();
+    if (newest_sequence > summary.info().sequence())
+      stats.behind.push_back(static_cast<double>(newest_sequence - summary.info().sequence()));
+    else
+      stats.behind.push_back(0);
     if (Clock::now() >= end) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(read_ms));
   }
@@ -157,10 +205,13 @@ void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& 
             double seconds, std::uint64_t skipped, double rss_start, double rss_end) {
   std::map<std::string, std::vector<double>> latency;
   std::map<grpc::StatusCode, std::uint64_t> errors;
+  std::map<std::string, std::vector<double>> error_ms;
   for (auto& c : clients) {
     for (auto& [method, values] : c.latency_ms)
       latency[method].insert(latency[method].end(), values.begin(), values.end());
     for (const auto& [code, n] : c.errors) errors[code] += n;
+    for (auto& [code, values] : c.error_ms)
+      error_ms[code].insert(error_ms[code].end(), values.begin(), values.end());
   }
   std::vector<double> all;
   for (const auto& [method, values] : latency) all.insert(all.end(), values.begin(), values.end());
@@ -174,21 +225,39 @@ void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& 
   for (auto& [method, values] : latency)
     std::printf("  %-12s n %zu  p50 %.2f  p99 %.2f\n", method.c_str(), values.size(),
                 percentile(values, 0.5), percentile(values, 0.99));
-  for (const auto& [code, n] : errors)
-    std::printf("errors: %s x %llu\n", shapesense::cli::statusCodeName(code).c_str(),
-                static_cast<unsigned long long>(n));
-  std::uint64_t summaries = 0, dropped = 0;
+  const auto exhausted = errors.find(grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const std::uint64_t refused = exhausted == errors.end() ? 0 : exhausted->second;
+  std::printf("refused (RESOURCE_EXHAUSTED): %llu = %.1f%% of calls\n",
+              static_cast<unsigned long long>(refused),
+              100.0 * static_cast<double>(refused) / static_cast<double>(all.size() + failed));
+  for (const auto& [code, n] : errors) {
+    auto& took = error_ms[shapesense::cli::statusCodeName(code)];
+    std::printf("errors: %s x %llu (answered in p50 %.2f, p99 %.2f ms)\n",
+                shapesense::cli::statusCodeName(code).c_str(), static_cast<unsigned long long>(n),
+                percentile(took, 0.5), percentile(took, 0.99));
+  }
+  std::uint64_t summaries = 0, dropped = 0, with_drops = 0;
+  std::vector<double> behind;
   int ended_early = 0;
   for (const auto& w : watchers) {
     summaries += w.summaries;
     dropped += w.dropped_before;
+    with_drops += w.with_drops;
+    behind.insert(behind.end(), w.behind.begin(), w.behind.end());
     ended_early += w.end != grpc::StatusCode::OK && w.end != grpc::StatusCode::CANCELLED &&
                    w.end != grpc::StatusCode::DEADLINE_EXCEEDED;
   }
   std::printf(
-      "slow watchers %zu: %llu summaries read, dropped_before sum %llu, %d ended by error\n",
+      "slow watchers %zu: %llu summaries read, %llu of them with dropped_before > 0, "
+      "dropped_before sum %llu, %d ended by error\n",
       watchers.size(), static_cast<unsigned long long>(summaries),
-      static_cast<unsigned long long>(dropped), ended_early);
+      static_cast<unsigned long long>(with_drops), static_cast<unsigned long long>(dropped),
+      ended_early);
+  if (!behind.empty()) {
+    const double most = *std::max_element(behind.begin(), behind.end());
+    std::printf("  frames behind the newest processed when read: p50 %.0f  p99 %.0f  max %.0f\n",
+                percentile(behind, 0.5), percentile(behind, 0.99), most);
+  }
   std::printf("daemon frames skipped during the run: %llu\n",
               static_cast<unsigned long long>(skipped));
   if (rss_start >= 0) std::printf("daemon RSS MiB: start %.1f, end %.1f\n", rss_start, rss_end);
@@ -208,6 +277,10 @@ int main(int argc, char** argv) {
   app.add_option("--slow-read-ms", o.slow_read_ms, "pause of a slow subscriber per summary")
       ->check(CLI::Range(1, 60000));
   app.add_option("--daemon-pid", o.daemon_pid, "the daemon's pid, for its resident memory");
+  app.add_option("--backoff-ms", o.backoff_ms,
+                 "pause of a client after a RESOURCE_EXHAUSTED answer (0 = retry at once)")
+      ->check(CLI::Range(0, 60000))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     const auto channel = shapesense::cli::makeChannel(global);
@@ -220,12 +293,14 @@ int main(int argc, char** argv) {
     std::vector<ClientStats> clients(static_cast<std::size_t>(o.clients));
     std::vector<WatcherStats> watchers(static_cast<std::size_t>(o.slow_watchers));
     std::vector<std::thread> threads;
+    Newest newest;
+    threads.emplace_back(runTracker, std::cref(global), end, std::ref(newest));
     for (std::size_t i = 0; i < watchers.size(); ++i)
       threads.emplace_back(runSlowWatcher, std::cref(global), end, o.slow_read_ms,
-                           std::ref(watchers[i]));
+                           std::cref(newest), std::ref(watchers[i]));
     for (std::size_t i = 0; i < clients.size(); ++i)
       threads.emplace_back(runClient, std::cref(global), end, static_cast<unsigned>(i),
-                           std::ref(clients[i]));
+                           o.backoff_ms, std::cref(newest), std::ref(clients[i]));
     for (auto& t : threads) t.join();
     const std::chrono::duration<double> took = Clock::now() - start;
     report(clients, watchers, took.count(), skippedFrames(*stub) - skipped_start, rss_start,

@@ -72,9 +72,10 @@ struct FrameQueue {
 
 }  // namespace
 
-grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* server_context,
+grpc::Status handleRecord(const ServiceContext& context,
+                          const grpc::ServerContextBase* server_context,
                           const v1::RecordRequest& request,
-                          grpc::ServerWriter<v1::RecordProgress>* writer) {
+                          const std::function<bool(const v1::RecordProgress&)>& write) {
   if (context.frame_tap == nullptr) {
     return {grpc::StatusCode::UNIMPLEMENTED, "this server has no frame source to record from"};
   }
@@ -149,7 +150,7 @@ grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* se
     message.set_dir(dir.string());
     message.set_frames_dropped(queue.droppedCount());
     last_sent = Clock::now();
-    return writer->Write(message);
+    return write(message);
   };
   const auto stopped_after = [&] {
     return std::to_string(written) + " frame(s) written to " + dir.string() +

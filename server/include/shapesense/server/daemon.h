@@ -40,6 +40,8 @@ struct DaemonOptions {
   /// health() says the pipeline hangs.
   std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);
   DetectorConfig detectors;
+  /// Query workers, call and stream limits, message size, keepalive (rpc_server.h).
+  ServerLimits limits;
 };
 
 class Daemon {

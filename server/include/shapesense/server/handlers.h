@@ -1,9 +1,13 @@
 #pragma once
 // One function per RPC of shapesense.v1.ShapeSense (proto/shapesense/v1/shapesense.proto).
 // Each lives in server/src/handlers/<rpc>.cpp with its test in tests/server/<rpc>_test.cpp.
+// rpc_server.cpp calls them from gRPC's callback API: unary handlers on a gRPC thread or a
+// QueryPool worker, Record on a thread of its own, Watch as a reactor that holds no thread.
+
+#include <functional>
 
 #include <grpcpp/server_context.h>
-#include <grpcpp/support/sync_stream.h>
+#include <grpcpp/support/server_callback.h>
 
 #include "shapesense/server/service_context.h"
 #include "shapesense/v1/shapesense.pb.h"
@@ -19,9 +23,12 @@ grpc::Status handleListFrames(const ServiceContext& context, const v1::ListFrame
 grpc::Status handleGetFrame(const ServiceContext& context, const v1::GetFrameRequest& request,
                             v1::GetFrameResponse* response);
 
-grpc::Status handleWatch(const ServiceContext& context, grpc::ServerContext* server_context,
-                         const v1::WatchRequest& request,
-                         grpc::ServerWriter<v1::FrameSummary>* writer);
+/// The Watch stream (a reactor gRPC deletes when the call is done), or one that only finishes
+/// with the error: INVALID_ARGUMENT for max_pending > 1024, RESOURCE_EXHAUSTED past the stream
+/// limits of context.watch_streams.
+grpc::ServerWriteReactor<v1::FrameSummary>* startWatch(const ServiceContext& context,
+                                                       grpc::CallbackServerContext* server_context,
+                                                       const v1::WatchRequest& request);
 
 grpc::Status handleEstimateBox(const ServiceContext& context, const v1::EstimateBoxRequest& request,
                                v1::EstimateBoxResponse* response);
@@ -39,8 +46,11 @@ grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesR
 grpc::Status handleGetBowls(const ServiceContext& context, const v1::GetBowlsRequest& request,
                             v1::GetBowlsResponse* response);
 
-grpc::Status handleRecord(const ServiceContext& context, grpc::ServerContext* server_context,
+/// Blocks for the whole recording; `write` sends one progress message and returns false once
+/// the client is gone.
+grpc::Status handleRecord(const ServiceContext& context,
+                          const grpc::ServerContextBase* server_context,
                           const v1::RecordRequest& request,
-                          grpc::ServerWriter<v1::RecordProgress>* writer);
+                          const std::function<bool(const v1::RecordProgress&)>& write);
 
 }  // namespace shapesense

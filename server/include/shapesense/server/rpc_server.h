@@ -1,7 +1,9 @@
 #pragma once
 // The gRPC server: the ShapeSense service plus the standard grpc.health.v1 health service and,
 // when asked for, server reflection, listening on one address with the given credentials. Every
-// call is logged (CallLogFactory).
+// call is logged (CallLogFactory). The service uses gRPC's callback API, so no call holds a
+// thread while it waits; heavy queries run on a bounded QueryPool and the limits below answer
+// excess load with RESOURCE_EXHAUSTED at once instead of queueing it.
 
 #include <memory>
 #include <string>
@@ -9,12 +11,33 @@
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server.h>
 
+#include "shapesense/server/query_pool.h"
 #include "shapesense/server/service_context.h"
+#include "shapesense/server/stream_quota.h"
 
 namespace shapesense {
 
 class ShapeSenseService;
 class AccessTokens;
+
+/// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
+struct ServerLimits {
+  /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes.
+  QueryPoolOptions queries;
+  /// Unary calls admitted at once (running, or queued for a worker); more: RESOURCE_EXHAUSTED.
+  std::size_t max_calls = 128;
+  /// Watch streams of one client (the peer's address without its port) and of all clients.
+  std::size_t max_watch_per_client = 32;
+  std::size_t max_watch_streams = 128;
+  /// Largest request; every request of the API is a few hundred bytes.
+  int max_receive_message_bytes = 64 * 1024;
+  /// HTTP/2 streams (calls) one connection may have open; more wait in the client.
+  int max_streams_per_connection = 100;
+  /// The server pings a connection idle this long, and drops it when the ping is not answered
+  /// within the timeout: a vanished client's streams end instead of lingering.
+  int keepalive_ms = 30'000;
+  int keepalive_timeout_ms = 10'000;
+};
 
 struct RpcServerOptions {
   /// Null: plain (InsecureServerCredentials).
@@ -23,6 +46,7 @@ struct RpcServerOptions {
   std::shared_ptr<const AccessTokens> tokens;
   /// Serve grpc.reflection.v1alpha (lists the whole API to anyone who may call).
   bool reflection = false;
+  ServerLimits limits;
 };
 
 class RpcServer {
@@ -39,8 +63,15 @@ class RpcServer {
   void shutdown(std::chrono::milliseconds deadline = std::chrono::milliseconds(1500));
   void wait();
 
+  /// Where heavy queries run; tests occupy it to see what a full pool answers.
+  QueryPool& queryPool() { return *queries_; }
+
  private:
   std::atomic<bool> shutting_down_{false};
+  SummaryHub* hub_ = nullptr;
+  // Outlive the server: calls in flight at shutdown still use them.
+  std::unique_ptr<QueryPool> queries_;
+  std::unique_ptr<StreamQuota> watch_streams_;
   std::unique_ptr<ShapeSenseService> service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

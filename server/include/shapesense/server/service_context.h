@@ -13,6 +13,7 @@
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/recording_root.h"
+#include "shapesense/server/stream_quota.h"
 #include "shapesense/server/summary_hub.h"
 
 namespace shapesense {
@@ -25,6 +26,8 @@ struct ServiceContext {
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   /// Set at shutdown so open streams end promptly.
   const std::atomic<bool>* shutting_down = nullptr;
+  /// Watch streams per client and in all; null: no limit (the RpcServer sets its own).
+  StreamQuota* watch_streams = nullptr;
   /// Every frame the source delivers (Record); null when nothing feeds one (Record then
   /// answers UNIMPLEMENTED).
   FrameTap* frame_tap = nullptr;

@@ -1,12 +1,14 @@
 #pragma once
-// Fans out every processed frame to Watch subscribers. Each subscriber has a bounded queue;
-// when it is full the oldest pending entry is dropped and counted, so a slow client never slows
-// the pipeline and never makes the daemon buffer without bound.
+// Fans out every processed frame to Watch subscribers. Each subscriber has a bounded queue (by
+// default one slot: the newest summary waits while the previous one is being written); when it
+// is full the oldest pending entry is dropped and counted, so a slow client never slows the
+// pipeline and never makes the daemon buffer without bound.
 
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -18,7 +20,8 @@ namespace shapesense {
 
 class Subscription {
  public:
-  explicit Subscription(std::size_t max_pending) : max_pending_(max_pending) {}
+  Subscription(std::size_t max_pending, std::function<void()> on_ready)
+      : max_pending_(max_pending), on_ready_(std::move(on_ready)) {}
 
   struct Item {
     CachedFrame frame;
@@ -27,6 +30,8 @@ class Subscription {
 
   /// Waits up to `timeout` for the next item. nullopt on timeout or once closed.
   std::optional<Item> pop(std::chrono::milliseconds timeout);
+  /// The next item if one waits; never blocks.
+  std::optional<Item> tryPop();
   bool closed() const;
 
  private:
@@ -35,6 +40,8 @@ class Subscription {
   void close();
 
   const std::size_t max_pending_;
+  /// Called, without the subscription's lock, after each push and at close.
+  const std::function<void()> on_ready_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;
   std::deque<CachedFrame> pending_;
@@ -44,10 +51,15 @@ class Subscription {
 
 class SummaryHub {
  public:
-  static constexpr std::size_t kDefaultMaxPending = 8;
+  /// Latest wins: the newest summary waits, older ones are dropped and counted.
+  static constexpr std::size_t kDefaultMaxPending = 1;
 
-  /// A new subscriber that receives every frame published from now on.
-  std::shared_ptr<Subscription> subscribe(std::size_t max_pending = kDefaultMaxPending);
+  /// A new subscriber that receives every frame published from now on. `on_ready` (may be
+  /// empty) is called on the publishing thread after each frame is queued and when the hub
+  /// closes; it must be short and must not call the hub. After unsubscribe() returns it is
+  /// never called again.
+  std::shared_ptr<Subscription> subscribe(std::size_t max_pending = kDefaultMaxPending,
+                                          std::function<void()> on_ready = {});
   void unsubscribe(const std::shared_ptr<Subscription>& subscription);
   /// Queues the frame for every subscriber; never blocks on a subscriber.
   void publish(const CachedFrame& frame);
