@@ -11,6 +11,7 @@
 #include "shapesense/server/access_tokens.h"
 #include "shapesense/server/call_log.h"
 #include "shapesense/server/handlers.h"
+#include "shapesense/server/request_parse_status.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
 
 namespace shapesense {
@@ -220,6 +221,7 @@ RpcServer::RpcServer(const std::string& listen_address, ServiceContext context,
       listen_address, options.credentials ? options.credentials : grpc::InsecureServerCredentials(),
       &port_);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<RequestParseStatusFactory>());
   interceptors.push_back(std::make_unique<CallLogFactory>(options.tokens));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.RegisterService(service_.get());
