@@ -16,6 +16,7 @@
 #include "server_fixture.h"
 #include "shapesense/driver/fault_injecting_source.h"
 #include "shapesense/server/pipeline.h"
+#include "shapesense/core/pipeline/stages.h"
 
 namespace shapesense {
 namespace {
