@@ -1,0 +1,575 @@
+// The normals' SIMD kernels (see normal_kernels.h), compiled once per Highway target.
+// Float work keeps the scalar definition's order of operations, as separate multiplies and adds
+// (Highway's MulAdd would fuse them and round differently), so every target gives the bits of
+// the scalar loops; min / max only ever see NaN in lanes whose result is masked out.
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "normals/normal_kernels.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+// (foreach_target.h first: it re-includes this file once per target.)
+#include "hwy/highway.h"
+#include "normals/gradient_windows.h"
+#include "normals/normal_kernels.h"
+
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <limits>
+
+HWY_BEFORE_NAMESPACE();
+namespace shapesense::detail {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// ---------------------------------------------------------------- input
+
+void DepthRowToZ(const std::uint16_t* HWY_RESTRICT depth_mm, int cols, float* HWY_RESTRICT z) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::uint32_t, decltype(df)> du32;
+  const hn::Rebind<std::uint16_t, decltype(df)> du16;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto to_metres = hn::Set(df, 0.001f), zero = hn::Zero(df), nan = hn::Set(df, kNaN);
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto mm = hn::BitCast(di, hn::PromoteTo(du32, hn::LoadU(du16, depth_mm + u)));
+    const auto metres = hn::ConvertTo(df, mm) * to_metres;
+    hn::StoreU(hn::IfThenElse(metres > zero, metres, nan), df, z + u);
+  }
+  for (; u < cols; ++u) {
+    const float metres = static_cast<float>(depth_mm[u]) * 0.001f;
+    z[u] = metres > 0.0f ? metres : kNaN;
+  }
+}
+
+void PointsRow(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x, float ray_y, int cols,
+               float* HWY_RESTRICT xyz) {
+  const hn::ScalableTag<float> df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto ry = hn::Set(df, ray_y);
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto zv = hn::LoadU(df, z + u);
+    hn::StoreInterleaved3(hn::LoadU(df, ray_x + u) * zv, ry * zv, zv, df, xyz + 3 * u);
+  }
+  for (; u < cols; ++u) {
+    xyz[3 * u] = ray_x[u] * z[u];
+    xyz[3 * u + 1] = ray_y * z[u];
+    xyz[3 * u + 2] = z[u];
+  }
+}
+
+// ---------------------------------------------------------------- step map
+
+// StepRule's threshold at zmin for a gap of gap1 - 1 pixels (written as selects in the scalar
+// code: zmin = za < zb ? za : zb, threshold = by_factor < by_noise ? by_noise : by_factor).
+inline float stepThreshold(const StepRule& rule, float zmin, int gap1) {
+  const float by_factor = rule.factor * zmin * static_cast<float>(gap1);
+  const float by_noise = rule.noise_k * zmin * zmin;
+  return by_factor < by_noise ? by_noise : by_factor;
+}
+
+void MarkVerticalSteps(const float* HWY_RESTRICT zrow, int v, int cols, const StepRule& rule,
+                       float* HWY_RESTRICT last_z, int* HWY_RESTRICT last_v,
+                       std::uint8_t* HWY_RESTRICT marks, std::size_t marks_stride) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto factor = hn::Set(df, rule.factor), noise_k = hn::Set(df, rule.noise_k);
+  const auto zero = hn::Zero(df);
+  const auto vv = hn::Set(di, v), gap_limit = hn::Set(di, rule.max_gap + 2);
+  HWY_ALIGN std::int32_t rows_above[hn::MaxLanes(decltype(di)())];
+  HWY_ALIGN std::int32_t hit[hn::MaxLanes(decltype(di)())];
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto z = hn::LoadU(df, zrow + u), za = hn::LoadU(df, last_z + u);
+    const auto lv = hn::LoadU(di, last_v + u);
+    const auto ok = z > zero;
+    const auto gap1 = vv - lv;  // gap + 1
+    const auto zmin = hn::Min(za, z);
+    const auto by_factor = factor * zmin * hn::ConvertTo(df, gap1);
+    const auto by_noise = noise_k * zmin * zmin;
+    const auto step = hn::Abs(z - za) > hn::Max(by_noise, by_factor);
+    const auto near = hn::RebindMask(df, gap_limit > gap1);
+    const auto mark = hn::And(hn::And(ok, near), step);
+    hn::StoreU(hn::IfThenElse(ok, z, za), df, last_z + u);
+    hn::StoreU(hn::IfThenElse(hn::RebindMask(di, ok), vv, lv), di, last_v + u);
+    if (hn::AllFalse(df, mark)) continue;  // marks are rare
+    hn::Store(lv, di, rows_above);
+    hn::Store(hn::VecFromMask(di, hn::RebindMask(di, mark)), di, hit);
+    for (int k = 0; k < n; ++k)
+      if (hit[k]) marks[static_cast<std::size_t>(rows_above[k]) * marks_stride + u + k] = 1;
+  }
+  for (; u < cols; ++u) {
+    const float z = zrow[u], za = last_z[u];
+    const int lv = last_v[u];
+    const bool ok = z > 0.0f;  // NaN: false
+    const float zmin = za < z ? za : z;
+    const bool step = std::fabs(z - za) > stepThreshold(rule, zmin, v - lv);
+    if (ok && v - lv - 1 <= rule.max_gap && step)
+      marks[static_cast<std::size_t>(lv) * marks_stride + u] = 1;
+    last_z[u] = ok ? z : za;
+    last_v[u] = ok ? v : lv;
+  }
+}
+
+int MarkHorizontalSteps(const float* HWY_RESTRICT zrow, int cols, const StepRule& rule,
+                        std::uint8_t* HWY_RESTRICT marks, int* HWY_RESTRICT after_hole) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::uint8_t, decltype(di)> du8;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto factor = hn::Set(df, rule.factor), noise_k = hn::Set(df, rule.noise_k);
+  const auto zero = hn::Zero(df);
+  const auto one = hn::Set(di, 1);
+  int holes = 0;
+  int u = 1;
+  for (; u + n <= cols; u += n) {
+    const auto z = hn::LoadU(df, zrow + u), zl = hn::LoadU(df, zrow + u - 1);
+    const auto zmin = hn::Min(zl, z);
+    const auto by_factor = factor * zmin;
+    const auto by_noise = noise_k * zmin * zmin;
+    const auto ok = z > zero, ok_left = zl > zero;
+    const auto step = hn::And(hn::And(ok, ok_left), hn::Abs(z - zl) > hn::Max(by_noise, by_factor));
+    const auto flags = hn::IfThenElseZero(hn::RebindMask(di, step), one);
+    hn::StoreU(hn::DemoteTo(du8, flags), du8, marks + u - 1);
+    const auto follows_hole = hn::RebindMask(di, hn::AndNot(ok_left, ok));
+    if (!hn::AllFalse(di, follows_hole))
+      holes += static_cast<int>(
+          hn::CompressStore(hn::Iota(di, u), follows_hole, di, after_hole + holes));
+  }
+  for (; u < cols; ++u) {
+    const float z = zrow[u], zl = zrow[u - 1];
+    const bool ok = z > 0.0f, ok_left = zl > 0.0f;
+    const float zmin = zl < z ? zl : z;
+    marks[u - 1] = static_cast<std::uint8_t>(ok && ok_left &&
+                                             std::fabs(z - zl) > stepThreshold(rule, zmin, 1));
+    if (ok && !ok_left) after_hole[holes++] = u;
+  }
+  return holes;
+}
+
+void InitStepDistanceRow(const std::uint8_t* HWY_RESTRICT marks, int cols, std::int16_t far,
+                         std::int16_t* HWY_RESTRICT d) {
+  const hn::ScalableTag<std::int16_t> di;
+  const hn::Rebind<std::uint8_t, decltype(di)> du8;
+  const int n = static_cast<int>(hn::Lanes(di));
+  const auto vfar = hn::Set(di, far);
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto m = hn::BitCast(
+        di, hn::PromoteTo(hn::RebindToUnsigned<decltype(di)>(), hn::LoadU(du8, marks + u)));
+    hn::StoreU(hn::IfThenElseZero(m == hn::Zero(di), vfar), di, d + u);
+  }
+  for (; u < cols; ++u) d[u] = marks[u] ? std::int16_t{0} : far;
+}
+
+void FoldStepDistanceRow(const std::int16_t* HWY_RESTRICT o, int cols,
+                         std::int16_t* HWY_RESTRICT d) {
+  const hn::ScalableTag<std::int16_t> di;
+  const int n = static_cast<int>(hn::Lanes(di));
+  const auto one = hn::Set(di, 1);
+  int u = 1;
+  for (; u + n + 1 <= cols; u += n) {
+    const auto m =
+        hn::Min(hn::Min(hn::LoadU(di, o + u - 1), hn::LoadU(di, o + u)), hn::LoadU(di, o + u + 1)) +
+        one;
+    hn::StoreU(hn::Min(m, hn::LoadU(di, d + u)), di, d + u);
+  }
+  for (; u + 1 < cols; ++u) {
+    const std::int16_t a = o[u - 1] < o[u] ? o[u - 1] : o[u];
+    const auto m = static_cast<std::int16_t>((a < o[u + 1] ? a : o[u + 1]) + 1);
+    d[u] = m < d[u] ? m : d[u];
+  }
+}
+
+// The running minimum d[u] = min over k >= 0 of (d[u - k dir] + k), eight pixels per step: three
+// shift-add-min steps within the block (k < 8), then the block before enters as its edge value +
+// 1..8. The minima are exact, so this gives the serial recurrence's values. Lanes shifted in get
+// `big` ("no value": it saturates when incremented). Returns the first pixel not scanned.
+#if HWY_TARGET == HWY_SCALAR
+int ScanBlocks(std::int16_t*, int cols, int dir) { return dir > 0 ? 0 : cols - 1; }
+#else
+template <int kShift, class D, class V>
+HWY_INLINE V towardsEnd(D d, V x, V big) {  // lane i takes lane i - kShift
+  return hn::Or(hn::ShiftLeftLanes<kShift>(d, x), hn::ShiftRightLanes<8 - kShift>(d, big));
+}
+template <int kShift, class D, class V>
+HWY_INLINE V towardsStart(D d, V x, V big) {  // lane i takes lane i + kShift
+  return hn::Or(hn::ShiftRightLanes<kShift>(d, x), hn::ShiftLeftLanes<8 - kShift>(d, big));
+}
+
+int ScanBlocks(std::int16_t* HWY_RESTRICT d, int cols, int dir) {
+  const hn::Full128<std::int16_t> d8;
+  const auto big = hn::Set(d8, 0x7fff);
+  auto k = [&](int value) { return hn::Set(d8, static_cast<std::int16_t>(value)); };
+  auto carry = big;  // the value before the block, in every lane
+  int u;
+  if (dir > 0) {
+    const auto ramp = hn::Iota(d8, 1);  // 1..8
+    for (u = 0; u + 8 <= cols; u += 8) {
+      auto x = hn::LoadU(d8, d + u);
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<1>(d8, x, big), k(1)));
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<2>(d8, x, big), k(2)));
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<4>(d8, x, big), k(4)));
+      // The next carry without waiting for the block's own result: one add and one min a block.
+      const auto next = hn::Min(hn::Broadcast<7>(x), hn::SaturatedAdd(carry, k(8)));
+      hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp)), d8, d + u);
+      carry = next;
+    }
+    return u;
+  }
+  HWY_ALIGN static constexpr std::int16_t kRampBack[8] = {8, 7, 6, 5, 4, 3, 2, 1};
+  const auto ramp_back = hn::Load(d8, kRampBack);
+  for (u = cols - 1; u - 7 >= 0; u -= 8) {
+    auto x = hn::LoadU(d8, d + u - 7);
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<1>(d8, x, big), k(1)));
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<2>(d8, x, big), k(2)));
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<4>(d8, x, big), k(4)));
+    const auto next = hn::Min(hn::Broadcast<0>(x), hn::SaturatedAdd(carry, k(8)));
+    hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp_back)), d8, d + u - 7);
+    carry = next;
+  }
+  return u;
+}
+#endif
+
+void ScanStepDistanceRow(std::int16_t* HWY_RESTRICT d, int cols, int dir) {
+  int u = ScanBlocks(d, cols, dir);
+  const int end = dir > 0 ? cols : -1;
+  if (u == (dir > 0 ? 0 : cols - 1)) u += dir;  // the first pixel has nothing before it
+  for (; u != end; u += dir) {
+    const auto next = static_cast<std::int16_t>(d[u - dir] + 1);
+    d[u] = next < d[u] ? next : d[u];
+  }
+}
+
+// ---------------------------------------------------------------- gradient modes
+
+// The radius rule's clamps as min / max (no NaN reaches them: no depth gives z = 0 here).
+void WindowRadiusRow(const float* HWY_RESTRICT zrow, const std::int16_t* HWY_RESTRICT dist,
+                     const float* HWY_RESTRICT column_bound, int cols, const RadiusRule& rule,
+                     int* HWY_RESTRICT radius) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::int16_t, decltype(df)> di16;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto base = hn::Set(df, rule.base_r), constant = hn::Set(df, rule.const_r);
+  const auto half = hn::Set(df, 0.5f), min_r = hn::Set(df, rule.min_r);
+  const auto max_r = hn::Set(df, rule.max_r), row_bound = hn::Set(df, rule.row_bound);
+  const auto two = hn::Set(di, 2);
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto z = hn::LoadU(df, zrow + u);
+    const auto ok = z > hn::Zero(df);
+    auto r = base * hn::IfThenElseZero(ok, z) + constant + half;
+    r = hn::Min(hn::Max(r, min_r), max_r);
+    r = hn::Min(hn::Min(r, hn::LoadU(df, column_bound + u)), row_bound);
+    const auto by_step = hn::ConvertTo(df, hn::PromoteTo(di, hn::LoadU(di16, dist + u)) - two);
+    r = hn::Min(r, by_step);
+    const auto keep = hn::RebindMask(di, hn::And(ok, r >= min_r));
+    hn::StoreU(hn::IfThenElseZero(keep, hn::ConvertTo(di, r)), di, radius + u);
+  }
+  for (; u < cols; ++u) {
+    const float z = zrow[u];
+    const bool ok = z > 0.0f;
+    float r = rule.base_r * (ok ? z : 0.0f) + rule.const_r + 0.5f;
+    r = r < rule.min_r ? rule.min_r : r;
+    r = r > rule.max_r ? rule.max_r : r;
+    r = r < column_bound[u] ? r : column_bound[u];
+    r = r < rule.row_bound ? r : rule.row_bound;
+    const float by_step = static_cast<float>(dist[u] - 2);
+    r = r < by_step ? r : by_step;
+    radius[u] = ok && r >= rule.min_r ? static_cast<int>(r) : 0;
+  }
+}
+
+// 0.1 mm fixed point, 0 where invalid (selected before the conversion).
+template <class DF, class DI, class V, class M>
+HWY_INLINE hn::Vec<DI> toFixed(DF, DI di, V c, M ok) {
+  return hn::ConvertTo(di, hn::IfThenElseZero(ok, c * hn::Set(DF(), 1e4f)));
+}
+inline std::uint32_t fixedScalar(float c, bool ok) {
+  return static_cast<std::uint32_t>(static_cast<std::int32_t>((ok ? c : 0.0f) * 1e4f));
+}
+
+void GradientElementsFromDepth(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x,
+                               float ray_y, int cols, std::uint32_t* HWY_RESTRICT elements) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::RebindToUnsigned<decltype(df)> du;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto ry = hn::Set(df, ray_y);
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto zv = hn::LoadU(df, z + u);
+    const auto ok = zv > hn::Zero(df);
+    const auto x = toFixed(df, di, hn::LoadU(df, ray_x + u) * zv, ok);
+    const auto y = toFixed(df, di, ry * zv, ok);
+    const auto fz = toFixed(df, di, zv, ok);
+    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
+    hn::StoreInterleaved4(hn::BitCast(du, x), hn::BitCast(du, y), hn::BitCast(du, fz),
+                          hn::BitCast(du, count), du, elements + 4 * u);
+  }
+  for (; u < cols; ++u) {
+    const float zu = z[u];
+    const bool ok = zu > 0.0f;
+    std::uint32_t* e = elements + 4 * u;
+    e[0] = fixedScalar(ray_x[u] * zu, ok);
+    e[1] = fixedScalar(ray_y * zu, ok);
+    e[2] = fixedScalar(zu, ok);
+    e[3] = ok;
+  }
+}
+
+void GradientElementsFromPoints(const float* HWY_RESTRICT xyz, int cols,
+                                std::uint32_t* HWY_RESTRICT elements) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::RebindToUnsigned<decltype(df)> du;
+  const int n = static_cast<int>(hn::Lanes(df));
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    hn::Vec<decltype(df)> x, y, zv;
+    hn::LoadInterleaved3(df, xyz + 3 * u, x, y, zv);
+    const auto ok = zv > hn::Zero(df);
+    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
+    hn::StoreInterleaved4(
+        hn::BitCast(du, toFixed(df, di, x, ok)), hn::BitCast(du, toFixed(df, di, y, ok)),
+        hn::BitCast(du, toFixed(df, di, zv, ok)), hn::BitCast(du, count), du, elements + 4 * u);
+  }
+  for (; u < cols; ++u) {
+    const float* p = xyz + 3 * u;
+    const bool ok = p[2] > 0.0f;
+    std::uint32_t* e = elements + 4 * u;
+    for (int k = 0; k < 3; ++k) e[k] = fixedScalar(p[k], ok);
+    e[3] = ok;
+  }
+}
+
+void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
+                         std::uint32_t* HWY_RESTRICT elements) {
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::RebindToUnsigned<decltype(df)> du;
+  const int n = static_cast<int>(hn::Lanes(df));
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto zv = hn::LoadU(df, z + u);
+    const auto ok = zv > hn::Zero(df);
+    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
+    hn::StoreInterleaved2(hn::BitCast(du, count), hn::BitCast(du, toFixed(df, di, zv, ok)), du,
+                          elements + 2 * u);
+  }
+  for (; u < cols; ++u) {
+    const bool ok = z[u] > 0.0f;
+    elements[2 * u] = ok;
+    elements[2 * u + 1] = fixedScalar(z[u], ok);
+  }
+}
+
+// Groups of up to eight pixels (four on 128-bit targets): where the valid pixels of a group
+// share one window radius r, their windows are computed together and their normals with the
+// operations of unnormalisedNormal() and normalizePixels() - the same bits. Invalid pixels
+// (r = 0) ride along with radius r and come out NaN.
+using GroupTag = hn::CappedTag<float, 8>;
+using GroupVec = hn::Vec<GroupTag>;
+
+// cacheWindow() for centres x..x+N-1, radius r.
+template <GradientMode M>
+HWY_NOINLINE void CacheGroup(const GradientRow& g, float* means, int* radii, int x, int y, int r) {
+  constexpr int L = elementWords(M);
+  const GroupTag df;
+  const hn::RebindToSigned<GroupTag> di;
+  const hn::RebindToUnsigned<GroupTag> du;
+  const int n = static_cast<int>(hn::Lanes(df)), cols = g.cols;
+  hn::StoreU(hn::Set(di, r), di, radii + x);
+  const std::ptrdiff_t dh = (2 * r + 1) * L;
+  const std::uint32_t* a = g.integral[y - r] + (x - r) * L;
+  const std::uint32_t* c = g.integral[y + r + 1] + (x - r) * L;
+  // The window sums of the N centres (wrapped four-corner differences), elements interleaved.
+  HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
+  for (int i = 0; i < L * n; i += n) {
+    const auto s = hn::LoadU(du, c + dh + i) - hn::LoadU(du, a + dh + i) - hn::LoadU(du, c + i) +
+                   hn::LoadU(du, a + i);
+    hn::Store(s, du, sums + i);
+  }
+  hn::Vec<decltype(du)> chan[3], count;
+  if constexpr (M == GradientMode::k3dGradient) {
+    hn::LoadInterleaved4(du, sums, chan[0], chan[1], chan[2], count);
+  } else {
+    hn::LoadInterleaved2(du, sums, count, chan[0]);  // (count, z): no borrow between them
+  }
+  const auto nf = hn::ConvertTo(df, hn::BitCast(di, count));
+  // 1 / n correctly rounded (the inv_count table's values), 0 for n = 0.
+  const auto inv_n = hn::IfThenElseZero(nf > hn::Zero(df), hn::Set(df, 1.0f) / nf);
+  constexpr int K = windowChannels(M);
+  for (int k = 0; k < K - 1; ++k)
+    hn::StoreU(hn::ConvertTo(df, hn::BitCast(di, chan[k])) * inv_n, df, means + k * cols + x);
+  hn::StoreU(nf, df, means + (K - 1) * cols + x);
+}
+
+template <GradientMode M>
+HWY_INLINE void EnsureGroup(const GradientRow& g, float* means, int* radii, int x, int y, int r) {
+  const hn::RebindToSigned<GroupTag> di;
+  if (!hn::AllTrue(di, hn::LoadU(di, radii + x) == hn::Set(di, r)))
+    CacheGroup<M>(g, means, radii, x, y, r);
+}
+
+// The unnormalised normals of pixels u..u+N-1 whose radius is r (`lanes`); 0 in the others.
+template <GradientMode M>
+HWY_INLINE void GroupNormals(const GradientRow& g, int u, int r, hn::Mask<GroupTag> lanes,
+                             GroupVec& nx, GroupVec& ny, GroupVec& nz) {
+  constexpr int K = windowChannels(M);
+  const GroupTag df;
+  const int cols = g.cols, v = g.v;
+  EnsureGroup<M>(g, g.mean_here, g.radius_here, u - 1, v, r);
+  EnsureGroup<M>(g, g.mean_here, g.radius_here, u + 1, v, r);
+  EnsureGroup<M>(g, g.mean_above, g.radius_above, u, v - 1, r);
+  EnsureGroup<M>(g, g.mean_below, g.radius_below, u, v + 1, r);
+  auto left = [&](int k) { return hn::LoadU(df, g.mean_here + k * cols + u - 1); };
+  auto right = [&](int k) { return hn::LoadU(df, g.mean_here + k * cols + u + 1); };
+  auto up = [&](int k) { return hn::LoadU(df, g.mean_above + k * cols + u); };
+  auto down = [&](int k) { return hn::LoadU(df, g.mean_below + k * cols + u); };
+  const auto fewest = hn::Min(hn::Min(left(K - 1), right(K - 1)), hn::Min(up(K - 1), down(K - 1)));
+  const auto ok = hn::And(lanes, fewest >= hn::Set(df, static_cast<float>(g.min_count[r])));
+  if constexpr (M == GradientMode::k3dGradient) {
+    const auto hx = right(0) - left(0), hy = right(1) - left(1), hz = right(2) - left(2);
+    const auto tx = down(0) - up(0), ty = down(1) - up(1), tz = down(2) - up(2);
+    nx = hy * tz - hz * ty;
+    ny = hz * tx - hx * tz;
+    nz = hx * ty - hy * tx;
+  } else {
+    const auto zl = left(0), zr = right(0), zu = up(0), zd = down(0);
+    const auto half = hn::Set(df, 0.5f);
+    const auto du = half * (zr - zl), dv = half * (zd - zu);
+    const auto zm = hn::Set(df, 0.25f) * (zl + zr + zu + zd);
+    const auto dx = hn::Set(df, static_cast<float>(u)) + hn::Iota(df, 0) - hn::Set(df, g.cx);
+    const auto dy = hn::Set(df, static_cast<float>(v) - g.cy);
+    nx = hn::Set(df, g.fx) * du;
+    ny = hn::Set(df, g.fy) * dv;
+    nz = hn::Neg(zm + dx * du + dy * dv);
+  }
+  nx = hn::IfThenElseZero(ok, nx);
+  ny = hn::IfThenElseZero(ok, ny);
+  nz = hn::IfThenElseZero(ok, nz);
+}
+
+// Unit normals of pixels u..u+N-1 facing the camera (n . ray < 0), NaN where the unnormalised
+// normal is (near) zero, interleaved into the output row.
+HWY_INLINE void NormalizeGroup(const GradientRow& g, int u, GroupVec nx, GroupVec ny, GroupVec nz) {
+  const GroupTag df;
+  const auto eps = hn::Set(df, 1e-20f);
+  const auto len2 = nx * nx + ny * ny + nz * nz;
+  const auto rx = (hn::Set(df, static_cast<float>(u)) + hn::Iota(df, 0) - hn::Set(df, g.cx)) *
+                  hn::Set(df, g.ifx);
+  const auto dot = nx * rx + ny * hn::Set(df, g.ray_y) + nz;
+  auto k = hn::Set(df, 1.0f) / hn::Sqrt(hn::Max(len2, eps));
+  k = hn::IfThenElse(dot > hn::Zero(df), hn::Neg(k), k);
+  k = hn::IfThenElse(len2 > eps, k, hn::Set(df, kNaN));
+  hn::StoreInterleaved3(nx * k, ny * k, nz * k, df, g.out + 3 * u);
+}
+
+template <GradientMode M>
+void NormalsRow(const GradientRow& g) {
+  const GroupTag df;
+  const hn::RebindToSigned<GroupTag> di;
+  const int n = static_cast<int>(hn::Lanes(df)), cols = g.cols;
+  int u = 0;
+  for (; u + n <= cols; u += n) {
+    const auto radii = hn::LoadU(di, g.radius + u);
+    const auto invalid = radii == hn::Zero(di);
+    if (hn::AllTrue(di, invalid)) {
+      const auto nan = hn::Set(df, kNaN);
+      hn::StoreInterleaved3(nan, nan, nan, df, g.out + 3 * u);
+      continue;
+    }
+    const int r = g.radius[u + hn::FindFirstTrue(di, hn::Not(invalid))];
+    const auto lanes = radii == hn::Set(di, r);
+    GroupVec nx, ny, nz;
+    // Together where the valid pixels share r and the windows of centres u - 1 .. u + N lie
+    // inside the image (rows: r is a valid pixel's radius of this row, so it fits).
+    if (hn::AllTrue(di, hn::Or(invalid, lanes)) && u - 1 - r >= 0 && u + n + 1 + r <= cols) {
+      GroupNormals<M>(g, u, r, hn::RebindMask(df, lanes), nx, ny, nz);
+    } else {
+      for (int k = 0; k < n; ++k) unnormalisedNormal<M>(g, u + k);
+      nx = hn::LoadU(df, g.normal_x + u);
+      ny = hn::LoadU(df, g.normal_y + u);
+      nz = hn::LoadU(df, g.normal_z + u);
+    }
+    NormalizeGroup(g, u, nx, ny, nz);
+  }
+  for (int k = u; k < cols; ++k) unnormalisedNormal<M>(g, k);
+  normalizePixels(g, u, cols);
+}
+
+void GradientNormalsRow(const GradientRow& g) { NormalsRow<GradientMode::k3dGradient>(g); }
+void DepthChangeNormalsRow(const GradientRow& g) { NormalsRow<GradientMode::kDepthChange>(g); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace shapesense::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace shapesense::detail {
+
+HWY_EXPORT(DepthRowToZ);
+HWY_EXPORT(PointsRow);
+HWY_EXPORT(MarkVerticalSteps);
+HWY_EXPORT(MarkHorizontalSteps);
+HWY_EXPORT(InitStepDistanceRow);
+HWY_EXPORT(FoldStepDistanceRow);
+HWY_EXPORT(ScanStepDistanceRow);
+HWY_EXPORT(WindowRadiusRow);
+HWY_EXPORT(GradientElementsFromDepth);
+HWY_EXPORT(GradientElementsFromPoints);
+HWY_EXPORT(DepthChangeElements);
+HWY_EXPORT(GradientNormalsRow);
+HWY_EXPORT(DepthChangeNormalsRow);
+
+void depthRowToZ(const std::uint16_t* depth_mm, int cols, float* z) {
+  HWY_DYNAMIC_DISPATCH(DepthRowToZ)(depth_mm, cols, z);
+}
+void pointsRow(const float* z, const float* ray_x, float ray_y, int cols, float* xyz) {
+  HWY_DYNAMIC_DISPATCH(PointsRow)(z, ray_x, ray_y, cols, xyz);
+}
+void markVerticalSteps(const float* zrow, int v, int cols, const StepRule& rule, float* last_z,
+                       int* last_v, std::uint8_t* marks, std::size_t marks_stride) {
+  HWY_DYNAMIC_DISPATCH(MarkVerticalSteps)(zrow, v, cols, rule, last_z, last_v, marks, marks_stride);
+}
+int markHorizontalSteps(const float* zrow, int cols, const StepRule& rule, std::uint8_t* marks,
+                        int* after_hole) {
+  return HWY_DYNAMIC_DISPATCH(MarkHorizontalSteps)(zrow, cols, rule, marks, after_hole);
+}
+void initStepDistanceRow(const std::uint8_t* marks, int cols, std::int16_t far, std::int16_t* d) {
+  HWY_DYNAMIC_DISPATCH(InitStepDistanceRow)(marks, cols, far, d);
+}
+void foldStepDistanceRow(const std::int16_t* o, int cols, std::int16_t* d) {
+  HWY_DYNAMIC_DISPATCH(FoldStepDistanceRow)(o, cols, d);
+}
+void scanStepDistanceRow(std::int16_t* d, int cols, int dir) {
+  HWY_DYNAMIC_DISPATCH(ScanStepDistanceRow)(d, cols, dir);
+}
+void windowRadiusRow(const float* zrow, const std::int16_t* step_distance,
+                     const float* column_bound, int cols, const RadiusRule& rule, int* radius) {
+  HWY_DYNAMIC_DISPATCH(WindowRadiusRow)(zrow, step_distance, column_bound, cols, rule, radius);
+}
+void gradientElementsFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
+                               std::uint32_t* elements) {
+  HWY_DYNAMIC_DISPATCH(GradientElementsFromDepth)(z, ray_x, ray_y, cols, elements);
+}
+void gradientElementsFromPoints(const float* xyz, int cols, std::uint32_t* elements) {
+  HWY_DYNAMIC_DISPATCH(GradientElementsFromPoints)(xyz, cols, elements);
+}
+void depthChangeElements(const float* z, int cols, std::uint32_t* elements) {
+  HWY_DYNAMIC_DISPATCH(DepthChangeElements)(z, cols, elements);
+}
+void gradientNormalsRow(const GradientRow& row) { HWY_DYNAMIC_DISPATCH(GradientNormalsRow)(row); }
+void depthChangeNormalsRow(const GradientRow& row) {
+  HWY_DYNAMIC_DISPATCH(DepthChangeNormalsRow)(row);
+}
+
+}  // namespace shapesense::detail
+#endif  // HWY_ONCE
