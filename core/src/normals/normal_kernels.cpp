@@ -377,25 +377,13 @@ void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
 using GroupTag = hn::CappedTag<float, 8>;
 using GroupVec = hn::Vec<GroupTag>;
 
-// cacheWindow() for centres x..x+N-1, radius r.
+// The window means of centres x..x+N-1 from their window sums (elements interleaved), into the
+// cache.
 template <GradientMode M>
-HWY_NOINLINE void CacheGroup(const GradientRow& g, float* means, int* radii, int x, int y, int r) {
-  constexpr int L = elementWords(M);
+HWY_INLINE void StoreMeans(const GradientRow& g, const std::uint32_t* sums, float* means, int x) {
   const GroupTag df;
   const hn::RebindToSigned<GroupTag> di;
   const hn::RebindToUnsigned<GroupTag> du;
-  const int n = static_cast<int>(hn::Lanes(df)), cols = g.cols;
-  hn::StoreU(hn::Set(di, r), di, radii + x);
-  const std::ptrdiff_t dh = (2 * r + 1) * L;
-  const std::uint32_t* a = g.integral[y - r] + (x - r) * L;
-  const std::uint32_t* c = g.integral[y + r + 1] + (x - r) * L;
-  // The window sums of the N centres (wrapped four-corner differences), elements interleaved.
-  HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
-  for (int i = 0; i < L * n; i += n) {
-    const auto s = hn::LoadU(du, c + dh + i) - hn::LoadU(du, a + dh + i) - hn::LoadU(du, c + i) +
-                   hn::LoadU(du, a + i);
-    hn::Store(s, du, sums + i);
-  }
   hn::Vec<decltype(du)> chan[3], count;
   if constexpr (M == GradientMode::k3dGradient) {
     hn::LoadInterleaved4(du, sums, chan[0], chan[1], chan[2], count);
@@ -407,10 +395,59 @@ HWY_NOINLINE void CacheGroup(const GradientRow& g, float* means, int* radii, int
   const auto inv_n = hn::IfThenElseZero(nf > hn::Zero(df), hn::Set(df, 1.0f) / nf);
   constexpr int K = windowChannels(M);
   for (int k = 0; k < K - 1; ++k)
-    hn::StoreU(hn::ConvertTo(df, hn::BitCast(di, chan[k])) * inv_n, df, means + k * cols + x);
-  hn::StoreU(nf, df, means + (K - 1) * cols + x);
+    hn::StoreU(hn::ConvertTo(df, hn::BitCast(di, chan[k])) * inv_n, df, means + k * g.cols + x);
+  hn::StoreU(nf, df, means + (K - 1) * g.cols + x);
 }
 
+// cacheWindow() for centres x..x+N-1, radius r.
+template <GradientMode M>
+HWY_NOINLINE void CacheGroup(const GradientRow& g, float* means, int* radii, int x, int y, int r) {
+  constexpr int L = elementWords(M);
+  const hn::RebindToSigned<GroupTag> di;
+  const hn::RebindToUnsigned<GroupTag> du;
+  const int n = static_cast<int>(hn::Lanes(du));
+  hn::StoreU(hn::Set(di, r), di, radii + x);
+  const std::ptrdiff_t dh = (2 * r + 1) * L;
+  const std::uint32_t* a = g.integral[y - r] + (x - r) * L;
+  const std::uint32_t* c = g.integral[y + r + 1] + (x - r) * L;
+  // The window sums of the N centres (wrapped four-corner differences), elements interleaved.
+  HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
+  for (int i = 0; i < L * n; i += n) {
+    const auto s = hn::LoadU(du, c + dh + i) - hn::LoadU(du, a + dh + i) - hn::LoadU(du, c + i) +
+                   hn::LoadU(du, a + i);
+    hn::Store(s, du, sums + i);
+  }
+  StoreMeans<M>(g, sums, means, x);
+}
+
+// cacheWindow() for centres x..x+N-1, centre x + k with radius radius[k].
+template <GradientMode M>
+HWY_NOINLINE void CacheLanes(const GradientRow& g, float* means, int* radii, int x, int y,
+                             const int* radius) {
+  constexpr int L = elementWords(M);
+  const hn::RebindToSigned<GroupTag> di;
+  const hn::RebindToUnsigned<GroupTag> du;
+  const int n = static_cast<int>(hn::Lanes(du));
+  hn::StoreU(hn::LoadU(di, radius), di, radii + x);
+  HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
+  for (int k = 0; k < n; ++k) {
+    const int r = radius[k];
+    const std::ptrdiff_t dh = (2 * r + 1) * L;
+    const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
+    const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
+    for (int j = 0; j < L; ++j) sums[k * L + j] = c[dh + j] - a[dh + j] - c[j] + a[j];
+  }
+  StoreMeans<M>(g, sums, means, x);
+}
+
+// Makes the cache hold the windows of `radius` (one per lane) at centres x..x+N-1.
+template <GradientMode M>
+HWY_INLINE void EnsureLanes(const GradientRow& g, float* means, int* radii, int x, int y,
+                            const int* radius) {
+  const hn::RebindToSigned<GroupTag> di;
+  if (!hn::AllTrue(di, hn::LoadU(di, radii + x) == hn::LoadU(di, radius)))
+    CacheLanes<M>(g, means, radii, x, y, radius);
+}
 template <GradientMode M>
 HWY_INLINE void EnsureGroup(const GradientRow& g, float* means, int* radii, int x, int y, int r) {
   const hn::RebindToSigned<GroupTag> di;
@@ -418,36 +455,54 @@ HWY_INLINE void EnsureGroup(const GradientRow& g, float* means, int* radii, int 
     CacheGroup<M>(g, means, radii, x, y, r);
 }
 
-// The unnormalised normals of pixels u..u+N-1 whose radius is r (`lanes`); 0 in the others.
+// The means (channels 0..K-1) of the four windows of pixels u..u+N-1.
+struct GroupWindows {
+  GroupVec left[4], right[4], up[4], down[4];
+};
+
 template <GradientMode M>
-HWY_INLINE void GroupNormals(const GradientRow& g, int u, int r, hn::Mask<GroupTag> lanes,
-                             GroupVec& nx, GroupVec& ny, GroupVec& nz) {
+HWY_INLINE void LoadWindows(const GradientRow& g, int u, bool left_right, bool up_down,
+                            GroupWindows& w) {
   constexpr int K = windowChannels(M);
   const GroupTag df;
-  const int cols = g.cols, v = g.v;
-  EnsureGroup<M>(g, g.mean_here, g.radius_here, u - 1, v, r);
-  EnsureGroup<M>(g, g.mean_here, g.radius_here, u + 1, v, r);
-  EnsureGroup<M>(g, g.mean_above, g.radius_above, u, v - 1, r);
-  EnsureGroup<M>(g, g.mean_below, g.radius_below, u, v + 1, r);
-  auto left = [&](int k) { return hn::LoadU(df, g.mean_here + k * cols + u - 1); };
-  auto right = [&](int k) { return hn::LoadU(df, g.mean_here + k * cols + u + 1); };
-  auto up = [&](int k) { return hn::LoadU(df, g.mean_above + k * cols + u); };
-  auto down = [&](int k) { return hn::LoadU(df, g.mean_below + k * cols + u); };
-  const auto fewest = hn::Min(hn::Min(left(K - 1), right(K - 1)), hn::Min(up(K - 1), down(K - 1)));
-  const auto ok = hn::And(lanes, fewest >= hn::Set(df, static_cast<float>(g.min_count[r])));
+  const int cols = g.cols;
+  for (int k = 0; k < K; ++k) {
+    if (left_right) {
+      w.left[k] = hn::LoadU(df, g.mean_here + k * cols + u - 1);
+      w.right[k] = hn::LoadU(df, g.mean_here + k * cols + u + 1);
+    }
+    if (up_down) {
+      w.up[k] = hn::LoadU(df, g.mean_above + k * cols + u);
+      w.down[k] = hn::LoadU(df, g.mean_below + k * cols + u);
+    }
+  }
+}
+
+// The unnormalised normals of pixels u..u+N-1 from their windows' means; 0 outside `ok` or where
+// a window has fewer valid pixels than min_n.
+template <GradientMode M>
+HWY_INLINE void NormalsFromWindows(const GradientRow& g, int u, const GroupWindows& w,
+                                   hn::Mask<GroupTag> ok, GroupVec min_n, GroupVec& nx,
+                                   GroupVec& ny, GroupVec& nz) {
+  constexpr int K = windowChannels(M);
+  const GroupTag df;
+  const auto fewest = hn::Min(hn::Min(w.left[K - 1], w.right[K - 1]),
+                              hn::Min(w.up[K - 1], w.down[K - 1]));
+  ok = hn::And(ok, fewest >= min_n);
   if constexpr (M == GradientMode::k3dGradient) {
-    const auto hx = right(0) - left(0), hy = right(1) - left(1), hz = right(2) - left(2);
-    const auto tx = down(0) - up(0), ty = down(1) - up(1), tz = down(2) - up(2);
+    const auto hx = w.right[0] - w.left[0], hy = w.right[1] - w.left[1];
+    const auto hz = w.right[2] - w.left[2];
+    const auto tx = w.down[0] - w.up[0], ty = w.down[1] - w.up[1], tz = w.down[2] - w.up[2];
     nx = hy * tz - hz * ty;
     ny = hz * tx - hx * tz;
     nz = hx * ty - hy * tx;
   } else {
-    const auto zl = left(0), zr = right(0), zu = up(0), zd = down(0);
+    const auto zl = w.left[0], zr = w.right[0], zu = w.up[0], zd = w.down[0];
     const auto half = hn::Set(df, 0.5f);
     const auto du = half * (zr - zl), dv = half * (zd - zu);
     const auto zm = hn::Set(df, 0.25f) * (zl + zr + zu + zd);
     const auto dx = hn::Set(df, static_cast<float>(u)) + hn::Iota(df, 0) - hn::Set(df, g.cx);
-    const auto dy = hn::Set(df, static_cast<float>(v) - g.cy);
+    const auto dy = hn::Set(df, static_cast<float>(g.v) - g.cy);
     nx = hn::Set(df, g.fx) * du;
     ny = hn::Set(df, g.fy) * dv;
     nz = hn::Neg(zm + dx * du + dy * dv);
@@ -457,9 +512,48 @@ HWY_INLINE void GroupNormals(const GradientRow& g, int u, int r, hn::Mask<GroupT
   nz = hn::IfThenElseZero(ok, nz);
 }
 
+// Pixels u..u+N-1 whose radius is r (`lanes`); 0 in the others.
+template <GradientMode M>
+HWY_INLINE void GroupNormals(const GradientRow& g, int u, int r, hn::Mask<GroupTag> lanes,
+                             GroupVec& nx, GroupVec& ny, GroupVec& nz) {
+  const int v = g.v;
+  EnsureGroup<M>(g, g.mean_here, g.radius_here, u - 1, v, r);
+  EnsureGroup<M>(g, g.mean_here, g.radius_here, u + 1, v, r);
+  EnsureGroup<M>(g, g.mean_above, g.radius_above, u, v - 1, r);
+  EnsureGroup<M>(g, g.mean_below, g.radius_below, u, v + 1, r);
+  GroupWindows w;
+  LoadWindows<M>(g, u, true, true, w);
+  NormalsFromWindows<M>(g, u, w, lanes, hn::Set(GroupTag(), static_cast<float>(g.min_count[r])),
+                        nx, ny, nz);
+}
+
+// Pixels u..u+N-1 with a radius per lane (`radius`; `valid`: the lanes with a normal). The left
+// windows are read before the right ones are ensured: the right window of lane k can evict the
+// left window of lane k + 2 (same centre, another radius). Out of line: rare.
+template <GradientMode M>
+HWY_NOINLINE void LanesNormals(const GradientRow& g, int u, const int* radius,
+                               hn::Mask<GroupTag> valid, GroupVec& nx, GroupVec& ny,
+                               GroupVec& nz) {
+  const GroupTag df;
+  const int n = static_cast<int>(hn::Lanes(df)), v = g.v;
+  GroupWindows w, right;
+  EnsureLanes<M>(g, g.mean_here, g.radius_here, u - 1, v, radius);
+  LoadWindows<M>(g, u, true, false, w);
+  EnsureLanes<M>(g, g.mean_here, g.radius_here, u + 1, v, radius);
+  LoadWindows<M>(g, u, true, false, right);
+  for (int k = 0; k < windowChannels(M); ++k) w.right[k] = right.right[k];
+  EnsureLanes<M>(g, g.mean_above, g.radius_above, u, v - 1, radius);
+  EnsureLanes<M>(g, g.mean_below, g.radius_below, u, v + 1, radius);
+  LoadWindows<M>(g, u, false, true, w);
+  HWY_ALIGN float min_n[hn::MaxLanes(GroupTag())];
+  for (int k = 0; k < n; ++k) min_n[k] = static_cast<float>(g.min_count[radius[k]]);
+  NormalsFromWindows<M>(g, u, w, valid, hn::Load(df, min_n), nx, ny, nz);
+}
+
 // Unit normals of pixels u..u+N-1 facing the camera (n . ray < 0), NaN where the unnormalised
 // normal is (near) zero, interleaved into the output row.
-HWY_INLINE void NormalizeGroup(const GradientRow& g, int u, GroupVec nx, GroupVec ny, GroupVec nz) {
+HWY_INLINE void NormalizeGroup(const GradientRow& g, int u, GroupVec nx, GroupVec ny,
+                               GroupVec nz) {
   const GroupTag df;
   const auto eps = hn::Set(df, 1e-20f);
   const auto len2 = nx * nx + ny * ny + nz * nz;
@@ -489,15 +583,19 @@ void NormalsRow(const GradientRow& g) {
     const int r = g.radius[u + hn::FindFirstTrue(di, hn::Not(invalid))];
     const auto lanes = radii == hn::Set(di, r);
     GroupVec nx, ny, nz;
-    // Together where the valid pixels share r and the windows of centres u - 1 .. u + N lie
-    // inside the image (rows: r is a valid pixel's radius of this row, so it fits).
-    if (hn::AllTrue(di, hn::Or(invalid, lanes)) && u - 1 - r >= 0 && u + n + 1 + r <= cols) {
-      GroupNormals<M>(g, u, r, hn::RebindMask(df, lanes), nx, ny, nz);
-    } else {
+    // Together where the windows of centres u - 1 .. u + N lie inside the image (a valid pixel's
+    // radius is bounded by the border; invalid ones ride along with r, which fits the rows).
+    if (u - 1 - r < 0 || u + n + 1 + r > cols) {
       for (int k = 0; k < n; ++k) unnormalisedNormal<M>(g, u + k);
       nx = hn::LoadU(df, g.normal_x + u);
       ny = hn::LoadU(df, g.normal_y + u);
       nz = hn::LoadU(df, g.normal_z + u);
+    } else if (hn::AllTrue(di, hn::Or(invalid, lanes))) {
+      GroupNormals<M>(g, u, r, hn::RebindMask(df, lanes), nx, ny, nz);
+    } else {
+      HWY_ALIGN int lane_radius[hn::MaxLanes(decltype(di)())];
+      hn::Store(hn::IfThenElse(invalid, hn::Set(di, r), radii), di, lane_radius);
+      LanesNormals<M>(g, u, lane_radius, hn::RebindMask(df, hn::Not(invalid)), nx, ny, nz);
     }
     NormalizeGroup(g, u, nx, ny, nz);
   }
