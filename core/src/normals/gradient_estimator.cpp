@@ -52,13 +52,7 @@ class IntegralRing {
         gradientElementsFromDepth(input_.zRow(v), input_.ray_x.data(), input_.ray_y[v], cols, e);
       else
         gradientElementsFromPoints(input_.points.ptr<float>(v), cols, e);
-      std::uint32_t acc[4] = {0, 0, 0, 0};
-      for (int k = 0; k < 4; ++k) row[k] = 0;
-      for (int u = 0; u < cols; ++u)
-        for (int k = 0; k < 4; ++k) {
-          acc[k] += e[4 * u + k];
-          row[4 * (u + 1) + k] = above[4 * (u + 1) + k] + acc[k];
-        }
+      integrateGradientRow(e, cols, above, row);
     } else {
       depthChangeElements(input_.zRow(v), cols, e);
       std::uint64_t acc = 0;

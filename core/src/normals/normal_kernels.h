@@ -64,6 +64,10 @@ void windowRadiusRow(const float* zrow, const std::int16_t* step_distance,
 void gradientElementsFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
                                std::uint32_t* elements);
 void gradientElementsFromPoints(const float* xyz, int cols, std::uint32_t* elements);
+/// Integral row of the 3D gradient: `row` = `above` + the running sum of the row's elements
+/// (both cols + 1 elements, the first zero; wrapping uint32).
+void integrateGradientRow(const std::uint32_t* elements, int cols, const std::uint32_t* above,
+                          std::uint32_t* row);
 /// The depth-change integral image's elements of a row: (count, z) pairs, z as above.
 void depthChangeElements(const float* z, int cols, std::uint32_t* elements);
 
