@@ -420,7 +420,7 @@ struct GroupKernels {
   // cacheWindow() for centres x..x+N-1, radius r.
   template <GradientMode M>
   static HWY_INLINE void CacheGroup(const GradientRow& g, float* means, int* radii, int x, int y,
-                                      int r) {
+                                    int r) {
     constexpr int L = elementWords(M);
     const hn::RebindToSigned<GroupTag> di;
     const hn::RebindToUnsigned<GroupTag> du;
