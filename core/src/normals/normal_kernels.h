@@ -1,6 +1,7 @@
 #pragma once
 // The normals' SIMD kernels, written once with Google Highway and dispatched at run time to the
-// best target the CPU has. Each kernel does a whole row (its vector steps, then the last pixels
+// best target the CPU has (the step map's in step_map_kernels.cpp, the others in
+// normal_kernels.cpp). Each kernel does a whole row (its vector steps, then the last pixels
 // one at a time with the same operations) and computes the same bits on every target, the
 // scalar one included: integer work, and float work in the order of the scalar definition
 // without fused multiply-adds. Internal to core/src/normals/.
