@@ -8,22 +8,16 @@
 
 #include <gtest/gtest.h>
 
+#include "normal_test_frames.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using normaltest::kinectQuantise;
+using normaltest::name;
 
-// Depth (metres) -> Kinect v1 millimetres: disparity 43.5/z px (+ Gaussian noise of
-// `noise_steps` quantisation steps), rounded to 1/8 px.
-std::uint16_t kinectQuantise(double z, double noise_steps, std::mt19937& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  double disp = 43.5 / z * 8.0 + noise_steps * n(rng);
-  disp = std::round(disp);
-  if (disp <= 0) return 0;
-  return static_cast<std::uint16_t>(std::lround(43.5 / (disp / 8.0) * 1000.0));
-}
+constexpr double kPi = 3.14159265358979323846;
 
 // Plane n.X + d = 0 (n unit, facing the camera) rendered into a depth image.
 cv::Mat renderPlane(const Eigen::Vector3d& n, double d, const CameraIntrinsics& K,
@@ -77,18 +71,6 @@ ErrorStats angularError(const cv::Mat& normals, const Eigen::Vector3d& truth) {
   s.median_deg = err[err.size() / 2];
   s.p90_deg = err[err.size() * 9 / 10];
   return s;
-}
-
-const char* name(NormalMethod m) {
-  switch (m) {
-    case NormalMethod::kCovariance:
-      return "covariance";
-    case NormalMethod::kAverage3dGradient:
-      return "average_3d_gradient";
-    case NormalMethod::kAverageDepthChange:
-      return "average_depth_change";
-  }
-  return "?";
 }
 
 TEST(Normals, TiltedPlaneEachModeMatchesTruth) {
@@ -212,149 +194,6 @@ TEST(Normals, InvalidAcrossDepthStepAndWithoutDepth) {
       for (int u = 50; u < 70; ++u) ASSERT_TRUE(std::isnan(normals.at<cv::Vec3f>(v, u)[0]));
     // ... but pixels next to the hole keep a normal (holes are not steps).
     EXPECT_FALSE(std::isnan(normals.at<cv::Vec3f>(60, 72)[0])) << name(m);
-  }
-}
-
-// The depth-step detection runs four pixels per SIMD step, and the gradient modes evaluate four
-// pixels per SIMD step (eight per AVX2 step in the 3D-gradient mode where the CPU has AVX2) with
-// one radius or a radius per lane, and one pixel at a time at the image border; the SIMD paths
-// (the one the CPU selects, and SSE2 forced) and the one-pixel-at-a-time path must give the same
-// bits at every pixel. The frames make
-// the radius vary (range-scaled radius, clipped by depth steps, holes and the image border):
-// synthetic scenes, a steep ramp (the radius changes every few pixels) with steps and holes, and
-// the same ramp with a fixed radius.
-TEST(Normals, SimdPathMatchesOnePixelAtATime) {
-  const CameraIntrinsics K;
-  std::vector<cv::Mat> frames;
-  for (unsigned seed = 1; seed <= 3; ++seed) {
-    synthetic::SceneParams p;
-    p.seed = seed;
-    p.render_colour = false;
-    frames.push_back(synthetic::SyntheticScene(p).render(0, 0).frame.depth.clone());
-  }
-  std::mt19937 rng(7);
-  cv::Mat ramp(K.height, K.width, CV_16UC1);
-  for (int v = 0; v < K.height; ++v)
-    for (int u = 0; u < K.width; ++u) {
-      double z = 0.5 + 3.5 * u / K.width + 0.3 * v / K.height;  // radius 2..20 across the image
-      if ((u / 37 + v / 29) % 5 == 0) z += 0.25;                // depth steps
-      ramp.at<std::uint16_t>(v, u) = kinectQuantise(z, 0.5, rng);
-    }
-  for (int i = 0; i < 400; ++i) {  // scattered holes of 1-4 pixels
-    const int u = static_cast<int>(rng() % K.width), v = static_cast<int>(rng() % K.height);
-    ramp(cv::Rect(u, v, 1 + static_cast<int>(rng() % 4), 1) & cv::Rect(0, 0, K.width, K.height))
-        .setTo(0);
-  }
-  frames.push_back(ramp);
-  // Widths that are no multiple of the SIMD width, and a view into a larger image (rows not
-  // contiguous), with the intrinsics of the crop.
-  const cv::Rect crop(3, 5, 317, 233);
-  frames.push_back(ramp(crop).clone());
-  frames.push_back(frames[0](crop));
-  auto intrinsicsOf = [&](const cv::Mat& f) {
-    CameraIntrinsics k = K;
-    if (f.cols != K.width) {
-      k.cx -= crop.x;
-      k.cy -= crop.y;
-      k.width = f.cols;
-      k.height = f.rows;
-    }
-    return k;
-  };
-  for (bool depth_dependent : {true, false}) {
-    for (auto m : {NormalMethod::kAverage3dGradient, NormalMethod::kAverageDepthChange}) {
-      NormalParams p;
-      p.method = m;
-      p.depth_dependent_smoothing = depth_dependent;
-      NormalEstimator simd(p), sse2(p), scalar(p);
-      sse2.setAvx2(false);
-      scalar.setSimd(false);
-      for (std::size_t f = 0; f < frames.size(); ++f) {
-        const CameraIntrinsics k = intrinsicsOf(frames[f]);
-        cv::Mat b;
-        scalar.compute(frames[f], k, b);
-        for (NormalEstimator* est : {&simd, &sse2}) {
-          const char* path = est == &simd ? "selected SIMD" : "SSE2";
-          cv::Mat a;
-          est->compute(frames[f], k, a);
-          ASSERT_EQ(a.size(), frames[f].size());
-          int valid = 0, differ = 0;
-          for (int v = 0; v < frames[f].rows; ++v)
-            for (int u = 0; u < frames[f].cols; ++u) {
-              const auto* x = &a.at<cv::Vec3f>(v, u);
-              const auto* y = &b.at<cv::Vec3f>(v, u);
-              valid += !std::isnan((*y)[0]);
-              if (std::memcmp(x, y, sizeof *x) != 0) {
-                if (differ++ < 5)
-                  ADD_FAILURE() << name(m) << " " << path << " frame " << f << " (" << u << ", "
-                                << v << ")";
-              }
-            }
-          EXPECT_EQ(differ, 0) << name(m) << " " << path << " frame " << f;
-          EXPECT_GT(valid, frames[f].cols * frames[f].rows / 4) << name(m) << " frame " << f;
-        }
-      }
-    }
-  }
-}
-
-// Any frame size, down to empty, one row or one column, with every path and mode: an output
-// of the input's size, NaN where no window fits, and the SIMD paths equal to the scalar one.
-// One estimator serves frames of alternating sizes and both input types.
-TEST(Normals, AnySizeAndAlternatingSizesAndInputTypes) {
-  const CameraIntrinsics K;
-  std::mt19937 rng(11);
-  cv::Mat full(K.height, K.width, CV_16UC1);
-  for (int v = 0; v < K.height; ++v)
-    for (int u = 0; u < K.width; ++u)
-      full.at<std::uint16_t>(v, u) = kinectQuantise(0.8 + 2.0 * u / K.width, 0.5, rng);
-  const std::vector<cv::Size> sizes = {{0, 0},   {0, 240},   {240, 0}, {1, 1},    {1, 480},
-                                       {640, 1}, {2, 2},     {3, 3},   {7, 5},    {8, 9},
-                                       {9, 8},   {15, 17},   {16, 16}, {17, 15},  {33, 2},
-                                       {2, 33},  {640, 480}, {31, 29}, {640, 480}};
-  for (auto m : {NormalMethod::kCovariance, NormalMethod::kAverage3dGradient,
-                 NormalMethod::kAverageDepthChange}) {
-    NormalParams p;
-    p.method = m;
-    NormalEstimator simd(p), sse2(p), scalar(p);
-    sse2.setAvx2(false);
-    scalar.setSimd(false);
-    for (const cv::Size& size : sizes) {
-      const cv::Mat depth = full(cv::Rect(0, 0, size.width, size.height));
-      CameraIntrinsics k = K;
-      k.width = size.width;
-      k.height = size.height;
-      for (const bool as_points : {false, true}) {
-        cv::Mat input = depth;
-        if (as_points) {
-          scalar.compute(depth, k, input);
-          input = size.empty() ? cv::Mat(size, CV_32FC3) : scalar.points().clone();
-        }
-        cv::Mat want;
-        scalar.compute(input, k, want);
-        if (size.empty()) {  // OpenCV may store an empty size as 0 x 0
-          EXPECT_TRUE(want.empty()) << name(m) << " " << size;
-          continue;
-        }
-        ASSERT_EQ(want.size(), size) << name(m) << " " << size;
-        ASSERT_EQ(want.type(), CV_32FC3);
-        for (NormalEstimator* est : {&simd, &sse2}) {
-          cv::Mat got;
-          est->compute(input, k, got);
-          ASSERT_EQ(got.size(), size) << name(m) << " " << size;
-          EXPECT_EQ(std::memcmp(got.data, want.data, want.total() * want.elemSize()), 0)
-              << name(m) << " " << size << (as_points ? " points" : " depth");
-        }
-        // Smallest frame side a window fits in: the covariance window is centred on the pixel
-        // (2r + 1), the gradient modes' four windows reach one pixel further (2r + 3).
-        const int fits = 2 * p.min_radius_px + (m == NormalMethod::kCovariance ? 1 : 3);
-        if (size.width < fits || size.height < fits) {
-          int valid = 0;
-          for (int i = 0; i < size.area(); ++i) valid += !std::isnan(want.at<cv::Vec3f>(i)[0]);
-          EXPECT_EQ(valid, 0) << name(m) << " " << size << ": no window fits";
-        }
-      }
-    }
   }
 }
 

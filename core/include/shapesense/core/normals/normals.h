@@ -14,8 +14,7 @@
 // KinectNoiseModel::depthStep(z)); pixels within `min_radius_px` of a step, or without depth, get
 // NaN normals.
 
-#include <cstdint>
-#include <vector>
+#include <memory>
 
 #include <opencv2/core.hpp>
 
@@ -53,11 +52,25 @@ struct NormalParams {
   KinectNoiseModel noise{};
 };
 
-/// Reusable estimator: keeps the point, distance and integral-image buffers between frames, so
-/// repeated calls on same-size frames allocate nothing.
+namespace detail {
+struct NormalWorkspace;  // the estimator's reusable buffers (core/src/normals/normal_workspace.h)
+}
+
+/// Reusable estimator: keeps its point, step-map and integral-image buffers between frames, so
+/// repeated calls on same-size frames allocate nothing. Copies share no buffers (a copy starts
+/// with empty ones and the same parameters).
+///
+/// One call runs: the depth (or point) input to a z plane, the depth-step map (marks, then the
+/// chessboard distance of every pixel to the nearest mark), then the estimator of
+/// `params().method` over integral images, whose windows are bounded by that distance.
 class NormalEstimator {
  public:
-  explicit NormalEstimator(NormalParams params = {}) : params_(params) {}
+  explicit NormalEstimator(NormalParams params = {});
+  NormalEstimator(const NormalEstimator& other);
+  NormalEstimator& operator=(const NormalEstimator& other);
+  NormalEstimator(NormalEstimator&&) noexcept;
+  NormalEstimator& operator=(NormalEstimator&&) noexcept;
+  ~NormalEstimator();
 
   const NormalParams& params() const { return params_; }
   void setParams(const NormalParams& params) { params_ = params; }
@@ -70,54 +83,11 @@ class NormalEstimator {
   /// The organised points (CV_32FC3, metres, NaN invalid) of the last compute() call (for depth
   /// input built on the first call after compute(): the gradient modes do not need them). The
   /// image is reused by the next compute(): copy it to keep it.
-  const cv::Mat& points() {
-    buildPoints();
-    return points_;
-  }
-
-  /// Tests only: false runs the depth-step marking and the gradient modes' windows one pixel at
-  /// a time instead of four or eight per SIMD step, and no AVX2 step anywhere (the results are
-  /// bit-identical; the tests check that).
-  void setSimd(bool on) { simd_ = on; }
-  /// Tests only: false keeps the SIMD paths to SSE2 on CPUs with AVX2, where those steps
-  /// otherwise run eight (step distance: sixteen) pixels per AVX2 step (same bits).
-  void setAvx2(bool on) { avx2_ = on; }
+  const cv::Mat& points();
 
  private:
-  void buildPoints();
-  void markSteps();
-  void stepDistance(int cap);
-  void runCovariance(cv::Mat& normals);
-  template <int Mode>
-  void runGradient(const CameraIntrinsics& intrinsics, cv::Mat& normals);
-
   NormalParams params_;
-  int rows_ = 0, cols_ = 0;              // size of the last input
-  cv::Mat points_;                       // CV_32FC3 (depth input: built by buildPoints())
-  bool points_built_ = false;            // depth input: points_ holds this frame's points
-  cv::Mat steps_;                        // CV_8UC1, 1 on one pixel of every depth step
-  std::vector<std::int16_t> step_dist_;  // chessboard distance to the nearest step mark, capped
-  std::vector<std::uint32_t> mask_;      // covariance: integral of the valid count
-  std::vector<double> integral_;       // covariance: integral of (x, y, z, xx, xy, xz, yy, yz, zz)
-  std::vector<std::uint32_t> packed_;  // gradients: ring of rows of the packed integral of
-                                       // (sums, valid count)
-  std::vector<std::uint32_t*> integral_rows_;  // gradients: each integral row's place in packed_
-  std::vector<float> zplane_;                  // z of points_ (contiguous), NaN invalid
-  std::vector<float> ray_x_;                   // (u - cx) / fx per column
-  std::vector<float> ray_y_;                   // (v - cy) / fy per row
-  bool points_from_depth_ = false;             // points_ = z * (ray_x_, ray_y_, 1) (depth input)
-  std::vector<int> rad_;                       // one row of window radii
-  std::vector<int> min_count_;                 // fewest valid pixels per window radius
-  std::vector<float> col_bound_;  // largest window radius the image width allows per column
-  std::vector<float> row_n_;      // one row of unnormalised normals (x, y, z planes)
-  std::vector<float> inv_count_;  // 1 / n for every window pixel count n
-  std::vector<float> win_mean_;   // window means (and counts) of three rows of centres, planar
-  std::vector<int> win_radius_;   // the radius win_mean_ holds per centre, 0 = none
-  std::vector<float> last_z_;     // per-column scratch for the vertical step scan
-  std::vector<int> last_v_;
-  std::vector<int> after_hole_;  // markSteps(), AVX2: the pixels of a row that follow a hole
-  bool simd_ = true;             // see setSimd()
-  bool avx2_ = true;             // see setAvx2()
+  std::unique_ptr<detail::NormalWorkspace> work_;
 };
 
 /// One-shot convenience wrapper around NormalEstimator.
