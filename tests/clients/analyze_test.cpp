@@ -14,7 +14,7 @@
 #include "recording_fixture.h"
 #include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/core/geometry/timestamp.h"
-#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/driver/replay_source.h"
 #include "shapesense/driver/synthetic_recording.h"
 #include "shapesense/driver/tum_recording.h"
