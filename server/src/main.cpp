@@ -5,6 +5,9 @@
 #include <csignal>
 #include <ctime>
 #include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
@@ -14,6 +17,7 @@
 #endif
 
 #include "shapesense/driver/fakenect_dump.h"
+#include "shapesense/driver/open_source.h"
 #include "shapesense/server/daemon.h"
 
 namespace {
@@ -95,18 +99,38 @@ int waitForShutdown(const sigset_t& signals, const shapesense::Daemon& daemon, b
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  using shapesense::DaemonOptions;
+using shapesense::DaemonOptions;
+
+namespace {
+
+/// Option values that are not DaemonOptions fields as such: parsed into these, then converted.
+struct CommandLine {
   DaemonOptions options;
-  CLI::App app{
-      "shapesensed: RGB-D perception daemon. Serves frames and detector results over gRPC."};
-  app.set_config("--config", "", "Read options from a TOML file (keys as the long option names)");
-  app.add_option("--source", options.source,
-                 "Frame source: synthetic[:SEED], tum:DIR (a TUM RGB-D recording), "
-                 "freenect[:SERIAL|INDEX], "
-                 "openni2[:URI] or fakenect:DIR (a fakenect dump)")
-      ->capture_default_str();
   std::string rate = "recorded";
+  std::string record_root = shapesense::defaultRecordRoot().string();
+  std::uint64_t record_min_free_mb = options.record.min_free_bytes >> 20;
+  std::string segmentation = "depth_step";
+  std::string planes = "hough";
+  std::string bowls = "on";
+  std::vector<double> bowl_rim_cm = {
+      100 * options.detectors.bowl_geometry_params.min_rim_diameter_m,
+      100 * options.detectors.bowl_geometry_params.max_rim_diameter_m};
+  std::string models;
+  double stall_seconds = std::chrono::duration<double>(options.stall_limit).count();
+  int query_max_wait_ms = static_cast<int>(options.limits.queries.max_wait.count());
+  double keepalive_seconds = options.limits.keepalive_ms / 1000.0;
+  double keepalive_timeout_seconds = options.limits.keepalive_timeout_ms / 1000.0;
+  std::string check_fakenect;
+  std::string log_level = "info";
+};
+
+void addSourceOptions(CLI::App& app, CommandLine& c) {
+  DaemonOptions& options = c.options;
+  std::string& rate = c.rate;
+  app.add_option("--source", options.source,
+                 std::string("Frame source: ") + shapesense::kSourceSpecs +
+                     " (tum: a TUM RGB-D recording, fakenect: a libfreenect dump)")
+      ->capture_default_str();
   app.add_option("--rate", rate,
                  "Replay pacing: recorded (real time) or max (as fast as processed)")
       ->check(CLI::IsMember({"recorded", "max"}))
@@ -120,6 +144,10 @@ int main(int argc, char** argv) {
                  "gRPC listen address; one other machines can reach needs TLS and tokens, or "
                  "--insecure-remote")
       ->capture_default_str();
+}
+
+void addSecurityOptions(CLI::App& app, CommandLine& c) {
+  DaemonOptions& options = c.options;
   shapesense::TransportSecurity& security = options.security;
   app.add_option("--tls-cert", security.tls_cert,
                  "TLS: the server's PEM certificate chain (with --tls-key)");
@@ -133,12 +161,14 @@ int main(int argc, char** argv) {
                "Allow a non-loopback --listen without TLS and tokens (warns every minute)");
   app.add_flag("--reflection", security.reflection,
                "Serve gRPC server reflection (lists the whole API)");
-  std::string record_root = shapesense::defaultRecordRoot().string();
-  app.add_option("--record-root", record_root,
+}
+
+void addRecordOptions(CLI::App& app, CommandLine& c) {
+  DaemonOptions& options = c.options;
+  app.add_option("--record-root", c.record_root,
                  "Directory the Record RPC writes under; clients name recordings relative to it")
       ->capture_default_str();
-  std::uint64_t record_min_free_mb = options.record.min_free_bytes >> 20;
-  app.add_option("--record-min-free-mb", record_min_free_mb,
+  app.add_option("--record-min-free-mb", c.record_min_free_mb,
                  "Record stops (and does not start) when the recordings' file system has less "
                  "free space, in MB")
       ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1} << 30))
@@ -147,8 +177,10 @@ int main(int argc, char** argv) {
                  "Longest recording a client may ask for")
       ->check(CLI::Range(1.0, 86400.0))
       ->capture_default_str();
-  std::string segmentation = "depth_step";
-  app.add_option("--segmentation", segmentation,
+}
+
+void addDetectorOptions(CLI::App& app, CommandLine& c) {
+  app.add_option("--segmentation", c.segmentation,
                  "Segmentation run on every frame: " + shapesense::listSegmentationMethods(", ") +
                      " or none")
       ->check(CLI::IsMember([] {
@@ -157,31 +189,28 @@ int main(int argc, char** argv) {
         return choices;
       }()))
       ->capture_default_str();
-  std::string planes = "hough";
-  app.add_option("--planes", planes, "Plane detector run on every frame: hough, ransac or none")
+  app.add_option("--planes", c.planes, "Plane detector run on every frame: hough, ransac or none")
       ->check(CLI::IsMember({"hough", "ransac", "none"}))
       ->capture_default_str();
-  std::string bowls = "on";
-  app.add_option("--bowls", bowls,
+  app.add_option("--bowls", c.bowls,
                  "Bowl detector run on every frame (needs the models of --models): on or off")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
-  auto& bowl_geometry = options.detectors.bowl_geometry_params;
-  std::vector<double> bowl_rim_cm = {100 * bowl_geometry.min_rim_diameter_m,
-                                     100 * bowl_geometry.max_rim_diameter_m};
-  app.add_option("--bowl-rim-cm", bowl_rim_cm,
+  app.add_option("--bowl-rim-cm", c.bowl_rim_cm,
                  "Rim diameters a reported bowl may have, MIN,MAX in centimetres (the 3D check "
                  "of every detection)")
       ->expected(2)
       ->delimiter(',')
       ->check(CLI::Range(1.0, 200.0))
       ->capture_default_str();
-  std::string models;
-  app.add_option("--models", models,
+  app.add_option("--models", c.models,
                  "Folder of the bowl models (bowl_*.json); default: " +
                      shapesense::defaultBowlModelsDir().string());
-  double stall_seconds = std::chrono::duration<double>(options.stall_limit).count();
-  app.add_option("--watchdog-stall-seconds", stall_seconds,
+}
+
+void addHealthAndLimitOptions(CLI::App& app, CommandLine& c) {
+  DaemonOptions& options = c.options;
+  app.add_option("--watchdog-stall-seconds", c.stall_seconds,
                  "Under a systemd watchdog (WatchdogSec=): stop petting it when a streaming "
                  "source has delivered nothing, or the detectors have worked on one frame, for "
                  "this long")
@@ -199,8 +228,7 @@ int main(int argc, char** argv) {
                  "Such queries that may wait for a worker; more are answered RESOURCE_EXHAUSTED")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
-  int query_max_wait_ms = static_cast<int>(limits.queries.max_wait.count());
-  app.add_option("--query-max-wait-ms", query_max_wait_ms,
+  app.add_option("--query-max-wait-ms", c.query_max_wait_ms,
                  "Such a query that waited this long for a worker is answered "
                  "RESOURCE_EXHAUSTED instead of being run late")
       ->check(CLI::Range(1, 60000))
@@ -230,55 +258,62 @@ int main(int argc, char** argv) {
                  "Calls one connection may have open at once (HTTP/2 streams)")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  double keepalive_seconds = limits.keepalive_ms / 1000.0;
-  app.add_option("--keepalive-seconds", keepalive_seconds,
+  app.add_option("--keepalive-seconds", c.keepalive_seconds,
                  "Ping a connection idle this long; one that does not answer within "
                  "--keepalive-timeout-seconds is closed with its streams")
       ->check(CLI::Range(1.0, 86400.0))
       ->capture_default_str();
-  double keepalive_timeout_seconds = limits.keepalive_timeout_ms / 1000.0;
-  app.add_option("--keepalive-timeout-seconds", keepalive_timeout_seconds,
+  app.add_option("--keepalive-timeout-seconds", c.keepalive_timeout_seconds,
                  "How long a keepalive ping may go unanswered")
       ->check(CLI::Range(1.0, 3600.0))
       ->capture_default_str();
-  std::string check_fakenect;
+}
+
+void addToolOptions(CLI::App& app, CommandLine& c) {
   app.add_option(
-      "--check-fakenect", check_fakenect,
+      "--check-fakenect", c.check_fakenect,
       "Only check that DIR is a fakenect dump Debian's fakenect library can replay, print "
       "its problems and exit (0 = usable); used by scripts/shapesensed-fakenect");
-  std::string log_level = "info";
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+  app.add_option("--log-level", c.log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-  if (!check_fakenect.empty()) {
-    const auto problems = shapesense::validateFakenectDump(check_fakenect);
-    for (const auto& problem : problems) std::cerr << problem << "\n";
-    if (problems.empty()) std::cout << check_fakenect << ": a usable fakenect dump\n";
-    return problems.empty() ? 0 : 1;
-  }
-  options.pacing =
-      rate == "max" ? shapesense::Pacing::kAsFastAsPossible : shapesense::Pacing::kRecorded;
-  spdlog::set_level(spdlog::level::from_str(log_level));
-  options.detectors.segmentation =
-      shapesense::parseSegmentationMethod(segmentation);              // none -> off
-  options.detectors.planes = shapesense::parsePlaneDetector(planes);  // none -> off
-  options.detectors.bowls = bowls == "on";
-  options.detectors.bowl_models = models;  // empty -> the default folder
-  if (bowl_rim_cm[0] >= bowl_rim_cm[1]) {
-    std::cerr << "--bowl-rim-cm: MIN must be below MAX\n";
-    return 2;
-  }
-  bowl_geometry.min_rim_diameter_m = bowl_rim_cm[0] / 100;
-  bowl_geometry.max_rim_diameter_m = bowl_rim_cm[1] / 100;
-  options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(stall_seconds));
-  limits.queries.max_wait = std::chrono::milliseconds(query_max_wait_ms);
-  limits.keepalive_ms = static_cast<int>(keepalive_seconds * 1000);
-  limits.keepalive_timeout_ms = static_cast<int>(keepalive_timeout_seconds * 1000);
-  options.record.root = record_root;
-  options.record.min_free_bytes = record_min_free_mb << 20;
+}
 
+/// The parsed values as DaemonOptions; nullopt (after saying why) when they contradict.
+std::optional<DaemonOptions> toDaemonOptions(CommandLine c) {
+  DaemonOptions& options = c.options;
+  options.pacing =
+      c.rate == "max" ? shapesense::Pacing::kAsFastAsPossible : shapesense::Pacing::kRecorded;
+  options.detectors.segmentation =
+      shapesense::parseSegmentationMethod(c.segmentation);              // none -> off
+  options.detectors.planes = shapesense::parsePlaneDetector(c.planes);  // none -> off
+  options.detectors.bowls = c.bowls == "on";
+  options.detectors.bowl_models = c.models;  // empty -> the default folder
+  if (c.bowl_rim_cm[0] >= c.bowl_rim_cm[1]) {
+    std::cerr << "--bowl-rim-cm: MIN must be below MAX\n";
+    return std::nullopt;
+  }
+  options.detectors.bowl_geometry_params.min_rim_diameter_m = c.bowl_rim_cm[0] / 100;
+  options.detectors.bowl_geometry_params.max_rim_diameter_m = c.bowl_rim_cm[1] / 100;
+  options.stall_limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(c.stall_seconds));
+  options.limits.queries.max_wait = std::chrono::milliseconds(c.query_max_wait_ms);
+  options.limits.keepalive_ms = static_cast<int>(c.keepalive_seconds * 1000);
+  options.limits.keepalive_timeout_ms = static_cast<int>(c.keepalive_timeout_seconds * 1000);
+  options.record.root = c.record_root;
+  options.record.min_free_bytes = c.record_min_free_mb << 20;
+  return options;
+}
+
+int checkFakenectDump(const std::string& dir) {
+  const auto problems = shapesense::validateFakenectDump(dir);
+  for (const auto& problem : problems) std::cerr << problem << "\n";
+  if (problems.empty()) std::cout << dir << ": a usable fakenect dump\n";
+  return problems.empty() ? 0 : 1;
+}
+
+/// Runs the daemon until SIGINT or SIGTERM; the exit code.
+int serve(const DaemonOptions& options) {
   const sigset_t signals = blockShutdownSignals();
   std::unique_ptr<shapesense::Daemon> daemon;
   try {
@@ -287,10 +322,11 @@ int main(int argc, char** argv) {
     spdlog::error("{}", e.what());
     return 1;
   }
+  const auto& security = options.security;
   spdlog::info("shapesensed {} serving {} on {} (port {}, {}{}); recordings under {}",
                SHAPESENSE_VERSION, options.source, options.listen, daemon->port(),
                security.tls() ? "TLS" : "plain", security.tokens() ? " with tokens" : "",
-               record_root);
+               options.record.root.string());
   notifySystemd("READY=1");
 
   const int signal_number = waitForShutdown(
@@ -300,4 +336,25 @@ int main(int argc, char** argv) {
   notifySystemd("STOPPING=1");
   daemon->shutdown();
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CommandLine command_line;
+  CLI::App app{
+      "shapesensed: RGB-D perception daemon. Serves frames and detector results over gRPC."};
+  app.set_config("--config", "", "Read options from a TOML file (keys as the long option names)");
+  addSourceOptions(app, command_line);
+  addSecurityOptions(app, command_line);
+  addRecordOptions(app, command_line);
+  addDetectorOptions(app, command_line);
+  addHealthAndLimitOptions(app, command_line);
+  addToolOptions(app, command_line);
+  CLI11_PARSE(app, argc, argv);
+  if (!command_line.check_fakenect.empty()) return checkFakenectDump(command_line.check_fakenect);
+  spdlog::set_level(spdlog::level::from_str(command_line.log_level));
+  const std::optional<DaemonOptions> options = toDaemonOptions(command_line);
+  if (!options) return 2;
+  return serve(*options);
 }

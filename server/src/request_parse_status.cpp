@@ -20,8 +20,10 @@ class RequestParseStatus final : public grpc::experimental::Interceptor {
       unparsed_ = true;
     }
     if (unparsed_ && methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
-      const grpc::Status sent = methods->GetSendStatus();
-      if (sent.error_code() == grpc::StatusCode::INTERNAL) {
+      // gRPC's own answer to unparsable bytes: INTERNAL from the synchronous API,
+      // UNIMPLEMENTED from the callback API; both with an empty message.
+      const grpc::StatusCode sent = methods->GetSendStatus().error_code();
+      if (sent == grpc::StatusCode::INTERNAL || sent == grpc::StatusCode::UNIMPLEMENTED) {
         methods->ModifySendStatus(grpc::Status(
             grpc::StatusCode::INVALID_ARGUMENT,
             "request could not be parsed as " + requestType() + " (malformed protobuf bytes)"));

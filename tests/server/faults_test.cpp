@@ -14,9 +14,9 @@
 #include <thread>
 
 #include "server_fixture.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/driver/fault_injecting_source.h"
 #include "shapesense/server/pipeline.h"
-#include "shapesense/core/pipeline/stages.h"
 
 namespace shapesense {
 namespace {

@@ -50,7 +50,8 @@ TEST(MalformedRequest, TheDaemonRefusesItAndKeepsServing) {
   server.addMany(3);
   const grpc::Status status =
       callRaw(server.channel(), "/shapesense.v1.ShapeSense/GetFrame", kGarbage);
-  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+      << "'" << status.error_message() << "'";
   EXPECT_THAT(status.error_message(), ::testing::HasSubstr("could not be parsed"));
   v1::GetFrameRequest valid;
   EXPECT_TRUE(
