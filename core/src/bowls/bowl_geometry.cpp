@@ -9,6 +9,8 @@
 
 #include <Eigen/Geometry>
 
+#include "shapesense/core/geometry/depth_step.h"
+
 namespace shapesense {
 
 namespace {
@@ -84,9 +86,13 @@ double maxObjectHeight(const BowlGeometryParams& params) {
   return 1.25 * params.max_rim_diameter_m * params.max_height_to_diameter;
 }
 
-/// How far above the support a reading at range z must lie to be the object's.
+/// How far above the support a reading at range z must lie to be the object's: a depth step
+/// off the support's surface.
 double clearance(double z, const BowlGeometryParams& params) {
-  return std::max(params.min_clearance_m, params.clearance_steps * params.noise.depthStep(z));
+  const DepthStepRule off_support{.noise_steps = params.clearance_steps,
+                                  .floor_m = params.min_clearance_m,
+                                  .noise = params.noise};
+  return off_support.threshold(z);
 }
 
 /// The plane the object stands on. Candidates: detected planes that face up in the image
@@ -170,13 +176,11 @@ std::vector<Eigen::Vector3d> objectOnSupport(const BoxReadings& readings,
       if (z > 0 && h > clearance(z, params) && h < max_height) standing.at<std::uint8_t>(v, u) = 1;
     }
   }
-  const KinectNoiseModel& noise = params.noise;
+  const DepthStepRule surface_break{.noise_steps = params.max_step_steps,
+                                    .floor_m = params.max_step_floor_m,
+                                    .noise = params.noise};
   auto joined = [&](int u0, int v0, int u1, int v1) {
-    const double z0 = readings.z[readings.at(u0, v0)];
-    const double z1 = readings.z[readings.at(u1, v1)];
-    const double step = std::max(params.max_step_floor_m,
-                                 params.max_step_steps * noise.depthStep(std::max(z0, z1)));
-    return std::abs(z0 - z1) <= step;
+    return !surface_break.isStep(readings.z[readings.at(u0, v0)], readings.z[readings.at(u1, v1)]);
   };
   cv::Mat component(box.size(), CV_32SC1, cv::Scalar(0));
   const cv::Rect centre(box.width / 4, box.height / 4, box.width / 2, box.height / 2);
