@@ -70,12 +70,8 @@ struct FrameQueue {
   }
 };
 
-}  // namespace
-
-grpc::Status handleRecord(const ServiceContext& context,
-                          const grpc::ServerContextBase* server_context,
-                          const v1::RecordRequest& request,
-                          const std::function<bool(const v1::RecordProgress&)>& write) {
+/// Why the request cannot be recorded, checked before anything is written; OK when it can.
+grpc::Status refusal(const ServiceContext& context, const v1::RecordRequest& request) {
   if (context.frame_tap == nullptr) {
     return {grpc::StatusCode::UNIMPLEMENTED, "this server has no frame source to record from"};
   }
@@ -102,29 +98,44 @@ grpc::Status handleRecord(const ServiceContext& context,
                 ": no new frames to record (record a recording with `shapesense record --source "
                 "SPEC`)"};
   }
+  return grpc::Status::OK;
+}
+
+/// Free bytes of the recordings root's file system; one whose free space cannot be read
+/// counts as full.
+std::uintmax_t freeBytes(const RecordLimits& limits) {
+  try {
+    return limits.free_bytes(limits.root);
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
+std::string belowFloor(const RecordLimits& limits, std::uintmax_t free) {
+  std::ostringstream message;
+  message << "the recordings root's file system has " << free / (1 << 20)
+          << " MB free, below the floor of " << limits.min_free_bytes / (1 << 20)
+          << " MB (shapesensed --record-min-free-mb)";
+  return message.str();
+}
+
+}  // namespace
+
+grpc::Status handleRecord(const ServiceContext& context,
+                          const grpc::ServerContextBase* server_context,
+                          const v1::RecordRequest& request,
+                          const std::function<bool(const v1::RecordProgress&)>& write) {
+  if (grpc::Status refused = refusal(context, request); !refused.ok()) return refused;
+  const RecordLimits& limits = context.record;
+  const double seconds = request.seconds();
   if (context.recording->exchange(true)) {
     return {grpc::StatusCode::ABORTED,
             "another recording is running on this daemon (one at a time); retry when it is done"};
   }
   RecordingFlag clear_flag{*context.recording};
 
-  // A file system whose free space cannot be read counts as full.
-  const auto free_bytes = [&limits]() -> std::uintmax_t {
-    try {
-      return limits.free_bytes(limits.root);
-    } catch (const std::exception&) {
-      return 0;
-    }
-  };
-  const auto below_floor = [&](std::uintmax_t free) {
-    std::ostringstream message;
-    message << "the recordings root's file system has " << free / (1 << 20)
-            << " MB free, below the floor of " << limits.min_free_bytes / (1 << 20)
-            << " MB (shapesensed --record-min-free-mb)";
-    return message.str();
-  };
-  if (const auto free = free_bytes(); free < limits.min_free_bytes) {
-    return {grpc::StatusCode::RESOURCE_EXHAUSTED, below_floor(free) + "; nothing recorded"};
+  if (const auto free = freeBytes(limits); free < limits.min_free_bytes) {
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED, belowFloor(limits, free) + "; nothing recorded"};
   }
   fs::path dir;
   if (grpc::Status made = makeRecordingDir(limits.root, request.dir(), dir); !made.ok()) {
@@ -186,9 +197,9 @@ grpc::Status handleRecord(const ServiceContext& context,
       return {grpc::StatusCode::UNAVAILABLE, "the daemon is shutting down; " + stopped_after()};
     }
     if (Clock::now() - last_sent >= kProgressInterval) {
-      if (const auto free = free_bytes(); free < limits.min_free_bytes) {
+      if (const auto free = freeBytes(limits); free < limits.min_free_bytes) {
         return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-                "recording stopped: " + below_floor(free) + "; " + stopped_after()};
+                "recording stopped: " + belowFloor(limits, free) + "; " + stopped_after()};
       }
       if (!progress(false)) {
         return {grpc::StatusCode::CANCELLED, "the client went away; " + stopped_after()};
