@@ -45,9 +45,10 @@ std::unique_ptr<FaultInjectingSource> faulty(int frames, FaultPlan plan) {
                                                 std::move(plan));
 }
 
-const Frame& frameOf(const SourceEvent& event) {
+/// The event's frame, by value: callers pass the temporary event next() returns.
+Frame frameOf(SourceEvent event) {
   EXPECT_TRUE(std::holds_alternative<Frame>(event));
-  return std::get<Frame>(event);
+  return std::get<Frame>(std::move(event));
 }
 
 TEST(FaultInjectingSource, PlaysErrorsAndStampFaultsThenPassesThrough) {
@@ -64,10 +65,10 @@ TEST(FaultInjectingSource, PlaysErrorsAndStampFaultsThenPassesThrough) {
                 HasSubstr("injected error " + std::to_string(k) + " of 2"));
   }
   // Frame 2 stamped 10 periods before frame 1, frame 3 with frame 2's stamp again.
-  const Frame& back = frameOf(next());
+  const Frame back = frameOf(next());
   EXPECT_EQ(back.sequence, 2u);
   EXPECT_EQ(back.timestamp_ns, kT0 + kStep - 10 * kStep);
-  const Frame& repeated = frameOf(next());
+  const Frame repeated = frameOf(next());
   EXPECT_EQ(repeated.sequence, 3u);
   EXPECT_EQ(repeated.timestamp_ns, kT0 + kStep - 10 * kStep);
   // The plan is played: the wrapped source's own stamps again, then its end.
