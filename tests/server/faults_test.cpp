@@ -17,6 +17,7 @@
 #include "shapesense/core/pipeline/stages.h"
 #include "shapesense/driver/fault_injecting_source.h"
 #include "shapesense/server/pipeline.h"
+#include "source_wait.h"
 
 namespace shapesense {
 namespace {
@@ -39,10 +40,7 @@ class SensorLikeSource final : public FrameSource {
       ++sent_;
       return frame;
     }
-    std::mutex mutex;
-    std::condition_variable_any cv;
-    std::unique_lock lock(mutex);
-    cv.wait(lock, stop, [] { return false; });
+    testing::waitUntilStopped(stop);
     return EndOfStream{};
   }
 

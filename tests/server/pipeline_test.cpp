@@ -19,6 +19,7 @@
 
 #include "shapesense/core/pipeline/stages.h"
 #include "shapesense/server/latency_tracker.h"
+#include "source_wait.h"
 
 namespace shapesense {
 namespace {
@@ -63,10 +64,7 @@ class FakeSource : public FrameSource {
     if (position_ < script_.size()) return script_[position_++]();
     if (after_ == After::kEnd) return EndOfStream{};
     // Like a live sensor waiting for the next frame: only a stop request ends the wait.
-    std::mutex mutex;
-    std::condition_variable_any cv;
-    std::unique_lock lock(mutex);
-    cv.wait(lock, stop, [] { return false; });
+    testing::waitUntilStopped(stop);
     return EndOfStream{};
   }
 

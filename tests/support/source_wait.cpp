@@ -19,4 +19,11 @@ SourceEvent nextWithin(FrameSource& source, std::chrono::milliseconds limit) {
   return source.next(stop.get_token());
 }
 
+void waitUntilStopped(std::stop_token stop) {
+  std::mutex mutex;
+  std::condition_variable_any cv;
+  std::unique_lock lock(mutex);
+  cv.wait(lock, stop, [] { return false; });
+}
+
 }  // namespace shapesense::testing

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "shapesense/core/geometry/depth_step.h"
+#include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
 
@@ -32,7 +33,6 @@ struct Profile {
 
 constexpr int kMaxSupportSamples = 1200;
 constexpr int kMinBandPoints = 5;
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 
 /// Where a support shows: beside the lower half of the box and below it (a bowl stands on it;
 /// objects in front may hide the bowl's foot, so the window reaches the surface beside it).
@@ -106,7 +106,7 @@ std::optional<SupportPlane> chooseSupport(const PlaneDetection& planes, const cv
   if (planes.labels.empty()) return std::nullopt;
   const auto shown =
       planePixelsBeside(planes.labels, supportWindow(box, planes.labels.size()), box);
-  const double min_up_cos = std::cos(params.max_support_angle_from_image_up_deg * kRadPerDeg);
+  const double min_up_cos = std::cos(degToRad(params.max_support_angle_from_image_up_deg));
   const double noise = clearance(object_point.z(), params);
   auto heightOf = [&](const DetectedPlane& plane) {
     return plane.normal.dot(object_point) + plane.d;

@@ -93,7 +93,7 @@ class BlockNeighbourhood {
 }  // namespace
 
 HoughAccumulator::HoughAccumulator(HoughSpaceParams params) : params_(params) {
-  a_cell_ = std::max(1e-4, params_.angle_cell_deg * kDegToRad);
+  a_cell_ = std::max(1e-4, degToRad(params_.angle_cell_deg));
   inv_a_cell_ = 1.0 / a_cell_;
   inv_d_cell_ = 1.0 / params_.d_cell_m;
   na_ = std::max(1, static_cast<int>(std::ceil(2.0 * params_.lambert_extent / a_cell_)));
@@ -216,7 +216,7 @@ double HoughAccumulator::totalMass() const {
 void HoughAccumulator::addGaussian(const Eigen::Vector3d& n, double d, double weight,
                                    double sigma_angle_deg, double sigma_d_m) {
   const Eigen::Vector3d c = cellCoordinates(n, d);
-  const double sa = std::max(1e-3, sigma_angle_deg * kDegToRad / a_cell_);
+  const double sa = std::max(1e-3, degToRad(sigma_angle_deg) / a_cell_);
   const double sd = std::max(1e-3, sigma_d_m / params_.d_cell_m);
   const int ra = std::max(1, static_cast<int>(std::ceil(2.5 * sa)));
   const int rd = std::max(1, static_cast<int>(std::ceil(2.5 * sd)));
@@ -243,7 +243,7 @@ void HoughAccumulator::addGaussian(const Eigen::Vector3d& n, double d, double we
 }
 
 double HoughAccumulator::kernelPeak(double sigma_angle_deg, double sigma_d_m) const {
-  const auto a = gaussianTaps(sigma_angle_deg * kDegToRad / a_cell_, kBlock);
+  const auto a = gaussianTaps(degToRad(sigma_angle_deg) / a_cell_, kBlock);
   const auto d = gaussianTaps(sigma_d_m / params_.d_cell_m, kBlock);
   return static_cast<double>(a[a.size() / 2]) * a[a.size() / 2] * d[d.size() / 2];
 }
@@ -274,8 +274,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   // Taps padded to the largest radius (kBlock) with zeros: fixed-size loops that unroll and
   // vectorise; the extra terms add exact zeros.
   SmoothingTaps taps{};
-  const std::array<double, 3> sigma_cells = {sigma_angle_deg * kDegToRad / a_cell_,
-                                             sigma_angle_deg * kDegToRad / a_cell_,
+  const std::array<double, 3> sigma_cells = {degToRad(sigma_angle_deg) / a_cell_,
+                                             degToRad(sigma_angle_deg) / a_cell_,
                                              sigma_d_m / params_.d_cell_m};
   for (int axis = 0; axis < 3; ++axis) {
     const std::vector<float> w = gaussianTaps(sigma_cells[axis], kBlock);

@@ -34,7 +34,7 @@ void PlaneAccumulator::reset() {
 }
 
 int PlaneAccumulator::matchTrack(const Eigen::Vector3d& n, double d) const {
-  const double cos_gate = std::cos(params_.match_angle_deg * kDegToRad);
+  const double cos_gate = std::cos(degToRad(params_.match_angle_deg));
   int best = -1;
   double best_cost = 1e30;
   for (std::size_t t = 0; t < tracks_.size(); ++t) {
@@ -60,7 +60,7 @@ void PlaneAccumulator::update(const PlaneDetection& frame,
     if (!world_from_ref_) world_from_ref_ = *world_from_camera;
     ref_from_camera_ = world_from_ref_->inverse() * *world_from_camera;
     const double angle = Eigen::AngleAxisd(ref_from_camera_.rotation()).angle();
-    if (angle > params_.max_rotation_deg * kDegToRad) {
+    if (angle > degToRad(params_.max_rotation_deg)) {
       reset();
       world_from_ref_ = *world_from_camera;
       ref_from_camera_ = Eigen::Isometry3d::Identity();

@@ -5,8 +5,7 @@
 
 namespace shapesense {
 
-constexpr double kDegToRad = std::numbers::pi / 180.0;
-
-constexpr double degToRad(double degrees) { return degrees * kDegToRad; }
+/// Degrees to radians, as degrees * (pi / 180).
+constexpr double degToRad(double degrees) { return degrees * (std::numbers::pi / 180.0); }
 
 }  // namespace shapesense
