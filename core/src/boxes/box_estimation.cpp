@@ -293,7 +293,8 @@ std::optional<BoxEstimationFailure> invalidRequest(const cv::Mat& depth_mm,
 [[gnu::noinline]] std::variant<RoiDepthStatistics, BoxEstimationFailure> roiStatistics(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, const RoiBounds& roi,
     double max_norm, bool use_range, const BoxEstimationParams& params) {
-  const auto [u0, u1, v0, v1] = roi;
+  // Plain copies, not a structured binding: clang 14 (the fuzz build) cannot capture those.
+  const int u0 = roi.u0, u1 = roi.u1, v0 = roi.v0, v1 = roi.v1;
   const int max_valid = static_cast<int>(
       std::clamp(std::floor(params.max_valid_depth_m * 1000.0 + 1e-6), 0.0, 65535.0));
   int min_mm = 65536;
