@@ -13,6 +13,44 @@
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
+
+struct HoughAccumulator::SmoothingScratch {
+  // Passes of smoothInto a block of the output needs: none, x, x and y, all three.
+  static constexpr std::uint8_t kNeedX = 1, kNeedY = 2, kNeedZ = 3;
+  std::vector<float> between_passes;  // the y pass's output, the z pass's input
+  std::vector<float> block_mass;      // the source's block masses, for the peak bound
+  std::vector<std::uint8_t> need;     // kNeedX.. per output block
+  std::vector<std::uint8_t> live;     // smoothPasses: which pass results may be non-zero
+  std::vector<float> near_mass;       // pruneForPeaks: neighbourhood mass of each block
+};
+
+HoughAccumulator::HoughAccumulator(const HoughAccumulator& other)
+    : params_(other.params_),
+      a_cell_(other.a_cell_),
+      inv_a_cell_(other.inv_a_cell_),
+      inv_d_cell_(other.inv_d_cell_),
+      na_(other.na_),
+      nd_(other.nd_),
+      nba_(other.nba_),
+      nbd_(other.nbd_),
+      index_(other.index_),
+      cells_(other.cells_),
+      block_keys_(other.block_keys_) {}
+
+HoughAccumulator& HoughAccumulator::operator=(const HoughAccumulator& other) {
+  if (this != &other) *this = HoughAccumulator(other);
+  return *this;
+}
+
+HoughAccumulator::HoughAccumulator(HoughAccumulator&&) noexcept = default;
+HoughAccumulator& HoughAccumulator::operator=(HoughAccumulator&&) noexcept = default;
+HoughAccumulator::~HoughAccumulator() = default;
+
+HoughAccumulator::SmoothingScratch& HoughAccumulator::smoothingScratch() {
+  if (!smoothing_) smoothing_ = std::make_unique<SmoothingScratch>();
+  return *smoothing_;
+}
+
 namespace {
 
 // Normalised 1D Gaussian taps for sigma in cells, radius min(ceil(2.5 sigma), max_radius).
@@ -253,7 +291,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
   out.prepareLike(*this);
   out.clear();
   // 1. The evaluated block set: heavy blocks and their 26 neighbours.
-  std::vector<float>& block_mass = out.block_mass_;  // of this space's blocks, for the peak bound
+  std::vector<float>& block_mass =
+      out.smoothingScratch().block_mass;  // of this space's blocks, for the peak bound
   block_mass.resize(block_keys_.size());
   const BlockNeighbourhood neighbourhood(nba_, nbd_);
   for (std::size_t b = 0; b < block_keys_.size(); ++b) {
@@ -283,8 +322,8 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
     for (int u = -r; u <= r; ++u) taps[axis][kBlock + u] = w[u + r];
   }
   // Which passes each evaluated block needs (kNeedX..); all of them without a peak bound.
-  std::vector<std::uint8_t>& need = out.smooth_need_;
-  need.assign(out.block_keys_.size(), kNeedZ);
+  std::vector<std::uint8_t>& need = out.smoothingScratch().need;
+  need.assign(out.block_keys_.size(), SmoothingScratch::kNeedZ);
   if (min_peak > 0.0f)
     out.pruneForPeaks(*this, block_mass, taps[0][kBlock] * taps[1][kBlock] * taps[2][kBlock],
                       min_peak);
@@ -293,14 +332,15 @@ void HoughAccumulator::smoothInto(HoughAccumulator& out, double sigma_angle_deg,
 
 void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps) {
   const std::size_t count = block_keys_.size();
-  const std::vector<std::uint8_t>& need = smooth_need_;
-  scratch_.resize(cells_.size());  // every block the z pass reads is written first
+  SmoothingScratch& scratch = smoothingScratch();
+  const std::vector<std::uint8_t>& need = scratch.need;
+  scratch.between_passes.resize(cells_.size());  // every block the z pass reads is written first
   // Which pass results of a block may be non-zero (kLiveX: the x pass, kLiveY: the y pass).
   // A pass skips the neighbours that are absent or known to be zero: their terms are exact
   // zeros, so the sums keep their bits. A block whose x or y result is not live is never read,
   // so it is not written either.
   constexpr std::uint8_t kLiveX = 1, kLiveY = 2;
-  std::vector<std::uint8_t>& live = smooth_live_;
+  std::vector<std::uint8_t>& live = scratch.live;
   live.assign(count, 0);
 
   // x: src -> cells_, from the source's blocks (light ones included).
@@ -315,10 +355,10 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
     live[b] = kLiveX;
     hough_kernels::smoothBlockX(blocks, taps[0].data(), &cells_[b * kBlockCells]);
   }
-  // y (cells_ -> scratch_) and z (scratch_ -> cells_), over the evaluated blocks only.
+  // y (cells_ -> between_passes) and z (between_passes -> cells_), over the evaluated blocks only.
   auto passYZ = [&](auto axis_constant, const std::vector<float>& in, std::vector<float>& dst) {
     constexpr int axis = decltype(axis_constant)::value;
-    constexpr std::uint8_t needed = axis == 1 ? kNeedY : kNeedZ;
+    constexpr std::uint8_t needed = axis == 1 ? SmoothingScratch::kNeedY : SmoothingScratch::kNeedZ;
     constexpr std::uint8_t reads = axis == 1 ? kLiveX : kLiveY;
     const int step = axis == 1 ? nba_ : nba_ * nba_;  // key offset of the next block
     const int last = axis == 1 ? nba_ - 1 : nbd_ - 1;
@@ -350,8 +390,8 @@ void HoughAccumulator::smoothPasses(const HoughAccumulator& src, const Smoothing
       }
     }
   };
-  passYZ(std::integral_constant<int, 1>{}, cells_, scratch_);
-  passYZ(std::integral_constant<int, 2>{}, scratch_, cells_);
+  passYZ(std::integral_constant<int, 1>{}, cells_, scratch.between_passes);
+  passYZ(std::integral_constant<int, 2>{}, scratch.between_passes, cells_);
 }
 
 void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
@@ -369,13 +409,16 @@ void HoughAccumulator::pruneForPeaks(const HoughAccumulator& src,
   auto inside = [&](int x, int y, int z) {
     return x >= 0 && y >= 0 && z >= 0 && x < nba_ && y < nba_ && z < nbd_;
   };
-  std::vector<std::uint8_t>& need = smooth_need_;
+  SmoothingScratch& scratch = smoothingScratch();
+  constexpr std::uint8_t kNeedX = SmoothingScratch::kNeedX, kNeedY = SmoothingScratch::kNeedY,
+                         kNeedZ = SmoothingScratch::kNeedZ;
+  std::vector<std::uint8_t>& need = scratch.need;
   need.assign(count, 0);
   const BlockNeighbourhood neighbourhood(nba_, nbd_);
   // 1. The neighbourhood mass of each evaluated block, scattered from the source's blocks (all
   //    of them, light ones included: smoothed cells read them too): 27 look-ups per source
   //    block, instead of 27 per evaluated block for gathering.
-  std::vector<float>& near_mass = near_mass_;
+  std::vector<float>& near_mass = scratch.near_mass;
   near_mass.assign(count, 0.0f);
   for (std::size_t b = 0; b < src.block_keys_.size(); ++b) {
     const float mass = src_block_mass[b];

@@ -19,6 +19,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -55,6 +56,12 @@ class HoughAccumulator {
   static constexpr int kBlockCells = kBlock * kBlock * kBlock;
 
   explicit HoughAccumulator(HoughSpaceParams params = {});
+  /// Copies the votes; the copy starts with empty smoothing scratch.
+  HoughAccumulator(const HoughAccumulator& other);
+  HoughAccumulator& operator=(const HoughAccumulator& other);
+  HoughAccumulator(HoughAccumulator&&) noexcept;
+  HoughAccumulator& operator=(HoughAccumulator&&) noexcept;
+  ~HoughAccumulator();
 
   const HoughSpaceParams& params() const { return params_; }
   int cellsA() const { return na_; }  ///< cells along each Lambert axis
@@ -136,16 +143,18 @@ class HoughAccumulator {
   /// addToCell for a cell known to lie in the space.
   void addToCellInRange(int i, int j, int k, float w);
   void prepareLike(const HoughAccumulator& other);
-  // Passes of smoothInto a block of the output needs: none, x, x and y, all three.
-  static constexpr std::uint8_t kNeedX = 1, kNeedY = 2, kNeedZ = 3;
-  // smoothInto's block pruning for findMaxima(min_peak) (this = the output, blocks created and
-  // still zero); fills smooth_need_.
-  void pruneForPeaks(const HoughAccumulator& src, const std::vector<float>& src_block_mass,
-                     float central_weight, float min_peak);
+  // smoothInto's working buffers (output side), kept between frames so that steady-state
+  // smoothing does not allocate; defined with the smoothing code.
+  struct SmoothingScratch;
+  SmoothingScratch& smoothingScratch();
   // Per-axis taps of smoothInto (x, y, z), padded with zeros to radius kBlock.
   using SmoothingTaps = std::array<std::array<float, 2 * kBlock + 1>, 3>;
-  // smoothInto's three passes (this = the output, its block set and smooth_need_ ready):
-  // src -> cells_ (x), cells_ -> scratch_ (y), scratch_ -> cells_ (z).
+  // smoothInto's block pruning for findMaxima(min_peak) (this = the output, blocks created and
+  // still zero); fills the scratch's per-block pass needs.
+  void pruneForPeaks(const HoughAccumulator& src, const std::vector<float>& src_block_mass,
+                     float central_weight, float min_peak);
+  // smoothInto's three passes (this = the output, its block set and pass needs ready):
+  // src -> cells_ (x), cells_ -> scratch (y), scratch -> cells_ (z).
   void smoothPasses(const HoughAccumulator& src, const SmoothingTaps& taps);
 
   HoughSpaceParams params_;
@@ -153,14 +162,10 @@ class HoughAccumulator {
   double inv_a_cell_ = 0,
          inv_d_cell_ = 0;  // voting multiplies (a division per vote costs more than the rest)
   int na_ = 0, nd_ = 0, nba_ = 0, nbd_ = 0;
-  std::vector<std::int32_t> index_;        // top level: block number or -1
-  std::vector<float> cells_;               // pool: block b at [b * kBlockCells, ...)
-  std::vector<std::int32_t> block_keys_;   // top-level key of each pooled block
-  std::vector<float> scratch_;             // smoothInto's intermediate pass, kept between frames
-  std::vector<float> block_mass_;          // smoothInto (output side): the source's block masses
-  std::vector<std::uint8_t> smooth_need_;  // smoothInto (output side): kNeedX.. per block
-  std::vector<std::uint8_t> smooth_live_;  // smoothPasses: which pass results may be non-zero
-  std::vector<float> near_mass_;           // pruneForPeaks: neighbourhood mass of each block
+  std::vector<std::int32_t> index_;       // top level: block number or -1
+  std::vector<float> cells_;              // pool: block b at [b * kBlockCells, ...)
+  std::vector<std::int32_t> block_keys_;  // top-level key of each pooled block
+  std::unique_ptr<SmoothingScratch> smoothing_;
 };
 
 }  // namespace shapesense
