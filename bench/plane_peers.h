@@ -1,7 +1,7 @@
 #pragma once
 // Public peers of the plane detectors, run on the same depth frames and converted to our output
 // (PlaneDetection: CV_16UC1 label image + one DetectedPlane per label, n towards the camera,
-// d > 0) so that planetest::scorePlanes scores them exactly like ours. Bench-only code: PCL and
+// d > 0) so that eval::scorePlanes scores them exactly like ours. Bench-only code: PCL and
 // opencv_rgbd are linked into the benchmark executables only, never into shapesense.
 //
 // Every peer starts from the CV_16UC1 millimetre depth image, so its conversion to a point

@@ -24,10 +24,10 @@
 #include <opencv2/core/utility.hpp>
 
 #include "plane_peers.h"
-#include "plane_scoring.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/plane_eval.h"
 
 namespace shapesense {
 namespace {
@@ -56,13 +56,13 @@ void run(benchmark::State& state, const char* name,
   cv::setNumThreads(1);
   const auto& fs = frames();
   // Accuracy and per-frame CPU time, once per run (outside the timed loop).
-  planetest::PlaneScore total;
+  eval::PlaneScore total;
   std::vector<double> ms;
   for (const auto& f : fs) {
     const double t0 = threadCpuMs();
     const PlaneDetection out = detect(f.frame);
     ms.push_back(threadCpuMs() - t0);
-    total.add(planetest::scorePlanes(out.labels, out.planes, f.truth));
+    total.add(eval::scorePlanes(out.labels, out.planes, f.truth));
   }
   std::sort(ms.begin(), ms.end());
   std::size_t i = 0;
@@ -75,10 +75,10 @@ void run(benchmark::State& state, const char* name,
       "[%-12s] 30 frames: correct %.3f (%d/%d), median angle %.3f deg, median distance %.2f mm, "
       "median %.2f ms/frame (CPU)\n",
       name, total.correctFraction(), total.correct, total.truth_regions,
-      planetest::median(total.angle_deg), 1e3 * planetest::median(total.dist_m), median_ms);
+      eval::median(total.angle_deg), 1e3 * eval::median(total.dist_m), median_ms);
   state.counters["correct"] = total.correctFraction();
-  state.counters["angle_deg"] = planetest::median(total.angle_deg);
-  state.counters["dist_mm"] = 1e3 * planetest::median(total.dist_m);
+  state.counters["angle_deg"] = eval::median(total.angle_deg);
+  state.counters["dist_mm"] = 1e3 * eval::median(total.dist_m);
   state.counters["median_cpu_ms"] = median_ms;
 }
 

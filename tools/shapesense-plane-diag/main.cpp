@@ -14,9 +14,9 @@
 #include <optional>
 #include <utility>
 
-#include "../../tests/support/plane_scoring.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/plane_eval.h"
 
 using namespace shapesense;
 
@@ -80,15 +80,15 @@ int main(int argc, char** argv) {
   if (tolerance_factor) params.labeling.adaptive_tolerance_factor = *tolerance_factor;
   if (min_tolerance_steps) params.labeling.min_tolerance_steps = *min_tolerance_steps;
   HoughPlaneDetector det(params);
-  planetest::PlaneScore total;
+  eval::PlaneScore total;
   for (std::uint64_t seed = 1; seed <= static_cast<std::uint64_t>(seeds); ++seed) {
     synthetic::SceneParams sp;
     sp.seed = seed;
     const auto f = synthetic::SyntheticScene(sp).render(0, 0);
     const auto out = det.detect(f.frame.depth, f.frame.intrinsics, f.frame.rgb);
-    const auto score = planetest::scorePlanes(out.labels, out.planes, f.truth);
+    const auto score = eval::scorePlanes(out.labels, out.planes, f.truth);
     total.add(score);
-    const cv::Mat truth = planetest::planarTruth(f.truth);
+    const cv::Mat truth = eval::planarTruth(f.truth);
     const Overlaps o = overlapsOf(truth, out.labels);
     std::map<int, bool> correct;
     for (const auto& [tid, fid] : score.matches) correct[tid] = true;

@@ -15,6 +15,7 @@ int labelAt(const cv::Mat& m, int v, int u) {
 // pixels with a truth label; labels compacted to dense indices in order of appearance.
 struct OverlapTable {
   std::vector<int> t_size, f_size;
+  std::vector<int> t_label, f_label;
   std::vector<int> overlap;  // [t * nf + f]
   long labelled = 0;         // pixels with a truth label
 
@@ -33,12 +34,18 @@ OverlapTable overlapTable(const cv::Mat& found_labels, const cv::Mat& truth_labe
       if (t == 0) continue;
       ++table.labelled;
       auto [ti, tnew] = t_index.try_emplace(t, static_cast<int>(table.t_size.size()));
-      if (tnew) table.t_size.push_back(0);
+      if (tnew) {
+        table.t_size.push_back(0);
+        table.t_label.push_back(t);
+      }
       ++table.t_size[ti->second];
       const int f = labelAt(found_labels, v, u);
       if (f == 0) continue;
       auto [fi, fnew] = f_index.try_emplace(f, static_cast<int>(table.f_size.size()));
-      if (fnew) table.f_size.push_back(0);
+      if (fnew) {
+        table.f_size.push_back(0);
+        table.f_label.push_back(f);
+      }
       ++table.f_size[fi->second];
       ++overlap_map[(static_cast<long long>(ti->second) << 32) | fi->second];
     }
@@ -50,8 +57,8 @@ OverlapTable overlapTable(const cv::Mat& found_labels, const cv::Mat& truth_labe
   return table;
 }
 
-// What each region was classified as (0 = nothing yet, 1 correct, 2 over-, 3 under-segmented),
-// and which truth regions are large enough to count.
+// What each region was classified as (SegCompOutcome: 0 nothing yet, 1 correct, 2 over-, 3
+// under-segmented), and which truth regions are large enough to count.
 struct Classification {
   std::vector<char> considered, t_rel, f_rel;
 };
@@ -157,6 +164,11 @@ SegCompScore scoreSegmentation(const cv::Mat& found_labels, const cv::Mat& truth
   for (int f = 0; f < nf; ++f) s.noise += !c.f_rel[f];
   s.correct_fraction = s.truth_regions > 0 ? static_cast<double>(s.correct) / s.truth_regions : 0.0;
   s.pixel_accuracy = pixelAccuracy(o);
+  for (int t = 0; t < nt; ++t)
+    s.truth.push_back(
+        {o.t_label[t], o.t_size[t], c.considered[t] != 0, static_cast<SegCompOutcome>(c.t_rel[t])});
+  for (int f = 0; f < nf; ++f)
+    s.found.push_back({o.f_label[f], o.f_size[f], static_cast<SegCompOutcome>(c.f_rel[f])});
   return s;
 }
 

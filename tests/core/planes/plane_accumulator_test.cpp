@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "plane_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/plane_eval.h"
 
 namespace shapesense {
 namespace {

@@ -8,22 +8,22 @@
 
 #include <gtest/gtest.h>
 
-#include "plane_scoring.h"
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/plane_eval.h"
 
 namespace shapesense {
 namespace {
 
-using planetest::median;
+using eval::median;
 
 // 10 frames: seeds 1-5 (five different table-top layouts), frames 0 and 15 of each (the camera
 // sways between them).
 template <typename Detect>
-planetest::PlaneScore scoreTenFrames(const char* tag, Detect&& detect) {
-  planetest::PlaneScore total;
+eval::PlaneScore scoreTenFrames(const char* tag, Detect&& detect) {
+  eval::PlaneScore total;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     synthetic::SceneParams sp;
     sp.seed = seed;
@@ -31,7 +31,7 @@ planetest::PlaneScore scoreTenFrames(const char* tag, Detect&& detect) {
     for (std::uint64_t frame : {0, 15}) {
       const auto f = scene.render(frame, 0);
       const PlaneDetection out = detect(f);
-      const auto s = planetest::scorePlanes(out.labels, out.planes, f.truth);
+      const auto s = eval::scorePlanes(out.labels, out.planes, f.truth);
       std::printf("[%s] seed %llu frame %llu: %d/%d correct, %zu regions\n", tag,
                   static_cast<unsigned long long>(seed), static_cast<unsigned long long>(frame),
                   s.correct, s.truth_regions, out.planes.size());
@@ -44,7 +44,7 @@ planetest::PlaneScore scoreTenFrames(const char* tag, Detect&& detect) {
   return total;
 }
 
-planetest::PlaneScore houghTenFrames() {
+eval::PlaneScore houghTenFrames() {
   HoughPlaneDetector det;
   return scoreTenFrames("hough", [&](const synthetic::RenderedFrame& f) {
     return det.detect(f.frame.depth, f.frame.intrinsics, f.frame.rgb);
@@ -128,7 +128,7 @@ TEST(PlaneSynthetic, AccumulationOverStaticFramesBeatsSingleFrames) {
     const synthetic::SyntheticScene scene(sp);
     HoughPlaneDetector det;
     PlaneAccumulator acc;
-    planetest::PlaneScore last;
+    eval::PlaneScore last;
     PlaneDetection last_out;
     synthetic::TruthFrame last_truth;
     std::map<int, std::vector<double>> per_truth_angle, per_truth_dist;  // single-frame errors
@@ -136,7 +136,7 @@ TEST(PlaneSynthetic, AccumulationOverStaticFramesBeatsSingleFrames) {
       auto f = scene.render(i, 0);
       auto out = det.detect(f.frame.depth, f.frame.intrinsics);
       acc.update(out);
-      last = planetest::scorePlanes(out.labels, out.planes, f.truth);
+      last = eval::scorePlanes(out.labels, out.planes, f.truth);
       for (std::size_t k = 0; k < last.matches.size(); ++k) {
         per_truth_angle[last.matches[k].first].push_back(last.angle_deg[k]);
         per_truth_dist[last.matches[k].first].push_back(last.dist_m[k]);

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "mosd_table.h"
 #include "shapesense/core/segmentation/segmentation_scoring.h"
+#include "shapesense/eval/segment_eval.h"
 #include "test_paths.h"
 
 namespace shapesense {
@@ -269,7 +269,7 @@ TEST(Segmentation, MosdTabletopTablePlaneIsOneRegion) {
     ++frames;
     for (auto m : kAll) {
       const cv::Mat r = segmentDepth(depth, K, m);
-      const double frac = testing::mosdTableCoverage(r, labels, depth);
+      const double frac = eval::tableCoverage(r, labels, depth);
       std::printf("[seg mosd] %s %-16s regions %3d  table coverage by one region %.3f\n",
                   name.c_str(), methodName(m).c_str(), regionCount(r), frac);
       worst[m] = std::min(worst[m], frac);

@@ -21,20 +21,44 @@
 //  - Pixel accuracy: each found region scores the pixels it shares with its best-overlapping
 //    truth region; sum / number of pixels with truth != 0 (found 0 scores nothing).
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 namespace shapesense {
 
+/// What SegComp made of one region.
+enum class SegCompOutcome { kNone, kCorrect, kOverSegmented, kUnderSegmented };
+
+/// One truth region of the scored image: its label, its scored pixels, and its outcome
+/// (kNone = missed when considered; regions below min_truth_fraction are not classified).
+struct SegCompTruthRegion {
+  int label = 0;
+  int pixels = 0;
+  bool considered = false;
+  SegCompOutcome outcome = SegCompOutcome::kNone;
+};
+
+/// One found region with >= 1 scored pixel: its label, its scored pixels, and its outcome
+/// (kNone = noise).
+struct SegCompFoundRegion {
+  int label = 0;
+  int pixels = 0;
+  SegCompOutcome outcome = SegCompOutcome::kNone;
+};
+
 struct SegCompScore {
-  int truth_regions = 0;        ///< truth regions >= min_truth_fraction of the image
-  int found_regions = 0;        ///< non-zero found regions with >= 1 scored pixel
-  int correct = 0;              ///< correctly detected truth regions
-  int over_segmented = 0;       ///< truth regions over-segmented
-  int under_segmented = 0;      ///< truth regions involved in an under-segmentation
-  int missed = 0;               ///< considered truth regions with no relation
-  int noise = 0;                ///< found regions with no relation
-  double correct_fraction = 0;  ///< correct / truth_regions (0 when there are none)
-  double pixel_accuracy = 0;    ///< see file comment (0 when no pixel is labelled)
+  int truth_regions = 0;                  ///< truth regions >= min_truth_fraction of the image
+  int found_regions = 0;                  ///< non-zero found regions with >= 1 scored pixel
+  int correct = 0;                        ///< correctly detected truth regions
+  int over_segmented = 0;                 ///< truth regions over-segmented
+  int under_segmented = 0;                ///< truth regions involved in an under-segmentation
+  int missed = 0;                         ///< considered truth regions with no relation
+  int noise = 0;                          ///< found regions with no relation
+  double correct_fraction = 0;            ///< correct / truth_regions (0 when there are none)
+  double pixel_accuracy = 0;              ///< see file comment (0 when no pixel is labelled)
+  std::vector<SegCompTruthRegion> truth;  ///< per truth region, in order of first appearance
+  std::vector<SegCompFoundRegion> found;  ///< per found region, in order of first appearance
 };
 
 /// Both images CV_16UC1 (or CV_32SC1) of the same size.

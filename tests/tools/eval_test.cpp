@@ -1,0 +1,126 @@
+// The evaluation's scoring: a perfect answer scores perfectly, a merged or a missing plane is
+// counted where it belongs, and the splits never share a scene.
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "shapesense/eval/plane_eval.h"
+#include "shapesense/eval/scene_splits.h"
+#include "shapesense/eval/segment_eval.h"
+
+namespace shapesense::eval {
+namespace {
+
+synthetic::RenderedFrame clutteredFrame() {
+  synthetic::SceneParams p;
+  p.seed = 11;
+  p.bowls_min = p.bowls_max = 2;
+  p.tins_min = p.tins_max = 1;
+  p.render_colour = false;
+  return synthetic::SyntheticScene(p).render(0, 0);
+}
+
+// The truth planes as the detector's answer: the planes with the truth's (n, d).
+std::vector<DetectedPlane> truthPlanes(const synthetic::TruthFrame& truth) {
+  std::vector<DetectedPlane> planes;
+  for (const auto& s : truth.surfaces) {
+    if (s.kind != synthetic::SurfaceKind::kPlane) continue;
+    DetectedPlane p;
+    p.id = s.id;
+    p.normal = s.plane.head<3>();
+    p.d = s.plane[3];
+    planes.push_back(p);
+  }
+  return planes;
+}
+
+TEST(PlaneEval, TheTruthScoresEveryPlaneCorrectWithNoError) {
+  const auto f = clutteredFrame();
+  const PlaneScore s = scorePlanes(planarTruth(f.truth), truthPlanes(f.truth), f.truth);
+  ASSERT_GT(s.truth_regions, 5);
+  EXPECT_EQ(s.correct, s.truth_regions);
+  EXPECT_EQ(s.spurious, 0);
+  int binned = 0;
+  for (const auto& bin : s.by_size) {
+    EXPECT_EQ(bin.correct, bin.total());
+    binned += bin.total();
+  }
+  EXPECT_EQ(binned, s.truth_regions);
+  ASSERT_EQ(s.angle_deg.size(), static_cast<std::size_t>(s.correct));
+  EXPECT_LT(median(s.angle_deg), 1e-6);
+  EXPECT_LT(median(s.dist_m), 1e-9);
+}
+
+TEST(PlaneEval, TwoPlanesReportedAsOneAreMergedAndACurvedPlaneIsSpurious) {
+  const auto f = clutteredFrame();
+  cv::Mat labels = planarTruth(f.truth);
+  // The two largest truth planes become one reported plane.
+  std::vector<std::pair<std::size_t, int>> by_size;
+  for (const auto& s : f.truth.surfaces)
+    if (s.kind == synthetic::SurfaceKind::kPlane) by_size.emplace_back(s.pixel_count, s.id);
+  std::sort(by_size.rbegin(), by_size.rend());
+  const int keep = by_size[0].second, gone = by_size[1].second;
+  labels.setTo(keep, labels == gone);
+  // A plane reported on the curved surfaces (bowls, tin sides).
+  const int curved_id = 60000;
+  for (const auto& s : f.truth.surfaces)
+    if (s.kind == synthetic::SurfaceKind::kCurved && s.pixel_count > 0)
+      labels.setTo(curved_id, f.truth.surface_labels == s.id);
+  auto planes = truthPlanes(f.truth);
+  const PlaneScore s = scorePlanes(labels, planes, f.truth);
+  int merged = 0;
+  for (const auto& bin : s.by_size) merged += bin.merged;
+  EXPECT_EQ(merged, 2);
+  EXPECT_EQ(s.correct, s.truth_regions - 2);
+  EXPECT_EQ(s.spurious, 1);
+  EXPECT_EQ(s.spurious_on_curved, 1);
+}
+
+TEST(SegmentEval, CurvedObjectsAreOneRegionAndPlanarFacesStayApart) {
+  const auto f = clutteredFrame();
+  const cv::Mat truth = segmentTruth(f.truth);
+  for (const auto& o : f.truth.objects) {
+    if (o.pixel_count == 0) continue;
+    std::set<int> regions;
+    for (int v = 0; v < truth.rows; ++v)
+      for (int u = 0; u < truth.cols; ++u)
+        if (f.truth.object_labels.at<std::uint16_t>(v, u) == o.id)
+          regions.insert(truth.at<std::uint16_t>(v, u));
+    if (o.kind == "bowl" || o.kind == "tin")
+      EXPECT_EQ(regions.size(), 1u) << o.name;
+    else if (o.kind == "box")
+      EXPECT_GE(regions.size(), 2u) << o.name;
+  }
+  EXPECT_EQ(scoreSegments(truth, f.truth).correct_fraction, 1.0);
+}
+
+TEST(SegmentEval, RealObjectsMergedWithTheTableAreNotKeptApart) {
+  // OSD labels: 1 the table, 20 and 30 two objects; 60 x 40 pixels, all with depth.
+  cv::Mat labels(40, 60, CV_16UC1, cv::Scalar(1));
+  labels(cv::Rect(5, 5, 10, 10)).setTo(20);
+  labels(cv::Rect(30, 5, 10, 10)).setTo(30);
+  const cv::Mat depth(labels.size(), CV_16UC1, cv::Scalar(1000));
+  cv::Mat regions(labels.size(), CV_16UC1, cv::Scalar(1));
+  regions(cv::Rect(5, 5, 10, 10)).setTo(2);  // object 2 apart, object 3 in the table's region
+  const RealSegmentScore s = scoreRealSegments(regions, labels, depth);
+  EXPECT_EQ(s.objects, 2);
+  EXPECT_EQ(s.kept_apart, 1);
+  EXPECT_EQ(s.table_whole, 1);
+  EXPECT_NEAR(tableCoverage(regions, labels, depth), 1.0, 1e-12);
+}
+
+TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {
+  std::set<std::uint64_t> seeds;
+  for (const Split split : {Split::kTrain, Split::kValidation, Split::kTest})
+    for (int i = 0; i < 40; ++i) {
+      const EvalScene scene = evalScene(split, i);
+      EXPECT_TRUE(seeds.insert(scene.params.seed).second);
+      EXPECT_NO_THROW(synthetic::SyntheticScene{scene.params}) << formatSplit(split) << " " << i;
+    }
+  EXPECT_EQ(parseSplit("val"), Split::kValidation);
+  EXPECT_FALSE(parseSplit("holdout").has_value());
+}
+
+}  // namespace
+}  // namespace shapesense::eval

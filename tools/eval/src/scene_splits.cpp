@@ -1,0 +1,99 @@
+#include "shapesense/eval/scene_splits.h"
+
+#include <random>
+
+namespace shapesense::eval {
+namespace {
+
+// Far apart so that no split reaches another's seeds, and far from the small seeds the unit
+// tests and the bowl training use.
+std::uint64_t splitSeedBase(Split split) {
+  switch (split) {
+    case Split::kTrain:
+      return 1'000'000;
+    case Split::kValidation:
+      return 2'000'000;
+    case Split::kTest:
+      return 3'000'000;
+  }
+  return 0;
+}
+
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(rng);
+}
+
+int uniformInt(std::mt19937_64& rng, int lo, int hi) {
+  return std::uniform_int_distribution<int>(lo, hi)(rng);
+}
+
+void drawCamera(std::mt19937_64& rng, synthetic::SceneParams& p) {
+  // The generator aims the camera at the table and lowers the far end of the distance range
+  // until the view elevation is reached, so the range starts near enough for any height.
+  const double height = uniform(rng, 0.95, 1.8);
+  p.camera_height_min_m = p.camera_height_max_m = height;
+  p.table_distance_min_m = 0.8;
+  p.table_distance_max_m = uniform(rng, 1.2, 3.2);
+  p.min_table_elevation_deg = uniform(rng, 8.0, 20.0);
+  p.camera_motion = uniform(rng, 0.0, 1.5);
+}
+
+void drawObjects(std::mt19937_64& rng, bool curved_clutter, synthetic::SceneParams& p) {
+  p.boxes_on_table_min = p.boxes_on_table_max = uniformInt(rng, 1, 6);
+  p.floor_box_probability = uniform(rng, 0.0, 1.0);
+  if (!curved_clutter) {
+    p.bowls_min = p.bowls_max = 0;
+    p.cups_min = p.cups_max = 0;
+    p.tins_min = p.tins_max = 0;
+    p.balls_min = p.balls_max = 0;
+    return;
+  }
+  p.bowls_min = p.bowls_max = uniformInt(rng, 0, 3);
+  p.bowl_upside_down_probability = uniform(rng, 0.0, 0.3);
+  p.cups_min = p.cups_max = uniformInt(rng, 0, 2);
+  p.tins_min = p.tins_max = uniformInt(rng, 1, 3);
+  p.balls_min = p.balls_max = uniformInt(rng, 0, 2);
+}
+
+void drawSensor(std::mt19937_64& rng, synthetic::KinectParams& k) {
+  k.disparity_noise_px = uniform(rng, 0.04, 0.12);
+  k.dropout_rate = uniform(rng, 0.0, 0.01);
+  k.max_incidence_deg = uniform(rng, 75.0, 85.0);
+}
+
+}  // namespace
+
+std::string_view formatSplit(Split split) {
+  switch (split) {
+    case Split::kTrain:
+      return "train";
+    case Split::kValidation:
+      return "validation";
+    case Split::kTest:
+      return "test";
+  }
+  return "?";
+}
+
+std::optional<Split> parseSplit(std::string_view name) {
+  if (name == "train") return Split::kTrain;
+  if (name == "validation" || name == "val") return Split::kValidation;
+  if (name == "test") return Split::kTest;
+  return std::nullopt;
+}
+
+EvalScene evalScene(Split split, int index) {
+  const std::uint64_t seed = splitSeedBase(split) + static_cast<std::uint64_t>(index);
+  std::mt19937_64 rng(seed);
+  EvalScene scene;
+  scene.params.seed = seed;
+  scene.params.render_colour = false;
+  scene.curved_clutter = index % 2 == 1;
+  drawCamera(rng, scene.params);
+  drawObjects(rng, scene.curved_clutter, scene.params);
+  drawSensor(rng, scene.params.kinect);
+  scene.frame_index = static_cast<std::uint64_t>(uniformInt(rng, 0, 600));
+  return scene;
+}
+
+}  // namespace shapesense::eval

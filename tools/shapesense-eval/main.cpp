@@ -1,0 +1,172 @@
+// shapesense-eval: the quality of the detectors on a split of the evaluation's scene
+// distribution and on the labelled real recordings, as tables. Choose parameters on the
+// validation split and on mosd_learn; report the test split, mosd_test and mosd_tabletop.
+//
+//   shapesense-eval --split validation [--frames 60] [--real DIR ...] [--methods all]
+//
+// Planes: the daemon's default Hough detector, SegComp (T = 0.8) against the planar truth by
+// the truth plane's share of the image; spurious planes per frame on plain scenes and on scenes
+// with curved clutter; median angle and distance errors of the correct planes. On real frames:
+// the table found as one plane. Segments: SegComp against the truth an operator wants (planar
+// faces apart, curved objects whole) and, on real frames, the objects kept apart.
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
+#include "shapesense/core/planes/planes.h"
+#include "shapesense/eval/plane_eval.h"
+#include "shapesense/eval/scene_splits.h"
+#include "shapesense/eval/segment_eval.h"
+
+using namespace shapesense;
+
+namespace {
+
+struct SyntheticResults {
+  eval::PlaneScore planes_plain, planes_clutter;
+  std::map<SegmentationMethod, SegCompScore> segments;  // summed counts, mean pixel accuracy
+  int frames = 0;
+};
+
+void addSegComp(const SegCompScore& s, SegCompScore& total) {
+  total.truth_regions += s.truth_regions;
+  total.correct += s.correct;
+  total.over_segmented += s.over_segmented;
+  total.under_segmented += s.under_segmented;
+  total.missed += s.missed;
+  total.noise += s.noise;
+  total.pixel_accuracy += s.pixel_accuracy;  // divided by the frame count when printed
+}
+
+SyntheticResults evaluateSynthetic(eval::Split split, int frames,
+                                   const std::vector<SegmentationMethod>& methods) {
+  const DetectorConfig config;
+  HoughPlaneDetector hough(config.hough_params);
+  SyntheticResults results;
+  for (int i = 0; i < frames; ++i) {
+    const eval::EvalScene scene = eval::evalScene(split, i);
+    const synthetic::SyntheticScene generator(scene.params);
+    const synthetic::RenderedFrame rendered = generator.render(scene.frame_index, 0);
+    const PlaneDetection planes = hough.detect(rendered.frame.depth, rendered.frame.intrinsics);
+    const eval::PlaneScore score = eval::scorePlanes(planes.labels, planes.planes, rendered.truth);
+    (scene.curved_clutter ? results.planes_clutter : results.planes_plain).add(score);
+    for (const SegmentationMethod m : methods) {
+      const SegmentationResult seg = segmentFrame(rendered.frame, m, config.segmentation_params);
+      addSegComp(eval::scoreSegments(seg.labels, rendered.truth), results.segments[m]);
+    }
+    ++results.frames;
+  }
+  return results;
+}
+
+void printPlaneTable(const char* title, const eval::PlaneScore& s) {
+  std::printf(
+      "\n%s: %d frames, %d truth planes, correct %.3f, spurious %.2f / frame (%d of %d "
+      "reported, %d on curved surfaces)\n",
+      title, s.frames, s.truth_regions, s.correctFraction(), s.spuriousPerFrame(), s.spurious,
+      s.reported, s.spurious_on_curved);
+  std::printf("| truth plane, share of image | correct | split | merged | missed | n |\n");
+  std::printf("|---|---|---|---|---|---|\n");
+  const char* bins[] = {"0.5-1%", "1-2%", "2-5%", "5% and more"};
+  for (int b = 0; b < eval::kPlaneSizeBins; ++b) {
+    const auto& o = s.by_size[b];
+    std::printf("| %s | %d | %d | %d | %d | %d |\n", bins[b], o.correct, o.split, o.merged,
+                o.missed, o.total());
+  }
+  std::printf("median error of correct planes: %.2f deg, %.1f mm\n", eval::median(s.angle_deg),
+              1e3 * eval::median(s.dist_m));
+}
+
+void printSynthetic(eval::Split split, const SyntheticResults& r) {
+  std::printf("# Split %s, %d frames\n", std::string(eval::formatSplit(split)).c_str(), r.frames);
+  eval::PlaneScore all = r.planes_plain;
+  all.add(r.planes_clutter);
+  printPlaneTable("Planes, all scenes", all);
+  printPlaneTable("Planes, plain scenes", r.planes_plain);
+  printPlaneTable("Planes, scenes with curved clutter", r.planes_clutter);
+  std::printf("\nSegments (planar faces apart, curved objects whole):\n");
+  std::printf(
+      "| method | correct | split | merged | missed | pixel accuracy "
+      "|\n|---|---|---|---|---|---|\n");
+  for (const auto& [m, s] : r.segments)
+    std::printf("| %s | %.3f | %d | %d | %d | %.3f |\n",
+                std::string(formatSegmentationMethod(m)).c_str(),
+                s.truth_regions ? double(s.correct) / s.truth_regions : 0.0, s.over_segmented,
+                s.under_segmented, s.missed, r.frames ? s.pixel_accuracy / r.frames : 0.0);
+}
+
+void evaluateReal(const std::filesystem::path& dir,
+                  const std::vector<SegmentationMethod>& methods) {
+  const std::vector<eval::LabelledFrame> frames = eval::loadLabelledRecording(dir);
+  const DetectorConfig config;
+  HoughPlaneDetector hough(config.hough_params);
+  int table_one_plane = 0;
+  std::map<SegmentationMethod, eval::RealSegmentScore> segments;
+  for (const auto& f : frames) {
+    const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
+    table_one_plane += eval::tableCoverage(planes.labels, f.labels, f.frame.depth) >= 0.8;
+    for (const SegmentationMethod m : methods)
+      segments[m].add(eval::scoreRealSegments(
+          segmentFrame(f.frame, m, config.segmentation_params).labels, f.labels, f.frame.depth));
+  }
+  std::printf("\n# Real: %s, %zu labelled frames; table as one plane in %d of %zu\n",
+              dir.filename().string().c_str(), frames.size(), table_one_plane, frames.size());
+  std::printf("| method | objects kept apart | table one region |\n|---|---|---|\n");
+  for (const auto& [m, s] : segments)
+    std::printf("| %s | %.3f (%d of %d) | %d of %d |\n",
+                std::string(formatSegmentationMethod(m)).c_str(), s.keptApartFraction(),
+                s.kept_apart, s.objects, s.table_whole, s.frames);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "shapesense-eval: detector quality on a split of the scene distribution and on "
+      "labelled real recordings"};
+  std::string split_name = "validation";
+  int frames = 60;
+  std::vector<std::string> real_dirs;
+  std::vector<std::string> method_names = {"all"};
+  app.add_option("--split", split_name, "train, validation or test")->capture_default_str();
+  app.add_option("--frames", frames, "synthetic frames of the split (0 = none)")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  app.add_option("--real", real_dirs, "labelled recordings (OSD layout, labels/)");
+  app.add_option("--methods", method_names, "segmentation methods, or all")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  const auto split = eval::parseSplit(split_name);
+  if (!split) {
+    std::fprintf(stderr, "unknown split '%s' (train, validation or test)\n", split_name.c_str());
+    return 2;
+  }
+  std::vector<SegmentationMethod> methods;
+  for (const auto& name : method_names) {
+    if (name == "all") {
+      methods.assign(kSegmentationMethods.begin(), kSegmentationMethods.end());
+      continue;
+    }
+    const auto m = parseSegmentationMethod(name);
+    if (!m) {
+      std::fprintf(stderr, "unknown method '%s' (%s)\n", name.c_str(),
+                   listSegmentationMethods().c_str());
+      return 2;
+    }
+    methods.push_back(*m);
+  }
+  try {
+    if (frames > 0) printSynthetic(*split, evaluateSynthetic(*split, frames, methods));
+    for (const auto& dir : real_dirs) evaluateReal(dir, methods);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "shapesense-eval: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
