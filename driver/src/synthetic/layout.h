@@ -7,6 +7,10 @@
 //   layout_objects.cpp    boxes, bowls, cups, tins and balls
 //   layout_placement.cpp  free spots on the table top and the floor
 //
+// A new kind of object is a Solid (solids.h) and an add*() step that draws its size, takes a
+// spot from tableSpot() or floorSpot() and hands the solid to addShadedSolid(); its surfaces and
+// their truth come from the solid's face labels.
+//
 // The order of random draws is part of the scene definition: changing it (or adding a draw
 // anywhere but at the end of build()) changes every scene, and with it the test fixtures.
 
