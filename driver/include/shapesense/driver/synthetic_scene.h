@@ -185,7 +185,7 @@ struct RenderedFrame {
   TruthFrame truth;
 };
 
-class SceneModel;  // the generated layout (defined in synthetic_scene.cpp)
+class SceneModel;  // the generated layout (driver/src/synthetic/scene_model.h)
 
 /// A generated scene; renders any frame of its (endless) sequence.
 class SyntheticScene {

@@ -1,0 +1,118 @@
+#pragma once
+// LayoutBuilder: draws a plausible random scene from SceneParams. Its steps live in one file per
+// part of the scene:
+//   layout.cpp            the outline (what is added in which order) and the model bookkeeping
+//   layout_room.cpp       camera and table placement, the room around them
+//   layout_table.cpp      the table
+//   layout_objects.cpp    boxes, bowls, cups, tins and balls
+//   layout_placement.cpp  free spots on the table top and the floor
+//
+// A new kind of object is a Solid (solids.h) and an add*() step that draws its size, takes a
+// spot from tableSpot() or floorSpot() and hands the solid to addShadedSolid(); its surfaces and
+// their truth come from the solid's face labels.
+//
+// The order of random draws is part of the scene definition: changing it (or adding a draw
+// anywhere but at the end of build()) changes every scene, and with it the test fixtures.
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "random.h"
+#include "scene_model.h"
+#include "shapesense/driver/synthetic_scene.h"
+#include "solids.h"
+
+namespace shapesense::synthetic::detail {
+
+/// A circle that must stay clear of others on the same support surface.
+struct Footprint {
+  Eigen::Vector2d center;
+  double radius = 0.0;
+};
+
+/// `bgr` scaled by a factor drawn from [1 - amount, 1 + amount], capped at 255.
+Eigen::Vector3f jitterColour(Rng& rng, Eigen::Vector3f bgr, double amount);
+
+/// Generates the layout from the seed. One object per call of an add*() step.
+class LayoutBuilder {
+ public:
+  explicit LayoutBuilder(const SceneParams& params);
+  std::unique_ptr<const SceneModel> build();
+
+ private:
+  /// The colour of face `face` (labelled `label`) of a solid being added.
+  using FaceColour = std::function<Eigen::Vector3f(int face, const FaceLabel& label)>;
+
+  // layout.cpp: the bookkeeping every step shares.
+  void addSeveral(int min_count, int max_count, void (LayoutBuilder::*add)());
+  std::uint16_t addSurface(std::string name, SurfaceKind kind, const Eigen::Vector4d& plane,
+                           std::uint16_t object_id, const Eigen::Vector3f& colour);
+  std::uint16_t addObject(const ObjectDef& object);
+  /// Places `solid` at `pose` and makes each of its faces a surface named `name_prefix` + the
+  /// face's label, coloured by `colour_of` (called in face order: it may draw).
+  void addSolid(std::unique_ptr<const Solid> solid, const Eigen::Isometry3d& pose,
+                std::uint16_t object_id, const std::string& name_prefix,
+                const FaceColour& colour_of);
+  /// addSolid with `colour` shaded per face as the solid's labels say.
+  void addShadedSolid(std::unique_ptr<const Solid> solid, const ObjectDef& object,
+                      std::uint16_t object_id, const Eigen::Vector3f& colour);
+  /// A box of half extents `half` whose faces each get `colour` jittered a little.
+  void addBoxSolid(const Eigen::Isometry3d& pose, const Eigen::Vector3d& half,
+                   std::uint16_t object_id, const std::string& name_prefix,
+                   const Eigen::Vector3f& colour,
+                   BoxSolid::FaceNames face_names = BoxSolid::defaultFaceNames());
+  /// A colour from the object palette, jittered.
+  Eigen::Vector3f objectColour();
+
+  // layout_room.cpp
+  void placeCameraAndTable();
+  void addRoom();
+  void drawRoomExtent(Eigen::Vector3d& half, Eigen::Isometry3d& world_from_room);
+  int visibleWalls(const RoomSolid& room, const Eigen::Isometry3d& world_from_room) const;
+
+  // layout_table.cpp
+  void addTable();
+
+  // layout_objects.cpp
+  void addTableBox();
+  void addFloorBox();
+  void addBox(const Eigen::Isometry3d& support, const Eigen::Vector3d& size);
+  void addBowl();
+  void addCup();
+  void addTin();
+  void addBall();
+
+  // layout_placement.cpp
+  std::optional<Eigen::Isometry3d> tableSpot(double radius);
+  std::optional<Eigen::Isometry3d> floorSpot(double radius, double height);
+  std::optional<Eigen::Vector2d> floorCandidate(double radius, double height);
+  static bool isFree(const std::vector<Footprint>& taken, const Eigen::Vector2d& c, double radius);
+
+  const SceneParams& params_;
+  Rng rng_;
+  std::unique_ptr<SceneModel> model_;
+  Eigen::Vector3d camera_position_ = Eigen::Vector3d::Zero();
+  Eigen::Vector2d table_center_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d table_size_ = Eigen::Vector2d::Ones();
+  double table_height_ = 0.7;
+  double table_yaw_ = 0.0;
+  Eigen::Vector2d room_min_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d room_max_ = Eigen::Vector2d::Zero();
+  std::vector<Footprint> table_footprints_;
+  std::vector<Footprint> floor_footprints_;
+  int box_count_ = 0;
+  int bowl_count_ = 0;
+  int cup_count_ = 0;
+  int tin_count_ = 0;
+  int ball_count_ = 0;
+};
+
+}  // namespace shapesense::synthetic::detail
