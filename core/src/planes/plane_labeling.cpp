@@ -13,6 +13,7 @@
 
 #include "shapesense/core/planes/plane_polygon.h"
 
+#include "planes/curved_regions.h"
 #include "planes/pixel_labeling.h"
 #include "planes/plane_regions.h"
 #include "planes/planes_kernels.h"
@@ -500,6 +501,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // 5. Keep regions with enough pixels, number them 1.., refit, describe.
   describeRegions(K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs,
                   out);
+  // 6. Regions that bend are not planes.
+  labeling::dropCurvedRegions(grid, params, out);
   return out;
 }
 

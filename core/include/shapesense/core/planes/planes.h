@@ -109,6 +109,13 @@ struct PlaneLabelingParams {
   bool merge_coplanar_regions = true;
   double merge_coplanar_max_angle_deg = 10.0;
   double merge_coplanar_rms_factor = 1.3;
+  /// A region is a plane only if a quadric does not fit its samples markedly better: a region
+  /// whose quadric fit has a principal curvature above max_plane_curvature_per_m (a radius
+  /// under 1 / that) and whose plane RMS is at least curved_rms_ratio times the quadric's is
+  /// dropped (the sides of tins, balls and bowls). Sensor noise and quantisation do not bend,
+  /// so a flat surface passes at any range. 0 = no check. Defaults 2 /m (50 cm radius), 1.3.
+  double max_plane_curvature_per_m = 2.0;
+  double curved_rms_ratio = 1.3;
   /// Compute polygon and triangles. Default true.
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.

@@ -1,0 +1,126 @@
+#include "planes/curved_regions.h"
+
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+namespace shapesense::labeling {
+namespace {
+
+// Least-squares sums of the height h of each sample above the region's plane, in the plane's
+// own coordinates (a, b) around a reference point, for the quadric
+// h = q0 a^2 + q1 a b + q2 b^2 + q3 a + q4 b + q5 and for its plane part (the last three).
+struct QuadricSums {
+  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+  double sum_h2 = 0.0;
+  int count = 0;
+  bool has_reference = false;
+  Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+
+  void add(const Eigen::Vector3d& x, const Eigen::Vector3d& n, const Eigen::Vector3d& e1,
+           const Eigen::Vector3d& e2) {
+    if (!has_reference) {
+      reference = x;
+      has_reference = true;
+    }
+    const Eigen::Vector3d p = x - reference;
+    const double a = p.dot(e1), b = p.dot(e2), h = p.dot(n);
+    Eigen::Matrix<double, 6, 1> f;
+    f << a * a, a * b, b * b, a, b, 1.0;
+    normal_matrix.selfadjointView<Eigen::Upper>().rankUpdate(f);
+    rhs += h * f;
+    sum_h2 += h * h;
+    ++count;
+  }
+};
+
+// Residual sum of squares of the least-squares solution of the system's first `dims` unknowns
+// counted from the end (6: the quadric, 3: the plane).
+double residualOfFit(const QuadricSums& s, int dims) {
+  const Eigen::MatrixXd m = s.normal_matrix.selfadjointView<Eigen::Upper>();
+  const Eigen::MatrixXd sub = m.bottomRightCorner(dims, dims);
+  const Eigen::VectorXd rhs = s.rhs.tail(dims);
+  const Eigen::VectorXd q = sub.ldlt().solve(rhs);
+  return std::max(0.0, s.sum_h2 - q.dot(rhs));
+}
+
+double largestCurvature(const QuadricSums& s) {
+  const Eigen::Matrix<double, 6, 6> m = s.normal_matrix.selfadjointView<Eigen::Upper>();
+  const Eigen::Matrix<double, 6, 1> q = m.ldlt().solve(s.rhs);
+  Eigen::Matrix2d hessian;
+  hessian << 2.0 * q[0], q[1], q[1], 2.0 * q[2];
+  const Eigen::Vector2d k = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(hessian).eigenvalues();
+  return std::max(std::fabs(k[0]), std::fabs(k[1]));
+}
+
+bool isCurved(const QuadricSums& s, const PlaneLabelingParams& params) {
+  constexpr int kMinSamples = 12;  // twice the quadric's unknowns
+  if (s.count < kMinSamples) return false;
+  const double plane_rss = residualOfFit(s, 3), quadric_rss = residualOfFit(s, 6);
+  const double ratio = std::sqrt(plane_rss / std::max(quadric_rss, 1e-18));
+  return ratio >= params.curved_rms_ratio && largestCurvature(s) > params.max_plane_curvature_per_m;
+}
+
+void renumber(const std::vector<int>& new_id, PlaneDetection& detection) {
+  for (int v = 0; v < detection.labels.rows; ++v) {
+    auto* row = detection.labels.ptr<std::uint16_t>(v);
+    for (int u = 0; u < detection.labels.cols; ++u)
+      if (row[u]) row[u] = static_cast<std::uint16_t>(new_id[row[u]]);
+  }
+  std::vector<DetectedPlane> kept;
+  for (auto& plane : detection.planes) {
+    if (!new_id[plane.id]) continue;
+    plane.id = static_cast<std::uint16_t>(new_id[plane.id]);
+    kept.push_back(std::move(plane));
+  }
+  detection.planes = std::move(kept);
+}
+
+}  // namespace
+
+void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& params,
+                       PlaneDetection& detection) {
+  if (params.max_plane_curvature_per_m <= 0.0 || detection.planes.empty()) return;
+  int max_id = 0;
+  for (const auto& p : detection.planes) max_id = std::max<int>(max_id, p.id);
+  std::vector<int> index_of(max_id + 1, -1);
+  for (std::size_t i = 0; i < detection.planes.size(); ++i)
+    index_of[detection.planes[i].id] = static_cast<int>(i);
+  struct Frame {
+    Eigen::Vector3d n, e1, e2;
+  };
+  std::vector<Frame> frames;
+  for (const auto& p : detection.planes) {
+    const Eigen::Vector3d e1 = p.normal.unitOrthogonal();
+    frames.push_back({p.normal, e1, p.normal.cross(e1)});
+  }
+  std::vector<QuadricSums> sums(detection.planes.size());
+  for (int r = 0; r < grid.points.rows; ++r) {
+    const auto* label_row = detection.labels.ptr<std::uint16_t>(grid.offset + r * grid.step);
+    const auto* point_row = grid.points.ptr<cv::Vec3f>(r);
+    for (int c = 0; c < grid.points.cols; ++c) {
+      const int id = label_row[grid.offset + c * grid.step];
+      if (!id || id > max_id || index_of[id] < 0) continue;
+      const cv::Vec3f& x = point_row[c];
+      if (!std::isfinite(x[2])) continue;
+      const Frame& f = frames[index_of[id]];
+      sums[index_of[id]].add({x[0], x[1], x[2]}, f.n, f.e1, f.e2);
+    }
+  }
+  std::vector<int> new_id(max_id + 1, 0);
+  int next = 1;
+  bool dropped = false;
+  for (const auto& p : detection.planes) {
+    if (isCurved(sums[index_of[p.id]], params)) {
+      dropped = true;
+      continue;
+    }
+    new_id[p.id] = next++;
+  }
+  if (dropped) renumber(new_id, detection);
+}
+
+}  // namespace shapesense::labeling
