@@ -2,6 +2,7 @@
 
 #include "analyze.h"
 #include "commands.h"
+#include "shapesense/core/segmentation/segmentation.h"
 
 namespace shapesense::cli {
 
@@ -12,7 +13,7 @@ void addAnalyzeCommand(CLI::App& app) {
     std::string source;
     std::string out;
     bool quiet = false;
-    std::string segmentation = "depth_step";
+    std::string segmentation{formatSegmentationMethod(kDefaultSegmentationMethod)};
     std::string planes = "hough";
     std::string bowls = "on";
     std::string models;

@@ -16,6 +16,7 @@
 #include <systemd/sd-daemon.h>
 #endif
 
+#include "shapesense/core/segmentation/segmentation.h"
 #include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/driver/open_source.h"
 #include "shapesense/server/daemon.h"
@@ -109,7 +110,8 @@ struct CommandLine {
   std::string rate = "recorded";
   std::string record_root = shapesense::defaultRecordRoot().string();
   std::uint64_t record_min_free_mb = options.record.min_free_bytes >> 20;
-  std::string segmentation = "depth_step";
+  std::string segmentation{
+      shapesense::formatSegmentationMethod(shapesense::kDefaultSegmentationMethod)};
   std::string planes = "hough";
   std::string bowls = "on";
   std::vector<double> bowl_rim_cm = {

@@ -56,7 +56,7 @@ enum class PlaneDetectorKind { kHough, kRansac };
 /// Options that select and configure the stages; filled from the daemon's config or the CLI.
 struct DetectorConfig {
   /// Method of the segmentation stage; nullopt leaves the stage out.
-  std::optional<SegmentationMethod> segmentation = SegmentationMethod::kDepthStep;
+  std::optional<SegmentationMethod> segmentation = kDefaultSegmentationMethod;
   SegmentationParams segmentation_params;
   /// Plane detector of the plane stage; nullopt leaves the stage out.
   std::optional<PlaneDetectorKind> planes = PlaneDetectorKind::kHough;

@@ -28,7 +28,7 @@ struct DepthStatistics {
 
 /// A depth segmentation of the frame.
 struct SegmentationResult {
-  SegmentationMethod method = SegmentationMethod::kDepthStep;
+  SegmentationMethod method = kDefaultSegmentationMethod;
   cv::Mat labels;  ///< CV_16UC1 region ids, 0 = unassigned
   std::vector<SegmentStatistics> segments;
 };

@@ -52,6 +52,13 @@ inline constexpr std::array<SegmentationMethod, 5> kSegmentationMethods = {
     SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges, SegmentationMethod::kFused,
     SegmentationMethod::kPlanePrediction, SegmentationMethod::kTiledRansac};
 
+/// The method the daemon, `shapesense analyze` and on-request queries use unless told otherwise.
+/// plane_prediction keeps planar faces apart and objects off their support far better than
+/// depth_step, which merges an object standing on a table into the table (docs/benchmarks.md,
+/// "Detection quality"), within the 5 ms a frame a default may cost.
+inline constexpr SegmentationMethod kDefaultSegmentationMethod =
+    SegmentationMethod::kPlanePrediction;
+
 /// The one name of each method: "depth_step", "normal_edges", "fused", "plane_prediction",
 /// "tiled_ransac" (command lines, requests and reports all use these).
 std::string_view formatSegmentationMethod(SegmentationMethod method);
