@@ -201,6 +201,57 @@ void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
   }
 }
 
+#if HWY_TARGET != HWY_SCALAR  // (no block shuffles there; one lane per vector)
+// The 4x4 transposes of 32-bit words within each 128-bit block: word k of o_j is word j of
+// the k-th input.
+template <class DU, class V>
+HWY_INLINE void Transpose4x4(DU du, V a, V b, V c, V d, V& o0, V& o1, V& o2, V& o3) {
+  const hn::Repartition<std::uint64_t, DU> d64;
+  const auto ab01 = hn::BitCast(d64, hn::InterleaveLower(du, a, b));  // a0 b0 a1 b1
+  const auto cd01 = hn::BitCast(d64, hn::InterleaveLower(du, c, d));
+  const auto ab23 = hn::BitCast(d64, hn::InterleaveUpper(du, a, b));  // a2 b2 a3 b3
+  const auto cd23 = hn::BitCast(d64, hn::InterleaveUpper(du, c, d));
+  o0 = hn::BitCast(du, hn::InterleaveLower(d64, ab01, cd01));  // a0 b0 c0 d0
+  o1 = hn::BitCast(du, hn::InterleaveUpper(d64, ab01, cd01));
+  o2 = hn::BitCast(du, hn::InterleaveLower(d64, ab23, cd23));
+  o3 = hn::BitCast(du, hn::InterleaveUpper(d64, ab23, cd23));
+}
+#endif
+
+// The window sums of N consecutive centres as they lie in memory (L vectors of N words, the
+// elements interleaved) as channels: chan[k] = word k of every element, count = the count word,
+// in centre order. The transposes of LoadInterleaved4 / LoadInterleaved2, in registers (the
+// sums are not stored and loaded back).
+template <GradientMode M, class DU, class V>
+HWY_INLINE void DeinterleaveSums(DU du, const V* s, V* chan, V& count) {
+#if HWY_TARGET == HWY_SCALAR  // one word per vector
+  (void)du;
+  if constexpr (M == GradientMode::k3dGradient) {
+    for (int k = 0; k < 3; ++k) chan[k] = s[k];
+    count = s[3];
+  } else {
+    count = s[0];
+    chan[0] = s[1];
+  }
+#else
+  constexpr std::size_t N = hn::MaxLanes(DU());
+  static_assert(N == 4 || N == 8, "groups of four or eight centres");
+  if constexpr (M == GradientMode::k3dGradient) {
+    V s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3];
+    if constexpr (N == 8) {  // centres k (lower block) and k + 4 (upper block)
+      s0 = hn::ConcatLowerLower(du, s[2], s[0]);
+      s1 = hn::ConcatUpperUpper(du, s[2], s[0]);
+      s2 = hn::ConcatLowerLower(du, s[3], s[1]);
+      s3 = hn::ConcatUpperUpper(du, s[3], s[1]);
+    }
+    Transpose4x4(du, s0, s1, s2, s3, chan[0], chan[1], chan[2], count);
+  } else {  // (count, z) pairs
+    count = hn::ConcatEven(du, s[1], s[0]);
+    chan[0] = hn::ConcatOdd(du, s[1], s[0]);
+  }
+#endif
+}
+
 // Groups of up to eight pixels (four on 128-bit targets): where the valid pixels of a group
 // share one window radius r, their windows are computed together and their normals with the
 // operations of unnormalisedNormal() and normalizePixels() - the same bits. Invalid pixels
@@ -208,21 +259,16 @@ void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
 template <class GroupTag>
 struct GroupKernels {
   using GroupVec = hn::Vec<GroupTag>;
+  using WordTag = hn::RebindToUnsigned<GroupTag>;
+  using WordVec = hn::Vec<WordTag>;
+  static constexpr int kMaxLanes = static_cast<int>(hn::MaxLanes(GroupTag()));
 
-  // The window means of centres x..x+N-1 from their window sums (elements interleaved), into the
-  // cache.
+  // The window means of centres x..x+N-1 from their window sums (channels), into the cache.
   template <GradientMode M>
-  static HWY_INLINE void StoreMeans(const GradientRow& g, const std::uint32_t* sums, float* means,
-                                    int x) {
+  static HWY_INLINE void StoreMeans(const GradientRow& g, const WordVec* chan, WordVec count,
+                                    float* means, int x) {
     const GroupTag df;
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
-    hn::Vec<decltype(du)> chan[3], count;
-    if constexpr (M == GradientMode::k3dGradient) {
-      hn::LoadInterleaved4(du, sums, chan[0], chan[1], chan[2], count);
-    } else {
-      hn::LoadInterleaved2(du, sums, count, chan[0]);  // (count, z): no borrow between them
-    }
     const auto nf = hn::ConvertTo(df, hn::BitCast(di, count));
     // 1 / n correctly rounded (the inv_count table's values), 0 for n = 0.
     const auto inv_n = hn::IfThenElseZero(nf > hn::Zero(df), hn::Set(df, 1.0f) / nf);
@@ -238,20 +284,21 @@ struct GroupKernels {
                                     int r) {
     constexpr int L = elementWords(M);
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
+    const WordTag du;
     const int n = static_cast<int>(hn::Lanes(du));
     hn::StoreU(hn::Set(di, r), di, radii + x);
     const std::ptrdiff_t dh = (2 * r + 1) * L;
     const std::uint32_t* a = g.integral[y - r] + (x - r) * L;
     const std::uint32_t* c = g.integral[y + r + 1] + (x - r) * L;
     // The window sums of the N centres (wrapped four-corner differences), elements interleaved.
-    HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
-    for (int i = 0; i < L * n; i += n) {
-      const auto s = hn::LoadU(du, c + dh + i) - hn::LoadU(du, a + dh + i) - hn::LoadU(du, c + i) +
-                     hn::LoadU(du, a + i);
-      hn::Store(s, du, sums + i);
+    WordVec s[L];
+    for (int i = 0; i < L; ++i) {
+      s[i] = hn::LoadU(du, c + dh + i * n) - hn::LoadU(du, a + dh + i * n) -
+             hn::LoadU(du, c + i * n) + hn::LoadU(du, a + i * n);
     }
-    StoreMeans<M>(g, sums, means, x);
+    WordVec chan[3], count;
+    DeinterleaveSums<M>(du, s, chan, count);
+    StoreMeans<M>(g, chan, count, means, x);
   }
 
   // cacheWindow() for centres x..x+N-1, centre x + k with radius radius[k].
@@ -260,24 +307,52 @@ struct GroupKernels {
                                       const int* radius) {
     constexpr int L = elementWords(M);
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
-    const int n = static_cast<int>(hn::Lanes(du));
+    const WordTag du;
     hn::StoreU(hn::LoadU(di, radius), di, radii + x);
-    HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
-    const hn::CappedTag<std::uint32_t, L> de;  // one element (fewer lanes on the scalar target)
-    const int ne = static_cast<int>(hn::Lanes(de));
-    for (int k = 0; k < n; ++k) {
-      const int r = radius[k];
-      const std::ptrdiff_t dh = (2 * r + 1) * L;
-      const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
-      const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
-      for (int j = 0; j < L; j += ne) {
-        const auto e = hn::LoadU(de, c + dh + j) - hn::LoadU(de, a + dh + j) -
-                       hn::LoadU(de, c + j) + hn::LoadU(de, a + j);
-        hn::StoreU(e, de, sums + k * L + j);
+    WordVec chan[3], count;
+#if HWY_TARGET != HWY_SCALAR
+    if constexpr (kMaxLanes == 4) {
+      // Lane k's window sum in the low L words of s[k] (a four-word load: the depth change's
+      // reads two words past the element, within the ring's slack).
+      WordVec s[4];
+      for (int k = 0; k < 4; ++k) {
+        const int r = radius[k];
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
+        const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
+        s[k] = hn::LoadU(du, c + dh) - hn::LoadU(du, a + dh) - hn::LoadU(du, c) + hn::LoadU(du, a);
       }
+      if constexpr (M == GradientMode::kDepthChange) {  // the pairs as they lie in memory
+        const hn::Repartition<std::uint64_t, WordTag> d64;
+        s[0] = hn::BitCast(
+            du, hn::InterleaveLower(d64, hn::BitCast(d64, s[0]), hn::BitCast(d64, s[1])));
+        s[1] = hn::BitCast(
+            du, hn::InterleaveLower(d64, hn::BitCast(d64, s[2]), hn::BitCast(d64, s[3])));
+      }
+      DeinterleaveSums<M>(du, s, chan, count);
+    } else
+#endif
+    {
+      const int n = static_cast<int>(hn::Lanes(du));
+      HWY_ALIGN std::uint32_t sums[4 * kMaxLanes];
+      const hn::CappedTag<std::uint32_t, L> de;  // one element (fewer lanes on the scalar target)
+      const int ne = static_cast<int>(hn::Lanes(de));
+      for (int k = 0; k < n; ++k) {
+        const int r = radius[k];
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
+        const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
+        for (int j = 0; j < L; j += ne) {
+          const auto e = hn::LoadU(de, c + dh + j) - hn::LoadU(de, a + dh + j) -
+                         hn::LoadU(de, c + j) + hn::LoadU(de, a + j);
+          hn::StoreU(e, de, sums + k * L + j);
+        }
+      }
+      WordVec s[L];
+      for (int i = 0; i < L; ++i) s[i] = hn::Load(du, sums + i * n);
+      DeinterleaveSums<M>(du, s, chan, count);
     }
-    StoreMeans<M>(g, sums, means, x);
+    StoreMeans<M>(g, chan, count, means, x);
   }
 
   // Makes the cache hold the windows of `radius` (one per lane) at centres x..x+N-1.
