@@ -110,32 +110,82 @@ inline std::uint32_t fixedScalar(float c, bool ok) {
   return static_cast<std::uint32_t>(static_cast<std::int32_t>((ok ? c : 0.0f) * 1e4f));
 }
 
-void GradientElementsFromDepth(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x,
-                               float ray_y, int cols, std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
+#if HWY_TARGET != HWY_SCALAR  // (no block shuffles there; one lane per vector)
+// The 4x4 transposes of 32-bit words within each 128-bit block: word k of o_j is word j of
+// the k-th input.
+template <class DU, class V>
+HWY_INLINE void Transpose4x4(DU du, V a, V b, V c, V d, V& o0, V& o1, V& o2, V& o3) {
+  const hn::Repartition<std::uint64_t, DU> d64;
+  const auto ab01 = hn::BitCast(d64, hn::InterleaveLower(du, a, b));  // a0 b0 a1 b1
+  const auto cd01 = hn::BitCast(d64, hn::InterleaveLower(du, c, d));
+  const auto ab23 = hn::BitCast(d64, hn::InterleaveUpper(du, a, b));  // a2 b2 a3 b3
+  const auto cd23 = hn::BitCast(d64, hn::InterleaveUpper(du, c, d));
+  o0 = hn::BitCast(du, hn::InterleaveLower(d64, ab01, cd01));  // a0 b0 c0 d0
+  o1 = hn::BitCast(du, hn::InterleaveUpper(d64, ab01, cd01));
+  o2 = hn::BitCast(du, hn::InterleaveLower(d64, ab23, cd23));
+  o3 = hn::BitCast(du, hn::InterleaveUpper(d64, ab23, cd23));
+}
+#endif
+
+// The 3D-gradient integral row of depth input (the points are z times the rays): the elements of
+// up to eight pixels transposed and prefix-summed in registers (wrapping uint32 sums: any order
+// of the additions gives the same bits); `row` = `above` + the running sum.
+void IntegrateGradientRowFromDepth(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x,
+                                   float ray_y, int cols, const std::uint32_t* HWY_RESTRICT above,
+                                   std::uint32_t* HWY_RESTRICT row) {
+  HWY_ALIGN std::uint32_t acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // the running sum (x, y, z, count)
+  std::memset(row, 0, 4 * sizeof(std::uint32_t));
+  int u = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::RebindToUnsigned<decltype(df)> du;
-  const int n = static_cast<int>(hn::Lanes(df));
+  constexpr int n = static_cast<int>(hn::MaxLanes(df));  // four or eight
   const auto ry = hn::Set(df, ray_y);
-  int u = 0;
+  auto run = hn::Zero(du);  // the running sum, in every block
   for (; u + n <= cols; u += n) {
     const auto zv = hn::LoadU(df, z + u);
     const auto ok = zv > hn::Zero(df);
-    const auto x = toFixed(df, di, hn::LoadU(df, ray_x + u) * zv, ok);
-    const auto y = toFixed(df, di, ry * zv, ok);
-    const auto fz = toFixed(df, di, zv, ok);
-    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
-    hn::StoreInterleaved4(hn::BitCast(du, x), hn::BitCast(du, y), hn::BitCast(du, fz),
-                          hn::BitCast(du, count), du, elements + 4 * u);
+    const auto x = hn::BitCast(du, toFixed(df, di, hn::LoadU(df, ray_x + u) * zv, ok));
+    const auto y = hn::BitCast(du, toFixed(df, di, ry * zv, ok));
+    const auto fz = hn::BitCast(du, toFixed(df, di, zv, ok));
+    const auto count = hn::BitCast(du, hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1)));
+    hn::Vec<decltype(du)> p0, p1, p2, p3;  // the elements of pixels k (and k + 4: upper block)
+    Transpose4x4(du, x, y, fz, count, p0, p1, p2, p3);
+    const std::uint32_t* up = above + 4 * (u + 1);
+    std::uint32_t* out = row + 4 * (u + 1);
+    if constexpr (n == 4) {
+      run = run + p0;
+      hn::StoreU(hn::LoadU(du, up) + run, du, out);
+      run = run + p1;
+      hn::StoreU(hn::LoadU(du, up + 4) + run, du, out + 4);
+      run = run + p2;
+      hn::StoreU(hn::LoadU(du, up + 8) + run, du, out + 8);
+      run = run + p3;
+      hn::StoreU(hn::LoadU(du, up + 12) + run, du, out + 12);
+    } else {
+      // Prefix sums within each block, then the lower block's total into the upper one.
+      const auto q1 = p0 + p1, q2 = q1 + p2, q3 = q2 + p3;
+      const auto carry = run + hn::ConcatLowerLower(du, q3, hn::Zero(du));
+      const auto c0 = p0 + carry, c1 = q1 + carry, c2 = q2 + carry, c3 = q3 + carry;
+      run = hn::ConcatUpperUpper(du, c3, c3);
+      hn::StoreU(hn::LoadU(du, up) + hn::ConcatLowerLower(du, c1, c0), du, out);
+      hn::StoreU(hn::LoadU(du, up + 8) + hn::ConcatLowerLower(du, c3, c2), du, out + 8);
+      hn::StoreU(hn::LoadU(du, up + 16) + hn::ConcatUpperUpper(du, c1, c0), du, out + 16);
+      hn::StoreU(hn::LoadU(du, up + 24) + hn::ConcatUpperUpper(du, c3, c2), du, out + 24);
+    }
   }
+  hn::Store(run, du, acc);
+#endif
   for (; u < cols; ++u) {
     const float zu = z[u];
     const bool ok = zu > 0.0f;
-    std::uint32_t* e = elements + 4 * u;
-    e[0] = fixedScalar(ray_x[u] * zu, ok);
-    e[1] = fixedScalar(ray_y * zu, ok);
-    e[2] = fixedScalar(zu, ok);
-    e[3] = ok;
+    const std::uint32_t e[4] = {fixedScalar(ray_x[u] * zu, ok), fixedScalar(ray_y * zu, ok),
+                                fixedScalar(zu, ok), ok};
+    for (int k = 0; k < 4; ++k) {
+      acc[k] += e[k];
+      row[4 * (u + 1) + k] = above[4 * (u + 1) + k] + acc[k];
+    }
   }
 }
 
@@ -180,43 +230,51 @@ void IntegrateGradientRow(const std::uint32_t* HWY_RESTRICT elements, int cols,
   }
 }
 
-void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
-                         std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
+// The depth-change integral row: (count, z) pairs as uint64 (count in the low half; it never
+// carries into z), `row` = `above` + the running sum; four pixels per step, prefix-summed in
+// registers.
+void IntegrateDepthChangeRow(const float* HWY_RESTRICT z, int cols,
+                             const std::uint32_t* HWY_RESTRICT above,
+                             std::uint32_t* HWY_RESTRICT row) {
+  std::uint64_t acc = 0;
+  std::memset(row, 0, 2 * sizeof(std::uint32_t));
+  int u = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::CappedTag<float, 4> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::RebindToUnsigned<decltype(df)> du;
-  const int n = static_cast<int>(hn::Lanes(df));
-  int u = 0;
+  const hn::Repartition<std::uint64_t, decltype(du)> d64;
+  constexpr int n = static_cast<int>(hn::MaxLanes(df));
+  static_assert(n == 4, "four pixels per step");
+  auto run = hn::Zero(d64);  // the running sum in both lanes
   for (; u + n <= cols; u += n) {
     const auto zv = hn::LoadU(df, z + u);
     const auto ok = zv > hn::Zero(df);
-    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
-    hn::StoreInterleaved2(hn::BitCast(du, count), hn::BitCast(du, toFixed(df, di, zv, ok)), du,
-                          elements + 2 * u);
+    const auto fz = hn::BitCast(du, toFixed(df, di, zv, ok));
+    const auto count = hn::BitCast(du, hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1)));
+    auto e01 = hn::BitCast(d64, hn::InterleaveLower(du, count, fz));  // pixels u, u + 1
+    auto e23 = hn::BitCast(d64, hn::InterleaveUpper(du, count, fz));
+    e01 = e01 + hn::ShiftLeftLanes<1>(d64, e01) + run;
+    run = hn::InterleaveUpper(d64, e01, e01);
+    e23 = e23 + hn::ShiftLeftLanes<1>(d64, e23) + run;
+    run = hn::InterleaveUpper(d64, e23, e23);
+    const std::uint32_t* up = above + 2 * (u + 1);
+    std::uint32_t* out = row + 2 * (u + 1);
+    hn::StoreU(hn::BitCast(du, hn::BitCast(d64, hn::LoadU(du, up)) + e01), du, out);
+    hn::StoreU(hn::BitCast(du, hn::BitCast(d64, hn::LoadU(du, up + 4)) + e23), du, out + 4);
   }
+  acc = hn::GetLane(run);
+#endif
   for (; u < cols; ++u) {
     const bool ok = z[u] > 0.0f;
-    elements[2 * u] = ok;
-    elements[2 * u + 1] = fixedScalar(z[u], ok);
+    acc +=
+        static_cast<std::uint64_t>(ok) + (static_cast<std::uint64_t>(fixedScalar(z[u], ok)) << 32);
+    std::uint64_t x;
+    std::memcpy(&x, above + 2 * (u + 1), sizeof x);
+    x += acc;
+    std::memcpy(row + 2 * (u + 1), &x, sizeof x);
   }
 }
-
-#if HWY_TARGET != HWY_SCALAR  // (no block shuffles there; one lane per vector)
-// The 4x4 transposes of 32-bit words within each 128-bit block: word k of o_j is word j of
-// the k-th input.
-template <class DU, class V>
-HWY_INLINE void Transpose4x4(DU du, V a, V b, V c, V d, V& o0, V& o1, V& o2, V& o3) {
-  const hn::Repartition<std::uint64_t, DU> d64;
-  const auto ab01 = hn::BitCast(d64, hn::InterleaveLower(du, a, b));  // a0 b0 a1 b1
-  const auto cd01 = hn::BitCast(d64, hn::InterleaveLower(du, c, d));
-  const auto ab23 = hn::BitCast(d64, hn::InterleaveUpper(du, a, b));  // a2 b2 a3 b3
-  const auto cd23 = hn::BitCast(d64, hn::InterleaveUpper(du, c, d));
-  o0 = hn::BitCast(du, hn::InterleaveLower(d64, ab01, cd01));  // a0 b0 c0 d0
-  o1 = hn::BitCast(du, hn::InterleaveUpper(d64, ab01, cd01));
-  o2 = hn::BitCast(du, hn::InterleaveLower(d64, ab23, cd23));
-  o3 = hn::BitCast(du, hn::InterleaveUpper(d64, ab23, cd23));
-}
-#endif
 
 // The window sums of N consecutive centres as they lie in memory (L vectors of N words, the
 // elements interleaved) as channels: chan[k] = word k of every element, count = the count word,
@@ -567,9 +625,9 @@ namespace shapesense::detail {
 HWY_EXPORT(DepthRowToZ);
 HWY_EXPORT(PointsRow);
 HWY_EXPORT(WindowRadiusRow);
-HWY_EXPORT(GradientElementsFromDepth);
+HWY_EXPORT(IntegrateGradientRowFromDepth);
 HWY_EXPORT(GradientElementsFromPoints);
-HWY_EXPORT(DepthChangeElements);
+HWY_EXPORT(IntegrateDepthChangeRow);
 HWY_EXPORT(IntegrateGradientRow);
 HWY_EXPORT(GradientNormalsRow);
 HWY_EXPORT(DepthChangeNormalsRow);
@@ -584,9 +642,9 @@ void windowRadiusRow(const float* zrow, const std::int16_t* step_distance,
                      const float* column_bound, int cols, const RadiusRule& rule, int* radius) {
   HWY_DYNAMIC_DISPATCH(WindowRadiusRow)(zrow, step_distance, column_bound, cols, rule, radius);
 }
-void gradientElementsFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
-                               std::uint32_t* elements) {
-  HWY_DYNAMIC_DISPATCH(GradientElementsFromDepth)(z, ray_x, ray_y, cols, elements);
+void integrateGradientRowFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
+                                   const std::uint32_t* above, std::uint32_t* row) {
+  HWY_DYNAMIC_DISPATCH(IntegrateGradientRowFromDepth)(z, ray_x, ray_y, cols, above, row);
 }
 void gradientElementsFromPoints(const float* xyz, int cols, std::uint32_t* elements) {
   HWY_DYNAMIC_DISPATCH(GradientElementsFromPoints)(xyz, cols, elements);
@@ -595,8 +653,9 @@ void integrateGradientRow(const std::uint32_t* elements, int cols, const std::ui
                           std::uint32_t* row) {
   HWY_DYNAMIC_DISPATCH(IntegrateGradientRow)(elements, cols, above, row);
 }
-void depthChangeElements(const float* z, int cols, std::uint32_t* elements) {
-  HWY_DYNAMIC_DISPATCH(DepthChangeElements)(z, cols, elements);
+void integrateDepthChangeRow(const float* z, int cols, const std::uint32_t* above,
+                             std::uint32_t* row) {
+  HWY_DYNAMIC_DISPATCH(IntegrateDepthChangeRow)(z, cols, above, row);
 }
 void gradientNormalsRow(const GradientRow& row) { HWY_DYNAMIC_DISPATCH(GradientNormalsRow)(row); }
 void depthChangeNormalsRow(const GradientRow& row) {
