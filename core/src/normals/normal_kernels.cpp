@@ -595,18 +595,24 @@ template <GradientMode M>
 void NormalsRow(const GradientRow& g) {
   const int wide = static_cast<int>(hn::Lanes(hn::CappedTag<float, 8>()));
   const int narrow = static_cast<int>(hn::Lanes(hn::CappedTag<float, 4>()));
-  const bool split = narrow < wide;
   const int cols = g.cols;
   int u = 0;
-  for (; u + wide <= cols; u += wide) {
-    const auto outcome = WideGroups::Group<M>(g, u, !split);
-    if (outcome == WideGroups::Outcome::kBorder) {
-      WideGroups::PixelByPixel<M>(g, u);
-    } else if (outcome == WideGroups::Outcome::kMixed) {
-      for (int h = u; h < u + wide; h += narrow)
-        if (NarrowGroups::Group<M>(g, h, true) == NarrowGroups::Outcome::kBorder)
-          NarrowGroups::PixelByPixel<M>(g, h);
+  if (narrow < wide) {
+    // A group of eight that is not done (mixed radii or the border) is done as a group of four,
+    // and the groups of eight go on four pixels later.
+    while (u + narrow <= cols) {
+      if (u + wide <= cols && WideGroups::Group<M>(g, u, false) == WideGroups::Outcome::kDone) {
+        u += wide;
+        continue;
+      }
+      if (NarrowGroups::Group<M>(g, u, true) == NarrowGroups::Outcome::kBorder)
+        NarrowGroups::PixelByPixel<M>(g, u);
+      u += narrow;
     }
+  } else {
+    for (; u + wide <= cols; u += wide)
+      if (WideGroups::Group<M>(g, u, true) == WideGroups::Outcome::kBorder)
+        WideGroups::PixelByPixel<M>(g, u);
   }
   for (int k = u; k < cols; ++k) unnormalisedNormal<M>(g, k);
   normalizePixels(g, u, cols);
