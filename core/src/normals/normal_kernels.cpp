@@ -544,8 +544,11 @@ struct GroupKernels {
 
   // Pixels u..u+N-1: NaN without valid pixels; together where the windows of centres
   // u - 1 .. u + N lie inside the image (a valid pixel's radius is bounded by the border; invalid
-  // ones ride along with r, which fits the rows). Groups whose valid pixels have different radii
-  // are done lane by lane only with `lane_radii`, else left to the caller (kMixed).
+  // ones ride along with r, which fits the rows). Other groups (valid pixels of different radii,
+  // or the image border) are done lane by lane only with `lane_radii`, else left to the caller
+  // (kMixed, kBorder). Lane by lane, invalid pixels ride along with r or, at the border, the
+  // largest radius the image width leaves them; where that is none (the outermost two columns),
+  // the group is left to the caller (kBorder).
   template <GradientMode M>
   static HWY_INLINE Outcome Group(const GradientRow& g, int u, bool lane_radii) {
     const GroupTag df;
@@ -559,15 +562,19 @@ struct GroupKernels {
       return Outcome::kDone;
     }
     const int r = g.radius[u + hn::FindFirstTrue(di, hn::Not(invalid))];
-    if (u - 1 - r < 0 || u + n + 1 + r > g.cols) return Outcome::kBorder;
+    const bool border = u - 1 - r < 0 || u + n + 1 + r > g.cols;
     const auto lanes = radii == hn::Set(di, r);
     GroupVec nx, ny, nz;
-    if (hn::AllTrue(di, hn::Or(invalid, lanes))) {
+    if (!border && hn::AllTrue(di, hn::Or(invalid, lanes))) {
       GroupNormals<M>(g, u, r, hn::RebindMask(df, lanes), nx, ny, nz);
     } else {
-      if (!lane_radii) return Outcome::kMixed;
+      if (!lane_radii) return border ? Outcome::kBorder : Outcome::kMixed;
+      const auto column = hn::Iota(di, 0) + hn::Set(di, u);
+      const auto column_bound = hn::Min(column, hn::Set(di, g.cols - 1) - column) - hn::Set(di, 1);
+      const auto ride = hn::Min(hn::Set(di, r), column_bound);  // r away from the border
+      if (!hn::AllTrue(di, hn::Or(hn::Not(invalid), ride > hn::Zero(di)))) return Outcome::kBorder;
       HWY_ALIGN int lane_radius[hn::MaxLanes(decltype(di)())];
-      hn::Store(hn::IfThenElse(invalid, hn::Set(di, r), radii), di, lane_radius);
+      hn::Store(hn::IfThenElse(invalid, ride, radii), di, lane_radius);
       LanesNormals<M>(g, u, lane_radius, hn::RebindMask(df, hn::Not(invalid)), nx, ny, nz);
     }
     NormalizeGroup(g, u, nx, ny, nz);
