@@ -26,7 +26,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 // ---------------------------------------------------------------- input
 
 void DepthRowToZ(const std::uint16_t* HWY_RESTRICT depth_mm, int cols, float* HWY_RESTRICT z) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::uint32_t, decltype(df)> du32;
   const hn::Rebind<std::uint16_t, decltype(df)> du16;
@@ -67,7 +67,7 @@ void PointsRow(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x, flo
 void WindowRadiusRow(const float* HWY_RESTRICT zrow, const std::int16_t* HWY_RESTRICT dist,
                      const float* HWY_RESTRICT column_bound, int cols, const RadiusRule& rule,
                      int* HWY_RESTRICT radius) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::int16_t, decltype(df)> di16;
   const int n = static_cast<int>(hn::Lanes(df));
