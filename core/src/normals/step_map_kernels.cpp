@@ -28,7 +28,7 @@ inline float stepThreshold(const StepRule& rule, float zmin, int gap1) {
 void MarkVerticalSteps(const float* HWY_RESTRICT zrow, int v, int cols, const StepRule& rule,
                        float* HWY_RESTRICT last_z, int* HWY_RESTRICT last_v,
                        std::uint8_t* HWY_RESTRICT marks, std::size_t marks_stride) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const int n = static_cast<int>(hn::Lanes(df));
   const auto factor = hn::Set(df, rule.factor), noise_k = hn::Set(df, rule.noise_k);
@@ -71,7 +71,7 @@ void MarkVerticalSteps(const float* HWY_RESTRICT zrow, int v, int cols, const St
 
 int MarkHorizontalSteps(const float* HWY_RESTRICT zrow, int cols, const StepRule& rule,
                         std::uint8_t* HWY_RESTRICT marks, int* HWY_RESTRICT after_hole) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::uint8_t, decltype(di)> du8;
   const int n = static_cast<int>(hn::Lanes(df));
@@ -107,7 +107,7 @@ int MarkHorizontalSteps(const float* HWY_RESTRICT zrow, int cols, const StepRule
 
 void InitStepDistanceRow(const std::uint8_t* HWY_RESTRICT marks, int cols, std::int16_t far,
                          std::int16_t* HWY_RESTRICT d) {
-  const hn::ScalableTag<std::int16_t> di;
+  const hn::CappedTag<std::int16_t, 16> di;
   const hn::Rebind<std::uint8_t, decltype(di)> du8;
   const int n = static_cast<int>(hn::Lanes(di));
   const auto vfar = hn::Set(di, far);
@@ -122,7 +122,7 @@ void InitStepDistanceRow(const std::uint8_t* HWY_RESTRICT marks, int cols, std::
 
 void FoldStepDistanceRow(const std::int16_t* HWY_RESTRICT o, int cols,
                          std::int16_t* HWY_RESTRICT d) {
-  const hn::ScalableTag<std::int16_t> di;
+  const hn::CappedTag<std::int16_t, 16> di;
   const int n = static_cast<int>(hn::Lanes(di));
   const auto one = hn::Set(di, 1);
   int u = 1;
