@@ -46,7 +46,7 @@ void DepthRowToZ(const std::uint16_t* HWY_RESTRICT depth_mm, int cols, float* HW
 
 void PointsRow(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x, float ray_y, int cols,
                float* HWY_RESTRICT xyz) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const int n = static_cast<int>(hn::Lanes(df));
   const auto ry = hn::Set(df, ray_y);
   int u = 0;
@@ -191,7 +191,7 @@ void IntegrateGradientRowFromDepth(const float* HWY_RESTRICT z, const float* HWY
 
 void GradientElementsFromPoints(const float* HWY_RESTRICT xyz, int cols,
                                 std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::RebindToUnsigned<decltype(df)> du;
   const int n = static_cast<int>(hn::Lanes(df));
