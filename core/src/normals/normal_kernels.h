@@ -1,10 +1,12 @@
 #pragma once
 // The normals' SIMD kernels, written once with Google Highway and dispatched at run time to the
-// best target the CPU has (the step map's in step_map_kernels.cpp, the others in
-// normal_kernels.cpp). Each kernel does a whole row (its vector steps, then the last pixels
-// one at a time with the same operations) and computes the same bits on every target, the
-// scalar one included: integer work, and float work in the order of the scalar definition
-// without fused multiply-adds. Internal to core/src/normals/.
+// best target the CPU has (the step map's in step_map_kernels.cpp, the input, window radii and
+// integral rows in integral_kernels.cpp, the gradient modes' normals in normal_kernels.cpp). Each
+// kernel does a whole row (its vector steps, then the last pixels one at a time with the same
+// operations) and computes the same bits on every target, the scalar one included: integer work,
+// and float work in the order of the scalar definition without fused multiply-adds. At most
+// 256-bit vectors (on AVX3 the 512-bit ones made the whole stage slower). Internal to
+// core/src/normals/.
 
 #include <cstdint>
 
