@@ -1,7 +1,6 @@
 #include "normals/gradient_estimator.h"
 
 #include <algorithm>
-#include <cstring>
 
 #include "normals/normal_kernels.h"
 #include "normals/step_map.h"
