@@ -1,7 +1,6 @@
 #include "normals/gradient_estimator.h"
 
 #include <algorithm>
-#include <cstring>
 
 #include "normals/normal_kernels.h"
 #include "normals/step_map.h"
@@ -46,25 +45,15 @@ class IntegralRing {
     std::uint32_t* row = b_.integral_rows[v + 1];
     const std::uint32_t* above = b_.integral_rows[v];
     const int cols = input_.cols;
-    std::uint32_t* e = b_.elements.data();
-    if (mode_ == GradientMode::k3dGradient) {
-      if (input_.from_depth)
-        gradientElementsFromDepth(input_.zRow(v), input_.ray_x.data(), input_.ray_y[v], cols, e);
-      else
-        gradientElementsFromPoints(input_.points.ptr<float>(v), cols, e);
-      integrateGradientRow(e, cols, above, row);
+    if (mode_ == GradientMode::kDepthChange) {
+      integrateDepthChangeRow(input_.zRow(v), cols, above, row);
+    } else if (input_.from_depth) {
+      integrateGradientRowFromDepth(input_.zRow(v), input_.ray_x.data(), input_.ray_y[v], cols,
+                                    above, row);
     } else {
-      depthChangeElements(input_.zRow(v), cols, e);
-      std::uint64_t acc = 0;
-      std::memcpy(row, &acc, sizeof acc);
-      for (int u = 0; u < cols; ++u) {
-        std::uint64_t x, up;
-        std::memcpy(&x, e + 2 * u, sizeof x);
-        std::memcpy(&up, above + 2 * (u + 1), sizeof up);
-        acc += x;
-        up += acc;
-        std::memcpy(row + 2 * (u + 1), &up, sizeof up);
-      }
+      std::uint32_t* e = b_.elements.data();
+      gradientElementsFromPoints(input_.points.ptr<float>(v), cols, e);
+      integrateGradientRow(e, cols, above, row);
     }
   }
 

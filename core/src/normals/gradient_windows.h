@@ -1,7 +1,7 @@
 #pragma once
 // The window means of the gradient modes, one pixel at a time: the reference the row kernels
-// (normal_kernels.h) match bit for bit, and what they fall back to where a group of pixels does
-// not share one window radius. Internal to core/src/normals/.
+// (normal_kernels.h) match bit for bit, and what they fall back to for the pixels no group covers
+// (a row's last pixels, groups at the outermost columns). Internal to core/src/normals/.
 //
 // Every pixel's normal comes from the means of four windows of its radius r, centred one pixel
 // left, right, up and down. A window centred on (x, y) is read by up to four pixels, so its mean

@@ -1,4 +1,4 @@
-// The normals' SIMD kernels (see normal_kernels.h), compiled once per Highway target.
+// The gradient modes' row kernels (see normal_kernels.h), compiled once per Highway target.
 // Float work keeps the scalar definition's order of operations, as separate multiplies and adds
 // (Highway's MulAdd would fuse them and round differently), so every target gives the bits of
 // the scalar loops; min / max only ever see NaN in lanes whose result is masked out.
@@ -8,6 +8,7 @@
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 // (foreach_target.h first: it re-includes this file once per target.)
 #include "hwy/highway.h"
+#include "normals/block_transpose-inl.h"
 #include "normals/gradient_windows.h"
 #include "normals/normal_kernels.h"
 
@@ -23,182 +24,38 @@ namespace hn = hwy::HWY_NAMESPACE;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// ---------------------------------------------------------------- input
-
-void DepthRowToZ(const std::uint16_t* HWY_RESTRICT depth_mm, int cols, float* HWY_RESTRICT z) {
-  const hn::ScalableTag<float> df;
-  const hn::RebindToSigned<decltype(df)> di;
-  const hn::Rebind<std::uint32_t, decltype(df)> du32;
-  const hn::Rebind<std::uint16_t, decltype(df)> du16;
-  const int n = static_cast<int>(hn::Lanes(df));
-  const auto to_metres = hn::Set(df, 0.001f), zero = hn::Zero(df), nan = hn::Set(df, kNaN);
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    const auto mm = hn::BitCast(di, hn::PromoteTo(du32, hn::LoadU(du16, depth_mm + u)));
-    const auto metres = hn::ConvertTo(df, mm) * to_metres;
-    hn::StoreU(hn::IfThenElse(metres > zero, metres, nan), df, z + u);
+// The window sums of N consecutive centres as they lie in memory (L vectors of N words, the
+// elements interleaved) as channels: chan[k] = word k of every element, count = the count word,
+// in centre order. The transposes of LoadInterleaved4 / LoadInterleaved2, in registers (the
+// sums are not stored and loaded back).
+template <GradientMode M, class DU, class V>
+HWY_INLINE void DeinterleaveSums(DU du, const V* s, V* chan, V& count) {
+#if HWY_TARGET == HWY_SCALAR  // one word per vector
+  (void)du;
+  if constexpr (M == GradientMode::k3dGradient) {
+    for (int k = 0; k < 3; ++k) chan[k] = s[k];
+    count = s[3];
+  } else {
+    count = s[0];
+    chan[0] = s[1];
   }
-  for (; u < cols; ++u) {
-    const float metres = static_cast<float>(depth_mm[u]) * 0.001f;
-    z[u] = metres > 0.0f ? metres : kNaN;
-  }
-}
-
-void PointsRow(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x, float ray_y, int cols,
-               float* HWY_RESTRICT xyz) {
-  const hn::ScalableTag<float> df;
-  const int n = static_cast<int>(hn::Lanes(df));
-  const auto ry = hn::Set(df, ray_y);
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    const auto zv = hn::LoadU(df, z + u);
-    hn::StoreInterleaved3(hn::LoadU(df, ray_x + u) * zv, ry * zv, zv, df, xyz + 3 * u);
-  }
-  for (; u < cols; ++u) {
-    xyz[3 * u] = ray_x[u] * z[u];
-    xyz[3 * u + 1] = ray_y * z[u];
-    xyz[3 * u + 2] = z[u];
-  }
-}
-
-// ---------------------------------------------------------------- gradient modes
-
-// The radius rule's clamps as min / max (no NaN reaches them: no depth gives z = 0 here).
-void WindowRadiusRow(const float* HWY_RESTRICT zrow, const std::int16_t* HWY_RESTRICT dist,
-                     const float* HWY_RESTRICT column_bound, int cols, const RadiusRule& rule,
-                     int* HWY_RESTRICT radius) {
-  const hn::ScalableTag<float> df;
-  const hn::RebindToSigned<decltype(df)> di;
-  const hn::Rebind<std::int16_t, decltype(df)> di16;
-  const int n = static_cast<int>(hn::Lanes(df));
-  const auto base = hn::Set(df, rule.base_r), constant = hn::Set(df, rule.const_r);
-  const auto half = hn::Set(df, 0.5f), min_r = hn::Set(df, rule.min_r);
-  const auto max_r = hn::Set(df, rule.max_r), row_bound = hn::Set(df, rule.row_bound);
-  const auto two = hn::Set(di, 2);
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    const auto z = hn::LoadU(df, zrow + u);
-    const auto ok = z > hn::Zero(df);
-    auto r = base * hn::IfThenElseZero(ok, z) + constant + half;
-    r = hn::Min(hn::Max(r, min_r), max_r);
-    r = hn::Min(hn::Min(r, hn::LoadU(df, column_bound + u)), row_bound);
-    const auto by_step = hn::ConvertTo(df, hn::PromoteTo(di, hn::LoadU(di16, dist + u)) - two);
-    r = hn::Min(r, by_step);
-    const auto keep = hn::RebindMask(di, hn::And(ok, r >= min_r));
-    hn::StoreU(hn::IfThenElseZero(keep, hn::ConvertTo(di, r)), di, radius + u);
-  }
-  for (; u < cols; ++u) {
-    const float z = zrow[u];
-    const bool ok = z > 0.0f;
-    float r = rule.base_r * (ok ? z : 0.0f) + rule.const_r + 0.5f;
-    r = r < rule.min_r ? rule.min_r : r;
-    r = r > rule.max_r ? rule.max_r : r;
-    r = r < column_bound[u] ? r : column_bound[u];
-    r = r < rule.row_bound ? r : rule.row_bound;
-    const float by_step = static_cast<float>(dist[u] - 2);
-    r = r < by_step ? r : by_step;
-    radius[u] = ok && r >= rule.min_r ? static_cast<int>(r) : 0;
-  }
-}
-
-// 0.1 mm fixed point, 0 where invalid (selected before the conversion).
-template <class DF, class DI, class V, class M>
-HWY_INLINE hn::Vec<DI> toFixed(DF, DI di, V c, M ok) {
-  return hn::ConvertTo(di, hn::IfThenElseZero(ok, c * hn::Set(DF(), 1e4f)));
-}
-inline std::uint32_t fixedScalar(float c, bool ok) {
-  return static_cast<std::uint32_t>(static_cast<std::int32_t>((ok ? c : 0.0f) * 1e4f));
-}
-
-void GradientElementsFromDepth(const float* HWY_RESTRICT z, const float* HWY_RESTRICT ray_x,
-                               float ray_y, int cols, std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
-  const hn::RebindToSigned<decltype(df)> di;
-  const hn::RebindToUnsigned<decltype(df)> du;
-  const int n = static_cast<int>(hn::Lanes(df));
-  const auto ry = hn::Set(df, ray_y);
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    const auto zv = hn::LoadU(df, z + u);
-    const auto ok = zv > hn::Zero(df);
-    const auto x = toFixed(df, di, hn::LoadU(df, ray_x + u) * zv, ok);
-    const auto y = toFixed(df, di, ry * zv, ok);
-    const auto fz = toFixed(df, di, zv, ok);
-    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
-    hn::StoreInterleaved4(hn::BitCast(du, x), hn::BitCast(du, y), hn::BitCast(du, fz),
-                          hn::BitCast(du, count), du, elements + 4 * u);
-  }
-  for (; u < cols; ++u) {
-    const float zu = z[u];
-    const bool ok = zu > 0.0f;
-    std::uint32_t* e = elements + 4 * u;
-    e[0] = fixedScalar(ray_x[u] * zu, ok);
-    e[1] = fixedScalar(ray_y * zu, ok);
-    e[2] = fixedScalar(zu, ok);
-    e[3] = ok;
-  }
-}
-
-void GradientElementsFromPoints(const float* HWY_RESTRICT xyz, int cols,
-                                std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
-  const hn::RebindToSigned<decltype(df)> di;
-  const hn::RebindToUnsigned<decltype(df)> du;
-  const int n = static_cast<int>(hn::Lanes(df));
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    hn::Vec<decltype(df)> x, y, zv;
-    hn::LoadInterleaved3(df, xyz + 3 * u, x, y, zv);
-    const auto ok = zv > hn::Zero(df);
-    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
-    hn::StoreInterleaved4(
-        hn::BitCast(du, toFixed(df, di, x, ok)), hn::BitCast(du, toFixed(df, di, y, ok)),
-        hn::BitCast(du, toFixed(df, di, zv, ok)), hn::BitCast(du, count), du, elements + 4 * u);
-  }
-  for (; u < cols; ++u) {
-    const float* p = xyz + 3 * u;
-    const bool ok = p[2] > 0.0f;
-    std::uint32_t* e = elements + 4 * u;
-    for (int k = 0; k < 3; ++k) e[k] = fixedScalar(p[k], ok);
-    e[3] = ok;
-  }
-}
-
-// Integral row = row above + running sum of the row's 4-word elements (wrapping uint32).
-void IntegrateGradientRow(const std::uint32_t* HWY_RESTRICT elements, int cols,
-                          const std::uint32_t* HWY_RESTRICT above,
-                          std::uint32_t* HWY_RESTRICT row) {
-  const hn::CappedTag<std::uint32_t, 4> d4;  // one element (a word on the scalar target)
-  const int nl = static_cast<int>(hn::Lanes(d4));
-  for (int j = 0; j < 4; j += nl) {
-    auto acc = hn::Zero(d4);
-    hn::StoreU(acc, d4, row + j);
-    for (int u = 0; u < cols; ++u) {
-      acc = acc + hn::LoadU(d4, elements + 4 * u + j);
-      hn::StoreU(hn::LoadU(d4, above + 4 * (u + 1) + j) + acc, d4, row + 4 * (u + 1) + j);
+#else
+  constexpr std::size_t N = hn::MaxLanes(DU());
+  static_assert(N == 4 || N == 8, "groups of four or eight centres");
+  if constexpr (M == GradientMode::k3dGradient) {
+    V s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3];
+    if constexpr (N == 8) {  // centres k (lower block) and k + 4 (upper block)
+      s0 = hn::ConcatLowerLower(du, s[2], s[0]);
+      s1 = hn::ConcatUpperUpper(du, s[2], s[0]);
+      s2 = hn::ConcatLowerLower(du, s[3], s[1]);
+      s3 = hn::ConcatUpperUpper(du, s[3], s[1]);
     }
+    Transpose4x4(du, s0, s1, s2, s3, chan[0], chan[1], chan[2], count);
+  } else {  // (count, z) pairs
+    count = hn::ConcatEven(du, s[1], s[0]);
+    chan[0] = hn::ConcatOdd(du, s[1], s[0]);
   }
-}
-
-void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
-                         std::uint32_t* HWY_RESTRICT elements) {
-  const hn::ScalableTag<float> df;
-  const hn::RebindToSigned<decltype(df)> di;
-  const hn::RebindToUnsigned<decltype(df)> du;
-  const int n = static_cast<int>(hn::Lanes(df));
-  int u = 0;
-  for (; u + n <= cols; u += n) {
-    const auto zv = hn::LoadU(df, z + u);
-    const auto ok = zv > hn::Zero(df);
-    const auto count = hn::IfThenElseZero(hn::RebindMask(di, ok), hn::Set(di, 1));
-    hn::StoreInterleaved2(hn::BitCast(du, count), hn::BitCast(du, toFixed(df, di, zv, ok)), du,
-                          elements + 2 * u);
-  }
-  for (; u < cols; ++u) {
-    const bool ok = z[u] > 0.0f;
-    elements[2 * u] = ok;
-    elements[2 * u + 1] = fixedScalar(z[u], ok);
-  }
+#endif
 }
 
 // Groups of up to eight pixels (four on 128-bit targets): where the valid pixels of a group
@@ -208,21 +65,16 @@ void DepthChangeElements(const float* HWY_RESTRICT z, int cols,
 template <class GroupTag>
 struct GroupKernels {
   using GroupVec = hn::Vec<GroupTag>;
+  using WordTag = hn::RebindToUnsigned<GroupTag>;
+  using WordVec = hn::Vec<WordTag>;
+  static constexpr int kMaxLanes = static_cast<int>(hn::MaxLanes(GroupTag()));
 
-  // The window means of centres x..x+N-1 from their window sums (elements interleaved), into the
-  // cache.
+  // The window means of centres x..x+N-1 from their window sums (channels), into the cache.
   template <GradientMode M>
-  static HWY_INLINE void StoreMeans(const GradientRow& g, const std::uint32_t* sums, float* means,
-                                    int x) {
+  static HWY_INLINE void StoreMeans(const GradientRow& g, const WordVec* chan, WordVec count,
+                                    float* means, int x) {
     const GroupTag df;
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
-    hn::Vec<decltype(du)> chan[3], count;
-    if constexpr (M == GradientMode::k3dGradient) {
-      hn::LoadInterleaved4(du, sums, chan[0], chan[1], chan[2], count);
-    } else {
-      hn::LoadInterleaved2(du, sums, count, chan[0]);  // (count, z): no borrow between them
-    }
     const auto nf = hn::ConvertTo(df, hn::BitCast(di, count));
     // 1 / n correctly rounded (the inv_count table's values), 0 for n = 0.
     const auto inv_n = hn::IfThenElseZero(nf > hn::Zero(df), hn::Set(df, 1.0f) / nf);
@@ -238,20 +90,21 @@ struct GroupKernels {
                                     int r) {
     constexpr int L = elementWords(M);
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
+    const WordTag du;
     const int n = static_cast<int>(hn::Lanes(du));
     hn::StoreU(hn::Set(di, r), di, radii + x);
     const std::ptrdiff_t dh = (2 * r + 1) * L;
     const std::uint32_t* a = g.integral[y - r] + (x - r) * L;
     const std::uint32_t* c = g.integral[y + r + 1] + (x - r) * L;
     // The window sums of the N centres (wrapped four-corner differences), elements interleaved.
-    HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
-    for (int i = 0; i < L * n; i += n) {
-      const auto s = hn::LoadU(du, c + dh + i) - hn::LoadU(du, a + dh + i) - hn::LoadU(du, c + i) +
-                     hn::LoadU(du, a + i);
-      hn::Store(s, du, sums + i);
+    WordVec s[L];
+    for (int i = 0; i < L; ++i) {
+      s[i] = hn::LoadU(du, c + dh + i * n) - hn::LoadU(du, a + dh + i * n) -
+             hn::LoadU(du, c + i * n) + hn::LoadU(du, a + i * n);
     }
-    StoreMeans<M>(g, sums, means, x);
+    WordVec chan[3], count;
+    DeinterleaveSums<M>(du, s, chan, count);
+    StoreMeans<M>(g, chan, count, means, x);
   }
 
   // cacheWindow() for centres x..x+N-1, centre x + k with radius radius[k].
@@ -260,24 +113,52 @@ struct GroupKernels {
                                       const int* radius) {
     constexpr int L = elementWords(M);
     const hn::RebindToSigned<GroupTag> di;
-    const hn::RebindToUnsigned<GroupTag> du;
-    const int n = static_cast<int>(hn::Lanes(du));
+    const WordTag du;
     hn::StoreU(hn::LoadU(di, radius), di, radii + x);
-    HWY_ALIGN std::uint32_t sums[4 * hn::MaxLanes(decltype(du)())];
-    const hn::CappedTag<std::uint32_t, L> de;  // one element (fewer lanes on the scalar target)
-    const int ne = static_cast<int>(hn::Lanes(de));
-    for (int k = 0; k < n; ++k) {
-      const int r = radius[k];
-      const std::ptrdiff_t dh = (2 * r + 1) * L;
-      const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
-      const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
-      for (int j = 0; j < L; j += ne) {
-        const auto e = hn::LoadU(de, c + dh + j) - hn::LoadU(de, a + dh + j) -
-                       hn::LoadU(de, c + j) + hn::LoadU(de, a + j);
-        hn::StoreU(e, de, sums + k * L + j);
+    WordVec chan[3], count;
+#if HWY_TARGET != HWY_SCALAR
+    if constexpr (kMaxLanes == 4) {
+      // Lane k's window sum in the low L words of s[k] (a four-word load: the depth change's
+      // reads two words past the element, within the ring's slack).
+      WordVec s[4];
+      for (int k = 0; k < 4; ++k) {
+        const int r = radius[k];
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
+        const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
+        s[k] = hn::LoadU(du, c + dh) - hn::LoadU(du, a + dh) - hn::LoadU(du, c) + hn::LoadU(du, a);
       }
+      if constexpr (M == GradientMode::kDepthChange) {  // the pairs as they lie in memory
+        const hn::Repartition<std::uint64_t, WordTag> d64;
+        s[0] = hn::BitCast(
+            du, hn::InterleaveLower(d64, hn::BitCast(d64, s[0]), hn::BitCast(d64, s[1])));
+        s[1] = hn::BitCast(
+            du, hn::InterleaveLower(d64, hn::BitCast(d64, s[2]), hn::BitCast(d64, s[3])));
+      }
+      DeinterleaveSums<M>(du, s, chan, count);
+    } else
+#endif
+    {
+      const int n = static_cast<int>(hn::Lanes(du));
+      HWY_ALIGN std::uint32_t sums[4 * kMaxLanes];
+      const hn::CappedTag<std::uint32_t, L> de;  // one element (fewer lanes on the scalar target)
+      const int ne = static_cast<int>(hn::Lanes(de));
+      for (int k = 0; k < n; ++k) {
+        const int r = radius[k];
+        const std::ptrdiff_t dh = (2 * r + 1) * L;
+        const std::uint32_t* a = g.integral[y - r] + (x + k - r) * L;
+        const std::uint32_t* c = g.integral[y + r + 1] + (x + k - r) * L;
+        for (int j = 0; j < L; j += ne) {
+          const auto e = hn::LoadU(de, c + dh + j) - hn::LoadU(de, a + dh + j) -
+                         hn::LoadU(de, c + j) + hn::LoadU(de, a + j);
+          hn::StoreU(e, de, sums + k * L + j);
+        }
+      }
+      WordVec s[L];
+      for (int i = 0; i < L; ++i) s[i] = hn::Load(du, sums + i * n);
+      DeinterleaveSums<M>(du, s, chan, count);
     }
-    StoreMeans<M>(g, sums, means, x);
+    StoreMeans<M>(g, chan, count, means, x);
   }
 
   // Makes the cache hold the windows of `radius` (one per lane) at centres x..x+N-1.
@@ -411,8 +292,11 @@ struct GroupKernels {
 
   // Pixels u..u+N-1: NaN without valid pixels; together where the windows of centres
   // u - 1 .. u + N lie inside the image (a valid pixel's radius is bounded by the border; invalid
-  // ones ride along with r, which fits the rows). Groups whose valid pixels have different radii
-  // are done lane by lane only with `lane_radii`, else left to the caller (kMixed).
+  // ones ride along with r, which fits the rows). Other groups (valid pixels of different radii,
+  // or the image border) are done lane by lane only with `lane_radii`, else left to the caller
+  // (kMixed, kBorder). Lane by lane, invalid pixels ride along with r or, at the border, the
+  // largest radius the image width leaves them; where that is none (the outermost two columns),
+  // the group is left to the caller (kBorder).
   template <GradientMode M>
   static HWY_INLINE Outcome Group(const GradientRow& g, int u, bool lane_radii) {
     const GroupTag df;
@@ -426,15 +310,19 @@ struct GroupKernels {
       return Outcome::kDone;
     }
     const int r = g.radius[u + hn::FindFirstTrue(di, hn::Not(invalid))];
-    if (u - 1 - r < 0 || u + n + 1 + r > g.cols) return Outcome::kBorder;
+    const bool border = u - 1 - r < 0 || u + n + 1 + r > g.cols;
     const auto lanes = radii == hn::Set(di, r);
     GroupVec nx, ny, nz;
-    if (hn::AllTrue(di, hn::Or(invalid, lanes))) {
+    if (!border && hn::AllTrue(di, hn::Or(invalid, lanes))) {
       GroupNormals<M>(g, u, r, hn::RebindMask(df, lanes), nx, ny, nz);
     } else {
-      if (!lane_radii) return Outcome::kMixed;
+      if (!lane_radii) return border ? Outcome::kBorder : Outcome::kMixed;
+      const auto column = hn::Iota(di, 0) + hn::Set(di, u);
+      const auto column_bound = hn::Min(column, hn::Set(di, g.cols - 1) - column) - hn::Set(di, 1);
+      const auto ride = hn::Min(hn::Set(di, r), column_bound);  // r away from the border
+      if (!hn::AllTrue(di, hn::Or(hn::Not(invalid), ride > hn::Zero(di)))) return Outcome::kBorder;
       HWY_ALIGN int lane_radius[hn::MaxLanes(decltype(di)())];
-      hn::Store(hn::IfThenElse(invalid, hn::Set(di, r), radii), di, lane_radius);
+      hn::Store(hn::IfThenElse(invalid, ride, radii), di, lane_radius);
       LanesNormals<M>(g, u, lane_radius, hn::RebindMask(df, hn::Not(invalid)), nx, ny, nz);
     }
     NormalizeGroup(g, u, nx, ny, nz);
@@ -462,18 +350,24 @@ template <GradientMode M>
 void NormalsRow(const GradientRow& g) {
   const int wide = static_cast<int>(hn::Lanes(hn::CappedTag<float, 8>()));
   const int narrow = static_cast<int>(hn::Lanes(hn::CappedTag<float, 4>()));
-  const bool split = narrow < wide;
   const int cols = g.cols;
   int u = 0;
-  for (; u + wide <= cols; u += wide) {
-    const auto outcome = WideGroups::Group<M>(g, u, !split);
-    if (outcome == WideGroups::Outcome::kBorder) {
-      WideGroups::PixelByPixel<M>(g, u);
-    } else if (outcome == WideGroups::Outcome::kMixed) {
-      for (int h = u; h < u + wide; h += narrow)
-        if (NarrowGroups::Group<M>(g, h, true) == NarrowGroups::Outcome::kBorder)
-          NarrowGroups::PixelByPixel<M>(g, h);
+  if (narrow < wide) {
+    // A group of eight that is not done (mixed radii or the border) is done as a group of four,
+    // and the groups of eight go on four pixels later.
+    while (u + narrow <= cols) {
+      if (u + wide <= cols && WideGroups::Group<M>(g, u, false) == WideGroups::Outcome::kDone) {
+        u += wide;
+        continue;
+      }
+      if (NarrowGroups::Group<M>(g, u, true) == NarrowGroups::Outcome::kBorder)
+        NarrowGroups::PixelByPixel<M>(g, u);
+      u += narrow;
     }
+  } else {
+    for (; u + wide <= cols; u += wide)
+      if (WideGroups::Group<M>(g, u, true) == WideGroups::Outcome::kBorder)
+        WideGroups::PixelByPixel<M>(g, u);
   }
   for (int k = u; k < cols; ++k) unnormalisedNormal<M>(g, k);
   normalizePixels(g, u, cols);
@@ -489,40 +383,9 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace shapesense::detail {
 
-HWY_EXPORT(DepthRowToZ);
-HWY_EXPORT(PointsRow);
-HWY_EXPORT(WindowRadiusRow);
-HWY_EXPORT(GradientElementsFromDepth);
-HWY_EXPORT(GradientElementsFromPoints);
-HWY_EXPORT(DepthChangeElements);
-HWY_EXPORT(IntegrateGradientRow);
 HWY_EXPORT(GradientNormalsRow);
 HWY_EXPORT(DepthChangeNormalsRow);
 
-void depthRowToZ(const std::uint16_t* depth_mm, int cols, float* z) {
-  HWY_DYNAMIC_DISPATCH(DepthRowToZ)(depth_mm, cols, z);
-}
-void pointsRow(const float* z, const float* ray_x, float ray_y, int cols, float* xyz) {
-  HWY_DYNAMIC_DISPATCH(PointsRow)(z, ray_x, ray_y, cols, xyz);
-}
-void windowRadiusRow(const float* zrow, const std::int16_t* step_distance,
-                     const float* column_bound, int cols, const RadiusRule& rule, int* radius) {
-  HWY_DYNAMIC_DISPATCH(WindowRadiusRow)(zrow, step_distance, column_bound, cols, rule, radius);
-}
-void gradientElementsFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
-                               std::uint32_t* elements) {
-  HWY_DYNAMIC_DISPATCH(GradientElementsFromDepth)(z, ray_x, ray_y, cols, elements);
-}
-void gradientElementsFromPoints(const float* xyz, int cols, std::uint32_t* elements) {
-  HWY_DYNAMIC_DISPATCH(GradientElementsFromPoints)(xyz, cols, elements);
-}
-void integrateGradientRow(const std::uint32_t* elements, int cols, const std::uint32_t* above,
-                          std::uint32_t* row) {
-  HWY_DYNAMIC_DISPATCH(IntegrateGradientRow)(elements, cols, above, row);
-}
-void depthChangeElements(const float* z, int cols, std::uint32_t* elements) {
-  HWY_DYNAMIC_DISPATCH(DepthChangeElements)(z, cols, elements);
-}
 void gradientNormalsRow(const GradientRow& row) { HWY_DYNAMIC_DISPATCH(GradientNormalsRow)(row); }
 void depthChangeNormalsRow(const GradientRow& row) {
   HWY_DYNAMIC_DISPATCH(DepthChangeNormalsRow)(row);

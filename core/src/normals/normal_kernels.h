@@ -1,10 +1,12 @@
 #pragma once
 // The normals' SIMD kernels, written once with Google Highway and dispatched at run time to the
-// best target the CPU has (the step map's in step_map_kernels.cpp, the others in
-// normal_kernels.cpp). Each kernel does a whole row (its vector steps, then the last pixels
-// one at a time with the same operations) and computes the same bits on every target, the
-// scalar one included: integer work, and float work in the order of the scalar definition
-// without fused multiply-adds. Internal to core/src/normals/.
+// best target the CPU has (the step map's in step_map_kernels.cpp, the input, window radii and
+// integral rows in integral_kernels.cpp, the gradient modes' normals in normal_kernels.cpp). Each
+// kernel does a whole row (its vector steps, then the last pixels one at a time with the same
+// operations) and computes the same bits on every target, the scalar one included: integer work,
+// and float work in the order of the scalar definition without fused multiply-adds. At most
+// 256-bit vectors (on AVX3 the 512-bit ones made the whole stage slower). Internal to
+// core/src/normals/.
 
 #include <cstdint>
 
@@ -59,18 +61,20 @@ struct RadiusRule {
 void windowRadiusRow(const float* zrow, const std::int16_t* step_distance,
                      const float* column_bound, int cols, const RadiusRule& rule, int* radius);
 
-/// The 3D-gradient integral image's elements of a row: (x, y, z, count) per pixel in 0.1 mm
-/// fixed point (truncated), 0 where z is invalid. From depth (the points are z times the rays) or
-/// from an interleaved point row.
-void gradientElementsFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
-                               std::uint32_t* elements);
+/// The 3D-gradient integral image's elements of a row of point input: (x, y, z, count) per
+/// pixel in 0.1 mm fixed point (truncated), 0 where z is invalid.
 void gradientElementsFromPoints(const float* xyz, int cols, std::uint32_t* elements);
 /// Integral row of the 3D gradient: `row` = `above` + the running sum of the row's elements
 /// (both cols + 1 elements, the first zero; wrapping uint32).
 void integrateGradientRow(const std::uint32_t* elements, int cols, const std::uint32_t* above,
                           std::uint32_t* row);
-/// The depth-change integral image's elements of a row: (count, z) pairs, z as above.
-void depthChangeElements(const float* z, int cols, std::uint32_t* elements);
+/// The same from depth input (the points are z times the rays), without the elements' buffer.
+void integrateGradientRowFromDepth(const float* z, const float* ray_x, float ray_y, int cols,
+                                   const std::uint32_t* above, std::uint32_t* row);
+/// Integral row of the depth change: (count, z) pairs (z as above) as uint64, count in the low
+/// half; `row` = `above` + the running sum (cols + 1 pairs, the first zero).
+void integrateDepthChangeRow(const float* z, int cols, const std::uint32_t* above,
+                             std::uint32_t* row);
 
 struct GradientRow;  // gradient_windows.h
 /// The unit normals of one output row of the 3D-gradient or the depth-change mode (see

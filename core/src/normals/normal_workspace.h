@@ -42,7 +42,7 @@ struct CovarianceBuffers {
 struct GradientBuffers {
   std::vector<std::uint32_t> packed;          // ring of rows of the packed integral image
   std::vector<std::uint32_t*> integral_rows;  // each integral row's place in `packed`
-  std::vector<std::uint32_t> elements;        // one image row's fixed-point elements
+  std::vector<std::uint32_t> elements;        // point input: one row's fixed-point elements
   std::vector<int> radius;                    // one row of window radii, 0 = no normal
   std::vector<int> min_count;                 // fewest valid pixels per window radius
   std::vector<float> column_bound;            // largest radius the image width allows per column

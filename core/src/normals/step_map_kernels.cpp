@@ -28,7 +28,7 @@ inline float stepThreshold(const StepRule& rule, float zmin, int gap1) {
 void MarkVerticalSteps(const float* HWY_RESTRICT zrow, int v, int cols, const StepRule& rule,
                        float* HWY_RESTRICT last_z, int* HWY_RESTRICT last_v,
                        std::uint8_t* HWY_RESTRICT marks, std::size_t marks_stride) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const int n = static_cast<int>(hn::Lanes(df));
   const auto factor = hn::Set(df, rule.factor), noise_k = hn::Set(df, rule.noise_k);
@@ -71,7 +71,7 @@ void MarkVerticalSteps(const float* HWY_RESTRICT zrow, int v, int cols, const St
 
 int MarkHorizontalSteps(const float* HWY_RESTRICT zrow, int cols, const StepRule& rule,
                         std::uint8_t* HWY_RESTRICT marks, int* HWY_RESTRICT after_hole) {
-  const hn::ScalableTag<float> df;
+  const hn::CappedTag<float, 8> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::uint8_t, decltype(di)> du8;
   const int n = static_cast<int>(hn::Lanes(df));
@@ -107,7 +107,7 @@ int MarkHorizontalSteps(const float* HWY_RESTRICT zrow, int cols, const StepRule
 
 void InitStepDistanceRow(const std::uint8_t* HWY_RESTRICT marks, int cols, std::int16_t far,
                          std::int16_t* HWY_RESTRICT d) {
-  const hn::ScalableTag<std::int16_t> di;
+  const hn::CappedTag<std::int16_t, 16> di;
   const hn::Rebind<std::uint8_t, decltype(di)> du8;
   const int n = static_cast<int>(hn::Lanes(di));
   const auto vfar = hn::Set(di, far);
@@ -122,7 +122,7 @@ void InitStepDistanceRow(const std::uint8_t* HWY_RESTRICT marks, int cols, std::
 
 void FoldStepDistanceRow(const std::int16_t* HWY_RESTRICT o, int cols,
                          std::int16_t* HWY_RESTRICT d) {
-  const hn::ScalableTag<std::int16_t> di;
+  const hn::CappedTag<std::int16_t, 16> di;
   const int n = static_cast<int>(hn::Lanes(di));
   const auto one = hn::Set(di, 1);
   int u = 1;
@@ -139,51 +139,93 @@ void FoldStepDistanceRow(const std::int16_t* HWY_RESTRICT o, int cols,
   }
 }
 
-// The running minimum d[u] = min over k >= 0 of (d[u - k dir] + k), eight pixels per step: three
-// shift-add-min steps within the block (k < 8), then the block before enters as its edge value +
-// 1..8. The minima are exact, so this gives the serial recurrence's values. Lanes shifted in get
-// `big` ("no value": it saturates when incremented). Returns the first pixel not scanned.
+// The running minimum d[u] = min over k >= 0 of (d[u - k dir] + k), a vector of pixels per step
+// (sixteen where vectors have 256 bits, else eight): shift-add-min steps within the vector
+// (k < its lanes), then the vector before enters as its edge value + 1, 2, ... The minima are
+// exact, so this gives the serial recurrence's values. Lanes shifted in get `big` ("no value": it
+// saturates when incremented). Returns the first pixel not scanned.
 #if HWY_TARGET == HWY_SCALAR
 int ScanBlocks(std::int16_t*, int cols, int dir) { return dir > 0 ? 0 : cols - 1; }
 #else
+// Lane i takes lane i - kShift (towards the end) or i + kShift (towards the start); `big` fills
+// the lanes shifted in. 128-bit vectors: one byte alignment. 256-bit: the other block's half
+// first (lanes across the blocks), then the alignment within each block.
 template <int kShift, class D, class V>
-HWY_INLINE V towardsEnd(D d, V x, V big) {  // lane i takes lane i - kShift
-  return hn::Or(hn::ShiftLeftLanes<kShift>(d, x), hn::ShiftRightLanes<8 - kShift>(d, big));
+HWY_INLINE V towardsEnd(D d, V x, V big) {
+  constexpr int kLanes = static_cast<int>(hn::MaxLanes(D()));
+  if constexpr (kLanes == 8) {
+    return hn::CombineShiftRightBytes<16 - 2 * kShift>(d, x, big);
+  } else {
+    static_assert(kLanes == 16, "128 or 256 bits");
+    const V t = hn::ConcatLowerLower(d, x, big);  // big's lower block, x's lower block
+    if constexpr (kShift == 8)
+      return t;
+    else
+      return hn::CombineShiftRightBytes<16 - 2 * kShift>(d, x, t);
+  }
 }
 template <int kShift, class D, class V>
-HWY_INLINE V towardsStart(D d, V x, V big) {  // lane i takes lane i + kShift
-  return hn::Or(hn::ShiftRightLanes<kShift>(d, x), hn::ShiftLeftLanes<8 - kShift>(d, big));
+HWY_INLINE V towardsStart(D d, V x, V big) {
+  constexpr int kLanes = static_cast<int>(hn::MaxLanes(D()));
+  if constexpr (kLanes == 8) {
+    return hn::CombineShiftRightBytes<2 * kShift>(d, big, x);
+  } else {
+    static_assert(kLanes == 16, "128 or 256 bits");
+    const V t = hn::ConcatUpperUpper(d, big, x);  // x's upper block, big's upper block
+    if constexpr (kShift == 8)
+      return t;
+    else
+      return hn::CombineShiftRightBytes<2 * kShift>(d, t, x);
+  }
+}
+// Every lane: lane kLane of the vector.
+template <int kLane, class D, class V>
+HWY_INLINE V broadcastLane(D d, V x) {
+  constexpr int kLanes = static_cast<int>(hn::MaxLanes(D()));
+  if constexpr (kLanes == 8) {
+    return hn::Broadcast<kLane>(x);
+  } else {
+    const V b = hn::Broadcast<kLane % 8>(x);  // within each block
+    if constexpr (kLane < 8)
+      return hn::ConcatLowerLower(d, b, b);
+    else
+      return hn::ConcatUpperUpper(d, b, b);
+  }
 }
 
 int ScanBlocks(std::int16_t* HWY_RESTRICT d, int cols, int dir) {
-  const hn::Full128<std::int16_t> d8;
-  const auto big = hn::Set(d8, 0x7fff);
-  auto k = [&](int value) { return hn::Set(d8, static_cast<std::int16_t>(value)); };
-  auto carry = big;  // the value before the block, in every lane
+  const hn::CappedTag<std::int16_t, 16> dv;
+  constexpr int n = static_cast<int>(hn::MaxLanes(dv));
+  const auto big = hn::Set(dv, 0x7fff);
+  auto k = [&](int value) { return hn::Set(dv, static_cast<std::int16_t>(value)); };
+  auto carry = big;  // the value before the vector, in every lane
   int u;
   if (dir > 0) {
-    const auto ramp = hn::Iota(d8, 1);  // 1..8
-    for (u = 0; u + 8 <= cols; u += 8) {
-      auto x = hn::LoadU(d8, d + u);
-      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<1>(d8, x, big), k(1)));
-      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<2>(d8, x, big), k(2)));
-      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<4>(d8, x, big), k(4)));
-      // The next carry without waiting for the block's own result: one add and one min a block.
-      const auto next = hn::Min(hn::Broadcast<7>(x), hn::SaturatedAdd(carry, k(8)));
-      hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp)), d8, d + u);
+    const auto ramp = hn::Iota(dv, 1);  // 1..n
+    for (u = 0; u + n <= cols; u += n) {
+      auto x = hn::LoadU(dv, d + u);
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<1>(dv, x, big), k(1)));
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<2>(dv, x, big), k(2)));
+      x = hn::Min(x, hn::SaturatedAdd(towardsEnd<4>(dv, x, big), k(4)));
+      if constexpr (n == 16) x = hn::Min(x, hn::SaturatedAdd(towardsEnd<8>(dv, x, big), k(8)));
+      // The next carry without waiting for the vector's own result: one add and one min a step.
+      const auto next = hn::Min(broadcastLane<n - 1>(dv, x), hn::SaturatedAdd(carry, k(n)));
+      hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp)), dv, d + u);
       carry = next;
     }
     return u;
   }
-  HWY_ALIGN static constexpr std::int16_t kRampBack[8] = {8, 7, 6, 5, 4, 3, 2, 1};
-  const auto ramp_back = hn::Load(d8, kRampBack);
-  for (u = cols - 1; u - 7 >= 0; u -= 8) {
-    auto x = hn::LoadU(d8, d + u - 7);
-    x = hn::Min(x, hn::SaturatedAdd(towardsStart<1>(d8, x, big), k(1)));
-    x = hn::Min(x, hn::SaturatedAdd(towardsStart<2>(d8, x, big), k(2)));
-    x = hn::Min(x, hn::SaturatedAdd(towardsStart<4>(d8, x, big), k(4)));
-    const auto next = hn::Min(hn::Broadcast<0>(x), hn::SaturatedAdd(carry, k(8)));
-    hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp_back)), d8, d + u - 7);
+  HWY_ALIGN static constexpr std::int16_t kRampBack[16] = {16, 15, 14, 13, 12, 11, 10, 9,
+                                                           8,  7,  6,  5,  4,  3,  2,  1};
+  const auto ramp_back = hn::LoadU(dv, kRampBack + 16 - n);  // n..1
+  for (u = cols - 1; u - (n - 1) >= 0; u -= n) {
+    auto x = hn::LoadU(dv, d + u - (n - 1));
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<1>(dv, x, big), k(1)));
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<2>(dv, x, big), k(2)));
+    x = hn::Min(x, hn::SaturatedAdd(towardsStart<4>(dv, x, big), k(4)));
+    if constexpr (n == 16) x = hn::Min(x, hn::SaturatedAdd(towardsStart<8>(dv, x, big), k(8)));
+    const auto next = hn::Min(broadcastLane<0>(dv, x), hn::SaturatedAdd(carry, k(n)));
+    hn::StoreU(hn::Min(x, hn::SaturatedAdd(carry, ramp_back)), dv, d + u - (n - 1));
     carry = next;
   }
   return u;
