@@ -119,6 +119,97 @@ std::string belowFloor(const RecordLimits& limits, std::uintmax_t free) {
   return message.str();
 }
 
+/// One running recording: the frames the tap queues, the writer of the recording directory and
+/// the progress the client is told.
+class RecordingSession {
+ public:
+  RecordingSession(const ServiceContext& context, fs::path dir,
+                   const std::function<bool(const v1::RecordProgress&)>& write)
+      : context_(context),
+        dir_(std::move(dir)),
+        write_(write),
+        subscription_(std::make_unique<FrameTapSubscription>(
+            *context.frame_tap,
+            [this](const std::shared_ptr<const Frame>& frame) { queue_.push(frame); })) {}
+
+  /// Past the deadline, or once the source has ended, takes no more frames.
+  void stopTakingFramesIfDone(Clock::time_point deadline) {
+    if (subscription_ &&
+        (Clock::now() >= deadline || sourceFinished(context_.pipeline_status().state)))
+      subscription_.reset();
+  }
+  bool takingFrames() const { return subscription_ != nullptr; }
+  /// The next queued frame, waiting until `until` at most.
+  std::shared_ptr<const Frame> nextFrame(Clock::time_point until) { return queue_.pop(until); }
+
+  /// Appends a frame; a failure is an INTERNAL status saying what was kept.
+  grpc::Status write(const Frame& frame) {
+    try {
+      if (!out_) {
+        RecordingCamera camera;
+        camera.intrinsics = frame.intrinsics;
+        out_.emplace(dir_, camera);
+      }
+      out_->write(frame);
+      ++written_;
+    } catch (const std::exception& e) {
+      return stopped(grpc::StatusCode::INTERNAL,
+                     std::string("writing the recording failed: ") + e.what());
+    }
+    return grpc::Status::OK;
+  }
+
+  bool progressDue() const { return Clock::now() - last_sent_ >= kProgressInterval; }
+  /// Tells the client how far the recording is; false when the client went away.
+  bool sendProgress(bool done) {
+    v1::RecordProgress message;
+    message.set_frames_written(written_);
+    message.set_seconds(std::chrono::duration<double>(Clock::now() - start_).count());
+    message.set_done(done);
+    message.set_dir(dir_.string());
+    message.set_frames_dropped(queue_.droppedCount());
+    last_sent_ = Clock::now();
+    return write_(message);
+  }
+
+  /// A status that ends the recording early, saying that what was written stays usable.
+  grpc::Status stopped(grpc::StatusCode code, const std::string& why) const {
+    return {code, why + "; " + std::to_string(written_) + " frame(s) written to " + dir_.string() +
+                      " stay a valid recording"};
+  }
+
+  Clock::time_point start() const { return start_; }
+
+ private:
+  const ServiceContext& context_;
+  const fs::path dir_;
+  const std::function<bool(const v1::RecordProgress&)>& write_;
+  FrameQueue queue_;
+  std::unique_ptr<FrameTapSubscription> subscription_;
+  std::optional<TumRecordingWriter> out_;
+  std::uint64_t written_ = 0;
+  const Clock::time_point start_ = Clock::now();
+  Clock::time_point last_sent_ = start_;
+};
+
+/// Why a running recording must stop now (cancelled, shutting down, disk below the floor, the
+/// client gone), or OK.
+grpc::Status reasonToStop(const ServiceContext& context,
+                          const grpc::ServerContextBase* server_context,
+                          RecordingSession& session) {
+  if (server_context->IsCancelled())
+    return session.stopped(grpc::StatusCode::CANCELLED, "recording cancelled");
+  if (context.shuttingDown())
+    return session.stopped(grpc::StatusCode::UNAVAILABLE, "the daemon is shutting down");
+  if (!session.progressDue()) return grpc::Status::OK;
+  if (const auto free = freeBytes(context.record); free < context.record.min_free_bytes)
+    return session.stopped(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                           "recording stopped: " + belowFloor(context.record, free));
+  if (!session.sendProgress(false))
+    return session.stopped(grpc::StatusCode::CANCELLED, "the client went away");
+  return grpc::Status::OK;
+}
+
 }  // namespace
 
 grpc::Status handleRecord(const ServiceContext& context,
@@ -127,7 +218,6 @@ grpc::Status handleRecord(const ServiceContext& context,
                           const std::function<bool(const v1::RecordProgress&)>& write) {
   if (grpc::Status refused = refusal(context, request); !refused.ok()) return refused;
   const RecordLimits& limits = context.record;
-  const double seconds = request.seconds();
   if (context.recording->exchange(true)) {
     return {grpc::StatusCode::ABORTED,
             "another recording is running on this daemon (one at a time); retry when it is done"};
@@ -142,71 +232,21 @@ grpc::Status handleRecord(const ServiceContext& context,
     return made;
   }
 
-  FrameQueue queue;
-  auto subscription = std::make_unique<FrameTapSubscription>(
-      *context.frame_tap,
-      [&queue](const std::shared_ptr<const Frame>& frame) { queue.push(frame); });
-  const auto start = Clock::now();
-  const auto deadline =
-      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  std::optional<TumRecordingWriter> out;
-  std::uint64_t written = 0;
-  auto last_sent = start;
-
-  const auto progress = [&](bool done) {
-    v1::RecordProgress message;
-    message.set_frames_written(written);
-    message.set_seconds(std::chrono::duration<double>(Clock::now() - start).count());
-    message.set_done(done);
-    message.set_dir(dir.string());
-    message.set_frames_dropped(queue.droppedCount());
-    last_sent = Clock::now();
-    return write(message);
-  };
-  const auto stopped_after = [&] {
-    return std::to_string(written) + " frame(s) written to " + dir.string() +
-           " stay a valid recording";
-  };
-
+  RecordingSession session(context, dir, write);
+  const auto deadline = session.start() + std::chrono::duration_cast<Clock::duration>(
+                                              std::chrono::duration<double>(request.seconds()));
   while (true) {
+    // Once no more frames are taken, the queued ones are still written.
+    session.stopTakingFramesIfDone(deadline);
     const auto now = Clock::now();
-    // Past the deadline, or the source has ended: take no more frames, write those queued.
-    if (subscription && (now >= deadline || sourceFinished(context.pipeline_status().state))) {
-      subscription.reset();
-    }
-    auto frame = queue.pop(subscription ? std::min(deadline, now + kProgressInterval) : now);
-    if (!frame && !subscription) break;
-    if (frame) {
-      try {
-        if (!out) {
-          RecordingCamera camera;
-          camera.intrinsics = frame->intrinsics;
-          out.emplace(dir, camera);
-        }
-        out->write(*frame);
-        ++written;
-      } catch (const std::exception& e) {
-        return {grpc::StatusCode::INTERNAL,
-                std::string("writing the recording failed: ") + e.what() + "; " + stopped_after()};
-      }
-    }
-    if (server_context->IsCancelled()) {
-      return {grpc::StatusCode::CANCELLED, "recording cancelled; " + stopped_after()};
-    }
-    if (context.shuttingDown()) {
-      return {grpc::StatusCode::UNAVAILABLE, "the daemon is shutting down; " + stopped_after()};
-    }
-    if (Clock::now() - last_sent >= kProgressInterval) {
-      if (const auto free = freeBytes(limits); free < limits.min_free_bytes) {
-        return {grpc::StatusCode::RESOURCE_EXHAUSTED,
-                "recording stopped: " + belowFloor(limits, free) + "; " + stopped_after()};
-      }
-      if (!progress(false)) {
-        return {grpc::StatusCode::CANCELLED, "the client went away; " + stopped_after()};
-      }
-    }
+    const auto frame = session.nextFrame(
+        session.takingFrames() ? std::min(deadline, now + kProgressInterval) : now);
+    if (!frame && !session.takingFrames()) break;
+    if (frame)
+      if (grpc::Status written = session.write(*frame); !written.ok()) return written;
+    if (grpc::Status stop = reasonToStop(context, server_context, session); !stop.ok()) return stop;
   }
-  progress(true);
+  session.sendProgress(true);
   return grpc::Status::OK;
 }
 
