@@ -7,7 +7,7 @@
 #include <utility>
 
 #include "planes/hough_detector_steps.h"
-#include "planes/moment_sums.h"
+#include "shapesense/core/geometry/moment_sums.h"
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {

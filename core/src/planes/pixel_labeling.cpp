@@ -205,8 +205,9 @@ inline int firstMomentPixel(int u0) {
   return (u0 + kMomentStride - 1) / kMomentStride * kMomentStride;
 }
 
-// The six sums of a run's moments (see addRunMoments).
-struct RunSums {
+// The six sums of a run's moments in the row's own terms (see addRunMoments): MomentSums needs
+// ten, because it cannot use that y / z is constant along an image row.
+struct RowMomentSums {
   double n = 0, sz = 0, szz = 0, sxz = 0, sxzz = 0, sxxzz = 0;
   void add(double z, double xr) {
     const double xz = xr * z;
@@ -217,7 +218,7 @@ struct RunSums {
     sxzz += xz * z;
     sxxzz += xz * xz;
   }
-  void add(const RunSums& o) {
+  void add(const RowMomentSums& o) {
     n += o.n;
     sz += o.sz;
     szz += o.szz;
@@ -247,7 +248,7 @@ template <bool kColour>
 void addRunMoments(const std::uint16_t* drow, const std::uint16_t* lrow, const cv::Vec3b* crow,
                    int u0, int u1, std::uint16_t label, const double* xr, double yr,
                    RegionAccumulator& reg) {
-  RunSums even, odd;
+  RowMomentSums even, odd;
   RunColour colour;
   int u = firstMomentPixel(u0);
   for (; u + kMomentStride < u1; u += 2 * kMomentStride) {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "planes/hough_detector_steps.h"
-#include "planes/moment_sums.h"
+#include "shapesense/core/geometry/moment_sums.h"
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {

@@ -4,6 +4,7 @@
 #include <climits>
 #include <vector>
 
+#include "shapesense/core/geometry/moment_sums.h"
 #include "shapesense/core/geometry/plane_fitting.h"
 
 namespace shapesense {
@@ -13,24 +14,6 @@ struct RegionAccumulator {
   // Reference: the region's first point, so the sums of a far region keep their precision.
   PlaneMoments moments;
   int u0 = INT_MAX, v0 = INT_MAX, u1 = -1, v1 = -1;
-};
-
-// Sums of the offsets (a, b, c) of a run's points from a reference point: kept in registers
-// along the run and added to the region once, instead of a random-access update per pixel.
-struct RunSums {
-  double n = 0, a = 0, b = 0, c = 0, aa = 0, ab = 0, ac = 0, bb = 0, bc = 0, cc = 0;
-  void add(double x, double y, double z) {
-    n += 1.0;
-    a += x;
-    b += y;
-    c += z;
-    aa += x * x;
-    ab += x * y;
-    ac += x * z;
-    bb += y * y;
-    bc += y * z;
-    cc += z * z;
-  }
 };
 
 // Adds the pixels with depth in drow[u0, u1) (one region, image row v) to `region`.
@@ -46,15 +29,14 @@ void addRun(const std::uint16_t* drow, int u0, int u1, int v, const double* xr, 
     region.moments = PlaneMoments(Eigen::Vector3d(xr[first] * z, yr * z, z));
   }
   const Eigen::Vector3d& o = region.moments.reference();
-  RunSums s;
+  // Summed in locals along the run, added to the region once.
+  MomentSums run;
   for (int u = first; u <= last; ++u) {
     if (drow[u] == 0) continue;
     const double z = drow[u] * 1e-3;
-    s.add(xr[u] * z - o.x(), yr * z - o.y(), z - o.z());
+    run.addOffset(xr[u] * z - o.x(), yr * z - o.y(), z - o.z());
   }
-  Eigen::Matrix3d sum_sq;  // upper triangle
-  sum_sq << s.aa, s.ab, s.ac, 0.0, s.bb, s.bc, 0.0, 0.0, s.cc;
-  region.moments.addSums(s.n, Eigen::Vector3d(s.a, s.b, s.c), sum_sq);
+  run.addTo(region.moments);
   region.u0 = std::min(region.u0, first);
   region.u1 = std::max(region.u1, last);
   region.v0 = std::min(region.v0, v);

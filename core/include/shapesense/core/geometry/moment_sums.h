@@ -1,5 +1,6 @@
 #pragma once
-// The point-form plane moment sums of the Hough detector's hot loops, kept in locals.
+// PlaneMoments for loops over many points: the sums kept in locals (registers), handed to a
+// PlaneMoments once per run.
 
 #include <cassert>
 
@@ -27,22 +28,34 @@ class MomentSums {
   /// taken relative to (0, 0, 0), unlike PlaneMoments::add.
   void add(float x, float y, float z) {
     assert(has_ref_);
-    const double a = x - ref_.x(), b = y - ref_.y(), c = z - ref_.z();
+    addOffset(x - ref_.x(), y - ref_.y(), z - ref_.z());
+  }
+  void add(const cv::Vec3f& p) { add(p[0], p[1], p[2]); }
+  /// Adds a point given by its offset (a, b, c) from the reference, which the caller took.
+  void addOffset(double a, double b, double c) {
     n_ += 1.0;
     s_[0] += a, s_[1] += b, s_[2] += c;
     ss_[0] += a * a, ss_[1] += a * b, ss_[2] += a * c;
     ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
   }
-  void add(const cv::Vec3f& p) { add(p[0], p[1], p[2]); }
+  double count() const { return n_; }
+  /// Adds these sums to `moments`, whose reference must be this one's.
+  void addTo(PlaneMoments& moments) const {
+    moments.addSums(n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), upperSquares());
+  }
   /// PlaneMoments() when no reference was set.
   PlaneMoments moments() const {
     if (!has_ref_) return PlaneMoments();
-    Eigen::Matrix3d sq;
-    sq << ss_[0], ss_[1], ss_[2], 0.0, ss_[3], ss_[4], 0.0, 0.0, ss_[5];
-    return PlaneMoments::fromSums(ref_, n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), sq);
+    return PlaneMoments::fromSums(ref_, n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), upperSquares());
   }
 
  private:
+  Eigen::Matrix3d upperSquares() const {
+    Eigen::Matrix3d sq;
+    sq << ss_[0], ss_[1], ss_[2], 0.0, ss_[3], ss_[4], 0.0, 0.0, ss_[5];
+    return sq;
+  }
+
   Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
   bool has_ref_ = false;
   double n_ = 0.0;
