@@ -57,7 +57,8 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
     const eval::PlaneScore score = eval::scorePlanes(planes.labels, planes.planes, rendered.truth);
     (scene.curved_clutter ? results.planes_clutter : results.planes_plain).add(score);
     for (const SegmentationMethod m : methods) {
-      const SegmentationResult seg = segmentFrame(rendered.frame, m, config.segmentation_params);
+      const SegmentationResult seg =
+          segmentFrame(rendered.frame, m, config.segmentation_params, &planes);
       addSegComp(eval::scoreSegments(seg.labels, rendered.truth), results.segments[m]);
     }
     ++results.frames;
@@ -113,7 +114,8 @@ void evaluateReal(const std::filesystem::path& dir,
     table_one_plane += eval::tableCoverage(planes.labels, f.labels, f.frame.depth) >= 0.8;
     for (const SegmentationMethod m : methods)
       segments[m].add(eval::scoreRealSegments(
-          segmentFrame(f.frame, m, config.segmentation_params).labels, f.labels, f.frame.depth));
+          segmentFrame(f.frame, m, config.segmentation_params, &planes).labels, f.labels,
+          f.frame.depth));
   }
   std::printf("\n# Real: %s, %zu labelled frames; table as one plane in %d of %zu\n",
               dir.filename().string().c_str(), frames.size(), table_one_plane, frames.size());

@@ -66,13 +66,14 @@ std::filesystem::path defaultBowlModelsDir() {
 DetectorChain makeDetectorChain(const DetectorConfig& config) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
-  if (config.segmentation) {
-    chain.add(
-        std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
-  }
   if (config.planes) {
     chain.add(std::make_unique<PlaneStage>(*config.planes, config.hough_params,
                                            config.ransac_params, config.accumulator_params));
+  }
+  // After the planes: the default segmentation builds on them.
+  if (config.segmentation) {
+    chain.add(
+        std::make_unique<SegmentationStage>(*config.segmentation, config.segmentation_params));
   }
   if (config.object_boxes && config.segmentation && config.planes) {
     chain.add(std::make_unique<ObjectBoxStage>(config.object_box_params));

@@ -41,16 +41,18 @@ void DepthStatsStage::run(const Frame& frame, FrameResults& results) {
 }
 
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
-                                const SegmentationParams& params) {
+                                const SegmentationParams& params, const PlaneDetection* planes) {
   SegmentationResult result;
   result.method = method;
-  result.labels = segmentDepth(frame.depth, frame.intrinsics, method, params);
+  result.labels = planes ? segmentWithPlanes(frame.depth, frame.intrinsics, method, *planes, params)
+                         : segmentDepth(frame.depth, frame.intrinsics, method, params);
   result.segments = computeSegmentStatistics(result.labels, frame.depth, frame.intrinsics);
   return result;
 }
 
 void SegmentationStage::run(const Frame& frame, FrameResults& results) {
-  results.segmentation = segmentFrame(frame, method_, params_);
+  results.segmentation =
+      segmentFrame(frame, method_, params_, results.planes ? &results.planes->frame : nullptr);
 }
 
 PlaneStage::PlaneStage(PlaneDetectorKind kind, HoughPlaneParams hough, RansacPlaneParams ransac,

@@ -277,6 +277,7 @@ cv::Mat edgeStrength(const WorkingImage& w, SegmentationMethod method,
     case SegmentationMethod::kFused:
       return fusedEdges(w, params.fused);
     case SegmentationMethod::kPlanePrediction:
+    case SegmentationMethod::kPlanesAndObjects:  // its object regions are plane_prediction's
       return planePredictionEdges(w, params.plane_prediction, params.plane_prediction.region.noise);
     case SegmentationMethod::kTiledRansac:
       break;

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "segmentation/edge_images.h"
+#include "segmentation/planes_and_objects.h"
 #include "segmentation/region_growing.h"
 #include "segmentation/tiled_ransac.h"
 #include "segmentation/working_image.h"
@@ -21,6 +22,8 @@ std::string_view formatSegmentationMethod(SegmentationMethod method) {
       return "plane_prediction";
     case SegmentationMethod::kTiledRansac:
       return "tiled_ransac";
+    case SegmentationMethod::kPlanesAndObjects:
+      return "planes_objects";
   }
   return "unknown";
 }
@@ -58,6 +61,7 @@ const RegionParams& regionParams(SegmentationMethod method, const SegmentationPa
     case SegmentationMethod::kFused:
       return p.fused.region;
     case SegmentationMethod::kPlanePrediction:
+    case SegmentationMethod::kPlanesAndObjects:
       return p.plane_prediction.region;
     case SegmentationMethod::kTiledRansac:
       return p.tiled_ransac.region;
@@ -70,6 +74,8 @@ const RegionParams& regionParams(SegmentationMethod method, const SegmentationPa
 cv::Mat segmentationEdgeStrength(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                                  SegmentationMethod method, const SegmentationParams& params) {
   if (method == SegmentationMethod::kTiledRansac) return {};
+  if (method == SegmentationMethod::kPlanesAndObjects)
+    method = SegmentationMethod::kPlanePrediction;
   const RegionParams& rp = regionParams(method, params);
   const auto w = segmentation::makeWorkingImage(depth_mm, intrinsics, rp);
   return segmentation::edgeStrength(w, method, params);
@@ -83,6 +89,11 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
   CV_Assert(depth_mm.type() == CV_16UC1);
   if (method == SegmentationMethod::kTiledRansac) {
     return segmentTiledRansac(depth_mm, intrinsics, params.tiled_ransac);
+  }
+  if (method == SegmentationMethod::kPlanesAndObjects) {
+    HoughPlaneDetector detector(params.planes_and_objects.planes);
+    return segmentPlanesAndObjects(depth_mm, intrinsics, detector.detect(depth_mm, intrinsics),
+                                   params);
   }
   const RegionParams& rp = regionParams(method, params);
   const WorkingImage w = makeWorkingImage(depth_mm, intrinsics, rp);
@@ -100,6 +111,14 @@ cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics
   if (marker_count == 0) return cv::Mat(depth_mm.size(), CV_16UC1, cv::Scalar(0));
   flood(edges, markers);
   return finishRegions(markers, marker_count, edges, w, depth_mm, rp);
+}
+
+cv::Mat segmentWithPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                          SegmentationMethod method, const PlaneDetection& planes,
+                          const SegmentationParams& params) {
+  if (method != SegmentationMethod::kPlanesAndObjects)
+    return segmentDepth(depth_mm, intrinsics, method, params);
+  return segmentation::segmentPlanesAndObjects(depth_mm, intrinsics, planes, params);
 }
 
 }  // namespace shapesense

@@ -32,7 +32,9 @@ grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegme
                                  : 0.0);
   } else {
     const auto start = std::chrono::steady_clock::now();
-    computed = segmentFrame(*entry.frame, wanted.value_or(kDefaultSegmentationMethod));
+    const auto& planes = entry.results ? entry.results->planes : std::nullopt;
+    computed = segmentFrame(*entry.frame, wanted.value_or(kDefaultSegmentationMethod), {},
+                            planes ? &planes->frame : nullptr);
     const std::chrono::duration<double, std::milli> took = std::chrono::steady_clock::now() - start;
     response->set_compute_ms(took.count());
     response->set_computed_on_request(true);

@@ -27,7 +27,8 @@ class DepthStatsStage : public DetectorStage {
 /// Pure function behind DepthStatsStage.
 DepthStatistics computeDepthStatistics(const cv::Mat& depth_mm);
 
-/// Segments the depth image with one method and computes per-segment statistics.
+/// Segments the depth image with one method and computes per-segment statistics. Runs after
+/// the plane stage, whose planes kPlanesAndObjects takes as its planar regions.
 class SegmentationStage : public DetectorStage {
  public:
   SegmentationStage(SegmentationMethod method, SegmentationParams params)
@@ -97,7 +98,10 @@ std::vector<DetectedBowl> detectBowls(const Frame& frame, const BowlDetector& de
                                       const BoxEstimationParams& box_params = {});
 
 /// Segmentation of one frame with any method: what the stage and on-request queries share.
+/// `planes`: the frame's plane detection when one was made (kPlanesAndObjects uses it instead
+/// of detecting its own).
 SegmentationResult segmentFrame(const Frame& frame, SegmentationMethod method,
-                                const SegmentationParams& params = {});
+                                const SegmentationParams& params = {},
+                                const PlaneDetection* planes = nullptr);
 
 }  // namespace shapesense

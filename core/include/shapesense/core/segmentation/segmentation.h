@@ -15,11 +15,18 @@
 //                      creases bend inverse depth too little to show within a few pixels).
 //                      Curved surfaces, anomalous at long range everywhere, keep markers from
 //                      the dense window alone. No explicit normals.
-// and one is a plane segmenter:
+// one is a plane segmenter:
 //  - kTiledRansac:     a RANSAC plane per tile (in inverse-depth space, where Kinect noise is
 //                      range-independent), tile planes merged across tile borders and flooded
 //                      pixel by pixel so that tiles leave no seams; non-planar leftovers become
-//                      regions of their own.
+//                      regions of their own;
+// and one combines the plane detector with them (the default, kDefaultSegmentationMethod):
+//  - kPlanesAndObjects: each plane of the Hough plane detector (planes.h) is a region of its
+//                      own; the pixels no plane covers take kPlanePrediction's regions (an
+//                      object standing on a plane is cut from it by the plane, and from its
+//                      neighbours by the prediction edges); pixels still left (region borders,
+//                      small pieces) join a depth-continuous neighbour. Given the frame's plane
+//                      detection (segmentWithPlanes) it costs kPlanePrediction plus a pass.
 //
 // All methods work at 1/`downsample` resolution (default 2, i.e. 320x240 for a Kinect frame) and
 // upsample the labels with nearest neighbour; region borders are then accurate to 1-2 full-res
@@ -41,23 +48,33 @@
 #include <opencv2/core.hpp>
 
 #include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/geometry/depth_step.h"
 #include "shapesense/core/normals/normals.h"
+#include "shapesense/core/planes/planes.h"
 
 namespace shapesense {
 
-enum class SegmentationMethod { kDepthStep, kNormalEdges, kFused, kPlanePrediction, kTiledRansac };
+enum class SegmentationMethod {
+  kDepthStep,
+  kNormalEdges,
+  kFused,
+  kPlanePrediction,
+  kTiledRansac,
+  kPlanesAndObjects
+};
 
 /// Every method, in the order of the enum.
-inline constexpr std::array<SegmentationMethod, 5> kSegmentationMethods = {
-    SegmentationMethod::kDepthStep, SegmentationMethod::kNormalEdges, SegmentationMethod::kFused,
-    SegmentationMethod::kPlanePrediction, SegmentationMethod::kTiledRansac};
+inline constexpr std::array<SegmentationMethod, 6> kSegmentationMethods = {
+    SegmentationMethod::kDepthStep,   SegmentationMethod::kNormalEdges,
+    SegmentationMethod::kFused,       SegmentationMethod::kPlanePrediction,
+    SegmentationMethod::kTiledRansac, SegmentationMethod::kPlanesAndObjects};
 
 /// The method the daemon, `shapesense analyze` and on-request queries use unless told otherwise.
-/// plane_prediction keeps planar faces apart and objects off their support far better than
-/// depth_step, which merges an object standing on a table into the table (docs/benchmarks.md,
-/// "Detection quality"), within the 5 ms a frame a default may cost.
+/// planes_objects keeps planar faces apart and objects off their support and apart from each
+/// other best of all the methods (docs/benchmarks.md, "Detection quality"); depth_step merges
+/// an object standing on a table into the table.
 inline constexpr SegmentationMethod kDefaultSegmentationMethod =
-    SegmentationMethod::kPlanePrediction;
+    SegmentationMethod::kPlanesAndObjects;
 
 /// The one name of each method: "depth_step", "normal_edges", "fused", "plane_prediction",
 /// "tiled_ransac" (command lines, requests and reports all use these).
@@ -200,12 +217,33 @@ struct TiledRansacParams {
   RegionParams region{};
 };
 
+struct PlanesAndObjectsParams {
+  /// Passes in which pixels without a region join a neighbouring region on their surface.
+  /// Default 4 (a region border of a few pixels).
+  int grow_passes = 4;
+  /// When two neighbouring readings lie on one surface. Default: 3 sensor steps or 1% of range.
+  DepthStepRule continuity{3.0, 0.01};
+  /// Object regions smaller than this (full-resolution pixels) are dissolved into their
+  /// neighbours before the growth: slivers along creases and borders. Default 300 (0.1% of VGA,
+  /// the plane detector's smallest region).
+  int min_object_px = 300;
+  /// ...and so are object regions with no pixel whose (2 r + 1)^2 window lies wholly inside
+  /// them: strips along the creases between planes. Default 3 (7 x 7).
+  int sliver_radius_px = 3;
+  /// Regions smaller than this (full-resolution pixels) are dropped. Default 64.
+  int min_region_px = 64;
+  /// The planes when segmentDepth detects them itself (segmentWithPlanes takes them given).
+  HoughPlaneParams planes{};
+};
+
 struct SegmentationParams {
   DepthStepParams depth_step{};
   NormalEdgeParams normal_edges{};
   FusedParams fused{};
   PlanePredictionParams plane_prediction{};
   TiledRansacParams tiled_ransac{};
+  /// kPlanesAndObjects; its object regions use plane_prediction above.
+  PlanesAndObjectsParams planes_and_objects{};
 };
 
 /// Segments a CV_16UC1 millimetre depth image; returns CV_16UC1 regions (0 = unassigned,
@@ -213,8 +251,15 @@ struct SegmentationParams {
 cv::Mat segmentDepth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                      SegmentationMethod method, const SegmentationParams& params = {});
 
+/// kPlanesAndObjects with the frame's plane detection already made (`planes`, of this depth
+/// image): what the pipeline calls after its plane stage. Any other method ignores `planes`.
+cv::Mat segmentWithPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                          SegmentationMethod method, const PlaneDetection& planes,
+                          const SegmentationParams& params = {});
+
 /// The edge-strength image a watershed method floods (CV_8UC1 at working resolution, 255 where
-/// there is no depth); for inspection and tests. Not defined for kTiledRansac (returns empty).
+/// there is no depth); for inspection and tests. Not defined for kTiledRansac (returns empty);
+/// kPlanesAndObjects returns kPlanePrediction's.
 cv::Mat segmentationEdgeStrength(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                                  SegmentationMethod method, const SegmentationParams& params = {});
 
