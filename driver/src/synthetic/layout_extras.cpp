@@ -76,17 +76,20 @@ void LayoutBuilder::addTouchingBoxPair() {
 }
 
 void LayoutBuilder::addStackedBox() {
-  if (box_tops_.empty()) return;
-  const std::size_t k =
-      static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(box_tops_.size()) - 1));
-  const Eigen::Vector2d half = box_tops_[k].half;
-  const double max_side = std::min(0.3, 2.0 * half.minCoeff() - 0.01);
-  if (max_side < 0.04) return;
-  const Eigen::Vector3d size(rng_.uniform(0.04, max_side), rng_.uniform(0.04, max_side),
-                             rng_.uniform(0.03, 0.3));
-  const auto spot = supportSpot(box_tops_[k], 0.5 * std::hypot(size.x(), size.y()), size.z());
-  if (!spot) return;
-  addSupportingBox(*spot, size, box_tops_[k].clearance - size.z());
+  // A few tries: a drawn top can be too small or too full.
+  for (int attempt = 0; attempt < 5 && !box_tops_.empty(); ++attempt) {
+    const std::size_t k =
+        static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(box_tops_.size()) - 1));
+    // The footprint circle must fit: sides up to sqrt(2) * (half the shorter side).
+    const double max_side = std::min(0.3, std::sqrt(2.0) * (box_tops_[k].half.minCoeff() - 0.01));
+    if (max_side < 0.04) continue;
+    const Eigen::Vector3d size(rng_.uniform(0.04, max_side), rng_.uniform(0.04, max_side),
+                               rng_.uniform(0.03, 0.3));
+    const auto spot = supportSpot(box_tops_[k], 0.5 * std::hypot(size.x(), size.y()), size.z());
+    if (!spot) continue;
+    addSupportingBox(*spot, size, box_tops_[k].clearance - size.z());
+    return;
+  }
 }
 
 std::uint16_t LayoutBuilder::addSupportingBox(const Eigen::Isometry3d& support,

@@ -134,7 +134,7 @@ double SensorModel::flyingDepth(const HitBuffer& hits, int u, int v, std::size_t
     const int nu = u + kDu[k], nv = v + kDv[k];
     if (nu < 0 || nv < 0 || nu >= hits.width || nv >= hits.height) continue;
     const double zn = hits.depth[hits.index(nu, nv)];
-    if (!std::isfinite(zn) || std::abs(zn - z) <= jump) continue;
+    if (zn < kp.min_range_m || zn > kp.max_range_m || std::abs(zn - z) <= jump) continue;
     jump = std::abs(zn - z), other = zn;
   }
   if (other == z || artefacts_.uniform(pixel, kFlyingDraw) >= kp.flying_pixel_rate) return z;

@@ -31,6 +31,13 @@
 //  - tins (kind "tin"): closed cylinders. Surfaces "tin<k>_side" (curved), "tin<k>_top",
 //    "tin<k>_bottom" (planes).
 //  - balls (kind "ball"): spheres, surface "ball<k>" (curved).
+//  With the wider distribution's params (all off by default, see the end of SceneParams) also:
+//  extra boxes 3-60 cm, stacked boxes (on a box's top), touching pairs of boxes, books, boards
+//  and lids (kinds "book", "board", "lid") on the table or on box tops, shelf units against a
+//  wall ("shelf"), tins lying on their side, open bins ("bin") and columns ("column") on the
+//  floor; a free-look camera in a room drawn by size; extra camera roll; and the sensor
+//  artefacts flying pixels and holes (KinectParams). Objects then also rest on box tops, books,
+//  boards and shelf boards.
 // Every object rests on the table top or the floor and no two objects interpenetrate
 // (footprint circles are kept apart). Object counts are drawn uniformly within the ranges;
 // an object that finds no free spot after many tries is left out, so a crowded table can hold
@@ -176,9 +183,9 @@ struct SceneParams {
   int stacked_boxes_min = 0;
   int stacked_boxes_max = 0;
   /// Touching pairs: two boxes (kind "box") side by side with a 0-1 cm gap, both with the same
-  /// yaw; a third share with their fronts in one plane, a third of the pairs with equal heights
-  /// (one top plane), a third with heights 1-3 cm apart. On the table, or on the floor when
-  /// the pair does not fit. Default 0-0 (off).
+  /// yaw; half of the pairs with their fronts in one plane; a third with equal heights (one
+  /// top plane), a third with heights 1-3 cm apart. On the table, or on the floor when the pair
+  /// does not fit. Default 0-0 (off).
   int touching_box_pairs_min = 0;
   int touching_box_pairs_max = 0;
   /// Thin objects lying flat, 1-3 cm proud of what they lie on: books (kind "book", 12-30 x
