@@ -375,6 +375,20 @@ TEST(SyntheticSceneWide, ThinObjectsLieOneToThreeCentimetresProud) {
   EXPECT_EQ(kinds, (std::set<std::string>{"board", "book", "lid"}));
   EXPECT_GE(on_boxes, 3);
   EXPECT_GE(seen_tops, 15);
+
+  // Without lids, thin objects have planar faces only.
+  p.thin_object_lids = false;
+  p.bowls_min = p.bowls_max = p.cups_max = p.tins_max = p.balls_max = 0;
+  int thin = 0;
+  countScenes(p, 6, [&](const RenderedFrame& f) {
+    for (const TruthObject& o : f.truth.objects) {
+      EXPECT_NE(o.kind, "lid");
+      thin += o.kind == "book" || o.kind == "board";
+    }
+    for (const TruthSurface& s : f.truth.surfaces) EXPECT_EQ(s.kind, SurfaceKind::kPlane) << s.name;
+    return true;
+  });
+  EXPECT_GE(thin, 12);
 }
 
 TEST(SyntheticSceneWide, ShelvesStandAgainstAWallWithBoards) {

@@ -100,7 +100,7 @@ std::uint16_t LayoutBuilder::addSupportingBox(const Eigen::Isometry3d& support,
 }
 
 void LayoutBuilder::addThinObject() {
-  const int type = rng_.uniformInt(0, 2);  // book, board, lid
+  const int type = rng_.uniformInt(0, params_.thin_object_lids ? 2 : 1);  // book, board, lid
   Eigen::Vector3d size;
   if (type == 0) {
     size = {rng_.uniform(0.12, 0.3), rng_.uniform(0.1, 0.22), rng_.uniform(0.015, 0.03)};
@@ -110,14 +110,19 @@ void LayoutBuilder::addThinObject() {
     const double r = rng_.uniform(0.05, 0.12);
     size = {2.0 * r, 2.0 * r, rng_.uniform(0.01, 0.02)};
   }
-  const double radius = type == 2 ? size.x() / 2 : 0.5 * std::hypot(size.x(), size.y());
+  const bool on_box = !box_tops_.empty() && rng_.chance(0.5);
   std::optional<Eigen::Isometry3d> spot;
-  if (!box_tops_.empty() && rng_.chance(0.5)) {
-    const std::size_t k =
-        static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(box_tops_.size()) - 1));
-    spot = supportSpot(box_tops_[k], radius, size.z());
+  // A crowded table or a small box top: try smaller (same thickness) before giving up.
+  for (int attempt = 0; attempt < 3 && !spot; ++attempt) {
+    if (attempt > 0) size.head<2>() *= 0.75;
+    const double radius = type == 2 ? size.x() / 2 : 0.5 * std::hypot(size.x(), size.y());
+    if (on_box) {
+      const std::size_t k =
+          static_cast<std::size_t>(rng_.uniformInt(0, static_cast<int>(box_tops_.size()) - 1));
+      spot = supportSpot(box_tops_[k], radius, size.z());
+    }
+    if (!spot) spot = tableSpot(radius);
   }
-  if (!spot) spot = tableSpot(radius);
   if (!spot) return;
 
   ObjectDef thin;

@@ -191,10 +191,14 @@ struct SceneParams {
   /// Thin objects lying flat, 1-3 cm proud of what they lie on: books (kind "book", 12-30 x
   /// 10-22 cm, 1.5-3 cm thick), boards ("board", 20-45 x 15-30 cm, 1-2.5 cm) and lids ("lid",
   /// discs of radius 5-12 cm, 1-2 cm: surfaces "lid<k>_top", "_bottom" planes and "_side"
-  /// curved). On a box top when one has room (half the time) else on the table. Box faces are
-  /// named like boxes' ("book1_face_top"). Default 0-0 (off).
+  /// curved). On a box top when one has room (half the time) else on the table; one that
+  /// finds no room is shrunk (length and width by 0.75, up to twice) before it is left out.
+  /// Box faces are named like boxes' ("book1_face_top"). Default 0-0 (off).
   int thin_objects_min = 0;
   int thin_objects_max = 0;
+  /// Whether lids are among the thin objects (their rim is a curved surface); false draws
+  /// books and boards only. Default true.
+  bool thin_object_lids = true;
   /// Shelf units (kind "shelf") standing against the back, left or right wall: 0.6-1.2 m wide,
   /// 0.25-0.4 m deep, 0.8-2 m tall, two side panels "shelf<k>_side{1,2}_face_*", 2-4 boards
   /// "shelf<k>_board<j>_face_*" and half the time a back panel "shelf<k>_back_face_*", all
