@@ -114,7 +114,8 @@ TEST(SyntheticSceneWide, DefaultsSwitchEveryFeatureOff) {
   EXPECT_EQ(p.camera_roll_max_deg, 0.0);
   EXPECT_FALSE(p.free_look);
   EXPECT_EQ(p.extra_boxes_max + p.stacked_boxes_max + p.touching_box_pairs_max +
-                p.thin_objects_max + p.shelves_max + p.lying_tins_max + p.bins_max + p.columns_max,
+                p.thin_objects_max + p.shelves_max + p.lying_tins_max + p.bins_max + p.columns_max +
+                p.tori_max + p.mounds_max,
             0);
   EXPECT_EQ(p.kinect.flying_pixel_rate, 0.0);
   EXPECT_EQ(p.kinect.holes_max, 0);
@@ -459,6 +460,55 @@ TEST(SyntheticSceneWide, LyingTinsBinsAndColumnsAreCurved) {
   EXPECT_GE(curved_seen["column"], 4);
 }
 
+TEST(SyntheticSceneWide, ToriAndMoundsAreCurvedAndLieOnTheirSurfaces) {
+  SceneParams p;
+  p.tori_min = p.tori_max = 2;
+  p.mounds_min = p.mounds_max = 1;
+  p.bowls_min = p.bowls_max = 0;
+  p.cups_max = p.tins_max = p.balls_max = 0;
+  int tori = 0, mounds = 0;
+  const CameraIntrinsics k;
+  countScenes(p, 10, [&](const RenderedFrame& f) {
+    const TruthFrame& t = f.truth;
+    const double table_top = t.objects.front().size.z();
+    for (const TruthObject& o : t.objects) {
+      if (o.kind != "torus" && o.kind != "mound") continue;
+      EXPECT_NEAR(worldZRange(t, o).first, table_top, 1e-9) << o.name;
+      const double tube = o.size.z() / 2, ring = o.size.x() / 2 - tube;
+      double worst = 0.0;
+      std::size_t pixels = 0;
+      for (int v = 0; v < 480; ++v)
+        for (int u = 0; u < 640; ++u) {
+          if (t.object_labels.at<std::uint16_t>(v, u) != o.id) continue;
+          ++pixels;
+          const std::uint16_t s = t.surface_labels.at<std::uint16_t>(v, u);
+          const TruthSurface& surface = t.surfaces.at(s - 1u);
+          const Eigen::Vector3d local =
+              o.rotation.transpose() *
+              (k.backproject(u, v, t.ideal_depth.at<float>(v, u)) - o.center);
+          if (o.kind == "torus") {
+            EXPECT_EQ(surface.kind, SurfaceKind::kCurved);
+            // On the torus: at the tube radius from the ring.
+            worst = std::max(
+                worst,
+                std::abs(std::hypot(std::hypot(local.x(), local.y()) - ring, local.z()) - tube));
+          } else {
+            EXPECT_EQ(surface.name, o.name + "_top");
+            EXPECT_EQ(surface.kind, SurfaceKind::kCurved);
+            // Inside its box, above its base.
+            const Eigen::Vector3d outside = (local.cwiseAbs() - o.size / 2).cwiseMax(0.0);
+            worst = std::max(worst, outside.norm());
+          }
+        }
+      EXPECT_LT(worst, 1e-3) << o.name;
+      (o.kind == "torus" ? tori : mounds) += pixels > 100;
+    }
+    return true;
+  });
+  EXPECT_GE(tori, 8);
+  EXPECT_GE(mounds, 4);
+}
+
 TEST(SyntheticSceneWide, FlyingPixelsLieBetweenTheTwoSidesOfAnEdge) {
   SceneParams p;
   p.camera_motion = 0.0;
@@ -543,6 +593,8 @@ TEST(SyntheticSceneWide, EverythingAtOnceKeepsExactTruth) {
   p.lying_tins_max = 2;
   p.bins_max = 1;
   p.columns_max = 1;
+  p.tori_max = 1;
+  p.mounds_max = 1;
   p.kinect.flying_pixel_rate = 0.3;
   p.kinect.holes_max = 8;
   int planar = 0;
@@ -581,6 +633,7 @@ TEST(SyntheticSceneWide, RejectsImpossibleParams) {
   rejects([](SceneParams& p) { p.extra_box_size_min_m = 0.0; });
   rejects([](SceneParams& p) { p.stacked_boxes_min = 3; });
   rejects([](SceneParams& p) { p.shelves_min = -1; });
+  rejects([](SceneParams& p) { p.tori_min = 1; });
   rejects([](SceneParams& p) { p.kinect.flying_pixel_rate = 1.5; });
   rejects([](SceneParams& p) { p.kinect.holes_min = 2; });
   rejects([](SceneParams& p) { p.kinect.hole_radius_min_px = 0.0; });

@@ -125,7 +125,7 @@ TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {
         ++plain;
         // Plain scenes hold no curved object.
         EXPECT_EQ(p.bowls_max + p.cups_max + p.tins_max + p.balls_max + p.lying_tins_max +
-                      p.bins_max + p.columns_max,
+                      p.bins_max + p.columns_max + p.tori_max + p.mounds_max,
                   0);
         EXPECT_FALSE(p.thin_object_lids);
       }
@@ -142,11 +142,14 @@ TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {
         with["lying tins"] += p.lying_tins_max > 0;
         with["bins"] += p.bins_max > 0;
         with["columns"] += p.columns_max > 0;
+        with["tori"] += p.tori_max > 0;
+        with["mounds"] += p.mounds_max > 0;
       }
     }
   EXPECT_EQ(plain, 300);
-  for (const char* feature : {"free look", "roll", "extra boxes", "stacked", "touching", "thin",
-                              "shelf", "flying pixels", "holes", "lying tins", "bins", "columns"})
+  for (const char* feature :
+       {"free look", "roll", "extra boxes", "stacked", "touching", "thin", "shelf", "flying pixels",
+        "holes", "lying tins", "bins", "columns", "tori", "mounds"})
     EXPECT_GT(with[feature], 30) << feature;  // at least 5% of the 600 scenes
   EXPECT_EQ(parseSplit("val"), Split::kValidation);
   EXPECT_FALSE(parseSplit("holdout").has_value());

@@ -8,7 +8,7 @@
 //   layout_placement.cpp  free spots on the table top and the floor
 //   layout_free_look.cpp  the free-look camera, table and drawn room size (SceneParams::free_look)
 //   layout_extras.cpp     the wider distribution's additions: more, stacked and touching boxes,
-//                         thin objects, lying tins, bins, columns
+//                         thin objects, lying tins, bins, columns, tori, mounds
 //   layout_shelves.cpp    shelf units against a wall
 //
 // A new kind of object is a Solid (solids.h) and an add*() step that draws its size, takes a
@@ -134,6 +134,8 @@ class LayoutBuilder {
   void addLyingTin();
   void addBin();
   void addColumn();
+  void addTorus();
+  void addMound();
   /// addBox that also records the box's top as a support. Returns the box's object id.
   std::uint16_t addSupportingBox(const Eigen::Isometry3d& support, const Eigen::Vector3d& size,
                                  double clearance = 1e9);
@@ -182,6 +184,8 @@ class LayoutBuilder {
   int shelf_count_ = 0;
   int bin_count_ = 0;
   int column_count_ = 0;
+  int torus_count_ = 0;
+  int mound_count_ = 0;
 };
 
 }  // namespace shapesense::synthetic::detail

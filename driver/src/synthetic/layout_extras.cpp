@@ -17,7 +17,7 @@ bool LayoutBuilder::anyExtras() const {
   const SceneParams& p = params_;
   return p.extra_boxes_max > 0 || p.stacked_boxes_max > 0 || p.touching_box_pairs_max > 0 ||
          p.thin_objects_max > 0 || p.shelves_max > 0 || p.lying_tins_max > 0 || p.bins_max > 0 ||
-         p.columns_max > 0;
+         p.columns_max > 0 || p.tori_max > 0 || p.mounds_max > 0;
 }
 
 void LayoutBuilder::addExtras() {
@@ -33,6 +33,8 @@ void LayoutBuilder::addExtras() {
   addSeveral(p.stacked_boxes_min, p.stacked_boxes_max, &LayoutBuilder::addStackedBox);
   addSeveral(p.thin_objects_min, p.thin_objects_max, &LayoutBuilder::addThinObject);
   addSeveral(p.lying_tins_min, p.lying_tins_max, &LayoutBuilder::addLyingTin);
+  addSeveral(p.tori_min, p.tori_max, &LayoutBuilder::addTorus);
+  addSeveral(p.mounds_min, p.mounds_max, &LayoutBuilder::addMound);
 }
 
 void LayoutBuilder::addCameraRoll() {
@@ -202,6 +204,50 @@ void LayoutBuilder::addColumn() {
   const std::uint16_t id = addObject(column);
   addShadedSolid(std::move(solid), column, id,
                  jitterColour(rng_, Eigen::Vector3f(200, 205, 210), 0.1));
+}
+
+void LayoutBuilder::addTorus() {
+  const double major = rng_.uniform(0.04, 0.12);
+  const double tube = rng_.uniform(0.01, std::min(0.03, 0.6 * major));
+  const auto spot = tableSpot(major + tube);
+  if (!spot) return;
+  ObjectDef torus;
+  torus.kind = "torus";
+  torus.name = "torus" + std::to_string(++torus_count_);
+  torus.world_from_object = *spot * poseAt({0.0, 0.0, tube}, 0.0);
+  auto solid = std::make_unique<TorusSolid>(major, tube);
+  torus.local_box = solid->bounds();
+  const std::uint16_t id = addObject(torus);
+  addShadedSolid(std::move(solid), torus, id, objectColour());
+}
+
+void LayoutBuilder::addMound() {
+  Eigen::Vector2d half(rng_.uniform(0.1, 0.25), rng_.uniform(0.1, 0.25));
+  const double height = rng_.uniform(0.03, 0.12);
+  std::vector<MoundSolid::Bump> bumps(static_cast<std::size_t>(rng_.uniformInt(1, 3)));
+  for (MoundSolid::Bump& b : bumps)
+    b = {{rng_.uniform(-0.5, 0.5), rng_.uniform(-0.5, 0.5)},
+         rng_.uniform(0.25, 0.6),
+         rng_.uniform(0.5, 1.0)};
+  std::optional<Eigen::Isometry3d> spot;
+  for (int attempt = 0; attempt < 3 && !spot; ++attempt) {
+    if (attempt > 0) half *= 0.75;
+    spot = tableSpot(half.norm());
+  }
+  if (!spot) return;
+  ObjectDef mound;
+  mound.kind = "mound";
+  mound.name = "mound" + std::to_string(++mound_count_);
+  mound.world_from_object = *spot;
+  // The bumps' weights are relative: scale them so that the highest point is `height`.
+  const double peak = MoundSolid(half, 1.0, bumps).peakHeight();
+  for (MoundSolid::Bump& b : bumps) b.weight *= height / peak;
+  auto solid = std::make_unique<MoundSolid>(half, 1.0, std::move(bumps));
+  // Tight (the solid's bounds keep a margin above the peak).
+  mound.local_box = Eigen::AlignedBox3d(Eigen::Vector3d(-half.x(), -half.y(), 0.0),
+                                        Eigen::Vector3d(half.x(), half.y(), solid->peakHeight()));
+  const std::uint16_t id = addObject(mound);
+  addShadedSolid(std::move(solid), mound, id, objectColour());
 }
 
 std::optional<Eigen::Isometry3d> LayoutBuilder::supportSpot(Support& support, double radius,

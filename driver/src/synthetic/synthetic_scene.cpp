@@ -78,7 +78,9 @@ void validate(const SceneParams& p) {
         std::tuple{p.shelves_min, p.shelves_max, "shelf count range"},
         std::tuple{p.lying_tins_min, p.lying_tins_max, "lying tin count range"},
         std::tuple{p.bins_min, p.bins_max, "bin count range"},
-        std::tuple{p.columns_min, p.columns_max, "column count range"}})
+        std::tuple{p.columns_min, p.columns_max, "column count range"},
+        std::tuple{p.tori_min, p.tori_max, "torus count range"},
+        std::tuple{p.mounds_min, p.mounds_max, "mound count range"}})
     require(lo >= 0 && lo <= hi, what);
 }
 

@@ -78,6 +78,8 @@ void drawObjects(std::mt19937_64& rng, bool curved_clutter, synthetic::ScenePara
   if (chance(rng, 0.5)) p.lying_tins_min = p.lying_tins_max = uniformInt(rng, 1, 2);
   if (chance(rng, 0.4)) p.bins_min = p.bins_max = uniformInt(rng, 1, 2);
   if (chance(rng, 0.2)) p.columns_min = p.columns_max = 1;
+  if (chance(rng, 0.3)) p.tori_min = p.tori_max = uniformInt(rng, 1, 2);
+  if (chance(rng, 0.2)) p.mounds_min = p.mounds_max = 1;
 }
 
 void drawSensor(std::mt19937_64& rng, synthetic::KinectParams& k) {

@@ -35,9 +35,9 @@
 //  extra boxes 3-60 cm, stacked boxes (on a box's top), touching pairs of boxes, books, boards
 //  and lids (kinds "book", "board", "lid") on the table or on box tops, shelf units against a
 //  wall ("shelf"), tins lying on their side, open bins ("bin") and columns ("column") on the
-//  floor; a free-look camera in a room drawn by size; extra camera roll; and the sensor
-//  artefacts flying pixels and holes (KinectParams). Objects then also rest on box tops, books,
-//  boards and shelf boards.
+//  floor, tori and smooth mounds (height fields) on the table; a free-look camera in a room drawn
+//  by size; extra camera roll; and the sensor artefacts flying pixels and holes (KinectParams).
+//  Objects then also rest on box tops, books, boards and shelf boards.
 // Every object rests on the table top or the floor and no two objects interpenetrate
 // (footprint circles are kept apart). Object counts are drawn uniformly within the ranges;
 // an object that finds no free spot after many tries is left out, so a crowded table can hold
@@ -218,6 +218,16 @@ struct SceneParams {
   /// Default 0-0 (off).
   int columns_min = 0;
   int columns_max = 0;
+  /// Tori lying flat on the table (kind "torus": ring radius 4-12 cm, tube radius 1-3 cm; one
+  /// curved surface "torus<k>"). Default 0-0 (off).
+  int tori_min = 0;
+  int tori_max = 0;
+  /// Smooth mounds on the table (kind "mound": a height field over 20-50 x 20-50 cm, 3-12 cm
+  /// high, 1-3 Gaussian bumps under a window that takes it to 0 at the border; surface
+  /// "mound<k>_top" curved and "mound<k>_base" the plane it rests on). Smaller when the table
+  /// is crowded. Default 0-0 (off).
+  int mounds_min = 0;
+  int mounds_max = 0;
 };
 
 enum class SurfaceKind { kPlane, kCurved };
@@ -239,7 +249,7 @@ struct TruthSurface {
 struct TruthObject {
   std::uint16_t id = 0;  ///< the value in TruthFrame::object_labels (never 0)
   /// "table", "box", "bowl", "cup", "tin" or "ball"; with the wider distribution's features
-  /// also "book", "board", "lid", "shelf", "bin" and "column".
+  /// also "book", "board", "lid", "shelf", "bin", "column", "torus" and "mound".
   std::string kind;
   std::string name;  ///< e.g. "table", "box2", "bowl1"
 
