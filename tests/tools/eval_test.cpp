@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 
 #include "shapesense/eval/plane_eval.h"
@@ -112,12 +113,44 @@ TEST(SegmentEval, RealObjectsMergedWithTheTableAreNotKeptApart) {
 
 TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {
   std::set<std::uint64_t> seeds;
+  std::map<std::string, int> with;  // scenes with each feature of the wider distribution
+  int plain = 0;
   for (const Split split : {Split::kTrain, Split::kValidation, Split::kTest})
-    for (int i = 0; i < 40; ++i) {
+    for (int i = 0; i < 200; ++i) {
       const EvalScene scene = evalScene(split, i);
       EXPECT_TRUE(seeds.insert(scene.params.seed).second);
       EXPECT_NO_THROW(synthetic::SyntheticScene{scene.params}) << formatSplit(split) << " " << i;
+      const synthetic::SceneParams& p = scene.params;
+      if (!scene.curved_clutter) {
+        ++plain;
+        // Plain scenes hold no curved object.
+        EXPECT_EQ(p.bowls_max + p.cups_max + p.tins_max + p.balls_max + p.lying_tins_max +
+                      p.bins_max + p.columns_max + p.tori_max + p.mounds_max,
+                  0);
+        EXPECT_FALSE(p.thin_object_lids);
+      }
+      with["free look"] += p.free_look;
+      with["roll"] += p.camera_roll_max_deg > 0;
+      with["extra boxes"] += p.extra_boxes_max > 0;
+      with["stacked"] += p.stacked_boxes_max > 0;
+      with["touching"] += p.touching_box_pairs_max > 0;
+      with["thin"] += p.thin_objects_max > 0;
+      with["shelf"] += p.shelves_max > 0;
+      with["flying pixels"] += p.kinect.flying_pixel_rate > 0;
+      with["holes"] += p.kinect.holes_max > 0;
+      if (scene.curved_clutter) {
+        with["lying tins"] += p.lying_tins_max > 0;
+        with["bins"] += p.bins_max > 0;
+        with["columns"] += p.columns_max > 0;
+        with["tori"] += p.tori_max > 0;
+        with["mounds"] += p.mounds_max > 0;
+      }
     }
+  EXPECT_EQ(plain, 300);
+  for (const char* feature :
+       {"free look", "roll", "extra boxes", "stacked", "touching", "thin", "shelf", "flying pixels",
+        "holes", "lying tins", "bins", "columns", "tori", "mounds"})
+    EXPECT_GT(with[feature], 30) << feature;  // at least 5% of the 600 scenes
   EXPECT_EQ(parseSplit("val"), Split::kValidation);
   EXPECT_FALSE(parseSplit("holdout").has_value());
 }

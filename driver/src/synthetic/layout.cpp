@@ -14,10 +14,18 @@ Eigen::Vector3f jitterColour(Rng& rng, Eigen::Vector3f bgr, double amount) {
 }
 
 LayoutBuilder::LayoutBuilder(const SceneParams& params)
-    : params_(params), rng_(layoutSeed(params.seed)), model_(std::make_unique<SceneModel>()) {}
+    : params_(params),
+      rng_(layoutSeed(params.seed)),
+      model_(std::make_unique<SceneModel>()),
+      extra_rng_(extraLayoutSeed(params.seed)) {}
 
 std::unique_ptr<const SceneModel> LayoutBuilder::build() {
-  placeCameraAndTable();
+  if (params_.free_look) {
+    placeFreeLookCamera();
+  } else {
+    placeCameraAndTable();
+  }
+  if (params_.camera_roll_max_deg > 0.0) withExtraStream([this] { addCameraRoll(); });
   addRoom();
   addTable();
   addSeveral(params_.boxes_on_table_min, params_.boxes_on_table_max, &LayoutBuilder::addTableBox);
@@ -27,6 +35,7 @@ std::unique_ptr<const SceneModel> LayoutBuilder::build() {
   addSeveral(params_.tins_min, params_.tins_max, &LayoutBuilder::addTin);
   addSeveral(params_.balls_min, params_.balls_max, &LayoutBuilder::addBall);
   model_->sway = drawSway(rng_);
+  if (anyExtras()) withExtraStream([this] { addExtras(); });
   return std::move(model_);
 }
 

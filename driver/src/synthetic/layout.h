@@ -6,6 +6,10 @@
 //   layout_table.cpp      the table
 //   layout_objects.cpp    boxes, bowls, cups, tins and balls
 //   layout_placement.cpp  free spots on the table top and the floor
+//   layout_free_look.cpp  the free-look camera, table and drawn room size (SceneParams::free_look)
+//   layout_extras.cpp     the wider distribution's additions: more, stacked and touching boxes,
+//                         thin objects, lying tins, bins, columns, tori, mounds
+//   layout_shelves.cpp    shelf units against a wall
 //
 // A new kind of object is a Solid (solids.h) and an add*() step that draws its size, takes a
 // spot from tableSpot() or floorSpot() and hands the solid to addShadedSolid(); its surfaces and
@@ -13,6 +17,8 @@
 //
 // The order of random draws is part of the scene definition: changing it (or adding a draw
 // anywhere but at the end of build()) changes every scene, and with it the test fixtures.
+// The optional additions (layout_extras.cpp, layout_shelves.cpp, the extra camera roll) draw
+// from a second generator (withExtraStream) so that they never move a draw of the first.
 
 #include <array>
 #include <cstdint>
@@ -20,6 +26,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -36,6 +43,21 @@ namespace shapesense::synthetic::detail {
 struct Footprint {
   Eigen::Vector2d center;
   double radius = 0.0;
+};
+
+/// A rectangle on the floor that floor objects placed later keep clear of (table, shelves).
+struct FloorBlock {
+  Eigen::Vector2d center;
+  double yaw = 0.0;
+  Eigen::Vector2d half;
+};
+
+/// A horizontal face objects can be set on: the top of a box or a shelf board.
+struct Support {
+  Eigen::Isometry3d top;   ///< centre of the face, z up, x and y along its sides
+  Eigen::Vector2d half;    ///< half extents of the face
+  double clearance = 1e9;  ///< free height above it (m)
+  std::vector<Footprint> taken;
 };
 
 /// `bgr` scaled by a factor drawn from [1 - amount, 1 + amount], capped at 255.
@@ -90,6 +112,43 @@ class LayoutBuilder {
   void addTin();
   void addBall();
 
+  // layout_free_look.cpp
+  void placeFreeLookCamera();
+  void drawRoomSize(Eigen::Vector3d& half, Eigen::Isometry3d& world_from_room);
+
+  // layout_extras.cpp
+  /// Runs `step` with rng_ drawing from the extra stream (and restores the main stream).
+  template <typename Step>
+  void withExtraStream(Step step) {
+    std::swap(rng_, extra_rng_);
+    step();
+    std::swap(rng_, extra_rng_);
+  }
+  bool anyExtras() const;
+  void addExtras();
+  void addCameraRoll();
+  void addExtraBox();
+  void addTouchingBoxPair();
+  void addStackedBox();
+  void addThinObject();
+  void addLyingTin();
+  void addBin();
+  void addColumn();
+  void addTorus();
+  void addMound();
+  /// addBox that also records the box's top as a support. Returns the box's object id.
+  std::uint16_t addSupportingBox(const Eigen::Isometry3d& support, const Eigen::Vector3d& size,
+                                 double clearance = 1e9);
+  /// A free spot for a footprint of `radius` on a support with at least `height` of clearance.
+  std::optional<Eigen::Isometry3d> supportSpot(Support& support, double radius, double height);
+  /// A free floor spot anywhere in the room and in view, clear of the floor blocks.
+  std::optional<Eigen::Isometry3d> openFloorSpot(double radius, double height);
+  bool clearOfBlocks(const Eigen::Vector2d& c, double radius) const;
+  bool inView(const Eigen::Vector3d& world_point, double margin_px) const;
+
+  // layout_shelves.cpp
+  void addShelf();
+
   // layout_placement.cpp
   std::optional<Eigen::Isometry3d> tableSpot(double radius);
   std::optional<Eigen::Isometry3d> floorSpot(double radius, double height);
@@ -113,6 +172,20 @@ class LayoutBuilder {
   int cup_count_ = 0;
   int tin_count_ = 0;
   int ball_count_ = 0;
+
+  // The wider distribution's additions.
+  Rng extra_rng_;
+  double room_height_ = 0.0;
+  std::vector<FloorBlock> floor_blocks_;
+  std::vector<Support> box_tops_;
+  int book_count_ = 0;
+  int board_count_ = 0;
+  int lid_count_ = 0;
+  int shelf_count_ = 0;
+  int bin_count_ = 0;
+  int column_count_ = 0;
+  int torus_count_ = 0;
+  int mound_count_ = 0;
 };
 
 }  // namespace shapesense::synthetic::detail

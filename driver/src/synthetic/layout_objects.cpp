@@ -39,6 +39,9 @@ void LayoutBuilder::addBox(const Eigen::Isometry3d& support, const Eigen::Vector
   box.local_box = Eigen::AlignedBox3d(-size / 2, size / 2);
   const std::uint16_t id = addObject(box);
   addBoxSolid(box.world_from_object, size / 2, id, box.name, colour);
+  // Its top, for the stacked boxes and thin objects of the wider distribution (draws nothing).
+  box_tops_.push_back(
+      {box.world_from_object * poseAt({0.0, 0.0, size.z() / 2}, 0.0), size.head<2>() / 2, 1e9, {}});
 }
 
 void LayoutBuilder::addBowl() {

@@ -45,7 +45,12 @@ void LayoutBuilder::placeCameraAndTable() {
 void LayoutBuilder::addRoom() {
   Eigen::Vector3d half;
   Eigen::Isometry3d world_from_room;
-  drawRoomExtent(half, world_from_room);
+  if (params_.free_look) {
+    drawRoomSize(half, world_from_room);
+  } else {
+    drawRoomExtent(half, world_from_room);
+  }
+  room_height_ = 2.0 * half.z();
   const Eigen::Vector3f floor_colour(rng_.uniform(90, 150), rng_.uniform(110, 160),
                                      rng_.uniform(120, 170));
   const Eigen::Vector3f wall_colour(rng_.uniform(170, 230), rng_.uniform(180, 235),

@@ -21,6 +21,20 @@ inline std::uint64_t mix64(std::uint64_t x) {
 // Separate streams so that, e.g., the noise of frame 3 never depends on the layout draws.
 constexpr std::uint64_t kLayoutStream = 0x4C41594F5554ull;
 constexpr std::uint64_t kFrameStream = 0x4652414D45ull;
+// The wider distribution's features (issue #18) draw only from these, so scenes with the
+// features off keep every draw of the streams above.
+constexpr std::uint64_t kExtraLayoutStream = 0x5749444552ull;  // layout additions
+constexpr std::uint64_t kArtefactStream = 0x415254454641ull;   // flying pixels, holes
+
+/// Seed of the generator the optional layout additions of scene `seed` draw from.
+inline std::uint64_t extraLayoutSeed(std::uint64_t seed) {
+  return mix64(seed ^ kExtraLayoutStream);
+}
+
+/// Seed of the optional sensor artefacts of the frame whose noise seed is `frame_seed`.
+inline std::uint64_t artefactSeed(std::uint64_t frame_seed) {
+  return mix64(frame_seed ^ kArtefactStream);
+}
 
 /// Seed of the one generator whose draws define the layout of scene `seed`.
 inline std::uint64_t layoutSeed(std::uint64_t seed) { return mix64(seed ^ kLayoutStream); }

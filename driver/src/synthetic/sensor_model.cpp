@@ -1,7 +1,10 @@
 #include "sensor_model.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+
+#include <opencv2/imgproc.hpp>
 
 #include "ray_span.h"
 #include "world_geometry.h"
@@ -44,6 +47,7 @@ SensorModel::SensorModel(const SceneParams& params, const SceneModel& model, std
     : params_(params),
       model_(model),
       noise_(frameNoiseSeed(params.seed, index)),
+      artefacts_(artefactSeed(frameNoiseSeed(params.seed, index))),
       cos_max_incidence_(std::cos(degToRad(params.kinect.max_incidence_deg))) {}
 
 void SensorModel::apply(const HitBuffer& hits, const Eigen::Isometry3d& world_from_camera,
@@ -55,6 +59,8 @@ void SensorModel::apply(const HitBuffer& hits, const Eigen::Isometry3d& world_fr
           ? projectorShadows(hits, k.width, k.fx, kp.projector_baseline_m)
           : std::vector<std::uint8_t>(static_cast<std::size_t>(k.width) * k.height, 0);
   allocateImages(frame, truth);
+  const cv::Mat holes = holeMask();
+  const bool flying = kp.flying_pixel_rate > 0.0;
   // Light from above and a little from the camera's side, fixed in the world.
   const Eigen::Vector3f light =
       (world_from_camera.linear().transpose() * Eigen::Vector3d(0.3, -0.5, 1.0).normalized())
@@ -77,10 +83,12 @@ void SensorModel::apply(const HitBuffer& hits, const Eigen::Isometry3d& world_fr
       if (z < kp.min_range_m || z > kp.max_range_m) continue;
       ideal_row[u] = static_cast<float>(z);
       if (shadow[pixel]) continue;
+      if (!holes.empty() && holes.at<std::uint8_t>(v, u)) continue;
       const Eigen::Vector3f ray =
           Eigen::Vector3f(static_cast<float>((u - k.cx) / k.fx), static_cast<float>(ray_y), 1.0f)
               .normalized();
-      const double measured = reading(pixel, z, n, ray);
+      const double measured =
+          reading(pixel, flying ? flyingDepth(hits, u, v, pixel, z) : z, n, ray);
       if (measured == 0.0) continue;
       depth_row[u] =
           static_cast<std::uint16_t>(measured * 1000.0 + 0.5);  // positive: round half up
@@ -88,6 +96,49 @@ void SensorModel::apply(const HitBuffer& hits, const Eigen::Isometry3d& world_fr
       object_row[u] = hits.object[i];
     }
   }
+}
+
+cv::Mat SensorModel::holeMask() const {
+  const KinectParams& kp = params_.kinect;
+  if (kp.holes_max <= 0) return {};
+  const CameraIntrinsics& k = params_.intrinsics;
+  Rng rng(mix64(artefacts_.bits(0, kHoleDraw)));
+  cv::Mat mask = cv::Mat::zeros(k.height, k.width, CV_8UC1);
+  const int count = rng.uniformInt(kp.holes_min, kp.holes_max);
+  for (int h = 0; h < count; ++h) {
+    const Eigen::Vector2d centre(rng.uniform(0.0, k.width), rng.uniform(0.0, k.height));
+    const int parts = rng.uniformInt(1, 3);
+    for (int p = 0; p < parts; ++p) {
+      const Eigen::Vector2d at =
+          centre + 0.5 * kp.hole_radius_max_px *
+                       Eigen::Vector2d(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+      const cv::Size axes(
+          static_cast<int>(std::lround(rng.uniform(kp.hole_radius_min_px, kp.hole_radius_max_px))),
+          static_cast<int>(std::lround(rng.uniform(kp.hole_radius_min_px, kp.hole_radius_max_px))));
+      const double angle = rng.uniform(0.0, 180.0);
+      cv::ellipse(
+          mask,
+          cv::Point(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y()))),
+          axes, angle, 0.0, 360.0, cv::Scalar(255), cv::FILLED, cv::LINE_8);
+    }
+  }
+  return mask;
+}
+
+double SensorModel::flyingDepth(const HitBuffer& hits, int u, int v, std::size_t pixel,
+                                double z) const {
+  const KinectParams& kp = params_.kinect;
+  double other = z, jump = kp.flying_pixel_min_jump_m;
+  constexpr std::array<int, 4> kDu = {-1, 1, 0, 0}, kDv = {0, 0, -1, 1};
+  for (std::size_t k = 0; k < 4; ++k) {
+    const int nu = u + kDu[k], nv = v + kDv[k];
+    if (nu < 0 || nv < 0 || nu >= hits.width || nv >= hits.height) continue;
+    const double zn = hits.depth[hits.index(nu, nv)];
+    if (zn < kp.min_range_m || zn > kp.max_range_m || std::abs(zn - z) <= jump) continue;
+    jump = std::abs(zn - z), other = zn;
+  }
+  if (other == z || artefacts_.uniform(pixel, kFlyingDraw) >= kp.flying_pixel_rate) return z;
+  return z + artefacts_.uniform(pixel, kFlyingDraw + 1) * (other - z);
 }
 
 void SensorModel::allocateImages(Frame& frame, TruthFrame& truth) const {

@@ -41,6 +41,12 @@ class SensorModel {
   /// ray `ray`; 0 when it reads nothing (grazing, dropout, out of range).
   double reading(std::size_t pixel, double z, const Eigen::Vector3f& n,
                  const Eigen::Vector3f& ray) const;
+  /// The frame's holes (KinectParams::holes_*): non-zero where the sensor reads nothing; empty
+  /// when holes are off.
+  cv::Mat holeMask() const;
+  /// The depth the sensor measures from at an edge pixel (KinectParams::flying_pixel_rate): z
+  /// moved towards the neighbour across the edge, or z itself.
+  double flyingDepth(const HitBuffer& hits, int u, int v, std::size_t pixel, double z) const;
   /// z -> noisy, quantised disparity -> z; 0 when the disparity is not positive.
   double measure(double z, double standard_normal) const;
   cv::Vec3b shade(std::uint16_t surface, const Eigen::Vector3f& normal,
@@ -50,10 +56,14 @@ class SensorModel {
   static constexpr unsigned kDropoutDraw = 0;
   static constexpr unsigned kColourDraw = 1;
   static constexpr unsigned kDisparityDraw = 2;  // and up
+  // Which artefacts_ draws each artefact takes (a stream of its own: off, they draw nothing).
+  static constexpr unsigned kFlyingDraw = 0;  // and 1
+  static constexpr unsigned kHoleDraw = 2;    // pixel 0 only: seeds the hole generator
 
   const SceneParams& params_;
   const SceneModel& model_;
   PixelNoise noise_;
+  PixelNoise artefacts_;
   double cos_max_incidence_;
 };
 

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "solid.h"
 
@@ -98,6 +99,53 @@ class BallSolid final : public Solid {
 
  private:
   double radius_;
+};
+
+/// A torus about the local z axis centred on the origin: the points at distance `tube` from
+/// the circle of radius `major` in the z = 0 plane. One curved face named after the object.
+/// Intersected by sphere tracing its exact distance function (to 1e-9 m).
+class TorusSolid final : public Solid {
+ public:
+  TorusSolid(double major, double tube);
+  bool intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, LocalHit& hit) const override;
+  Eigen::AlignedBox3d bounds() const override;
+  std::vector<FaceLabel> faces() const override;
+
+ private:
+  double major_;
+  double tube_;
+};
+
+/// A smooth mound over the rectangle |x| <= half.x, |y| <= half.y: the solid between z = 0 and
+/// the height field z = H(x, y) = height * window(x, y) * (sum of Gaussian bumps), where
+/// window = (1 - (x/hx)^2)^2 (1 - (y/hy)^2)^2 takes H smoothly to 0 at the border. Faces:
+/// kTop (the height field, curved) and kBase (z = 0, plane; it lies on what the mound rests
+/// on). Intersected by marching the ray through the bounding box and bisecting the first sign
+/// change of z - H (to 1e-9 m); features thinner than the march step (1/96 of the box chord)
+/// may be missed at grazing incidence, and the truth follows the intersection.
+class MoundSolid final : public Solid {
+ public:
+  enum Face { kTop, kBase };
+  struct Bump {
+    Eigen::Vector2d center;  ///< in units of half (-1..1)
+    double sigma;            ///< in units of half
+    double weight;
+  };
+  MoundSolid(Eigen::Vector2d half, double height, std::vector<Bump> bumps);
+  bool intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, LocalHit& hit) const override;
+  Eigen::AlignedBox3d bounds() const override;
+  std::vector<FaceLabel> faces() const override;
+  /// H(x, y); 0 outside the rectangle.
+  double heightAt(double x, double y) const;
+  /// The largest H on a 65 x 65 grid over the rectangle.
+  double peakHeight() const { return grid_peak_; }
+
+ private:
+  Eigen::Vector2d half_;
+  double height_;
+  double grid_peak_;  ///< the largest H on the grid
+  double peak_;       ///< above the largest H, for the bounds
+  std::vector<Bump> bumps_;
 };
 
 }  // namespace shapesense::synthetic::detail

@@ -5,6 +5,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "layout.h"
@@ -44,6 +45,43 @@ void validate(const SceneParams& p) {
   require(kp.min_range_m > 0 && kp.min_range_m < kp.max_range_m && kp.max_range_m < 65.0,
           "range limits");
   require(kp.projector_baseline_m >= 0, "projector_baseline_m must not be negative");
+  require(kp.flying_pixel_rate >= 0 && kp.flying_pixel_rate <= 1 && kp.flying_pixel_min_jump_m > 0,
+          "flying pixel params");
+  require(kp.holes_min >= 0 && kp.holes_min <= kp.holes_max, "hole count range");
+  require(kp.hole_radius_min_px > 0 && kp.hole_radius_min_px <= kp.hole_radius_max_px,
+          "hole radius range");
+  require(p.camera_roll_max_deg >= 0 && p.camera_roll_max_deg <= 45,
+          "camera_roll_max_deg out of [0, 45]");
+  if (p.free_look) {
+    require(p.free_look_height_min_m > 0 && p.free_look_height_min_m <= p.free_look_height_max_m,
+            "free-look height range");
+    require(p.free_look_pitch_min_deg >= -30 &&
+                p.free_look_pitch_min_deg <= p.free_look_pitch_max_deg &&
+                p.free_look_pitch_max_deg <= 80,
+            "free-look pitch range out of [-30, 80]");
+    require(p.free_look_table_distance_min_m > 0 &&
+                p.free_look_table_distance_min_m <= p.free_look_table_distance_max_m,
+            "free-look table distance range");
+    require(p.free_look_target_spread_m >= 0, "free_look_target_spread_m must not be negative");
+    require(p.room_extent_min_m > 0 && p.room_extent_min_m <= p.room_extent_max_m,
+            "room extent range");
+    require(p.room_height_min_m >= 1.0 && p.room_height_min_m <= p.room_height_max_m,
+            "room height range");
+  }
+  require(p.extra_box_size_min_m > 0 && p.extra_box_size_min_m <= p.extra_box_size_max_m,
+          "extra box size range");
+  for (const auto& [lo, hi, what] :
+       {std::tuple{p.extra_boxes_min, p.extra_boxes_max, "extra box count range"},
+        std::tuple{p.stacked_boxes_min, p.stacked_boxes_max, "stacked box count range"},
+        std::tuple{p.touching_box_pairs_min, p.touching_box_pairs_max, "box pair count range"},
+        std::tuple{p.thin_objects_min, p.thin_objects_max, "thin object count range"},
+        std::tuple{p.shelves_min, p.shelves_max, "shelf count range"},
+        std::tuple{p.lying_tins_min, p.lying_tins_max, "lying tin count range"},
+        std::tuple{p.bins_min, p.bins_max, "bin count range"},
+        std::tuple{p.columns_min, p.columns_max, "column count range"},
+        std::tuple{p.tori_min, p.tori_max, "torus count range"},
+        std::tuple{p.mounds_min, p.mounds_max, "mound count range"}})
+    require(lo >= 0 && lo <= hi, what);
 }
 
 }  // namespace

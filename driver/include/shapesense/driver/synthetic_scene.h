@@ -31,6 +31,13 @@
 //  - tins (kind "tin"): closed cylinders. Surfaces "tin<k>_side" (curved), "tin<k>_top",
 //    "tin<k>_bottom" (planes).
 //  - balls (kind "ball"): spheres, surface "ball<k>" (curved).
+//  With the wider distribution's params (all off by default, see the end of SceneParams) also:
+//  extra boxes 3-60 cm, stacked boxes (on a box's top), touching pairs of boxes, books, boards
+//  and lids (kinds "book", "board", "lid") on the table or on box tops, shelf units against a
+//  wall ("shelf"), tins lying on their side, open bins ("bin") and columns ("column") on the
+//  floor, tori and smooth mounds (height fields) on the table; a free-look camera in a room drawn
+//  by size; extra camera roll; and the sensor artefacts flying pixels and holes (KinectParams).
+//  Objects then also rest on box tops, books, boards and shelf boards.
 // Every object rests on the table top or the floor and no two objects interpenetrate
 // (footprint circles are kept apart). Object counts are drawn uniformly within the ranges;
 // an object that finds no free spot after many tries is left out, so a crowded table can hold
@@ -71,6 +78,26 @@ struct KinectParams {
   double dropout_rate = 0.002;       ///< probability a valid pixel reads 0 anyway. Default 0.002.
   double max_incidence_deg = 80.0;   ///< steeper incidence (ray vs normal) reads 0. Default 80.
   bool projector_shadows = true;     ///< drop pixels the projector cannot see. Default true.
+
+  // Artefacts of the wider scene distribution (issue #18). Each is off by default, and off it
+  // draws no random number. Their draws come from streams of their own (seeded from the scene
+  // seed and the frame index), so switching one on changes no other pixel's noise.
+
+  /// Share of depth-edge pixels that read a "flying" depth between the two sides of the edge:
+  /// a pixel whose ideal depth differs from a 4-neighbour's by more than
+  /// flying_pixel_min_jump_m reads, with this probability, its own depth moved a uniform
+  /// fraction of the way to the neighbour's (then the disparity noise as usual). Flying pixels
+  /// keep the label of the surface their ray hits; ideal_depth stays the true depth.
+  /// Default 0 (off); sensible 0-0.5.
+  double flying_pixel_rate = 0.0;
+  double flying_pixel_min_jump_m = 0.05;  ///< depth step that makes an edge (m). Default 0.05.
+  /// Holes: per frame, a number of blobs drawn uniformly from [holes_min, holes_max], each 1-3
+  /// overlapping ellipses of semi-axes hole_radius_min_px-hole_radius_max_px at a uniform image
+  /// position, read no depth (and carry no label). Independent per frame. Default 0-0 (off).
+  int holes_min = 0;
+  int holes_max = 0;
+  double hole_radius_min_px = 3.0;   ///< Default 3.
+  double hole_radius_max_px = 25.0;  ///< Default 25.
 };
 
 /// Everything that defines a scene. Two equal SceneParams give byte-identical frames.
@@ -109,6 +136,98 @@ struct SceneParams {
   int balls_max = 2;                          ///< Default 2.
 
   bool render_colour = true;  ///< false leaves Frame::rgb empty (saves ~25% time). Default true.
+
+  // ---- The wider scene distribution (issue #18) ----
+  // Every default below switches its feature off, and a feature that is off draws no random
+  // number: with the defaults every scene is what it was. All but free_look draw from a layout
+  // stream of their own (seeded from `seed`), so they add to a scene without moving what the
+  // fields above put in it; free_look replaces the camera, table and room placement.
+
+  /// Extra camera roll about the viewing direction, uniform in +-camera_roll_max_deg (deg), on
+  /// top of the +-1 deg every scene has. Default 0 (off); sensible 0-10.
+  double camera_roll_max_deg = 0.0;
+
+  /// Free look: instead of standing 0.8-2.5 m from the table and looking at its centre, the
+  /// camera stands anywhere beside the table, free_look_height_min_m-free_look_height_max_m
+  /// above the floor, looks towards a random point of the table area grown by
+  /// free_look_target_spread_m (azimuth only) and is pitched down by
+  /// free_look_pitch_min_deg-free_look_pitch_max_deg. The table stands
+  /// free_look_table_distance_min_m-free_look_table_distance_max_m (horizontal) from the camera
+  /// and the room is drawn by size (room_extent_*, room_height_*) around both, so walls may be
+  /// out of range or out of view. min_table_elevation_deg, camera_height_* and
+  /// table_distance_* are not used. Default false.
+  bool free_look = false;
+  double free_look_height_min_m = 0.4;          ///< Default 0.4.
+  double free_look_height_max_m = 2.0;          ///< Default 2.0.
+  double free_look_pitch_min_deg = 0.0;         ///< down from horizontal. Default 0.
+  double free_look_pitch_max_deg = 60.0;        ///< Default 60.
+  double free_look_table_distance_min_m = 0.8;  ///< Default 0.8.
+  double free_look_table_distance_max_m = 3.5;  ///< Default 3.5.
+  double free_look_target_spread_m = 1.0;       ///< Default 1.
+  /// Free look only: room width and depth (each drawn uniformly; widened when camera and table
+  /// would not fit) and height (m). Defaults 3-7 and 2.4-3.
+  double room_extent_min_m = 3.0;
+  double room_extent_max_m = 7.0;
+  double room_height_min_m = 2.4;
+  double room_height_max_m = 3.0;
+
+  /// More boxes (kind "box", named on from the boxes above), each side drawn log-uniformly from
+  /// [extra_box_size_min_m, extra_box_size_max_m]; on the table when it fits there (and a coin
+  /// says so), else on the floor anywhere in view. Default 0-0 (off); sizes default 0.03-0.6.
+  int extra_boxes_min = 0;
+  int extra_boxes_max = 0;
+  double extra_box_size_min_m = 0.03;
+  double extra_box_size_max_m = 0.6;
+  /// Stacked boxes: a box (4-30 cm, kind "box") lying on the top face of a box already placed,
+  /// inside its top. Default 0-0 (off).
+  int stacked_boxes_min = 0;
+  int stacked_boxes_max = 0;
+  /// Touching pairs: two boxes (kind "box") side by side with a 0-1 cm gap, both with the same
+  /// yaw; half of the pairs with their fronts in one plane; a third with equal heights (one
+  /// top plane), a third with heights 1-3 cm apart. On the table, or on the floor when the pair
+  /// does not fit. Default 0-0 (off).
+  int touching_box_pairs_min = 0;
+  int touching_box_pairs_max = 0;
+  /// Thin objects lying flat, 1-3 cm proud of what they lie on: books (kind "book", 12-30 x
+  /// 10-22 cm, 1.5-3 cm thick), boards ("board", 20-45 x 15-30 cm, 1-2.5 cm) and lids ("lid",
+  /// discs of radius 5-12 cm, 1-2 cm: surfaces "lid<k>_top", "_bottom" planes and "_side"
+  /// curved). On a box top when one has room (half the time) else on the table; one that
+  /// finds no room is shrunk (length and width by 0.75, up to twice) before it is left out.
+  /// Box faces are named like boxes' ("book1_face_top"). Default 0-0 (off).
+  int thin_objects_min = 0;
+  int thin_objects_max = 0;
+  /// Whether lids are among the thin objects (their rim is a curved surface); false draws
+  /// books and boards only. Default true.
+  bool thin_object_lids = true;
+  /// Shelf units (kind "shelf") standing against the back, left or right wall: 0.6-1.2 m wide,
+  /// 0.25-0.4 m deep, 0.8-2 m tall, two side panels "shelf<k>_side{1,2}_face_*", 2-4 boards
+  /// "shelf<k>_board<j>_face_*" and half the time a back panel "shelf<k>_back_face_*", all
+  /// planar; half the boards below the top hold a box. A unit that finds no free stretch of
+  /// wall is left out. Default 0-0 (off).
+  int shelves_min = 0;
+  int shelves_max = 0;
+  /// Tins lying on their side on the table (kind "tin", radius 3-6 cm, 8-20 cm long; "_side"
+  /// curved, "_top" and "_bottom" planes, now vertical). Default 0-0 (off).
+  int lying_tins_min = 0;
+  int lying_tins_max = 0;
+  /// Open bins on the floor (kind "bin": radius 12-25 cm, 30-70 cm tall, surfaces like a cup's
+  /// "bin<k>_outer", "_inner" curved, "_rim", "_inner_bottom", "_bottom" planes). Default 0-0.
+  int bins_min = 0;
+  int bins_max = 0;
+  /// Floor-to-ceiling columns (kind "column": radius 10-25 cm, "column<k>_side" curved).
+  /// Default 0-0 (off).
+  int columns_min = 0;
+  int columns_max = 0;
+  /// Tori lying flat on the table (kind "torus": ring radius 4-12 cm, tube radius 1-3 cm; one
+  /// curved surface "torus<k>"). Default 0-0 (off).
+  int tori_min = 0;
+  int tori_max = 0;
+  /// Smooth mounds on the table (kind "mound": a height field over 20-50 x 20-50 cm, 3-12 cm
+  /// high, 1-3 Gaussian bumps under a window that takes it to 0 at the border; surface
+  /// "mound<k>_top" curved and "mound<k>_base" the plane it rests on). Smaller when the table
+  /// is crowded. Default 0-0 (off).
+  int mounds_min = 0;
+  int mounds_max = 0;
 };
 
 enum class SurfaceKind { kPlane, kCurved };
@@ -129,8 +248,10 @@ struct TruthSurface {
 /// One object of the scene as seen in one frame.
 struct TruthObject {
   std::uint16_t id = 0;  ///< the value in TruthFrame::object_labels (never 0)
-  std::string kind;      ///< "table", "box", "bowl", "cup", "tin" or "ball"
-  std::string name;      ///< e.g. "table", "box2", "bowl1"
+  /// "table", "box", "bowl", "cup", "tin" or "ball"; with the wider distribution's features
+  /// also "book", "board", "lid", "shelf", "bin", "column", "torus" and "mound".
+  std::string kind;
+  std::string name;  ///< e.g. "table", "box2", "bowl1"
 
   /// Tight oriented 3D box in camera coordinates. Axis 2 of `rotation` is the object's own
   /// axis (world up for upright objects, towards the opening for bowls and cups); size is
