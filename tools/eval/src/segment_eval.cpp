@@ -18,7 +18,10 @@ constexpr double kForeignShare = 0.2;
 constexpr double kTableWhole = 0.8;
 
 bool isCurvedObjectKind(const std::string& kind) {
-  return kind == "bowl" || kind == "cup" || kind == "tin" || kind == "ball";
+  for (const char* curved :
+       {"bowl", "cup", "tin", "ball", "bin", "column", "torus", "mound", "lid"})
+    if (kind == curved) return true;
+  return false;
 }
 
 // OSD label -> what it belongs to: 0 none, -1 the table, k > 0 object k.

@@ -16,8 +16,8 @@
 namespace shapesense::eval {
 
 /// The regions a segmentation should find (CV_16UC1, 0 = no depth): every surface of the room,
-/// the table and the boxes on its own; every object with a curved surface (bowl, cup, tin,
-/// ball) as one region.
+/// the table, the boxes, books, boards and shelves on its own; every object with a curved
+/// surface (bowl, cup, tin, ball, bin, column, torus, mound, lid) as one region.
 cv::Mat segmentTruth(const synthetic::TruthFrame& truth);
 
 /// SegComp at T = 0.8 of `regions` against segmentTruth(truth).
