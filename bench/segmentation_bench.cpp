@@ -144,9 +144,33 @@ BENCHMARK(BM_Segment)
                     static_cast<int>(SegmentationMethod::kNormalEdges),
                     static_cast<int>(SegmentationMethod::kFused),
                     static_cast<int>(SegmentationMethod::kPlanePrediction),
-                    static_cast<int>(SegmentationMethod::kTiledRansac)},
+                    static_cast<int>(SegmentationMethod::kTiledRansac),
+                    static_cast<int>(SegmentationMethod::kPlanesAndObjects)},
                    {0, 1}})
     ->Unit(benchmark::kMillisecond);
+
+// The default segmentation as the daemon runs it: after the plane stage, on its planes (the
+// plane detection is made once per frame outside the timed loop; BM_Segment's planes_objects
+// row includes it).
+void BM_SegmentWithPlanes(benchmark::State& state) {
+  const auto& src = source(static_cast<int>(state.range(0)));
+  if (src.empty()) {
+    state.SkipWithError("no frames");
+    return;
+  }
+  HoughPlaneDetector hough;
+  std::vector<PlaneDetection> planes;
+  for (const auto& depth : src) planes.push_back(hough.detect(depth, frames().intrinsics));
+  const SegmentationParams params;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t k = i++ % src.size();
+    cv::Mat r = segmentWithPlanes(src[k], frames().intrinsics,
+                                  SegmentationMethod::kPlanesAndObjects, planes[k], params);
+    benchmark::DoNotOptimize(r.data);
+  }
+}
+BENCHMARK(BM_SegmentWithPlanes)->ArgName("mosd")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // Per-segment statistics (the daemon's segmentation stage runs them after segmentDepth) of the
 // depth_step regions of each frame, segmented outside the timed loop.

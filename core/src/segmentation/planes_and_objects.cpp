@@ -2,12 +2,39 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 namespace shapesense::segmentation {
 namespace {
+
+// Pixels of each label (index = label). Counted run by run: a per-pixel increment of one counter
+// stalls on its own store wherever neighbours share a label, which is almost everywhere.
+std::vector<int> labelCounts(const cv::Mat& labels, std::size_t count) {
+  std::vector<int> counts(count, 0);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    int current = l[0], run = 0;
+    for (int u = 0; u < labels.cols; ++u) {
+      if (l[u] != current) {
+        counts[current] += run;
+        current = l[u];
+        run = 0;
+      }
+      ++run;
+    }
+    counts[current] += run;
+  }
+  return counts;
+}
+
+int largestLabel(const cv::Mat& labels) {
+  double max_label = 0;
+  cv::minMaxLoc(labels, nullptr, &max_label);
+  return static_cast<int>(max_label);
+}
 
 // Plane ids stay as they are; object region o becomes plane_count + o. CV_32SC1, 0 = none.
 cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int plane_count,
@@ -28,80 +55,107 @@ cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int
 // its whole (2 r + 1)^2 window in the region), are cleared: the slivers plane_prediction leaves
 // along creases and borders between planes, which the growth below hands to their neighbours.
 void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams& p) {
-  double max_label = 0;
-  cv::minMaxLoc(labels, nullptr, &max_label);
-  const std::size_t count = static_cast<std::size_t>(max_label) + 1;
-  // A pixel is interior when the smallest and largest label of its window are its own.
-  cv::Mat as_float, lowest, highest;
-  labels.convertTo(as_float, CV_32F);  // exact: labels stay far below 2^24
-  const int r = std::max(0, p.sliver_radius_px);
-  const cv::Mat window = cv::getStructuringElement(cv::MORPH_RECT, {2 * r + 1, 2 * r + 1});
-  cv::erode(as_float, lowest, window, {-1, -1}, 1, cv::BORDER_REPLICATE);
-  cv::dilate(as_float, highest, window, {-1, -1}, 1, cv::BORDER_REPLICATE);
-  std::vector<int> size(count, 0), interior(count, 0);
+  const std::size_t count = static_cast<std::size_t>(largestLabel(labels)) + 1;
+  // Pixels whose 3x3 window holds one label (rows agreeing along u first, then across rows),
+  // then eroded to the (2 r + 1)^2 window.
+  cv::Mat row_same = cv::Mat::zeros(labels.size(), CV_8UC1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* row = labels.ptr<int>(v);
+    auto* out = row_same.ptr<std::uint8_t>(v);
+    for (int u = 1; u + 1 < labels.cols; ++u)
+      out[u] = (row[u - 1] == row[u]) & (row[u + 1] == row[u]);
+  }
+  cv::Mat uniform = cv::Mat::zeros(labels.size(), CV_8UC1);
+  for (int v = 1; v + 1 < labels.rows; ++v) {
+    const int* above = labels.ptr<int>(v - 1);
+    const int* row = labels.ptr<int>(v);
+    const int* below = labels.ptr<int>(v + 1);
+    const auto* same_above = row_same.ptr<std::uint8_t>(v - 1);
+    const auto* same_here = row_same.ptr<std::uint8_t>(v);
+    const auto* same_below = row_same.ptr<std::uint8_t>(v + 1);
+    auto* out = uniform.ptr<std::uint8_t>(v);
+    for (int u = 0; u < labels.cols; ++u)
+      out[u] = static_cast<std::uint8_t>(-(same_above[u] & same_here[u] & same_below[u] &
+                                           (above[u] == row[u]) & (below[u] == row[u])));
+  }
+  if (p.sliver_radius_px > 1) {
+    const int k = 2 * (p.sliver_radius_px - 1) + 1;
+    cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
+  }
+  const std::vector<int> size = labelCounts(labels, count);
+  std::vector<std::uint8_t> has_interior(count, 0);
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
-    const float* lo = lowest.ptr<float>(v);
-    const float* hi = highest.ptr<float>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      ++size[l[u]];
-      interior[l[u]] += lo[u] == hi[u];
-    }
+    const auto* in = uniform.ptr<std::uint8_t>(v);
+    for (int u = 0; u < labels.cols; ++u)
+      if (in[u]) has_interior[l[u]] = 1;
   }
   for (int v = 0; v < labels.rows; ++v) {
     int* l = labels.ptr<int>(v);
     for (int u = 0; u < labels.cols; ++u)
-      if (l[u] > plane_count && (size[l[u]] < p.min_object_px || interior[l[u]] == 0)) l[u] = 0;
+      if (l[u] > plane_count && (size[l[u]] < p.min_object_px || !has_interior[l[u]])) l[u] = 0;
   }
 }
 
-// One pass: each unlabelled pixel with depth takes the label of the 4-neighbour nearest in
-// depth among those on its surface (no depth step between them). False when none changed.
-bool growOnePass(const cv::Mat& depth_mm, const DepthStepRule& step, cv::Mat& labels) {
-  const cv::Mat before = labels.clone();
-  bool changed = false;
-  const int rows = labels.rows, cols = labels.cols;
-  for (int v = 0; v < rows; ++v) {
+// Pixels with depth and no region, by index (row-major).
+std::vector<int> unlabelledPixels(const cv::Mat& depth_mm, const cv::Mat& labels) {
+  std::vector<int> pixels;
+  for (int v = 0; v < labels.rows; ++v) {
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    const int* in = before.ptr<int>(v);
-    int* out = labels.ptr<int>(v);
-    for (int u = 0; u < cols; ++u) {
-      if (in[u] || !depth[u]) continue;
-      const double z = depth[u] * 1e-3;
+    const int* l = labels.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u)
+      if (!l[u] && depth[u]) pixels.push_back(v * labels.cols + u);
+  }
+  return pixels;
+}
+
+// Growth passes: in each, every pixel still without a region takes the label of its
+// 4-neighbour nearest in depth among those labelled before the pass and on its surface (no
+// depth step between them), so a pass adds one ring.
+void growIntoUnlabelled(const cv::Mat& depth_mm, const PlanesAndObjectsParams& p, cv::Mat& labels) {
+  CV_Assert(labels.isContinuous() && depth_mm.isContinuous());
+  std::vector<int> open = unlabelledPixels(depth_mm, labels), still_open;
+  const int rows = labels.rows, cols = labels.cols;
+  int* const lab = labels.ptr<int>(0);
+  const std::uint16_t* const depth = depth_mm.ptr<std::uint16_t>(0);
+  std::vector<std::pair<int, int>> taken;
+  for (int pass = 0; pass < p.grow_passes && !open.empty(); ++pass) {
+    taken.clear();
+    still_open.clear();
+    for (const int i : open) {
+      const int v = i / cols, u = i % cols;
+      const double z = depth[i] * 1e-3;
       double best = 0.0;
       int label = 0;
-      const auto consider = [&](int label_n, std::uint16_t depth_n) {
-        if (!label_n || !depth_n) return;
-        const double zn = depth_n * 1e-3;
-        if (step.isStep(z, zn)) return;
+      const auto consider = [&](int j) {
+        if (!lab[j] || !depth[j]) return;
+        const double zn = depth[j] * 1e-3;
+        if (p.continuity.isStep(z, zn)) return;
         const double dz = std::abs(zn - z);
         if (!label || dz < best) {
           best = dz;
-          label = label_n;
+          label = lab[j];
         }
       };
-      if (u > 0) consider(in[u - 1], depth[u - 1]);
-      if (u + 1 < cols) consider(in[u + 1], depth[u + 1]);
-      if (v > 0) consider(before.ptr<int>(v - 1)[u], depth_mm.ptr<std::uint16_t>(v - 1)[u]);
-      if (v + 1 < rows) consider(before.ptr<int>(v + 1)[u], depth_mm.ptr<std::uint16_t>(v + 1)[u]);
-      if (label) {
-        out[u] = label;
-        changed = true;
-      }
+      if (u > 0) consider(i - 1);
+      if (u + 1 < cols) consider(i + 1);
+      if (v > 0) consider(i - cols);
+      if (v + 1 < rows) consider(i + cols);
+      if (label)
+        taken.emplace_back(i, label);
+      else
+        still_open.push_back(i);
     }
+    if (taken.empty()) break;
+    for (const auto& [i, label] : taken) lab[i] = label;
+    open.swap(still_open);
   }
-  return changed;
 }
 
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.
 cv::Mat compactRegions(const cv::Mat& labels, int min_pixels) {
-  double max_label = 0;
-  cv::minMaxLoc(labels, nullptr, &max_label);
-  std::vector<int> size(static_cast<std::size_t>(max_label) + 1, 0);
-  for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u) ++size[l[u]];
-  }
+  const std::vector<int> size =
+      labelCounts(labels, static_cast<std::size_t>(largestLabel(labels)) + 1);
   std::vector<int> id(size.size(), 0);
   int next = 0;
   cv::Mat out(labels.size(), CV_16UC1);
@@ -130,8 +184,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   for (const auto& plane : planes.planes) plane_count = std::max<int>(plane_count, plane.id);
   cv::Mat labels = overlayObjects(depth_mm, planes.labels, plane_count, objects);
   clearSlivers(labels, plane_count, p);
-  for (int pass = 0; pass < p.grow_passes && growOnePass(depth_mm, p.continuity, labels); ++pass) {
-  }
+  growIntoUnlabelled(depth_mm, p, labels);
   return compactRegions(labels, p.min_region_px);
 }
 
