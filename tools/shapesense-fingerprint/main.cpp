@@ -126,14 +126,14 @@ void addResults(std::map<std::string, Fnv>& stages, const std::string& prefix,
   }
 }
 
-/// The chains hashed: the daemon's default (depth_step segmentation, Hough planes, boxes,
+/// The chains hashed: the daemon's default (kDefaultSegmentationMethod, Hough planes, boxes,
 /// bowls), every other segmentation method, and RANSAC planes.
 std::vector<std::pair<std::string, DetectorChain>> makeChains() {
   std::vector<std::pair<std::string, DetectorChain>> chains;
   DetectorConfig config;
   chains.emplace_back("default.", makeDetectorChain(config));
-  for (auto method : {SegmentationMethod::kNormalEdges, SegmentationMethod::kFused,
-                      SegmentationMethod::kPlanePrediction, SegmentationMethod::kTiledRansac}) {
+  for (auto method : kSegmentationMethods) {
+    if (method == kDefaultSegmentationMethod) continue;
     DetectorConfig c;
     c.segmentation = method;
     c.planes.reset();
