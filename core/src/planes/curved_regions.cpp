@@ -79,63 +79,40 @@ bool isCurved(const QuadricSums& s, const PlaneLabelingParams& params) {
   return ratio >= params.curved_rms_ratio && largestCurvature(s) > params.max_plane_curvature_per_m;
 }
 
-void renumber(const std::vector<int>& new_id, PlaneDetection& detection) {
-  for (int v = 0; v < detection.labels.rows; ++v) {
-    auto* row = detection.labels.ptr<std::uint16_t>(v);
-    for (int u = 0; u < detection.labels.cols; ++u)
-      if (row[u]) row[u] = static_cast<std::uint16_t>(new_id[row[u]]);
-  }
-  std::vector<DetectedPlane> kept;
-  for (auto& plane : detection.planes) {
-    if (!new_id[plane.id]) continue;
-    plane.id = static_cast<std::uint16_t>(new_id[plane.id]);
-    kept.push_back(std::move(plane));
-  }
-  detection.planes = std::move(kept);
-}
-
 }  // namespace
 
-void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& params,
-                       PlaneDetection& detection) {
-  if (params.max_plane_curvature_per_m <= 0.0 || detection.planes.empty()) return;
-  int max_id = 0;
-  for (const auto& p : detection.planes) max_id = std::max<int>(max_id, p.id);
-  std::vector<int> index_of(max_id + 1, -1);
-  for (std::size_t i = 0; i < detection.planes.size(); ++i)
-    index_of[detection.planes[i].id] = static_cast<int>(i);
-  struct Frame {
-    Eigen::Vector3d n, e1, e2;
+std::vector<bool> curvedRegions(const PlaneSampleGrid& grid, const cv::Mat& region_labels,
+                                const std::vector<int>& root, const std::vector<bool>& candidate,
+                                const std::vector<Eigen::Vector3d>& normals,
+                                const PlaneLabelingParams& params) {
+  if (params.max_plane_curvature_per_m <= 0.0) return {};
+  const std::size_t count = root.size();
+  struct Axes {
+    Eigen::Vector3d e1, e2;
   };
-  std::vector<Frame> frames;
-  for (const auto& p : detection.planes) {
-    const Eigen::Vector3d e1 = p.normal.unitOrthogonal();
-    frames.push_back({p.normal, e1, p.normal.cross(e1)});
+  std::vector<Axes> axes(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!candidate[k]) continue;
+    axes[k].e1 = normals[k].unitOrthogonal();
+    axes[k].e2 = normals[k].cross(axes[k].e1);
   }
-  std::vector<QuadricSums> sums(detection.planes.size());
+  std::vector<QuadricSums> sums(count);
   for (int r = 0; r < grid.points.rows; ++r) {
-    const auto* label_row = detection.labels.ptr<std::uint16_t>(grid.offset + r * grid.step);
+    const auto* label_row = region_labels.ptr<std::uint16_t>(grid.offset + r * grid.step);
     const auto* point_row = grid.points.ptr<cv::Vec3f>(r);
     for (int c = 0; c < grid.points.cols; ++c) {
-      const int id = label_row[grid.offset + c * grid.step];
-      if (!id || id > max_id || index_of[id] < 0) continue;
+      const int label = label_row[grid.offset + c * grid.step];
+      if (!label || label > static_cast<int>(count)) continue;
+      const int k = root[label - 1];
+      if (!candidate[k]) continue;
       const cv::Vec3f& x = point_row[c];
       if (!std::isfinite(x[2])) continue;
-      const Frame& f = frames[index_of[id]];
-      sums[index_of[id]].add({x[0], x[1], x[2]}, f.n, f.e1, f.e2);
+      sums[k].add({x[0], x[1], x[2]}, normals[k], axes[k].e1, axes[k].e2);
     }
   }
-  std::vector<int> new_id(max_id + 1, 0);
-  int next = 1;
-  bool dropped = false;
-  for (const auto& p : detection.planes) {
-    if (isCurved(sums[index_of[p.id]], params)) {
-      dropped = true;
-      continue;
-    }
-    new_id[p.id] = next++;
-  }
-  if (dropped) renumber(new_id, detection);
+  std::vector<bool> curved(count, false);
+  for (std::size_t k = 0; k < count; ++k) curved[k] = candidate[k] && isCurved(sums[k], params);
+  return curved;
 }
 
 }  // namespace shapesense::labeling

@@ -18,7 +18,8 @@ namespace shapesense::labeling {
 
 /// One region of samples (one plane, connected) and what its pixels add up to.
 struct RegionAccumulator {
-  int plane = -1;  // index into the hypotheses
+  int plane = -1;       // index into the hypotheses
+  bool curved = false;  // lies on a curved surface: not reported (labeling::curvedRegions)
   int samples = 0;
   cv::Rect sample_box;  // on the sample grid
   // Full-resolution accumulation: raw moments (camera frame, in double: the covariance of a

@@ -330,7 +330,8 @@ std::vector<int> mergeCoplanarRegions(const PlaneSampleGrid& grid,
 // label left.
 bool keepsRegion(std::vector<RegionAccumulator>& regions, RegionFits& fits, std::size_t k,
                  std::size_t kept_so_far, int min_region_pixels) {
-  return regions[k].count >= static_cast<std::size_t>(std::max(1, min_region_pixels)) &&
+  return !regions[k].curved &&
+         regions[k].count >= static_cast<std::size_t>(std::max(1, min_region_pixels)) &&
          kept_so_far < 65535 && fits.of(static_cast<int>(k)).valid;
 }
 
@@ -384,6 +385,30 @@ std::vector<cv::Mat> keptRegionMasks(const PlaneSampleGrid& grid, const int* reg
 // The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
 // and polygon), and the labels renumbered to them (merged regions take their survivor's id,
 // dropped ones 0).
+// Marks the regions that would be reported but lie on a curved surface (labeling::curvedRegions),
+// so that keepsRegion drops them; `labels` holds region k as k + 1.
+void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& params,
+                       const cv::Mat& labels, RegionFits& fits, std::vector<int>& merged_into,
+                       std::vector<RegionAccumulator>& regions) {
+  const std::size_t nreg = regions.size();
+  std::vector<int> root(nreg);
+  std::vector<bool> candidate(nreg, false);
+  std::vector<Eigen::Vector3d> normals(nreg, Eigen::Vector3d::Zero());
+  for (std::size_t k = 0; k < nreg; ++k) {
+    root[k] = findRoot(merged_into, static_cast<int>(k));
+    if (root[k] != static_cast<int>(k) ||
+        regions[k].count < static_cast<std::size_t>(std::max(1, params.min_region_pixels)))
+      continue;
+    const PlaneFit& fit = fits.of(static_cast<int>(k));
+    if (!fit.valid) continue;
+    candidate[k] = true;
+    normals[k] = fit.normal;
+  }
+  const std::vector<bool> curved =
+      labeling::curvedRegions(grid, labels, root, candidate, normals, params);
+  for (std::size_t k = 0; k < curved.size(); ++k) regions[k].curved = curved[k];
+}
+
 void describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid, bool with_colour,
                      const PlaneLabelingParams& params, const int* region_of,
                      std::vector<RegionAccumulator>& regions, RegionFits& fits,
@@ -498,11 +523,11 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::iota(merged_into.begin(), merged_into.end(), 0);
   if (params.merge_coplanar_regions)
     merged_into = mergeCoplanarRegions(grid, continuous, params, region_of, regions, fits);
-  // 5. Keep regions with enough pixels, number them 1.., refit, describe.
+  // 5. Regions that bend are not planes.
+  dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
+  // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   describeRegions(K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs,
                   out);
-  // 6. Regions that bend are not planes.
-  labeling::dropCurvedRegions(grid, params, out);
   return out;
 }
 
