@@ -53,18 +53,25 @@ struct QuadricSums {
   }
 };
 
-// Residual sum of squares of the least-squares solution of the system's first `dims` unknowns
-// counted from the end (6: the quadric, 3: the plane).
-double residualOfFit(const QuadricSums& s, int dims) {
+// The least-squares solution over the system's last `dims` unknowns (6: the quadric, 3: the
+// plane) and its residual sum of squares.
+struct LeastSquares {
+  Eigen::VectorXd solution;
+  double residual = 0.0;
+};
+
+LeastSquares solveLast(const QuadricSums& s, int dims) {
   const Eigen::MatrixXd m = s.normalMatrix();
   const Eigen::MatrixXd sub = m.bottomRightCorner(dims, dims);
   const Eigen::VectorXd rhs = s.rhsVector().tail(dims);
-  const Eigen::VectorXd q = sub.ldlt().solve(rhs);
-  return std::max(0.0, s.sum_h2 - q.dot(rhs));
+  LeastSquares fit;
+  fit.solution = sub.ldlt().solve(rhs);
+  fit.residual = std::max(0.0, s.sum_h2 - fit.solution.dot(rhs));
+  return fit;
 }
 
-double largestCurvature(const QuadricSums& s) {
-  const Eigen::Matrix<double, 6, 1> q = s.normalMatrix().ldlt().solve(s.rhsVector());
+// The larger principal curvature magnitude of a fitted quadric h = q0 a^2 + q1 a b + q2 b^2 + ...
+double largestCurvature(const Eigen::VectorXd& q) {
   Eigen::Matrix2d hessian;
   hessian << 2.0 * q[0], q[1], q[1], 2.0 * q[2];
   const Eigen::Vector2d k = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(hessian).eigenvalues();
@@ -74,9 +81,10 @@ double largestCurvature(const QuadricSums& s) {
 bool isCurved(const QuadricSums& s, const PlaneLabelingParams& params) {
   constexpr int kMinSamples = 12;  // twice the quadric's unknowns
   if (s.count < kMinSamples) return false;
-  const double plane_rss = residualOfFit(s, 3), quadric_rss = residualOfFit(s, 6);
-  const double ratio = std::sqrt(plane_rss / std::max(quadric_rss, 1e-18));
-  return ratio >= params.curved_rms_ratio && largestCurvature(s) > params.max_plane_curvature_per_m;
+  const LeastSquares plane = solveLast(s, 3), quadric = solveLast(s, 6);
+  const double ratio = std::sqrt(plane.residual / std::max(quadric.residual, 1e-18));
+  return ratio >= params.curved_rms_ratio &&
+         largestCurvature(quadric.solution) > params.max_plane_curvature_per_m;
 }
 
 }  // namespace

@@ -397,12 +397,10 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
   for (std::size_t k = 0; k < nreg; ++k) {
     root[k] = findRoot(merged_into, static_cast<int>(k));
     if (root[k] != static_cast<int>(k) ||
-        regions[k].count < static_cast<std::size_t>(std::max(1, params.min_region_pixels)))
+        !keepsRegion(regions, fits, k, 0, params.min_region_pixels))
       continue;
-    const PlaneFit& fit = fits.of(static_cast<int>(k));
-    if (!fit.valid) continue;
     candidate[k] = true;
-    normals[k] = fit.normal;
+    normals[k] = fits.of(static_cast<int>(k)).normal;
   }
   const std::vector<bool> curved =
       labeling::curvedRegions(grid, labels, root, candidate, normals, params);

@@ -84,6 +84,18 @@ void LayoutBuilder::addBoxSolid(const Eigen::Isometry3d& pose, const Eigen::Vect
            [&](int, const FaceLabel&) { return jitterColour(rng_, colour, 0.06); });
 }
 
+std::string LayoutBuilder::nextObjectName(const std::string& kind) {
+  return kind + std::to_string(++objects_of_kind_[kind]);
+}
+
+std::uint16_t LayoutBuilder::addSolidObject(ObjectDef object, std::unique_ptr<const Solid> solid,
+                                            const Eigen::Vector3f& colour) {
+  object.local_box = solid->bounds();
+  const std::uint16_t id = addObject(object);
+  addShadedSolid(std::move(solid), object, id, colour);
+  return id;
+}
+
 Eigen::Vector3f LayoutBuilder::objectColour() {
   static constexpr std::array<std::array<float, 3>, 8> kPalette = {{
       {60, 60, 200},

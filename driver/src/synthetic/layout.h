@@ -23,6 +23,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -93,6 +94,12 @@ class LayoutBuilder {
                    BoxSolid::FaceNames face_names = BoxSolid::defaultFaceNames());
   /// A colour from the object palette, jittered.
   Eigen::Vector3f objectColour();
+  /// "<kind><n>": the n-th object of that kind (box1, box2, ..., bowl1, ...).
+  std::string nextObjectName(const std::string& kind);
+  /// An object made of one solid: its local box is the solid's bounds, its faces are
+  /// addShadedSolid's with `colour`. Returns the object's id.
+  std::uint16_t addSolidObject(ObjectDef object, std::unique_ptr<const Solid> solid,
+                               const Eigen::Vector3f& colour);
 
   // layout_room.cpp
   void placeCameraAndTable();
@@ -167,25 +174,13 @@ class LayoutBuilder {
   Eigen::Vector2d room_max_ = Eigen::Vector2d::Zero();
   std::vector<Footprint> table_footprints_;
   std::vector<Footprint> floor_footprints_;
-  int box_count_ = 0;
-  int bowl_count_ = 0;
-  int cup_count_ = 0;
-  int tin_count_ = 0;
-  int ball_count_ = 0;
+  std::map<std::string, int> objects_of_kind_;  // for the names: box1, box2, ..., bowl1, ...
 
   // The wider distribution's additions.
   Rng extra_rng_;
   double room_height_ = 0.0;
   std::vector<FloorBlock> floor_blocks_;
   std::vector<Support> box_tops_;
-  int book_count_ = 0;
-  int board_count_ = 0;
-  int lid_count_ = 0;
-  int shelf_count_ = 0;
-  int bin_count_ = 0;
-  int column_count_ = 0;
-  int torus_count_ = 0;
-  int mound_count_ = 0;
 };
 
 }  // namespace shapesense::synthetic::detail

@@ -131,16 +131,14 @@ void LayoutBuilder::addThinObject() {
   const Eigen::Vector3f colour = objectColour();
   if (type == 2) {
     thin.kind = "lid";
-    thin.name = "lid" + std::to_string(++lid_count_);
+    thin.name = nextObjectName("lid");
     thin.world_from_object = *spot;
     auto solid = std::make_unique<TinSolid>(size.x() / 2, size.z());
-    thin.local_box = solid->bounds();
-    const std::uint16_t id = addObject(thin);
-    addShadedSolid(std::move(solid), thin, id, colour);
+    addSolidObject(std::move(thin), std::move(solid), colour);
     return;
   }
   thin.kind = type == 0 ? "book" : "board";
-  thin.name = thin.kind + std::to_string(type == 0 ? ++book_count_ : ++board_count_);
+  thin.name = nextObjectName(thin.kind);
   thin.world_from_object = *spot * poseAt({0.0, 0.0, size.z() / 2}, 0.0);
   thin.local_box = Eigen::AlignedBox3d(-size / 2, size / 2);
   const std::uint16_t id = addObject(thin);
@@ -159,7 +157,7 @@ void LayoutBuilder::addLyingTin() {
   if (!spot) return;
   ObjectDef tin;
   tin.kind = "tin";
-  tin.name = "tin" + std::to_string(++tin_count_);
+  tin.name = nextObjectName("tin");
   // The tin's axis (its local z, from the bottom) along the spot's x, resting on its side.
   Eigen::Isometry3d lying = Eigen::Isometry3d::Identity();
   lying.translation() = Eigen::Vector3d(-length / 2, 0.0, radius);
@@ -167,11 +165,10 @@ void LayoutBuilder::addLyingTin() {
       Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
   tin.world_from_object = *spot * lying;
   auto solid = std::make_unique<TinSolid>(radius, length);
-  tin.local_box = solid->bounds();
-  const std::uint16_t id = addObject(tin);
+  // Half the tins are bare metal.
   const Eigen::Vector3f colour =
       rng_.chance(0.5) ? jitterColour(rng_, {175, 175, 180}, 0.1) : objectColour();
-  addShadedSolid(std::move(solid), tin, id, colour);
+  addSolidObject(std::move(tin), std::move(solid), colour);
 }
 
 void LayoutBuilder::addBin() {
@@ -183,12 +180,10 @@ void LayoutBuilder::addBin() {
   if (!spot) return;
   ObjectDef bin;
   bin.kind = "bin";
-  bin.name = "bin" + std::to_string(++bin_count_);
+  bin.name = nextObjectName("bin");
   bin.world_from_object = *spot;
   auto solid = std::make_unique<CupSolid>(radius, height, wall, bottom);
-  bin.local_box = solid->bounds();
-  const std::uint16_t id = addObject(bin);
-  addShadedSolid(std::move(solid), bin, id, objectColour());
+  addSolidObject(std::move(bin), std::move(solid), objectColour());
 }
 
 void LayoutBuilder::addColumn() {
@@ -197,12 +192,10 @@ void LayoutBuilder::addColumn() {
   if (!spot) return;
   ObjectDef column;
   column.kind = "column";
-  column.name = "column" + std::to_string(++column_count_);
+  column.name = nextObjectName("column");
   column.world_from_object = *spot;
   auto solid = std::make_unique<TinSolid>(radius, room_height_);
-  column.local_box = solid->bounds();
-  const std::uint16_t id = addObject(column);
-  addShadedSolid(std::move(solid), column, id,
+  addSolidObject(std::move(column), std::move(solid),
                  jitterColour(rng_, Eigen::Vector3f(200, 205, 210), 0.1));
 }
 
@@ -213,12 +206,10 @@ void LayoutBuilder::addTorus() {
   if (!spot) return;
   ObjectDef torus;
   torus.kind = "torus";
-  torus.name = "torus" + std::to_string(++torus_count_);
+  torus.name = nextObjectName("torus");
   torus.world_from_object = *spot * poseAt({0.0, 0.0, tube}, 0.0);
   auto solid = std::make_unique<TorusSolid>(major, tube);
-  torus.local_box = solid->bounds();
-  const std::uint16_t id = addObject(torus);
-  addShadedSolid(std::move(solid), torus, id, objectColour());
+  addSolidObject(std::move(torus), std::move(solid), objectColour());
 }
 
 void LayoutBuilder::addMound() {
@@ -237,7 +228,7 @@ void LayoutBuilder::addMound() {
   if (!spot) return;
   ObjectDef mound;
   mound.kind = "mound";
-  mound.name = "mound" + std::to_string(++mound_count_);
+  mound.name = nextObjectName("mound");
   mound.world_from_object = *spot;
   // The bumps' weights are relative: scale them so that the highest point is `height`.
   const double peak = MoundSolid(half, 1.0, bumps).peakHeight();

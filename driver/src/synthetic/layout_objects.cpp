@@ -34,7 +34,7 @@ void LayoutBuilder::addBox(const Eigen::Isometry3d& support, const Eigen::Vector
       cardboard ? jitterColour(rng_, Eigen::Vector3f(70, 130, 175), 0.12) : objectColour();
   ObjectDef box;
   box.kind = "box";
-  box.name = "box" + std::to_string(++box_count_);
+  box.name = nextObjectName("box");
   box.world_from_object = support * poseAt({0.0, 0.0, size.z() / 2}, 0.0);
   box.local_box = Eigen::AlignedBox3d(-size / 2, size / 2);
   const std::uint16_t id = addObject(box);
@@ -56,7 +56,7 @@ void LayoutBuilder::addBowl() {
 
   ObjectDef bowl;
   bowl.kind = "bowl";
-  bowl.name = "bowl" + std::to_string(++bowl_count_);
+  bowl.name = nextObjectName("bowl");
   bowl.bowl = BowlDef{upright, rim_z, rim_radius, radius + rim_z, thickness};
   // Upright it rests on the lowest point of its outer sphere, upside down on its rim.
   if (upright) {
@@ -69,9 +69,7 @@ void LayoutBuilder::addBowl() {
     bowl.world_from_object = *spot * flip;
   }
   auto solid = std::make_unique<BowlSolid>(radius, rim_z, thickness);
-  bowl.local_box = solid->bounds();
-  const std::uint16_t id = addObject(bowl);
-  addShadedSolid(std::move(solid), bowl, id, objectColour());
+  addSolidObject(std::move(bowl), std::move(solid), objectColour());
 }
 
 void LayoutBuilder::addCup() {
@@ -83,12 +81,10 @@ void LayoutBuilder::addCup() {
   if (!spot) return;
   ObjectDef cup;
   cup.kind = "cup";
-  cup.name = "cup" + std::to_string(++cup_count_);
+  cup.name = nextObjectName("cup");
   cup.world_from_object = *spot;
   auto solid = std::make_unique<CupSolid>(radius, height, wall, bottom);
-  cup.local_box = solid->bounds();
-  const std::uint16_t id = addObject(cup);
-  addShadedSolid(std::move(solid), cup, id, objectColour());
+  addSolidObject(std::move(cup), std::move(solid), objectColour());
 }
 
 void LayoutBuilder::addTin() {
@@ -98,14 +94,13 @@ void LayoutBuilder::addTin() {
   if (!spot) return;
   ObjectDef tin;
   tin.kind = "tin";
-  tin.name = "tin" + std::to_string(++tin_count_);
+  tin.name = nextObjectName("tin");
   tin.world_from_object = *spot;
   auto solid = std::make_unique<TinSolid>(radius, height);
-  tin.local_box = solid->bounds();
-  const std::uint16_t id = addObject(tin);
+  // Half the tins are bare metal.
   const Eigen::Vector3f colour =
       rng_.chance(0.5) ? jitterColour(rng_, {175, 175, 180}, 0.1) : objectColour();
-  addShadedSolid(std::move(solid), tin, id, colour);
+  addSolidObject(std::move(tin), std::move(solid), colour);
 }
 
 void LayoutBuilder::addBall() {
@@ -114,12 +109,10 @@ void LayoutBuilder::addBall() {
   if (!spot) return;
   ObjectDef ball;
   ball.kind = "ball";
-  ball.name = "ball" + std::to_string(++ball_count_);
+  ball.name = nextObjectName("ball");
   ball.world_from_object = *spot * poseAt({0.0, 0.0, radius}, 0.0);
   auto solid = std::make_unique<BallSolid>(radius);
-  ball.local_box = solid->bounds();
-  const std::uint16_t id = addObject(ball);
-  addShadedSolid(std::move(solid), ball, id, objectColour());
+  addSolidObject(std::move(ball), std::move(solid), objectColour());
 }
 
 }  // namespace shapesense::synthetic::detail

@@ -87,7 +87,7 @@ void LayoutBuilder::addShelf() {
 
   ObjectDef shelf;
   shelf.kind = "shelf";
-  shelf.name = "shelf" + std::to_string(++shelf_count_);
+  shelf.name = nextObjectName("shelf");
   shelf.world_from_object = poseAt({block.center.x(), block.center.y(), 0.0}, block.yaw);
   shelf.local_box = Eigen::AlignedBox3d(Eigen::Vector3d(-width / 2, -depth / 2, 0.0),
                                         Eigen::Vector3d(width / 2, depth / 2, height));

@@ -98,26 +98,24 @@ void planeErrors(const SegCompScore& seg, const cv::Mat& labels, const cv::Mat& 
         ++found_pixels[fp[u]];
       }
   }
-  std::unordered_map<int, int> truth_pixels;
-  for (const auto& t : seg.truth) truth_pixels[t.label] = t.pixels;
-  for (const auto& t : seg.truth) {
-    if (t.outcome != SegCompOutcome::kCorrect) continue;
-    for (const auto& [key, ov] : overlap) {
-      if (key.first != t.label) continue;
-      if (ov < kOverlap * t.pixels || ov < kOverlap * found_pixels[key.second]) continue;
-      const auto fp = std::find_if(planes.begin(), planes.end(),
-                                   [&](const DetectedPlane& p) { return p.id == key.second; });
-      const auto tp =
-          std::find_if(truth.surfaces.begin(), truth.surfaces.end(),
-                       [&](const synthetic::TruthSurface& x) { return x.id == key.first; });
-      if (fp == planes.end() || tp == truth.surfaces.end()) continue;
-      const Eigen::Vector3d tn = tp->plane.head<3>();
-      s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) /
-                            degToRad(1.0));
-      s.dist_m.push_back(std::fabs(fp->d - tp->plane[3]));
-      s.matches.emplace_back(key.first, key.second);
-      break;
-    }
+  std::unordered_map<int, int> correct_truth_pixels;
+  for (const auto& t : seg.truth)
+    if (t.outcome == SegCompOutcome::kCorrect) correct_truth_pixels[t.label] = t.pixels;
+  for (const auto& [key, ov] : overlap) {
+    const auto t = correct_truth_pixels.find(key.first);
+    if (t == correct_truth_pixels.end()) continue;
+    if (ov < kOverlap * t->second || ov < kOverlap * found_pixels[key.second]) continue;
+    const auto fp = std::find_if(planes.begin(), planes.end(),
+                                 [&](const DetectedPlane& p) { return p.id == key.second; });
+    const auto tp =
+        std::find_if(truth.surfaces.begin(), truth.surfaces.end(),
+                     [&](const synthetic::TruthSurface& x) { return x.id == key.first; });
+    if (fp == planes.end() || tp == truth.surfaces.end()) continue;
+    const Eigen::Vector3d tn = tp->plane.head<3>();
+    s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) /
+                          degToRad(1.0));
+    s.dist_m.push_back(std::fabs(fp->d - tp->plane[3]));
+    s.matches.emplace_back(key.first, key.second);
   }
 }
 
