@@ -1,0 +1,251 @@
+"""The Python client (clients/python) against a daemon on the synthetic scene.
+
+Run by ctest (label `clients`) with Debian's python3 and PYTHONPATH at the built package
+(build/clients/python); SHAPESENSE_BINARY_DIR and SHAPESENSE_SOURCE_DIR name the build and
+source trees. By hand:
+    PYTHONPATH=build/clients/python SHAPESENSE_BINARY_DIR=build SHAPESENSE_SOURCE_DIR=. \
+        /usr/bin/python3 tests/clients/python_client_test.py -v
+"""
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+import shapesense
+
+BINARY_DIR = os.environ.get("SHAPESENSE_BINARY_DIR", "build")
+SOURCE_DIR = os.environ.get("SHAPESENSE_SOURCE_DIR", ".")
+EXAMPLES = os.path.join(SOURCE_DIR, "clients", "python", "examples")
+ROI = ((280, 200), (360, 280))  # the middle of the 640x480 image: the table and what stands on it
+
+
+class Daemon:
+    """build/server/shapesensed --source synthetic on a port the system picks (--listen
+    127.0.0.1:0), read back from its "serving ... (port N" log line; SIGTERM at the end."""
+
+    def __init__(self, scratch: str):
+        self.log_path = os.path.join(scratch, "shapesensed.log")
+        self.log = open(self.log_path, "w")
+        self.process = subprocess.Popen(
+            [os.path.join(BINARY_DIR, "server", "shapesensed"), "--source", "synthetic",
+             "--listen", "127.0.0.1:0", "--record-root", os.path.join(scratch, "recordings")],
+            stdout=self.log, stderr=subprocess.STDOUT)
+        self.port = self._wait_for_port(20.0)
+        self.address = f"127.0.0.1:{self.port}"
+
+    def _wait_for_port(self, seconds: float) -> int:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            with open(self.log_path) as f:
+                found = re.search(r"\(port (\d+)", f.read())
+            if found:
+                return int(found.group(1))
+            if self.process.poll() is not None:
+                break
+            time.sleep(0.05)
+        self.stop()
+        with open(self.log_path) as f:
+            raise RuntimeError("shapesensed did not start serving:\n" + f.read())
+
+    def stop(self) -> int:
+        if self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self.log.close()
+        return self.process.returncode
+
+
+class PythonClientTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.scratch = tempfile.TemporaryDirectory(prefix="shapesense-python-")
+        cls.daemon = Daemon(cls.scratch.name)
+        cls.client = shapesense.Client(cls.daemon.address, timeout=10.0)
+        cls.client.wait_until_serving(10.0)
+        # Detector queries want a processed frame.
+        deadline = time.monotonic() + 10
+        while not cls.client.newest_processed_ns() and time.monotonic() < deadline:
+            time.sleep(0.05)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.client.close()
+        code = cls.daemon.stop()
+        cls.scratch.cleanup()
+        assert code == 0, f"shapesensed exited with {code}"
+
+    def run_example(self, name, *arguments):
+        env = dict(os.environ)
+        return subprocess.run([sys.executable, os.path.join(EXAMPLES, name), "--server",
+                               self.daemon.address, *arguments], env=env, capture_output=True,
+                              text=True, timeout=30)
+
+    def test_status(self):
+        status = self.client.status()
+        self.assertIn("synthetic", status.source)
+        self.assertEqual(status.source_state, "STREAMING")
+        self.assertTrue(status.version)
+        self.assertTrue(status.session_id)
+        self.assertGreater(status.frames_received, 0)
+        self.assertGreater(status.cache.frames, 0)
+        self.assertLessEqual(status.cache.frames, status.cache.capacity)
+        self.assertLessEqual(status.cache.oldest_ns, status.cache.newest_ns)
+        self.assertFalse(status.source_live)
+        self.assertTrue(status.source_connected)
+        self.assertIn("planes", " ".join(status.detectors))
+        self.assertTrue(all(s.stage and s.runs >= 0 for s in status.stages))
+
+    def test_frames_are_in_order(self):
+        frames = self.client.frames()
+        self.assertGreater(len(frames), 0)
+        stamps = [f.timestamp_ns for f in frames]
+        self.assertEqual(stamps, sorted(stamps))
+        self.assertEqual(len(self.client.frames(limit=2)), 2)
+        self.assertTrue(all((f.width, f.height) == (640, 480) for f in frames))
+
+    @unittest.skipUnless(shapesense.images_available(), "numpy and cv2 decode the images")
+    def test_frame_depth_in_metres_and_colour(self):
+        stamp = self.client.frames()[-1].timestamp_ns
+        frame = self.client.frame(at_ns=stamp)
+        self.assertEqual(frame.info.timestamp_ns, stamp)
+        self.assertEqual(frame.depth.shape, (480, 640))
+        self.assertEqual(str(frame.depth.dtype), "float32")
+        valid = frame.depth[frame.depth > 0]
+        self.assertGreater(valid.size, 0.5 * frame.depth.size)
+        self.assertGreater(float(valid.min()), 0.3)  # a Kinect reads from ~0.4 m
+        self.assertLess(float(valid.max()), 10.0)
+        self.assertAlmostEqual(float(sorted(valid.tolist())[valid.size // 2]),
+                               frame.depth_stats.median_m, delta=0.01)
+        self.assertEqual(frame.colour.shape, (480, 640, 3))
+        self.assertEqual((frame.intrinsics.width, frame.intrinsics.height), (640, 480))
+
+    def test_estimate_box_matches_the_cli(self):
+        stamp = self.client.frames()[-1].timestamp_ns
+        for mode, number in (("frustum_aligned", 1), ("axis_aligned_contained", 2)):
+            box = self.client.estimate_box(ROI[0], ROI[1], at_ns=stamp, mode=mode)
+            self.assertEqual(box.frame_timestamp_ns, stamp)
+            self.assertEqual(len(box.corners), 8)
+            cli = subprocess.run(
+                [os.path.join(BINARY_DIR, "clients", "shapesense"), "--server",
+                 self.daemon.address, "bbox", "--at", shapesense.format_ns(stamp), "--roi",
+                 "%d,%d,%d,%d" % (*ROI[0], *ROI[1]), "--mode", str(number), "--json"],
+                capture_output=True, text=True, timeout=20)
+            self.assertEqual(cli.returncode, 0, cli.stderr)
+            expected = json.loads(cli.stdout)
+            self.assertEqual(int(expected["frame_timestamp_ns"]), stamp)
+            for got, want in zip(box.corners, expected["corners"]):
+                for g, w in zip(got, (want["x"], want["y"], want["z"])):
+                    self.assertAlmostEqual(g, w, delta=1e-9)
+            self.assertTrue(all(0 < s < 2 for s in box.size_m), box.size_m)
+
+    def test_roi_outside_the_image_is_invalid_argument(self):
+        with self.assertRaises(shapesense.ShapeSenseError) as caught:
+            self.client.estimate_box((600, 400), (700, 500))
+        self.assertEqual(caught.exception.code, "INVALID_ARGUMENT")
+        self.assertTrue(caught.exception.message)
+        self.assertTrue(str(caught.exception).startswith("INVALID_ARGUMENT: "))
+
+    def test_time_before_the_cache_is_out_of_range(self):
+        with self.assertRaises(shapesense.ShapeSenseError) as caught:
+            self.client.frame(at_ns=1)
+        self.assertEqual(caught.exception.code, "OUT_OF_RANGE")
+
+    def test_unknown_box_mode_is_refused_before_the_call(self):
+        with self.assertRaises(ValueError):
+            self.client.estimate_box(ROI[0], ROI[1], mode="sideways")
+
+    def test_planes_are_unit_and_positive_distance(self):
+        planes = self.client.planes()
+        self.assertGreater(planes.frame_timestamp_ns, 0)
+        self.assertGreater(len(planes), 0)
+        for plane in planes:
+            self.assertAlmostEqual(math.sqrt(sum(c * c for c in plane.normal)), 1.0, delta=1e-6)
+            self.assertGreater(plane.d, 0)
+            self.assertGreaterEqual(len(plane.polygon), 3)
+            self.assertTrue(all(max(t) < len(plane.polygon) for t in plane.triangles))
+        accumulated = self.client.planes(accumulated=True, polygons=False)
+        self.assertTrue(all(not p.polygon for p in accumulated))
+
+    def test_segments_detected_boxes_and_bowls(self):
+        stamp = self.client.newest_processed_ns()
+        segments = self.client.segments(at_ns=stamp, labels=True)
+        self.assertEqual(segments.frame_timestamp_ns, stamp)
+        self.assertGreater(len(segments.segments), 0)
+        if shapesense.images_available():
+            self.assertEqual(segments.labels.shape, (480, 640))
+            self.assertEqual(int(segments.labels.max()), max(s.id for s in segments.segments))
+        boxes = self.client.detected_boxes(at_ns=stamp)
+        self.assertEqual(boxes.frame_timestamp_ns, stamp)
+        self.assertTrue(all(len(b.box.corners) == 8 for b in boxes))
+        bowls = self.client.bowls(at_ns=stamp)
+        self.assertEqual(bowls.frame_timestamp_ns, stamp)
+        self.assertTrue(all(b.view in ("top", "middle", "side") for b in bowls))
+
+    def test_watch_yields_new_processed_frames(self):
+        stream = self.client.watch()
+        summaries = [next(stream) for _ in range(3)]
+        stream.close()
+        stamps = [s.info.timestamp_ns for s in summaries]
+        self.assertEqual(stamps, sorted(set(stamps)))
+        self.assertTrue(all(s.info.processed for s in summaries))
+
+    def test_scene_when_the_daemon_serves_it(self):
+        try:
+            scene = self.client.scene(preview="colour")
+        except shapesense.ShapeSenseError as e:
+            if e.code == "UNIMPLEMENTED":
+                self.skipTest("this daemon has no GetScene yet")
+            raise
+        self.assertTrue(scene.full)
+        self.assertEqual(scene.session_id, self.client.status().session_id)
+        self.assertTrue(scene.preview_jpeg)
+        stream = self.client.watch_scene(max_rate_hz=10)
+        state = shapesense.SceneState()
+        first = next(stream)
+        self.assertTrue(first.full)
+        state.apply(first)
+        state.apply(next(stream))
+        stream.close()
+        self.assertEqual(state.session_id, scene.session_id)
+
+    def test_save_planes_example(self):
+        out = os.path.join(self.scratch.name, "planes.json")
+        result = self.run_example("save_planes.py", "--out", out)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        with open(out) as f:
+            document = json.load(f)
+        self.assertGreater(document["frame_timestamp_ns"], 0)
+        self.assertGreater(len(document["planes"]), 0)
+        for plane in document["planes"]:
+            self.assertEqual(set(plane), {"id", "normal", "d", "polygon"})
+            self.assertAlmostEqual(math.hypot(*plane["normal"]), 1.0, delta=1e-6)
+            self.assertTrue(all(len(v) == 3 for v in plane["polygon"]))
+
+    def test_box_at_example(self):
+        stamp = self.client.frames()[-1].timestamp_ns
+        result = self.run_example("box_at.py", "--at", shapesense.format_ns(stamp), "--roi",
+                                  "%d,%d,%d,%d" % (*ROI[0], *ROI[1]), "--mode",
+                                  "axis_aligned_front_face")
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertIn(shapesense.format_ns(stamp), result.stdout)
+        size = re.search(r"size ([\d.]+) x ([\d.]+) x ([\d.]+) cm", result.stdout)
+        self.assertIsNotNone(size, result.stdout)
+        box = self.client.estimate_box(ROI[0], ROI[1], at_ns=stamp, mode=3)
+        self.assertAlmostEqual(float(size.group(1)), 100 * box.size_m[0], delta=0.051)
+        bad = self.run_example("box_at.py", "--roi", "600,400,700,500")
+        self.assertEqual(bad.returncode, 1)
+        self.assertIn("INVALID_ARGUMENT", bad.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()
