@@ -95,7 +95,6 @@ class PythonClientTest(unittest.TestCase):
         self.assertIn("synthetic", status.source)
         self.assertEqual(status.source_state, "STREAMING")
         self.assertTrue(status.version)
-        self.assertTrue(status.session_id)
         self.assertGreater(status.frames_received, 0)
         self.assertGreater(status.cache.frames, 0)
         self.assertLessEqual(status.cache.frames, status.cache.capacity)
@@ -115,7 +114,7 @@ class PythonClientTest(unittest.TestCase):
 
     @unittest.skipUnless(shapesense.images_available(), "numpy and cv2 decode the images")
     def test_frame_depth_in_metres_and_colour(self):
-        stamp = self.client.frames()[-1].timestamp_ns
+        stamp = self.client.newest_processed_ns()  # its depth statistic is computed
         frame = self.client.frame(at_ns=stamp)
         self.assertEqual(frame.info.timestamp_ns, stamp)
         self.assertEqual(frame.depth.shape, (480, 640))
@@ -171,8 +170,10 @@ class PythonClientTest(unittest.TestCase):
         for plane in planes:
             self.assertAlmostEqual(math.sqrt(sum(c * c for c in plane.normal)), 1.0, delta=1e-6)
             self.assertGreater(plane.d, 0)
-            self.assertGreaterEqual(len(plane.polygon), 3)
+            # Empty for a degenerate region (core/planes/plane_polygon.h).
+            self.assertNotIn(len(plane.polygon), (1, 2))
             self.assertTrue(all(max(t) < len(plane.polygon) for t in plane.triangles))
+        self.assertTrue(any(plane.polygon for plane in planes))
         accumulated = self.client.planes(accumulated=True, polygons=False)
         self.assertTrue(all(not p.polygon for p in accumulated))
 

@@ -13,14 +13,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Generic, List, Optional, Sequence, Tuple, TypeVar
 
-try:
-    import numpy as np
-except ImportError:  # pragma: no cover - numpy is optional
-    np = None  # type: ignore[assignment]
-try:
-    import cv2
-except ImportError:  # pragma: no cover - OpenCV is optional
-    cv2 = None  # type: ignore[assignment]
 
 Vec3 = Tuple[float, float, float]
 Pixel = Tuple[int, int]
@@ -426,16 +418,36 @@ def frame_summary(m: Any) -> FrameSummary:
 # Images.
 
 
+_imaging: Optional[Tuple[Any, Any]] = None
+
+
+def _numpy_and_cv2() -> Optional[Tuple[Any, Any]]:
+    """(numpy, cv2), imported on first use (cv2 takes a second to import: scripts that never
+    look at an image do not pay for it); None when either is missing."""
+    global _imaging
+    if _imaging is None:
+        try:
+            import cv2
+            import numpy
+        except ImportError:
+            _imaging = (None, None)
+        else:
+            _imaging = (numpy, cv2)
+    return None if _imaging[0] is None else _imaging
+
+
 def images_available() -> bool:
     """True when images are decoded into arrays (numpy and cv2 importable)."""
-    return np is not None and cv2 is not None
+    return _numpy_and_cv2() is not None
 
 
 def decode_png(data: bytes, colour: bool = False) -> Optional[Any]:
     """A PNG (or JPEG) as an array: 16-bit or 8-bit grey as is, colour as RGB; None when empty
     or when numpy or cv2 is missing."""
-    if not data or not images_available():
+    modules = _numpy_and_cv2() if data else None
+    if modules is None:
         return None
+    np, cv2 = modules
     image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         return None
@@ -449,4 +461,5 @@ def depth_metres(depth_png: bytes) -> Optional[Any]:
     millimetres = decode_png(depth_png)
     if millimetres is None:
         return None
+    np = _numpy_and_cv2()[0]  # type: ignore[index]
     return millimetres.astype(np.float32) * np.float32(0.001)
