@@ -29,13 +29,13 @@ class Daemon:
     """build/server/shapesensed --source synthetic on a port the system picks (--listen
     127.0.0.1:0), read back from its "serving ... (port N" log line; SIGTERM at the end."""
 
-    def __init__(self, scratch: str):
+    def __init__(self, scratch: str, *options: str):
         self.log_path = os.path.join(scratch, "shapesensed.log")
         self.log = open(self.log_path, "w")
         self.process = subprocess.Popen(
             [os.path.join(BINARY_DIR, "server", "shapesensed"), "--source", "synthetic",
-             "--listen", "127.0.0.1:0", "--record-root", os.path.join(scratch, "recordings")],
-            stdout=self.log, stderr=subprocess.STDOUT)
+             "--listen", "127.0.0.1:0", "--record-root", os.path.join(scratch, "recordings"),
+             *options], stdout=self.log, stderr=subprocess.STDOUT)
         self.port = self._wait_for_port(20.0)
         self.address = f"127.0.0.1:{self.port}"
 
@@ -246,6 +246,67 @@ class PythonClientTest(unittest.TestCase):
         bad = self.run_example("box_at.py", "--roi", "600,400,700,500")
         self.assertEqual(bad.returncode, 1)
         self.assertIn("INVALID_ARGUMENT", bad.stderr)
+
+
+def openssl(directory: str, *arguments: str) -> None:
+    subprocess.run(["openssl", *arguments], cwd=directory, check=True, capture_output=True)
+
+
+class SecureClientTest(unittest.TestCase):
+    """TLS and a bearer token, as the CLI's --tls-ca and --token-file: a daemon with
+    --tls-cert, --tls-key and --token-file (its PKI made here with openssl, as
+    tests/support/test_pki.cpp does)."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.scratch = tempfile.TemporaryDirectory(prefix="shapesense-python-tls-")
+        d = cls.scratch.name
+        openssl(d, "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256",
+                "-nodes", "-keyout", "ca.key", "-out", "ca.pem", "-days", "2", "-subj",
+                "/CN=shapesense-python-ca")
+        with open(os.path.join(d, "server.ext"), "w") as f:
+            f.write("subjectAltName=DNS:localhost,IP:127.0.0.1\nextendedKeyUsage=serverAuth\n")
+        openssl(d, "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes",
+                "-keyout", "server.key", "-out", "server.csr", "-subj", "/CN=localhost")
+        openssl(d, "x509", "-req", "-in", "server.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
+                "-CAcreateserial", "-days", "2", "-extfile", "server.ext", "-out", "server.pem")
+        tokens = os.path.join(d, "tokens")
+        with open(tokens, "w") as f:
+            f.write("# NAME ROLE TOKEN\nrobot read read-token-0123456789abcdef\n")
+        os.chmod(tokens, 0o600)
+        cls.token_file = os.path.join(d, "robot.token")
+        with open(cls.token_file, "w") as f:
+            f.write("read-token-0123456789abcdef  # robot\n")
+        cls.wrong_token_file = os.path.join(d, "wrong.token")
+        with open(cls.wrong_token_file, "w") as f:
+            f.write("\nnot-the-token-0123456789abcdef\n")
+        cls.ca = os.path.join(d, "ca.pem")
+        cls.daemon = Daemon(d, "--bowls", "off", "--tls-cert", os.path.join(d, "server.pem"),
+                            "--tls-key", os.path.join(d, "server.key"), "--token-file", tokens)
+
+    @classmethod
+    def tearDownClass(cls):
+        code = cls.daemon.stop()
+        cls.scratch.cleanup()
+        assert code == 0, f"shapesensed exited with {code}"
+
+    def test_token_over_tls_is_accepted(self):
+        with shapesense.Client(self.daemon.address, tls_ca=self.ca,
+                               token_file=self.token_file) as client:
+            self.assertIn("synthetic", client.wait_until_serving(10.0).source)
+
+    def test_missing_or_wrong_token_is_unauthenticated(self):
+        for token_file in (None, self.wrong_token_file):
+            with shapesense.Client(self.daemon.address, tls_ca=self.ca,
+                                   token_file=token_file) as client:
+                with self.assertRaises(shapesense.ShapeSenseError) as caught:
+                    client.status()
+                self.assertEqual(caught.exception.code, "UNAUTHENTICATED")
+
+    def test_a_token_is_never_sent_in_clear_text(self):
+        with self.assertRaises(ValueError) as caught:
+            shapesense.Client(self.daemon.address, token_file=self.token_file)
+        self.assertIn("tls_ca", str(caught.exception))
 
 
 if __name__ == "__main__":
