@@ -69,7 +69,9 @@ class PythonClientTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.scratch = tempfile.TemporaryDirectory(prefix="shapesense-python-")
-        cls.daemon = Daemon(cls.scratch.name)
+        # A query waits as long as it takes for a worker: the suite runs beside other tests
+        # on busy machines, and these tests are about the client, not the load limits.
+        cls.daemon = Daemon(cls.scratch.name, "--query-max-wait-ms", "5000")
         cls.client = shapesense.Client(cls.daemon.address, timeout=10.0)
         cls.client.wait_until_serving(10.0)
         # Detector queries want a processed frame.
@@ -199,6 +201,18 @@ class PythonClientTest(unittest.TestCase):
         stamps = [s.info.timestamp_ns for s in summaries]
         self.assertEqual(stamps, sorted(set(stamps)))
         self.assertTrue(all(s.info.processed for s in summaries))
+
+    def test_record_writes_a_recording_under_the_root(self):
+        progress = list(self.client.record("python/take-1", 0.4))
+        self.assertTrue(progress[-1].done)
+        self.assertGreater(progress[-1].frames_written, 0)
+        root = os.path.join(self.scratch.name, "recordings")
+        self.assertEqual(os.path.realpath(progress[-1].dir),
+                         os.path.realpath(os.path.join(root, "python", "take-1")))
+        self.assertTrue(os.path.isfile(os.path.join(progress[-1].dir, "depth.txt")))
+        with self.assertRaises(shapesense.ShapeSenseError) as caught:
+            list(self.client.record("/absolute", 0.4))
+        self.assertEqual(caught.exception.code, "INVALID_ARGUMENT")
 
     def test_scene_when_the_daemon_serves_it(self):
         try:

@@ -66,7 +66,9 @@ class Client:
     CA bundle; connect with TLS), ``tls_cert``/``tls_key`` (this client's certificate, for a
     daemon started with --tls-client-ca), ``token_file`` (--token-file: a bearer token sent as
     ``authorization: Bearer TOKEN`` with every call; needs TLS, a token never travels in clear
-    text) and ``timeout`` (seconds each unary call may take).
+    text) and ``timeout`` (seconds each unary call may take). A unary call the daemon refuses
+    with RESOURCE_EXHAUSTED (all its query workers busy: README "Load limits") is tried again
+    up to ``busy_retries`` times after a short pause (50, 100, 200 ms ...) before it raises.
 
     Times are capture times in nanoseconds since the epoch; ``at_ns=0`` means the newest frame
     (for detector results: the newest frame the detectors have processed, as the CLI does).
@@ -76,9 +78,11 @@ class Client:
 
     def __init__(self, address: str = DEFAULT_ADDRESS, tls_ca: Optional[str] = None,
                  token_file: Optional[str] = None, timeout: float = 5.0,
-                 tls_cert: Optional[str] = None, tls_key: Optional[str] = None):
+                 tls_cert: Optional[str] = None, tls_key: Optional[str] = None,
+                 busy_retries: int = 3):
         self.address = address
         self.timeout = timeout
+        self.busy_retries = busy_retries
         self._credentials = self._make_credentials(tls_ca, token_file, tls_cert, tls_key)
         self._channel = self._open_channel([])
         self._stub = pb_grpc.ShapeSenseStub(self._channel)
@@ -132,10 +136,14 @@ class Client:
         self.close()
 
     def _call(self, method: Callable[..., Any], request: Any) -> Any:
-        try:
-            return method(request, timeout=self.timeout)
-        except grpc.RpcError as e:
-            raise ShapeSenseError.from_rpc_error(e) from None
+        for attempt in range(self.busy_retries + 1):
+            try:
+                return method(request, timeout=self.timeout)
+            except grpc.RpcError as e:
+                if e.code() != grpc.StatusCode.RESOURCE_EXHAUSTED or attempt == self.busy_retries:
+                    raise ShapeSenseError.from_rpc_error(e) from None
+            time.sleep(0.05 * 2**attempt)
+        raise AssertionError("unreachable")
 
     def _stream(self, call: Any, convert: Callable[[Any], Any]) -> Iterator[Any]:
         try:
@@ -284,6 +292,17 @@ class Client:
                         b.rim_diameter_m, b.height_m, b.support_plane_id) for b in m.bowls]
         return t.ResultList(bowls, stamp, info=t.frame_info(m.info), compute_ms=m.compute_ms)
 
+    # -- recording -------------------------------------------------------------------------
+
+    def record(self, dir: str, seconds: float) -> Iterator[t.RecordProgress]:
+        """Has the daemon record its source for ``seconds`` into ``dir`` (relative to its
+        --record-root; a TUM recording). Yields progress at most every 100 ms, the last with
+        ``done``; stopping the iteration early ends the recording (what was written stays
+        valid). Needs a token with role ``record`` when the daemon takes tokens."""
+        call = self._stream_stub().Record(pb.RecordRequest(dir=dir, seconds=seconds))
+        return self._stream(call, lambda m: t.RecordProgress(
+            m.frames_written, m.frames_dropped, m.seconds, m.done, m.dir))
+
     # -- scene model -----------------------------------------------------------------------
 
     @staticmethod
@@ -320,8 +339,7 @@ class Client:
 
 def _scene_update(m: Any) -> t.SceneUpdate:
     stamp = m.info.timestamp_ns
-    planes = [t.ScenePlane(p.id, t.vec3(p.normal), p.d,
-                           [tuple(p.polygon_xyz[i:i + 3]) for i in range(0, len(p.polygon_xyz) - 2, 3)],
+    planes = [t.ScenePlane(p.id, t.vec3(p.normal), p.d, t.triangles(p.polygon_xyz),
                            t.triangles(p.triangles), p.rgb, t.pixel_box(p.box)) for p in m.planes]
     objects = []
     for o in m.objects:

@@ -285,6 +285,18 @@ class FrameSummary:
 
 
 @dataclass
+class RecordProgress:
+    """Progress of a recording the daemon writes: frames written and dropped so far, seconds
+    since the start, the recording's path on the daemon's machine, ``done`` on the last."""
+
+    frames_written: int
+    frames_dropped: int
+    seconds: float
+    done: bool
+    dir: str
+
+
+@dataclass
 class ScenePlane:
     """A stable plane of the scene model: track id, plane, boundary polygon and its
     triangulation, mean colour 0xRRGGBB and image box of the last sighting."""
@@ -365,8 +377,9 @@ def pixel_box(m: Any) -> PixelBox:
     return PixelBox(m.x, m.y, m.width, m.height)
 
 
-def triangles(indices: Sequence[int]) -> List[Tuple[int, int, int]]:
-    return [tuple(indices[i : i + 3]) for i in range(0, len(indices) - 2, 3)]  # type: ignore
+def triangles(values: Sequence[Any]) -> List[Tuple[Any, Any, Any]]:
+    """A flat list in threes: triangle indices, or packed x, y, z vertices."""
+    return [tuple(values[i : i + 3]) for i in range(0, len(values) - 2, 3)]  # type: ignore
 
 
 def _distance(a: Vec3, b: Vec3) -> float:
