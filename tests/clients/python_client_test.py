@@ -130,6 +130,18 @@ class PythonClientTest(unittest.TestCase):
         self.assertEqual(frame.colour.shape, (480, 640, 3))
         self.assertEqual((frame.intrinsics.width, frame.intrinsics.height), (640, 480))
 
+    def test_frame_without_opencv_gives_the_pngs(self):
+        script = ("import sys; sys.modules['cv2'] = None\n"  # import cv2 raises ImportError
+                  "import shapesense\n"
+                  f"frame = shapesense.Client('{self.daemon.address}').frame()\n"
+                  "assert not shapesense.images_available()\n"
+                  "assert frame.depth is None and frame.colour is None\n"
+                  "assert frame.depth_png[:8] == b'\\x89PNG\\r\\n\\x1a\\n'\n"
+                  "assert frame.rgb_png[:8] == b'\\x89PNG\\r\\n\\x1a\\n'\n")
+        result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                                timeout=30)
+        self.assertEqual(result.returncode, 0, result.stderr)
+
     def test_estimate_box_matches_the_cli(self):
         stamp = self.client.frames()[-1].timestamp_ns
         for mode, number in (("frustum_aligned", 1), ("axis_aligned_contained", 2)):
