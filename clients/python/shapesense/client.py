@@ -145,7 +145,9 @@ class Client:
             time.sleep(0.05 * 2**attempt)
         raise AssertionError("unreachable")
 
-    def _stream(self, call: Any, convert: Callable[[Any], Any]) -> Iterator[Any]:
+    def _stream(self, start: Callable[[], Any], convert: Callable[[Any], Any]) -> Iterator[Any]:
+        """Runs the stream `start` opens once iterated; cancelled when the iteration stops."""
+        call = start()
         try:
             for message in call:
                 yield convert(message)
@@ -216,8 +218,8 @@ class Client:
     def watch(self, max_pending: int = 1) -> Iterator[t.FrameSummary]:
         """A summary of every new frame once its detectors have run, until the caller stops
         iterating (a slow reader gets the newest ones; ``dropped_before`` counts the rest)."""
-        call = self._stream_stub().Watch(pb.WatchRequest(max_pending=max_pending))
-        return self._stream(call, t.frame_summary)
+        request = pb.WatchRequest(max_pending=max_pending)
+        return self._stream(lambda: self._stream_stub().Watch(request), t.frame_summary)
 
     # -- detector results ------------------------------------------------------------------
 
@@ -299,9 +301,12 @@ class Client:
         --record-root; a TUM recording). Yields progress at most every 100 ms, the last with
         ``done``; stopping the iteration early ends the recording (what was written stays
         valid). Needs a token with role ``record`` when the daemon takes tokens."""
-        call = self._stream_stub().Record(pb.RecordRequest(dir=dir, seconds=seconds))
-        return self._stream(call, lambda m: t.RecordProgress(
-            m.frames_written, m.frames_dropped, m.seconds, m.done, m.dir))
+        request = pb.RecordRequest(dir=dir, seconds=seconds)
+
+        def progress(m: Any) -> t.RecordProgress:
+            return t.RecordProgress(m.frames_written, m.frames_dropped, m.seconds, m.done, m.dir)
+
+        return self._stream(lambda: self._stream_stub().Record(request), progress)
 
     # -- scene model -----------------------------------------------------------------------
 
@@ -334,7 +339,7 @@ class Client:
         request = pb.WatchSceneRequest(
             max_rate_hz=max_rate_hz, full_every_s=full_every_s,
             preview=self._preview(preview, preview_width, preview_quality, preview_rate_hz))
-        return self._stream(self._stream_stub().WatchScene(request), _scene_update)
+        return self._stream(lambda: self._stream_stub().WatchScene(request), _scene_update)
 
 
 def _scene_update(m: Any) -> t.SceneUpdate:
