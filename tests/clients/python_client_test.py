@@ -97,6 +97,7 @@ class PythonClientTest(unittest.TestCase):
         self.assertIn("synthetic", status.source)
         self.assertEqual(status.source_state, "STREAMING")
         self.assertTrue(status.version)
+        self.assertTrue(status.session_id)
         self.assertGreater(status.frames_received, 0)
         self.assertGreater(status.cache.frames, 0)
         self.assertLessEqual(status.cache.frames, status.cache.capacity)
@@ -234,16 +235,31 @@ class PythonClientTest(unittest.TestCase):
                 self.skipTest("this daemon has no GetScene yet")
             raise
         self.assertTrue(scene.full)
+        self.assertTrue(scene.session_id)
         self.assertEqual(scene.session_id, self.client.status().session_id)
+        self.assertGreater(len(scene.planes), 0)
+        for plane in scene.planes:
+            self.assertAlmostEqual(math.hypot(*plane.normal), 1.0, delta=1e-6)
+            self.assertTrue(all(max(t) < len(plane.polygon) for t in plane.triangles))
+        for thing in scene.objects:
+            self.assertIn(thing.kind, ("OBJECT", "BOWL"))
+            self.assertEqual(len(thing.box.corners), 8)
         self.assertTrue(scene.preview_jpeg)
+        self.assertEqual((scene.preview_width, scene.preview_height), (320, 240))
+        if shapesense.images_available():
+            self.assertEqual(scene.preview.shape, (240, 320, 3))
         stream = self.client.watch_scene(max_rate_hz=10)
         state = shapesense.SceneState()
         first = next(stream)
         self.assertTrue(first.full)
         state.apply(first)
-        state.apply(next(stream))
+        later = next(stream)
+        self.assertGreater(later.info.timestamp_ns, first.info.timestamp_ns)
+        state.apply(later)
         stream.close()
         self.assertEqual(state.session_id, scene.session_id)
+        self.assertEqual(state.info, later.info)
+        self.assertGreater(len(state.planes), 0)
 
     def test_save_planes_example(self):
         out = os.path.join(self.scratch.name, "planes.json")
