@@ -227,13 +227,8 @@ class PythonClientTest(unittest.TestCase):
             list(self.client.record("/absolute", 0.4))
         self.assertEqual(caught.exception.code, "INVALID_ARGUMENT")
 
-    def test_scene_when_the_daemon_serves_it(self):
-        try:
-            scene = self.client.scene(preview="colour")
-        except shapesense.ShapeSenseError as e:
-            if e.code == "UNIMPLEMENTED":
-                self.skipTest("this daemon has no GetScene yet")
-            raise
+    def test_scene_and_its_stream(self):
+        scene = self.client.scene(preview="colour")
         self.assertTrue(scene.full)
         self.assertTrue(scene.session_id)
         self.assertEqual(scene.session_id, self.client.status().session_id)
