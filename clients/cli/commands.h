@@ -19,6 +19,7 @@ void addBboxCommand(CLI::App& app, const GlobalOptions& global);
 void addSegmentsCommand(CLI::App& app, const GlobalOptions& global);
 void addPlanesCommand(CLI::App& app, const GlobalOptions& global);
 void addBowlsCommand(CLI::App& app, const GlobalOptions& global);
+void addSceneCommand(CLI::App& app, const GlobalOptions& global);
 void addRecordCommand(CLI::App& app, const GlobalOptions& global);
 void addSynthCommand(CLI::App& app);
 void addAnalyzeCommand(CLI::App& app);

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   addSegmentsCommand(app, global);
   addPlanesCommand(app, global);
   addBowlsCommand(app, global);
+  addSceneCommand(app, global);
   addRecordCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
