@@ -20,6 +20,7 @@ void addSegmentsCommand(CLI::App& app, const GlobalOptions& global);
 void addPlanesCommand(CLI::App& app, const GlobalOptions& global);
 void addBowlsCommand(CLI::App& app, const GlobalOptions& global);
 void addRecordCommand(CLI::App& app, const GlobalOptions& global);
+void addConsoleCommand(CLI::App& app, const GlobalOptions& global);
 void addSynthCommand(CLI::App& app);
 void addAnalyzeCommand(CLI::App& app);
 

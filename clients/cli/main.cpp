@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   addPlanesCommand(app, global);
   addBowlsCommand(app, global);
   addRecordCommand(app, global);
+  addConsoleCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {

@@ -1,0 +1,157 @@
+// The 3D view of the scene model: plane polygons as meshes in their colour, object and bowl boxes
+// as wireframes, the operator's box, each with its id. three.js is y-up with the camera looking
+// down -z; the API's camera frame is y-down, z-forward, so points are shown as (x, -y, -z).
+
+import * as THREE from 'three';
+import { OrbitControls } from 'three/orbit-controls';
+import { BOX_EDGES, COLOURS, objectLabel } from './geometry.js';
+
+const toView = (x, y, z) => new THREE.Vector3(x, -y, -z);
+
+export class View3D {
+  constructor(container) {
+    this.container = container;
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x101317);
+    this.planes = new THREE.Group();
+    this.objects = new THREE.Group();
+    this.userBox = new THREE.Group();
+    this.scene.add(this.planes, this.objects, this.userBox, new THREE.AxesHelper(0.2));
+    this.camera = new THREE.PerspectiveCamera(50, 4 / 3, 0.01, 50);
+    this.camera.position.set(0.9, 0.9, 0.9);
+    this.renderer = this.makeRenderer();
+    this.needsRender = true;
+    if (this.renderer) {
+      container.appendChild(this.renderer.domElement);
+      this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+      this.controls.target.set(0, 0, -1.5);
+      this.controls.addEventListener('change', () => { this.needsRender = true; });
+      this.controls.update();
+      new ResizeObserver(() => this.resize()).observe(container);
+      this.resize();
+      const loop = () => {
+        if (this.needsRender) this.renderer.render(this.scene, this.camera);
+        this.needsRender = false;
+        requestAnimationFrame(loop);
+      };
+      loop();
+    }
+  }
+
+  /// A WebGL renderer, or null where the browser has no WebGL (the model is still kept).
+  makeRenderer() {
+    try {
+      return new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    } catch (error) {
+      const note = document.createElement('div');
+      note.className = 'muted';
+      note.style.padding = '1em';
+      note.textContent = 'This browser offers no WebGL: the 3D view is off.';
+      this.container.appendChild(note);
+      return null;
+    }
+  }
+
+  resize() {
+    const width = this.container.clientWidth, height = this.container.clientHeight;
+    if (!width || !height) return;
+    this.renderer.setSize(width, height, false);
+    this.camera.aspect = width / height;
+    this.camera.updateProjectionMatrix();
+    this.needsRender = true;
+  }
+
+  /// Shows the things of a SceneState snapshot (replacing what was shown).
+  show(scene) {
+    clear(this.planes);
+    clear(this.objects);
+    for (const plane of scene.planes) this.planes.add(planeMesh(plane));
+    for (const object of scene.objects) {
+      const colour = object.kind === 'BOWL' ? COLOURS.bowl : COLOURS.object;
+      this.objects.add(wireBox(object.corners, colour, objectLabel(object)));
+    }
+    this.needsRender = true;
+  }
+
+  setUserBox(corners, label) {
+    clear(this.userBox);
+    if (corners) this.userBox.add(wireBox(corners, COLOURS.userBox, label));
+    this.needsRender = true;
+  }
+
+  planeCount() {
+    return this.planes.children.length;
+  }
+}
+
+function clear(group) {
+  for (const child of [...group.children]) {
+    child.traverse((node) => {
+      if (node.geometry) node.geometry.dispose();
+      if (node.material) {
+        if (node.material.map) node.material.map.dispose();
+        node.material.dispose();
+      }
+    });
+    group.remove(child);
+  }
+}
+
+function planeMesh(plane) {
+  const xyz = plane.polygon_xyz;
+  const positions = new Float32Array(xyz.length);
+  for (let i = 0; i + 2 < xyz.length; i += 3) {
+    const v = toView(xyz[i], xyz[i + 1], xyz[i + 2]);
+    positions.set([v.x, v.y, v.z], i);
+  }
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+  geometry.setIndex(plane.triangles);
+  const group = new THREE.Group();
+  group.userData.planeId = plane.id;
+  group.add(new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({
+    color: plane.rgb, side: THREE.DoubleSide, transparent: true, opacity: 0.85 })));
+  const outline = new THREE.BufferGeometry();
+  outline.setAttribute('position', new THREE.BufferAttribute(positions.slice(), 3));
+  group.add(new THREE.LineLoop(outline, new THREE.LineBasicMaterial({ color: 0x7fd1ff })));
+  if (xyz.length >= 3) {
+    geometry.computeBoundingBox();
+    const centre = new THREE.Vector3();
+    geometry.boundingBox.getCenter(centre);
+    group.add(label('P' + plane.id, centre, 0x7fd1ff));
+  }
+  return group;
+}
+
+function wireBox(corners, colour, text) {
+  const points = corners.map((c) => toView(c.x, c.y, c.z));
+  const positions = [];
+  for (const [a, b] of BOX_EDGES) positions.push(...points[a].toArray(), ...points[b].toArray());
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.Float32BufferAttribute(positions, 3));
+  const group = new THREE.Group();
+  group.add(new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: colour })));
+  const top = points.reduce((best, p) => (p.y > best.y ? p : best), points[0]);
+  group.add(label(text, top.clone().add(new THREE.Vector3(0, 0.04, 0)), colour));
+  return group;
+}
+
+/// A text sprite that keeps its size on screen.
+function label(text, position, colour) {
+  const canvas = document.createElement('canvas');
+  const g = canvas.getContext('2d');
+  g.font = 'bold 40px system-ui, sans-serif';
+  canvas.width = Math.ceil(g.measureText(text).width) + 16;
+  canvas.height = 52;
+  g.font = 'bold 40px system-ui, sans-serif';
+  g.fillStyle = 'rgba(0, 0, 0, 0.55)';
+  g.fillRect(0, 0, canvas.width, canvas.height);
+  g.fillStyle = '#' + colour.toString(16).padStart(6, '0');
+  g.fillText(text, 8, 40);
+  const sprite = new THREE.Sprite(new THREE.SpriteMaterial({
+    map: new THREE.CanvasTexture(canvas), depthTest: false, sizeAttenuation: false }));
+  sprite.scale.set(0.025 * canvas.width / canvas.height, 0.025, 1);
+  sprite.position.copy(position);
+  sprite.renderOrder = 1;
+  return sprite;
+}
