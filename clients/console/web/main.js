@@ -88,7 +88,10 @@ function onStatus(event) {
 function onLink(event) {
   if (event.state === 'connected') status.setLink('connected');
   else if (event.state === 'connecting') status.setLink('connecting');
-  else status.setLink('reconnecting', `${event.code}: ${event.message} (retry in ${event.retry_in_s} s)`);
+  else {
+    const words = event.message ? `${event.code}: ${event.message}` : event.code;
+    status.setLink('reconnecting', `${words} (retry in ${event.retry_in_s} s)`);
+  }
 }
 
 /// A new daemon session: its track ids and cached frames are new, so what the page held goes.
