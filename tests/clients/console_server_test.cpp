@@ -5,7 +5,6 @@
 
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
-#include <httplib.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -13,6 +12,8 @@
 #include "shapesense/console/console_server.h"
 #include "shapesense/console/http_status.h"
 #include "shapesense/console/segment_colours.h"
+// Last: httplib.h brings <resolv.h>, whose `_res` macro breaks Eigen's headers included after it.
+#include <httplib.h>
 
 namespace shapesense::testing {
 namespace {

@@ -4,6 +4,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <sys/socket.h>
+
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
@@ -108,6 +110,13 @@ class ConsoleServer::Impl {
                                options_.web_root.string() + " (--web-root)");
     }
     http_.new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
+    // httplib's default adds SO_REUSEPORT, under which a second console on the same port binds
+    // too and the kernel splits the pages between them; SO_REUSEADDR alone still allows a quick
+    // restart on the port.
+    http_.set_socket_options([](socket_t socket) {
+      int yes = 1;
+      ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+    });
     addStaticRoutes();
     addQueryRoutes();
     addEventRoute();
