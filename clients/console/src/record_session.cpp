@@ -35,18 +35,22 @@ void RecordSession::run() {
   auto reader = stub_.Record(&context_, request_);
   v1::RecordProgress progress;
   bool started = false;
+  bool done_published = false;
   nlohmann::json last_progress = nullptr;
   while (reader->Read(&progress)) {
     meter_.received(progress.ByteSizeLong());
     if (!started) started_.set_value(grpc::Status::OK);
     started = true;
     last_progress = nlohmann::json::parse(toJson(progress));
+    done_published = progress.done();
     publish_({"record", nlohmann::json{{"state", progress.done() ? "done" : "recording"},
                                        {"progress", last_progress}}
                             .dump()});
   }
   const grpc::Status status = reader->Finish();
   if (!started) started_.set_value(status);
+  finished_ = true;
+  if (status.ok() && done_published) return;
   nlohmann::json end = {{"progress", last_progress}};
   if (status.ok() || status.error_code() == grpc::CANCELLED) {
     end["state"] = "done";  // cancelled by the operator: what was written is a recording
@@ -56,7 +60,6 @@ void RecordSession::run() {
     end["message"] = status.error_message();
   }
   publish_({"record", end.dump()});
-  finished_ = true;
 }
 
 }  // namespace shapesense::console

@@ -22,6 +22,7 @@ const view3d = new View3D($('view3d'));
 let mode = 'live';             // 'live' or 'paused'
 let cachedFrames = [];         // processed cached frames (FrameInfo) the slider walks, oldest first
 let framesShown = 0;
+let updatesApplied = 0;
 let lastBox = null;            // {request, response} or {request, error}
 let newestPreview = 0;         // drops previews that finish decoding after a newer one
 let newestPausedQuery = 0;     // drops answers to slider moves the operator has moved past
@@ -45,6 +46,7 @@ function openEvents() {
 
 async function onSceneUpdate(update) {
   if (live.apply(update)) onDaemonRestarted();
+  ++updatesApplied;
   if (mode !== 'live') return;
   const scene = live.snapshot();
   view3d.show(scene);
@@ -224,6 +226,7 @@ window.shapesenseConsole = {
   shownTimestampNs: () => view2d.shownTimestampNs(),
   lastBox: () => lastBox,
   frameCount: () => framesShown,
+  updateCount: () => updatesApplied,
   mode: () => mode,
 };
 

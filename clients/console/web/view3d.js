@@ -148,8 +148,10 @@ function label(text, position, colour) {
   g.fillRect(0, 0, canvas.width, canvas.height);
   g.fillStyle = '#' + colour.toString(16).padStart(6, '0');
   g.fillText(text, 8, 40);
+  const texture = new THREE.CanvasTexture(canvas);
+  texture.minFilter = THREE.LinearFilter;  // no mipmaps: the label need not be a power of two
   const sprite = new THREE.Sprite(new THREE.SpriteMaterial({
-    map: new THREE.CanvasTexture(canvas), depthTest: false, sizeAttenuation: false }));
+    map: texture, depthTest: false, sizeAttenuation: false }));
   sprite.scale.set(0.025 * canvas.width / canvas.height, 0.025, 1);
   sprite.position.copy(position);
   sprite.renderOrder = 1;
