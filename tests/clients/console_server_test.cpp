@@ -4,6 +4,8 @@
 #include <thread>
 
 #include <google/protobuf/util/json_util.h>
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -50,6 +52,16 @@ Message parse(const std::string& json) {
   Message message;
   EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(json, &message).ok()) << json;
   return message;
+}
+
+/// The JSON data of the first `event: NAME` in a server-sent event stream, or null.
+nlohmann::json firstEvent(const std::string& stream, const std::string& name) {
+  const std::string head = "event: " + name + "\ndata: ";
+  const auto start = stream.find(head);
+  if (start == std::string::npos) return nullptr;
+  const auto end = stream.find('\n', start + head.size());
+  if (end == std::string::npos) return nullptr;
+  return nlohmann::json::parse(stream.substr(start + head.size(), end - start - head.size()));
 }
 
 class ConsoleServerTest : public ServerTest {
@@ -159,10 +171,8 @@ TEST_F(ConsoleServerTest, EventsCarryTheDaemonsStatusEachSecond) {
         received.append(data, length);
         return received.find("event: status") == std::string::npos;
       });
-  const auto start = received.find("event: status\ndata: ");
-  ASSERT_NE(start, std::string::npos) << received;
-  const auto data = received.substr(start + 20, received.find('\n', start + 20) - start - 20);
-  const auto event = nlohmann::json::parse(data);
+  const auto event = firstEvent(received, "status");
+  ASSERT_NE(event, nullptr) << received;
   const auto status = parse<v1::GetStatusResponse>(event["status"].dump());
   EXPECT_EQ(status.cache().frames(), 5u);
   EXPECT_TRUE(event.contains("link_bytes_per_s"));
@@ -183,6 +193,36 @@ TEST_F(ConsoleServerTest, SegmentsOfAFrameWithoutSegmentationAreTheDaemonsError)
     EXPECT_EQ(answer->status, console::httpStatusFor(direct.error_code()));
     EXPECT_EQ(nlohmann::json::parse(answer->body)["message"], direct.error_message());
   }
+}
+
+TEST(ConsoleEvents, AnUnreachableDaemonIsReportedAndRetried) {
+  // A port nothing listens on: the console starts anyway and tells the page what is wrong.
+  const auto nowhere = grpc::CreateChannel("127.0.0.1:1", grpc::InsecureChannelCredentials());
+  ConsoleOptions options;
+  options.listen = "127.0.0.1:0";
+  ConsoleServer server({nowhere, nowhere}, options);
+  std::thread serving([&] { server.run(); });
+  httplib::Client http("127.0.0.1", server.port());
+  http.set_read_timeout(std::chrono::seconds(10));
+  std::string received;
+  int links = 0;
+  http.Get("/api/events", [&](const char* data, std::size_t length) {
+    received.append(data, length);
+    links = 0;
+    for (auto at = received.find("event: link"); at != std::string::npos;
+         at = received.find("event: link", at + 1))
+      ++links;
+    // connecting, then reconnecting at least twice: it keeps trying
+    return !(links >= 3 && firstEvent(received, "status") != nullptr);
+  });
+  server.stop();
+  serving.join();
+  const auto status = firstEvent(received, "status");
+  ASSERT_NE(status, nullptr) << received;
+  EXPECT_EQ(status["error"]["code"], "UNAVAILABLE") << status.dump();
+  const auto reconnect = received.find("\"state\":\"reconnecting\"");
+  EXPECT_NE(reconnect, std::string::npos) << received;
+  EXPECT_GE(links, 3) << received;
 }
 
 TEST(ConsoleListen, OnlyLoopbackCountsAsLocal) {
