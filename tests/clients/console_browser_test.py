@@ -79,7 +79,7 @@ def http_json(url, body=None):
         return json.load(answer)
 
 
-def wait_until(what, condition, timeout_s):
+def wait_until(what, condition, timeout_s, context=lambda: ""):
     deadline = time.monotonic() + timeout_s
     last = None
     while time.monotonic() < deadline:
@@ -87,7 +87,7 @@ def wait_until(what, condition, timeout_s):
         if last:
             return last
         time.sleep(0.1)
-    raise AssertionError(f"{what} within {timeout_s} s (last: {last!r})")
+    raise AssertionError(f"{what} within {timeout_s} s (last: {last!r}) {context()}")
 
 
 def ns_to_seconds_text(ns):
@@ -126,8 +126,9 @@ def run(build_dir, chromium):
         driver.get(url)
         hook = "return window.shapesenseConsole && window.shapesenseConsole."
 
+        link_state = lambda: "; the page's link: " + driver.find_element(By.ID, "link-state").text
         wait_until("the page shows frames",
-                   lambda: driver.execute_script(hook + "frameCount()") or 0, 20)
+                   lambda: driver.execute_script(hook + "frameCount()") or 0, 20, link_state)
 
         # The 3D view is kept from the stream's deltas; GetScene answers the newest frame whole.
         def planes_match():

@@ -3,6 +3,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include <sys/socket.h>
 
@@ -129,7 +130,11 @@ class ConsoleServer::Impl {
     const bool v6 = host_.find(':') != std::string::npos;
     return "http://" + (v6 ? "[" + host_ + "]" : host_) + ":" + std::to_string(port_) + "/";
   }
-  void run() { http_.listen_after_bind(); }
+  void run() {
+    in_run_ = true;
+    if (!stopping_) http_.listen_after_bind();
+    in_run_ = false;
+  }
   void stop() {
     stopping_ = true;
     pages_.closeAll();
@@ -137,7 +142,12 @@ class ConsoleServer::Impl {
       std::lock_guard lock(record_mutex_);
       if (recording_) recording_->cancel();
     }
-    http_.stop();
+    // httplib's stop() does nothing until listen_after_bind() has started serving, so a stop()
+    // that comes right after run() was called asks again until run() returns.
+    while (in_run_) {
+      http_.stop();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
   }
   ~Impl() {
     stop();
@@ -314,6 +324,7 @@ class ConsoleServer::Impl {
   std::mutex record_mutex_;
   std::unique_ptr<RecordSession> recording_;
   std::atomic<bool> stopping_ = false;
+  std::atomic<bool> in_run_ = false;
   std::string host_;
   int port_ = 0;
   httplib::Server http_;
