@@ -111,8 +111,12 @@ async function pause() {
   if (mode === 'paused') return;
   mode = 'paused';
   setTimelineButtons();
-  const answer = await getJson('/api/frames');
-  cachedFrames = answer.frames.filter((f) => f.processed);
+  try {
+    cachedFrames = (await getJson('/api/frames')).frames.filter((f) => f.processed);
+  } catch (error) {
+    $('time-label').textContent = error.message;
+    return;
+  }
   const slider = $('time-slider');
   slider.max = Math.max(cachedFrames.length - 1, 0);
   const shown = view2d.shownTimestampNs();
