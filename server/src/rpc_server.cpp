@@ -114,6 +114,15 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
                                                        const v1::RecordRequest* request) override {
     return new RecordReactor(context_, call, request);
   }
+  grpc::ServerUnaryReactor* GetScene(grpc::CallbackServerContext* call,
+                                     const v1::GetSceneRequest* request,
+                                     v1::SceneUpdate* response) override {
+    return onPool(call, [=, this] { return handleGetScene(context_, *request, response); });
+  }
+  grpc::ServerWriteReactor<v1::SceneUpdate>* WatchScene(
+      grpc::CallbackServerContext* call, const v1::WatchSceneRequest* request) override {
+    return startWatchScene(context_, call, *request, &queries_);
+  }
 
  private:
   /// Admits one more unary call, or says why not.

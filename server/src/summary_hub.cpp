@@ -23,6 +23,11 @@ std::optional<Subscription::Item> Subscription::tryPop() {
   return item;
 }
 
+bool Subscription::hasPending() const {
+  std::lock_guard lock(mutex_);
+  return !pending_.empty();
+}
+
 bool Subscription::closed() const {
   std::lock_guard lock(mutex_);
   return closed_;

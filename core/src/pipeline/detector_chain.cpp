@@ -92,6 +92,10 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
                                "); point --models at a folder of bowl_*.json or use --bowls off");
     }
   }
+  const bool has_object_boxes = config.object_boxes && config.segmentation && config.planes;
+  if (config.track_things && (has_object_boxes || config.bowls)) {
+    chain.add(std::make_unique<ThingTrackingStage>(config.tracker_params));
+  }
   return chain;
 }
 

@@ -1,5 +1,6 @@
 #include "shapesense/core/pipeline/stages.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace shapesense {
@@ -122,5 +123,33 @@ void BowlStage::run(const Frame& frame, FrameResults& results) {
   // These planes are the stage's own, which no client sees: no support id to refer to.
   for (auto& bowl : *results.bowls)
     if (bowl.detection.geometry) bowl.detection.geometry->support_plane_id = 0;
+}
+
+std::vector<ThingObservation> thingObservations(const FrameResults& results) {
+  std::vector<ThingObservation> observations;
+  std::vector<cv::Rect> bowl_boxes;
+  if (results.bowls) {
+    for (const auto& bowl : *results.bowls) {
+      if (!bowl.box) continue;
+      observations.push_back(
+          {ThingKind::kBowl, bowl.box->corners, bowl.detection.box, bowl.detection.score});
+      bowl_boxes.push_back(bowl.detection.box);
+    }
+  }
+  const auto sameAsABowl = [&bowl_boxes](const cv::Rect& box) {
+    return std::any_of(bowl_boxes.begin(), bowl_boxes.end(), [&box](const cv::Rect& bowl) {
+      const int smaller = std::min(box.area(), bowl.area());
+      return smaller > 0 && 2 * (box & bowl).area() > smaller;
+    });
+  };
+  for (const auto& object : results.object_boxes) {
+    if (sameAsABowl(object.roi)) continue;
+    observations.push_back({ThingKind::kObject, object.box.corners, object.roi, 0.0});
+  }
+  return observations;
+}
+
+void ThingTrackingStage::run(const Frame&, FrameResults& results) {
+  results.things = tracker_.update(thingObservations(results));
 }
 }  // namespace shapesense

@@ -27,6 +27,7 @@ grpc::Status handleGetStatus(const ServiceContext& context, const v1::GetStatusR
   for (const auto& name : status.detectors) response->add_detectors(name);
   const std::chrono::duration<double> uptime = std::chrono::steady_clock::now() - context.started;
   response->set_uptime_s(uptime.count());
+  response->set_session_id(context.session_id);
   response->set_source_live(status.health.live);
   response->set_source_connected(status.health.connected);
   response->set_source_reconnects(status.health.reconnects);

@@ -1,6 +1,17 @@
 #include "shapesense/server/service_context.h"
 
+#include <random>
+
+#include <fmt/format.h>
+
 namespace shapesense {
+
+std::string newSessionId() {
+  std::random_device entropy;
+  const std::uint64_t high = (static_cast<std::uint64_t>(entropy()) << 32) | entropy();
+  const std::uint64_t low = (static_cast<std::uint64_t>(entropy()) << 32) | entropy();
+  return fmt::format("{:016x}{:016x}", high, low);
+}
 
 grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out) {
   if (at_ns < 0) {

@@ -9,6 +9,7 @@
 #include <grpcpp/server_context.h>
 #include <grpcpp/support/server_callback.h>
 
+#include "shapesense/server/query_pool.h"
 #include "shapesense/server/service_context.h"
 #include "shapesense/v1/shapesense.pb.h"
 
@@ -45,6 +46,18 @@ grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesR
 
 grpc::Status handleGetBowls(const ServiceContext& context, const v1::GetBowlsRequest& request,
                             v1::GetBowlsResponse* response);
+
+/// The scene model of the frame at T (newest processed for T = 0) with an optional preview.
+grpc::Status handleGetScene(const ServiceContext& context, const v1::GetSceneRequest& request,
+                            v1::SceneUpdate* response);
+
+/// The WatchScene stream, or one that only finishes with the error: INVALID_ARGUMENT for a
+/// rate, full_every_s or preview outside their limits, RESOURCE_EXHAUSTED past the stream
+/// limits of context.watch_streams (shared with Watch). Updates are built on `builders` (the
+/// query pool) when given, on the publishing thread otherwise.
+grpc::ServerWriteReactor<v1::SceneUpdate>* startWatchScene(
+    const ServiceContext& context, grpc::CallbackServerContext* server_context,
+    const v1::WatchSceneRequest& request, QueryPool* builders);
 
 /// Blocks for the whole recording; `write` sends one progress message and returns false once
 /// the client is gone.

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <string>
 
 #include <grpcpp/support/status.h>
 
@@ -17,6 +18,10 @@
 #include "shapesense/server/summary_hub.h"
 
 namespace shapesense {
+
+/// A random id for one daemon start (GetStatus and SceneUpdate.session_id): a client that sees
+/// it change knows the daemon restarted.
+std::string newSessionId();
 
 struct ServiceContext {
   const FrameCache& cache;
@@ -36,6 +41,7 @@ struct ServiceContext {
   /// Set while a Record call runs; shared by the copies of this context.
   std::shared_ptr<std::atomic<bool>> recording = std::make_shared<std::atomic<bool>>(false);
 
+  std::string session_id = newSessionId();
   bool shuttingDown() const { return shutting_down && shutting_down->load(); }
 };
 

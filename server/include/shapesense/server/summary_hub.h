@@ -32,6 +32,8 @@ class Subscription {
   std::optional<Item> pop(std::chrono::milliseconds timeout);
   /// The next item if one waits; never blocks.
   std::optional<Item> tryPop();
+  /// An item waits (tryPop would return one); never blocks.
+  bool hasPending() const;
   bool closed() const;
 
  private:

@@ -17,6 +17,7 @@
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/core/tracking/thing_tracker.h"
 
 namespace shapesense {
 
@@ -78,6 +79,10 @@ struct DetectorConfig {
   BowlGeometryParams bowl_geometry_params;
   /// How each bowl's 3D box is estimated (always mode 2, see detectBowls). Default: defaults.
   BoxEstimationParams bowl_box_params;
+  /// Tracking of object boxes and bowls over frames (the scene model's things); runs when
+  /// either stage does. Default on.
+  bool track_things = true;
+  ThingTrackerParams tracker_params;
 };
 
 /// "hough" / "ransac" <-> PlaneDetectorKind.

@@ -15,6 +15,7 @@
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/core/segmentation/segment_statistics.h"
 #include "shapesense/core/segmentation/segmentation.h"
+#include "shapesense/core/tracking/thing_tracker.h"
 
 namespace shapesense {
 
@@ -56,6 +57,9 @@ struct FrameResults {
   /// Bowls of the bowl stage, highest score first; nullopt when the stage is off (an empty
   /// list means it ran and found none).
   std::optional<std::vector<DetectedBowl>> bowls;
+  /// The object boxes and bowls tracked over the frames up to this one (confirmed tracks only,
+  /// ordered by id); nullopt when the tracking stage is off.
+  std::optional<std::vector<TrackedThing>> things;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

@@ -14,6 +14,7 @@
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/core/tracking/thing_tracker.h"
 
 namespace shapesense {
 
@@ -89,6 +90,23 @@ class BowlStage : public DetectorStage {
   BoxEstimationParams box_params_;
   std::optional<HoughPlaneDetector> own_planes_;  ///< made on the first frame without a plane stage
 };
+
+/// Tracks the frame's object boxes and bowls over time (ThingTracker); runs after both stages.
+/// Holds the tracks, so one instance must see the frames in order.
+class ThingTrackingStage : public DetectorStage {
+ public:
+  explicit ThingTrackingStage(ThingTrackerParams params) : tracker_(params) {}
+  std::string name() const override { return "tracking"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  ThingTracker tracker_;
+};
+
+/// The things of one frame's results as tracker observations: every bowl with a 3D box, and
+/// every object box that is not the same thing as a bowl (image boxes overlapping by more than
+/// half of the smaller one), as a bowl is the more specific description.
+std::vector<ThingObservation> thingObservations(const FrameResults& results);
 
 /// The bowls of one frame with their boxes: what BowlStage computes, as a pure function.
 /// `planes`: the plane detection of the same frame.
