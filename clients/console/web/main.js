@@ -24,7 +24,8 @@ let cachedFrames = [];         // processed cached frames (FrameInfo) the slider
 let framesShown = 0;
 let updatesApplied = 0;
 let lastBox = null;            // {request, response} or {request, error}
-let newestPreview = 0;         // drops previews that finish decoding after a newer one
+let pendingPreview = null;     // the newest preview not decoded yet: {update, scene}
+let decoding = false;
 let newestPausedQuery = 0;     // drops answers to slider moves the operator has moved past
 let events = null;
 
@@ -44,7 +45,7 @@ function openEvents() {
   events.onerror = () => status.setLink('unreachable', 'the console itself (retrying)');
 }
 
-async function onSceneUpdate(update) {
+function onSceneUpdate(update) {
   if (live.apply(update)) onDaemonRestarted();
   ++updatesApplied;
   if (mode !== 'live') return;
@@ -52,10 +53,24 @@ async function onSceneUpdate(update) {
   view3d.show(scene);
   $('scene-label').textContent = `${scene.planes.length} planes, ${scene.objects.length} things`;
   if (!update.preview_jpeg) return;  // the image stays that of its own frame, with its overlays
-  const ticket = ++newestPreview;
-  const image = await previewImage(update);
-  if (ticket !== newestPreview || mode !== 'live') return image.close();
-  showFrame(image, scene);
+  pendingPreview = { update, scene };
+  if (!decoding) showPreviews();
+}
+
+/// Decodes and shows previews one at a time; one that arrives meanwhile replaces the one still
+/// waiting, so the view keeps up with the newest frame however fast updates come.
+async function showPreviews() {
+  decoding = true;
+  try {
+    while (pendingPreview) {
+      const { update, scene } = pendingPreview;
+      pendingPreview = null;
+      const image = await previewImage(update);
+      if (mode === 'live') showFrame(image, scene); else image.close();
+    }
+  } finally {
+    decoding = false;
+  }
 }
 
 function showFrame(image, scene) {
