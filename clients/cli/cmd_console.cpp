@@ -9,6 +9,18 @@
 #include "shapesense/console/console_server.h"
 
 namespace shapesense::cli {
+namespace {
+
+/// gRPC waits up to two minutes between attempts to reach a daemon that went away; an operator
+/// watching the page wants it back within a couple of seconds of the daemon's restart.
+grpc::ChannelArguments reconnectSoon(grpc::ChannelArguments args) {
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 250);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 250);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
+  return args;
+}
+
+}  // namespace
 
 void addConsoleCommand(CLI::App& app, const GlobalOptions& global) {
   auto* cmd = app.add_subcommand(
@@ -32,8 +44,8 @@ void addConsoleCommand(CLI::App& app, const GlobalOptions& global) {
     pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
     options->call_timeout_s = global.timeout_s;
-    console::DaemonChannels daemon{makeChannel(global),
-                                   makeChannel(global, freshStreamArguments())};
+    console::DaemonChannels daemon{makeChannel(global, reconnectSoon({})),
+                                   makeChannel(global, reconnectSoon(freshStreamArguments()))};
     console::ConsoleServer server(daemon, *options);
     if (!console::isLoopbackListen(options->listen)) {
       std::cerr << "shapesense console: warning: serving on " << options->listen

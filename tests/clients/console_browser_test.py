@@ -118,7 +118,7 @@ def run(build_dir, chromium):
         options = webdriver.ChromeOptions()
         options.binary_location = chromium
         for argument in ("--headless=new", "--no-sandbox", "--disable-gpu",
-                         "--enable-unsafe-swiftshader", "--window-size=1500,1100",
+                         "--enable-unsafe-swiftshader", "--window-size=1500,900",
                          f"--user-data-dir={os.path.join(scratch, 'profile')}"):
             options.add_argument(argument)
         options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
@@ -140,7 +140,15 @@ def run(build_dir, chromium):
 
         # An object of the scene to draw a rectangle round, in full-resolution pixels.
         scene = http_json(url + "api/scene?preview=none")
-        objects = [o for o in scene["objects"] if o["kind"] == "OBJECT" and o["frames_missed"] == 0]
+        width, height = scene["intrinsics"]["width"], scene["intrinsics"]["height"]
+
+        def drawable(o):  # seen now, well inside the image, not the table
+            b = o["box"]
+            return (o["kind"] == "OBJECT" and o["frames_missed"] == 0 and b["x"] > 4 and
+                    b["y"] > 4 and b["x"] + b["width"] < width - 4 and
+                    b["y"] + b["height"] < height - 4 and b["width"] * b["height"] < width * height / 8
+                    and b["width"] > 12 and b["height"] > 12)
+        objects = [o for o in scene["objects"] if drawable(o)]
         assert objects, f"GetScene holds no object to draw round: {scene['objects']}"
         box = max(objects, key=lambda o: o["box"]["width"] * o["box"]["height"])["box"]
         x1, y1 = box["x"] + 2, box["y"] + 2

@@ -18,7 +18,7 @@ export class View3D {
     this.userBox = new THREE.Group();
     this.scene.add(this.planes, this.objects, this.userBox, new THREE.AxesHelper(0.2));
     this.camera = new THREE.PerspectiveCamera(50, 4 / 3, 0.01, 50);
-    this.camera.position.set(0.9, 0.9, 0.9);
+    this.camera.position.set(0.45, 0.7, 0.35);  // above and behind the sensor, looking at the scene
     this.labels = new LabelTextures();
     this.materials = new Materials();
     this.renderer = this.makeRenderer();
@@ -27,7 +27,7 @@ export class View3D {
     if (this.renderer) {
       container.appendChild(this.renderer.domElement);
       this.controls = new OrbitControls(this.camera, this.renderer.domElement);
-      this.controls.target.set(0, 0, -1.5);
+      this.controls.target.set(0, -0.1, -1.4);
       this.controls.addEventListener('change', () => { this.needsRender = true; });
       this.controls.update();
       new ResizeObserver(() => this.resize()).observe(container);
