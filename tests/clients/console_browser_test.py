@@ -118,7 +118,7 @@ def run(build_dir, chromium):
         options = webdriver.ChromeOptions()
         options.binary_location = chromium
         for argument in ("--headless=new", "--no-sandbox", "--disable-gpu",
-                         "--enable-unsafe-swiftshader", "--window-size=1500,900",
+                         "--enable-unsafe-swiftshader", "--window-size=1500,980",
                          f"--user-data-dir={os.path.join(scratch, 'profile')}"):
             options.add_argument(argument)
         options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
