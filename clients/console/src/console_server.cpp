@@ -175,10 +175,17 @@ class ConsoleServer::Impl {
     return context;
   }
 
-  /// Runs one unary call, counting its answer on the link meter.
+  /// Runs one unary call, counting its answer on the link meter. A daemon that has all the work
+  /// it takes on answers RESOURCE_EXHAUSTED and asks for a retry after a pause; the console
+  /// retries a few times so an operator sees a busy moment as a slower answer, not an error.
   template <typename Request, typename Response, typename Call>
   grpc::Status call(Call method, const Request& request, Response* response) {
-    const grpc::Status status = ((*stub_).*method)(callContext().get(), request, response);
+    grpc::Status status;
+    for (auto pause : {25, 50, 100, 200, 0}) {
+      status = ((*stub_).*method)(callContext().get(), request, response);
+      if (status.error_code() != grpc::RESOURCE_EXHAUSTED || pause == 0 || stopping_) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(pause));
+    }
     if (status.ok()) meter_.received(response->ByteSizeLong());
     return status;
   }

@@ -17,7 +17,8 @@
 //   POST /api/record             Record; body: RecordRequest; progress as `record` events
 //   POST /api/record/stop        cancels the running recording
 // A failed call answers with the HTTP status of its gRPC code (http_status.h) and
-// {"code": "OUT_OF_RANGE", "message": "<the daemon's words>"}.
+// {"code": "OUT_OF_RANGE", "message": "<the daemon's words>"}; RESOURCE_EXHAUSTED (the daemon is
+// busy and asks for a retry after a pause) is retried a few times within half a second first.
 
 #include <filesystem>
 #include <memory>
