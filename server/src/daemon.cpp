@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "shapesense/driver/open_source.h"
+#include "shapesense/server/thread_priority.h"
 
 namespace shapesense {
 
@@ -13,12 +14,17 @@ Daemon::Daemon(const DaemonOptions& options)
   // Options and files first: a refused listen address, an unreadable token file or bowl
   // models that do not load should fail before a sensor is opened for nothing.
   checkTransportOptions(options.listen, options.security);
+  // gRPC starts its threads from threads at grpc_nice, so they inherit that lower priority
+  // (grpc_init's timer threads with the first credentials, the server's when it starts); the
+  // pipeline's threads start from this one, at the daemon's own priority.
   RpcServerOptions server_options;
-  if (options.security.tokens()) {
-    server_options.tokens =
-        std::make_shared<const AccessTokens>(AccessTokens::load(options.security.token_file));
-  }
-  server_options.credentials = makeServerCredentials(options.security, server_options.tokens);
+  runAtNice(options.limits.grpc_nice, [&] {
+    if (options.security.tokens()) {
+      server_options.tokens =
+          std::make_shared<const AccessTokens>(AccessTokens::load(options.security.token_file));
+    }
+    server_options.credentials = makeServerCredentials(options.security, server_options.tokens);
+  });
   server_options.reflection = options.security.reflection;
   server_options.limits = options.limits;
   if (!options.record.root.empty()) {
@@ -36,8 +42,10 @@ Daemon::Daemon(const DaemonOptions& options)
   context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };
   context.record = options.record;
-  server_ =
-      std::make_unique<RpcServer>(options.listen, std::move(context), std::move(server_options));
+  runAtNice(options.limits.grpc_nice, [&] {
+    server_ =
+        std::make_unique<RpcServer>(options.listen, std::move(context), std::move(server_options));
+  });
   pipeline_->start();
 }
 

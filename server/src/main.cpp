@@ -239,6 +239,11 @@ void addHealthAndLimitOptions(CLI::App& app, CommandLine& c) {
                  "Nice value of the query workers (0-19), so the detectors win a busy core")
       ->check(CLI::Range(0, 19))
       ->capture_default_str();
+  app.add_option("--grpc-nice", limits.grpc_nice,
+                 "Nice value of gRPC's threads (0-19), which receive, refuse and write every "
+                 "call, so a flood of calls takes time from them before the detectors")
+      ->check(CLI::Range(0, 19))
+      ->capture_default_str();
   app.add_option("--max-calls", limits.max_calls,
                  "Calls (other than Watch and Record) answered at once, queued ones included; "
                  "more are answered RESOURCE_EXHAUSTED")

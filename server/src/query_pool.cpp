@@ -1,11 +1,10 @@
 #include "shapesense/server/query_pool.h"
 
-#include <sys/resource.h>
-#include <unistd.h>
-
 #include <algorithm>
 
 #include <spdlog/spdlog.h>
+
+#include "shapesense/server/thread_priority.h"
 
 namespace shapesense {
 
@@ -49,8 +48,7 @@ void QueryPool::stop() {
 }
 
 void QueryPool::run(int nice) {
-  // Linux keeps a nice value per thread: this lowers only the worker's priority.
-  if (nice > 0 && setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), nice) != 0) {
+  if (nice > 0 && !setThisThreadNice(nice)) {
     spdlog::debug("query worker: cannot set nice {}", nice);
   }
   std::unique_lock lock(mutex_);

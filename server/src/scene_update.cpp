@@ -109,21 +109,45 @@ void keepChanged(google::protobuf::RepeatedPtrField<Item>& items,
   items = std::move(kept);
 }
 
-cv::Mat previewSource(const Frame& frame, v1::PreviewRequest::Kind kind) {
-  if (kind == v1::PreviewRequest::COLOUR && !frame.rgb.empty()) return frame.rgb;
-  cv::Mat scaled;
-  const double scale = 255.0 / (kPreviewFarMm - kPreviewNearMm);
-  if (kind == v1::PreviewRequest::COLOUR) {
-    // No colour: a grey rendering of depth, near bright.
-    frame.depth.convertTo(scaled, CV_8U, -scale, 255.0 + kPreviewNearMm * scale);
-    scaled.setTo(0, frame.depth == 0);
-    return scaled;
+/// OpenCV's JET colour map as a lookup table, made once: applyColorMap builds it on every call,
+/// which costs more than the whole preview.
+const cv::Mat& jetTable() {
+  static const cv::Mat table = [] {
+    cv::Mat ramp(1, 256, CV_8UC1);
+    for (int i = 0; i < 256; ++i) ramp.at<std::uint8_t>(i) = static_cast<std::uint8_t>(i);
+    cv::Mat coloured;
+    cv::applyColorMap(ramp, coloured, cv::COLORMAP_JET);
+    return coloured;
+  }();
+  return table;
+}
+
+/// The frame's colour, or its depth rendered for display, scaled to `size` before any per-pixel
+/// work so a preview costs the small image, not the frame.
+cv::Mat previewImage(const Frame& frame, v1::PreviewRequest::Kind kind, cv::Size size) {
+  const auto interpolation = [&](const cv::Mat& source) {
+    return size.width < source.cols ? cv::INTER_AREA : cv::INTER_LINEAR;
+  };
+  cv::Mat small;
+  if (kind == v1::PreviewRequest::COLOUR && !frame.rgb.empty()) {
+    cv::resize(frame.rgb, small, size, 0, 0, interpolation(frame.rgb));
+    return small;
   }
-  // Near = red, far = blue: JET runs blue to red, so near depths map high.
-  frame.depth.convertTo(scaled, CV_8U, -scale, 255.0 + kPreviewNearMm * scale);
-  cv::Mat coloured;
-  cv::applyColorMap(scaled, coloured, cv::COLORMAP_JET);
-  coloured.setTo(cv::Scalar::all(0), frame.depth == 0);
+  // Nearest neighbour: averaging would mix "no reading" (0) into the depths around holes.
+  cv::resize(frame.depth, small, size, 0, 0, cv::INTER_NEAREST);
+  const double scale = 255.0 / (kPreviewFarMm - kPreviewNearMm);
+  cv::Mat near_bright;  // near = 255, far = 0
+  small.convertTo(near_bright, CV_8U, -scale, 255.0 + kPreviewNearMm * scale);
+  const cv::Mat holes = small == 0;
+  if (kind == v1::PreviewRequest::COLOUR) {  // no colour: grey depth
+    near_bright.setTo(0, holes);
+    return near_bright;
+  }
+  // JET runs blue to red, so near depths (high values) come out red.
+  cv::Mat grey3, coloured;
+  cv::cvtColor(near_bright, grey3, cv::COLOR_GRAY2BGR);
+  cv::LUT(grey3, jetTable(), coloured);
+  coloured.setTo(cv::Scalar::all(0), holes);
   return coloured;
 }
 
@@ -197,13 +221,10 @@ grpc::Status fillScene(const CachedFrame& entry, const std::string& session_id,
 
 void addPreview(const Frame& frame, const PreviewOptions& options, v1::SceneUpdate& update) {
   if (options.kind == v1::PreviewRequest::NONE || frame.depth.empty()) return;
-  const cv::Mat source = previewSource(frame, options.kind);
   const int height =
-      std::max(1, static_cast<int>(std::lround(static_cast<double>(options.width) * source.rows /
-                                               std::max(1, source.cols))));
-  cv::Mat small;
-  cv::resize(source, small, cv::Size(options.width, height), 0, 0,
-             options.width < source.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
+      std::max(1, static_cast<int>(std::lround(static_cast<double>(options.width) *
+                                               frame.depth.rows / std::max(1, frame.depth.cols))));
+  const cv::Mat small = previewImage(frame, options.kind, cv::Size(options.width, height));
   std::vector<unsigned char> jpeg;
   cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, options.quality});
   update.set_preview_jpeg(jpeg.data(), jpeg.size());

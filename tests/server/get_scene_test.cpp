@@ -42,7 +42,9 @@ class GetSceneTest : public ::testing::Test {
     for (int i = 0; i < kFrames; ++i) {
       auto frame = std::make_shared<const Frame>((*sequence_)[i].frame);
       ASSERT_TRUE(srv.cache().insert(frame));
-      if (i < processed) ASSERT_TRUE(srv.cache().publishResults(frame->sequence, (*results_)[i]));
+      if (i < processed) {
+        ASSERT_TRUE(srv.cache().publishResults(frame->sequence, (*results_)[i]));
+      }
     }
   }
 

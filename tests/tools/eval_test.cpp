@@ -88,10 +88,11 @@ TEST(SegmentEval, CurvedObjectsAreOneRegionAndPlanarFacesStayApart) {
       for (int u = 0; u < truth.cols; ++u)
         if (f.truth.object_labels.at<std::uint16_t>(v, u) == o.id)
           regions.insert(truth.at<std::uint16_t>(v, u));
-    if (o.kind == "bowl" || o.kind == "tin")
+    if (o.kind == "bowl" || o.kind == "tin") {
       EXPECT_EQ(regions.size(), 1u) << o.name;
-    else if (o.kind == "box")
+    } else if (o.kind == "box") {
       EXPECT_GE(regions.size(), 2u) << o.name;
+    }
   }
   EXPECT_EQ(scoreSegments(truth, f.truth).correct_fraction, 1.0);
 }

@@ -37,6 +37,10 @@ struct ServerLimits {
   /// within the timeout: a vanished client's streams end instead of lingering.
   int keepalive_ms = 30'000;
   int keepalive_timeout_ms = 10'000;
+  /// Nice value of gRPC's own threads (0..19), which receive every call, refuse the excess and
+  /// write streams: a flood of calls then takes time from them, not from the detector thread.
+  /// Applied by Daemon, which starts gRPC from a thread at this nice value. Default 5.
+  int grpc_nice = 5;
 };
 
 struct RpcServerOptions {
