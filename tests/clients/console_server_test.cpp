@@ -1,6 +1,8 @@
 // The console's HTTP routes against a real in-process daemon (TestServer): the page must get
 // what the daemon says, in the API's JSON mapping, errors in the daemon's words.
 
+#include <atomic>
+#include <filesystem>
 #include <thread>
 
 #include <google/protobuf/util/json_util.h>
@@ -193,6 +195,43 @@ TEST_F(ConsoleServerTest, SegmentsOfAFrameWithoutSegmentationAreTheDaemonsError)
     EXPECT_EQ(answer->status, console::httpStatusFor(direct.error_code()));
     EXPECT_EQ(nlohmann::json::parse(answer->body)["message"], direct.error_message());
   }
+}
+
+TEST_F(ConsoleServerTest, ARecordingStartedFromThePageReportsItsProgressToThePage) {
+  RunningConsole console(srv);
+  std::string events;
+  std::atomic<bool> done = false, listening = false;
+  std::thread page([&] {
+    httplib::Client http("127.0.0.1", console.server().port());
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    http.Get("/api/events?preview=none", [&](const char* data, std::size_t length) {
+      events.append(data, length);
+      listening = true;  // the console has registered the page: record events reach it
+      done = events.find(R"("state":"done")") != std::string::npos;
+      return !done && std::chrono::steady_clock::now() < give_up;
+    });
+  });
+  std::atomic<bool> feeding = true;
+  std::thread source([&] {  // the daemon records what its source delivers meanwhile
+    for (int i = 5; feeding; ++i) {
+      srv.add(kServerT0 + i * kFramePeriodNs);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  EXPECT_TRUE(waitFor([&] { return listening.load(); }));
+  auto started = console.http().Post("/api/record", R"({"dir": "take-1", "seconds": 0.5})",
+                                     "application/json");
+  EXPECT_TRUE(started && started->status == 200) << (started ? started->body : "no answer");
+  auto second = console.http().Post("/api/record", R"({"dir": "take-2", "seconds": 0.5})",
+                                    "application/json");
+  EXPECT_TRUE(second && second->status == 409)
+      << "one recording at a time: " << (second ? second->body : "no answer");
+  page.join();
+  feeding = false;
+  source.join();
+  ASSERT_TRUE(done) << events;
+  EXPECT_NE(events.find(R"("state":"recording")"), std::string::npos) << events;
+  EXPECT_TRUE(std::filesystem::exists(srv.recordRoot() / "take-1" / "depth.txt"));
 }
 
 TEST(ConsoleEvents, AnUnreachableDaemonIsReportedAndRetried) {
