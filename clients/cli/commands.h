@@ -21,6 +21,7 @@ void addPlanesCommand(CLI::App& app, const GlobalOptions& global);
 void addBowlsCommand(CLI::App& app, const GlobalOptions& global);
 void addSceneCommand(CLI::App& app, const GlobalOptions& global);
 void addRecordCommand(CLI::App& app, const GlobalOptions& global);
+void addConsoleCommand(CLI::App& app, const GlobalOptions& global);
 void addSynthCommand(CLI::App& app);
 void addAnalyzeCommand(CLI::App& app);
 

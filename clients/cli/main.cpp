@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   addBowlsCommand(app, global);
   addSceneCommand(app, global);
   addRecordCommand(app, global);
+  addConsoleCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);
   try {
