@@ -8,8 +8,11 @@
 #include <grpcpp/grpcpp.h>
 
 #include "shapesense/v1/shapesense.grpc.pb.h"
+#include "shapesense/v1/status_names.h"
 
 namespace shapesense::cli {
+
+using v1::statusCodeName;
 
 /// Options every command shares.
 struct GlobalOptions {
@@ -66,9 +69,6 @@ class Connection {
   GlobalOptions options_;
   std::unique_ptr<v1::ShapeSense::Stub> stub_;
 };
-
-/// Name of a gRPC status code, e.g. "OUT_OF_RANGE".
-std::string statusCodeName(grpc::StatusCode code);
 
 /// A message as JSON with the proto field names (what --json prints).
 std::string toJson(const google::protobuf::Message& message);

@@ -6,6 +6,8 @@
 
 #include <grpcpp/support/status.h>
 
+#include "shapesense/v1/status_names.h"
+
 namespace shapesense::console {
 
 /// 400 for INVALID_ARGUMENT, OUT_OF_RANGE and FAILED_PRECONDITION, 401, 403, 404, 409 (ABORTED,
@@ -13,8 +15,7 @@ namespace shapesense::console {
 /// (DEADLINE_EXCEEDED), 500 for the rest.
 int httpStatusFor(grpc::StatusCode code);
 
-/// "OUT_OF_RANGE", "UNAVAILABLE", ...
-std::string statusCodeName(grpc::StatusCode code);
+using v1::statusCodeName;
 
 /// {"code": "<statusCodeName>", "message": "<status.error_message()>"}.
 std::string errorBody(const grpc::Status& status);
