@@ -258,6 +258,24 @@ TEST_F(WatchSceneTest, CarriesAPreviewAtItsOwnRate) {
   }
 }
 
+TEST_F(WatchSceneTest, AStreamWaitingForItsRateEndsAtOnceAtShutdown) {
+  v1::WatchSceneRequest request;
+  request.set_max_rate_hz(0.1);  // ten seconds between updates
+  auto context = clientContext(20s);
+  auto reader = watch(context.get(), request);
+  ASSERT_TRUE(subscribed());
+  publish({{squarePlane(1, 0.8)}, {}});
+  v1::SceneUpdate update;
+  ASSERT_TRUE(reader->Read(&update));
+  publish({{squarePlane(1, 0.9)}, {}});  // now it waits for its rate
+  std::this_thread::sleep_for(50ms);
+  const auto start = std::chrono::steady_clock::now();
+  srv.hub().closeAll();
+  EXPECT_FALSE(reader->Read(&update));
+  EXPECT_TRUE(reader->Finish().ok());
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 2s);
+}
+
 TEST_F(WatchSceneTest, RefusesOptionsOutsideTheirLimits) {
   const auto refused = [&](v1::WatchSceneRequest request) {
     auto context = clientContext();

@@ -78,8 +78,15 @@ class WatchSceneReactor final : public grpc::ServerWriteReactor<v1::SceneUpdate>
   /// Starts the next step when nothing is in flight: wait for the rate, or build an update of
   /// the newest frame.
   void advanceLocked() {
-    if (!subscription_ || finished_ || busy_) return;
-    if (cancelled_ || subscription_->closed() || (shutting_down_ && shutting_down_->load())) {
+    if (!subscription_ || finished_) return;
+    const bool ending =
+        cancelled_ || subscription_->closed() || (shutting_down_ && shutting_down_->load());
+    if (ending && waiting_) {
+      alarm_.Cancel();  // a slow rate must not hold a shutdown; its callback finishes then
+      return;
+    }
+    if (busy_) return;
+    if (ending) {
       finishLocked(grpc::Status::OK);
       return;
     }
