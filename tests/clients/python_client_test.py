@@ -216,7 +216,8 @@ class PythonClientTest(unittest.TestCase):
         self.assertTrue(all(s.info.processed for s in summaries))
 
     def test_record_writes_a_recording_under_the_root(self):
-        progress = list(self.client.record("python/take-1", 0.4))
+        # Long enough for a frame from the synthetic source under a sanitizer on a busy machine.
+        progress = list(self.client.record("python/take-1", 2.0))
         self.assertTrue(progress[-1].done)
         self.assertGreater(progress[-1].frames_written, 0)
         root = os.path.join(self.scratch.name, "recordings")
