@@ -115,22 +115,14 @@ void addSceneCommand(CLI::App& app, const GlobalOptions& global) {
     request.set_max_rate_hz(args->rate_hz);
     *request.mutable_preview() = preview;
     auto reader = stub->WatchScene(context.get(), request);
-    v1::SceneUpdate update;
-    unsigned received = 0;
-    while (reader->Read(&update)) {
+    readStream(*reader, *context, args->count, [&](const v1::SceneUpdate& update) {
       if (!args->out.empty() && !update.preview_jpeg().empty()) writePreview(args->out, update);
       if (args->json) {
         std::cout << toJson(update) << std::endl;
       } else {
         printUpdateLine(update);
       }
-      if (args->count != 0 && ++received == args->count) {
-        context->TryCancel();
-        break;
-      }
-    }
-    const grpc::Status status = reader->Finish();
-    if (status.error_code() != grpc::CANCELLED) Connection::check(status);
+    });
   });
 }
 

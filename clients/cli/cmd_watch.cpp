@@ -20,9 +20,7 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
     const auto stub = v1::ShapeSense::NewStub(makeChannel(global, freshStreamArguments()));
     auto context = Connection::streamContext();
     auto reader = stub->Watch(context.get(), v1::WatchRequest{});
-    v1::FrameSummary summary;
-    unsigned received = 0;
-    while (reader->Read(&summary)) {
+    readStream(*reader, *context, args->count, [&](const v1::FrameSummary& summary) {
       if (args->json) {
         std::cout << toJson(summary) << std::endl;
       } else {
@@ -42,13 +40,7 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
         std::printf("\n");
         std::fflush(stdout);
       }
-      if (args->count != 0 && ++received == args->count) {
-        context->TryCancel();
-        break;
-      }
-    }
-    const grpc::Status status = reader->Finish();
-    if (status.error_code() != grpc::CANCELLED) Connection::check(status);
+    });
   });
 }
 

@@ -70,6 +70,25 @@ class Connection {
   std::unique_ptr<v1::ShapeSense::Stub> stub_;
 };
 
+/// Reads a server stream until it ends or `count` messages were read (0 = no limit; the call is
+/// then cancelled), handing each to `on_message`; a failed stream throws RpcError, a cancelled
+/// one does not.
+template <class Message, class OnMessage>
+void readStream(grpc::ClientReader<Message>& reader, grpc::ClientContext& context, unsigned count,
+                OnMessage on_message) {
+  Message message;
+  unsigned received = 0;
+  while (reader.Read(&message)) {
+    on_message(message);
+    if (count != 0 && ++received == count) {
+      context.TryCancel();
+      break;
+    }
+  }
+  const grpc::Status status = reader.Finish();
+  if (status.error_code() != grpc::CANCELLED) Connection::check(status);
+}
+
 /// A message as JSON with the proto field names (what --json prints).
 std::string toJson(const google::protobuf::Message& message);
 

@@ -6,12 +6,6 @@
 namespace shapesense {
 namespace {
 
-Eigen::Vector3d centreOf(const BoxCorners& corners) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const auto& corner : corners) sum += corner;
-  return sum / static_cast<double>(corners.size());
-}
-
 /// Front top-left to back bottom-right: the box's space diagonal.
 double diagonalOf(const BoxCorners& corners) { return (corners[0] - corners[6]).norm(); }
 
@@ -26,7 +20,7 @@ void ThingTracker::reset() {
 
 int ThingTracker::nearestTrack(const ThingObservation& observation,
                                const std::vector<bool>& taken) const {
-  const Eigen::Vector3d centre = centreOf(observation.corners);
+  const Eigen::Vector3d centre = boxCentre(observation.corners);
   const double observed_diagonal = diagonalOf(observation.corners);
   int best = -1;
   double best_distance = std::numeric_limits<double>::infinity();
@@ -36,7 +30,7 @@ int ThingTracker::nearestTrack(const ThingObservation& observation,
     const double gate = std::max(
         params_.min_match_distance_m,
         params_.match_diagonal_fraction * std::max(observed_diagonal, diagonalOf(thing.corners)));
-    const double distance = (centreOf(thing.corners) - centre).norm();
+    const double distance = (boxCentre(thing.corners) - centre).norm();
     if (distance <= gate && distance < best_distance) {
       best = static_cast<int>(i);
       best_distance = distance;

@@ -13,12 +13,6 @@
 namespace shapesense {
 namespace {
 
-Eigen::Vector3d centreOf(const TrackedThing& thing) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const auto& corner : thing.corners) sum += corner;
-  return sum / 8.0;
-}
-
 TEST(DemoSceneTracking, TrackedBowlsHoldStillWhileDetectionsFlicker) {
   synthetic::SyntheticScene scene(synthetic::SceneParams{});
   const DetectorChain chain = makeDetectorChain(DetectorConfig{});
@@ -56,7 +50,7 @@ TEST(DemoSceneTracking, TrackedBowlsHoldStillWhileDetectionsFlicker) {
     double nearest = 1e9;
     for (const auto& thing : *last.things) {
       if (thing.kind == ThingKind::kBowl) {
-        nearest = std::min(nearest, (centreOf(thing) - object.center).norm());
+        nearest = std::min(nearest, (boxCentre(thing.corners) - object.center).norm());
       }
     }
     EXPECT_LT(nearest, 0.15) << object.name;

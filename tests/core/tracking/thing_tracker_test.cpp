@@ -30,12 +30,6 @@ ThingObservation objectAt(const Eigen::Vector3d& centre) {
   return {ThingKind::kObject, cubeAt(centre, 0.10), cv::Rect(200, 120, 30, 30), 0.0};
 }
 
-Eigen::Vector3d centreOf(const TrackedThing& thing) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const auto& c : thing.corners) sum += c;
-  return sum / 8.0;
-}
-
 const Eigen::Vector3d kA(0.1, 0.2, 1.5);
 const Eigen::Vector3d kB(-0.4, 0.2, 1.8);
 
@@ -71,7 +65,7 @@ TEST(ThingTracker, KeepsAConfirmedThingThroughAGapWithTheSameId) {
     const auto things = tracker.update({});
     ASSERT_EQ(things.size(), 1u) << missed;
     EXPECT_EQ(things[0].frames_missed, missed);
-    EXPECT_NEAR((centreOf(things[0]) - kA).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((boxCentre(things[0].corners) - kA).norm(), 0.0, 1e-9);
   }
   const auto back = tracker.update({bowlAt(kA)});
   ASSERT_EQ(back.size(), 1u);
@@ -141,7 +135,7 @@ TEST(ThingTracker, SmoothingHalvesTheJitterOfAStaticThing) {
     if (frame < 20) continue;
     ASSERT_EQ(things.size(), 1u);
     raw_sum += (seen - kA).squaredNorm();
-    smoothed_sum += (centreOf(things[0]) - kA).squaredNorm();
+    smoothed_sum += (boxCentre(things[0].corners) - kA).squaredNorm();
     ++n;
   }
   EXPECT_LT(std::sqrt(smoothed_sum / n), 0.7 * std::sqrt(raw_sum / n));

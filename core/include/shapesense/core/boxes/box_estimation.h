@@ -197,6 +197,13 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
 RoiDepthStatistics robustDepthStatistics(const std::vector<double>& values,
                                          const BoxEstimationParams& params = {});
 
+/// Centre of a box given by corners in BoxCorners order: the mean of its eight corners.
+inline Eigen::Vector3d boxCentre(const BoxCorners& corners) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& corner : corners) sum += corner;
+  return sum / static_cast<double>(corners.size());
+}
+
 /// Volume (m^3) of a box given by corners in BoxCorners order (any hexahedron with planar
 /// faces, e.g. the right prism of mode 1). 0 for collapsed boxes.
 double boxVolume(const BoxCorners& corners);
