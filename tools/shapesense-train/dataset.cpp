@@ -12,6 +12,7 @@
 
 #include "shapesense/core/bowls/bowl_eval.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/scene_splits.h"
 
 namespace shapesense::train {
 
@@ -66,60 +67,109 @@ synthetic::SceneParams sceneParams(std::uint64_t seed, int preset, bool negative
   return p;
 }
 
+/// A frame's annotation line: every visible bowl (upright or not) with its box, view class,
+/// pixels, visible fraction and difficult flag; "negative" when no upright bowl shows.
+json annotateFrame(const synthetic::RenderedFrame& r, const std::string& file) {
+  json line;
+  line["file"] = file;
+  const auto& in = r.frame.intrinsics;
+  line["fx"] = in.fx;
+  line["fy"] = in.fy;
+  line["cx"] = in.cx;
+  line["cy"] = in.cy;
+  json bowls = json::array();
+  bool any_upright = false;
+  for (const auto& o : r.truth.objects) {
+    if (o.kind != "bowl" || o.image_box.empty()) continue;
+    const auto& b = o.image_box;
+    any_upright |= o.upright;
+    bowls.push_back({{"box", {b.x, b.y, b.width, b.height}},
+                     {"view", o.view_class},
+                     {"upright", o.upright},
+                     {"pixels", o.pixel_count},
+                     {"visible_fraction", o.visible_fraction},
+                     {"difficult", isDifficultBowl(b, o.pixel_count, o.visible_fraction)}});
+  }
+  line["negative"] = !any_upright;
+  line["bowls"] = std::move(bowls);
+  return line;
+}
+
+/// The frame of wide scene `index` of a split ("train", "validation" or "test"):
+/// eval::evalScene(split, index) at its scored frame index.
+synthetic::RenderedFrame renderWideScene(const std::string& split, int index) {
+  const auto parsed = eval::parseSplit(split);
+  if (!parsed) throw std::invalid_argument("unknown scene split \"" + split + "\"");
+  const eval::EvalScene scene = eval::evalScene(*parsed, index);
+  return synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+}
+
+std::string frameName(int index) {
+  char name[64];
+  std::snprintf(name, sizeof name, "frames/%06d.png", index);
+  return name;
+}
+
+void writeDepth(const std::filesystem::path& dir, const std::string& name, const cv::Mat& depth) {
+  if (!cv::imwrite((dir / name).string(), depth)) throw std::runtime_error("cannot write " + name);
+}
+
+/// Table-top scene `s` of the bowl generator: frames_per_scene lines from lines[s * fps].
+void generateTableScene(const std::filesystem::path& dir, const GenerateParams& gp, int s,
+                        std::vector<std::string>& lines) {
+  const bool negative = s >= gp.positive_scenes;
+  const int preset = s % 4;
+  // Scene seeds are a pure function of (seed, scene index): the dataset is deterministic.
+  const std::uint64_t scene_seed = gp.seed * 1000003ULL + static_cast<std::uint64_t>(s);
+  synthetic::SyntheticScene scene(sceneParams(scene_seed, preset, negative));
+  for (int k = 0; k < gp.frames_per_scene; ++k) {
+    const auto r = scene.render(static_cast<std::uint64_t>(k * 45), 0);
+    cv::Mat depth = r.frame.depth.clone();
+    cv::RNG rng(scene_seed * 31 + static_cast<std::uint64_t>(k));
+    if (rng.uniform(0.0, 1.0) < gp.blank_room_fraction) depth.setTo(0, r.truth.object_labels == 0);
+    const int index = s * gp.frames_per_scene + k;
+    const std::string name = frameName(index);
+    writeDepth(dir, name, depth);
+    lines[static_cast<std::size_t>(index)] = annotateFrame(r, name).dump();
+  }
+}
+
+/// Wide scene `k` (eval::evalScene(wide_split, wide_first + k)): one frame after the table-top
+/// frames.
+void generateWideFrame(const std::filesystem::path& dir, const GenerateParams& gp, int k,
+                       std::vector<std::string>& lines) {
+  const auto r = renderWideScene(gp.wide_split, gp.wide_first + k);
+  const int index = (gp.positive_scenes + gp.negative_scenes) * gp.frames_per_scene + k;
+  const std::string name = frameName(index);
+  writeDepth(dir, name, r.frame.depth);
+  lines[static_cast<std::size_t>(index)] = annotateFrame(r, name).dump();
+}
+
 }  // namespace
 
 void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp) {
+  if (gp.wide_scenes > 0 && !eval::parseSplit(gp.wide_split))
+    throw std::invalid_argument("unknown scene split \"" + gp.wide_split + "\"");
+  if (gp.wide_scenes < 0 || gp.wide_first < 0)
+    throw std::invalid_argument("--wide-scenes and --wide-first must not be negative");
   std::filesystem::create_directories(dir / "frames");
   const int scenes = gp.positive_scenes + gp.negative_scenes;
-  std::vector<std::string> lines(static_cast<std::size_t>(scenes * gp.frames_per_scene));
+  const int jobs = scenes + gp.wide_scenes;
+  std::vector<std::string> lines(
+      static_cast<std::size_t>(scenes * gp.frames_per_scene + gp.wide_scenes));
   std::atomic<int> next{0}, done{0};
   std::mutex print_mutex;
   std::exception_ptr error;
   auto worker = [&] {
     try {
-      for (int s; (s = next++) < scenes;) {
-        const bool negative = s >= gp.positive_scenes;
-        const int preset = s % 4;
-        // Scene seeds are a pure function of (seed, scene index): the dataset is deterministic.
-        const std::uint64_t scene_seed = gp.seed * 1000003ULL + static_cast<std::uint64_t>(s);
-        synthetic::SyntheticScene scene(sceneParams(scene_seed, preset, negative));
-        for (int k = 0; k < gp.frames_per_scene; ++k) {
-          const auto r = scene.render(static_cast<std::uint64_t>(k * 45), 0);
-          cv::Mat depth = r.frame.depth.clone();
-          cv::RNG rng(scene_seed * 31 + static_cast<std::uint64_t>(k));
-          if (rng.uniform(0.0, 1.0) < gp.blank_room_fraction)
-            depth.setTo(0, r.truth.object_labels == 0);
-          json line;
-          char name[64];
-          std::snprintf(name, sizeof name, "frames/%06d.png", s * gp.frames_per_scene + k);
-          line["file"] = name;
-          const auto& in = r.frame.intrinsics;
-          line["fx"] = in.fx;
-          line["fy"] = in.fy;
-          line["cx"] = in.cx;
-          line["cy"] = in.cy;
-          json bowls = json::array();
-          bool any_upright = false;
-          for (const auto& o : r.truth.objects) {
-            if (o.kind != "bowl" || o.image_box.empty()) continue;
-            const auto& b = o.image_box;
-            any_upright |= o.upright;
-            bowls.push_back({{"box", {b.x, b.y, b.width, b.height}},
-                             {"view", o.view_class},
-                             {"upright", o.upright},
-                             {"pixels", o.pixel_count},
-                             {"visible_fraction", o.visible_fraction},
-                             {"difficult", isDifficultBowl(b, o.pixel_count, o.visible_fraction)}});
-          }
-          line["negative"] = !any_upright;
-          line["bowls"] = std::move(bowls);
-          if (!cv::imwrite((dir / name).string(), depth))
-            throw std::runtime_error(std::string("cannot write ") + name);
-          lines[static_cast<std::size_t>(s * gp.frames_per_scene + k)] = line.dump();
-        }
+      for (int s; (s = next++) < jobs;) {
+        if (s < scenes)
+          generateTableScene(dir, gp, s, lines);
+        else
+          generateWideFrame(dir, gp, s - scenes, lines);
         const int d = ++done;
         std::lock_guard lock(print_mutex);
-        std::fprintf(stderr, "\rgenerate: scene %d/%d", d, scenes);
+        std::fprintf(stderr, "\rgenerate: scene %d/%d", d, jobs);
       }
     } catch (...) {
       std::lock_guard lock(print_mutex);
@@ -133,14 +183,17 @@ void generateDataset(const std::filesystem::path& dir, const GenerateParams& gp)
   if (error) std::rethrow_exception(error);
   std::ofstream ann(dir / "annotations.jsonl");
   for (const auto& l : lines) ann << l << "\n";
-  json meta = {{"format", "shapesense-bowl-dataset"},
-               {"version", 2},
-               {"generator",
-                {{"seed", gp.seed},
-                 {"positive_scenes", gp.positive_scenes},
-                 {"negative_scenes", gp.negative_scenes},
-                 {"frames_per_scene", gp.frames_per_scene},
-                 {"blank_room_fraction", gp.blank_room_fraction}}}};
+  json generator = {{"seed", gp.seed},
+                    {"positive_scenes", gp.positive_scenes},
+                    {"negative_scenes", gp.negative_scenes},
+                    {"frames_per_scene", gp.frames_per_scene},
+                    {"blank_room_fraction", gp.blank_room_fraction}};
+  if (gp.wide_scenes > 0) {  // absent otherwise: datasets without wide scenes stay as they were
+    generator["wide_scenes"] = gp.wide_scenes;
+    generator["wide_first"] = gp.wide_first;
+    generator["wide_split"] = std::string(eval::formatSplit(*eval::parseSplit(gp.wide_split)));
+  }
+  json meta = {{"format", "shapesense-bowl-dataset"}, {"version", 2}, {"generator", generator}};
   std::ofstream(dir / "dataset.json") << meta.dump(2) << "\n";
 }
 

@@ -11,6 +11,10 @@
 //                                        "visible_fraction": 0.93, "difficult": false},
 //                                       ...]}
 //   <dir>/frames/*.png       16-bit depth, millimetres, 0 = no reading
+// Frames of the bowl generator's table-top scenes come first (frames_per_scene per scene), then
+// one frame of each "wide" scene (GenerateParams::wide_scenes): scenes of the evaluation's
+// scene distribution (tools/eval scene_splits.h: rooms, furniture, clutter, camera poses at
+// many heights), annotated by the same code.
 // "negative" frames hold no upright bowl and feed the bootstrapping; the others give the
 // positives (BowlAnnotation::trainable, from "upright", "box" and "pixels") and the evaluation
 // truth (upright bowls; "difficult" ones ignored, core/bowl_eval.h isDifficultBowl).
@@ -54,6 +58,14 @@ struct GenerateParams {
   /// Fraction of frames whose room (floor, walls: object id 0) reads no depth, as in
   /// recordings whose background was cut away. Default 0.5.
   double blank_room_fraction = 0.5;
+  /// Frames from the evaluation's wide scene distribution, appended after the scenes above:
+  /// frame k is eval::evalScene(wide_split, wide_first + k) at its scored frame index, room
+  /// kept (never blanked). Those without an upright bowl are negatives for the bootstrapping,
+  /// upright bowls are positives and truth, as in every frame. Train only on "train" (the
+  /// default); "validation" makes a validation set, "test" a test set.
+  int wide_scenes = 0;
+  int wide_first = 0;
+  std::string wide_split = "train";
   int threads = 2;
 };
 

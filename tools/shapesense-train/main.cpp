@@ -1,6 +1,7 @@
 // shapesense-train: trains, evaluates and checks the WaldBoost/LBP bowl detector.
 //
 //   shapesense-train generate --out DIR [--seed S] [--positive-scenes N] [--negative-scenes M]
+//                             [--wide-scenes W [--wide-first I] [--wide-split train]]
 //   shapesense-train train --data DIR --out MODELS [--seed S] [--stages T] [--views a,b,c]
 //   shapesense-train eval --models MODELS --data DIR      (AP50, miss rate at 0.1 FPPI)
 //   shapesense-train diagnose --models MODELS --data DIR  (why each missed bowl is missed)
@@ -321,6 +322,15 @@ CLI::App* addGenerateCommand(CLI::App& app, CommandLine& c) {
   gen->add_option("--frames-per-scene", gp.frames_per_scene);
   gen->add_option("--blank-room", gp.blank_room_fraction,
                   "fraction of frames whose room reads no depth");
+  gen->add_option("--wide-scenes", gp.wide_scenes,
+                  "frames from the evaluation's wide scene distribution (rooms, furniture, "
+                  "clutter, many camera heights; one per scene), after the table-top scenes")
+      ->check(CLI::NonNegativeNumber);
+  gen->add_option("--wide-first", gp.wide_first, "index of the first wide scene")
+      ->check(CLI::NonNegativeNumber);
+  gen->add_option("--wide-split", gp.wide_split,
+                  "split of the wide scenes: train (for training), validation or test")
+      ->check(CLI::IsMember({"train", "validation", "val", "test"}));
   gen->add_option("--threads", gp.threads);
   return gen;
 }

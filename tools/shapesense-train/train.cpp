@@ -88,8 +88,20 @@ std::vector<PreparedFrame> prepareFrames(const fs::path& data,
   return prepared;
 }
 
+/// Wide scenes from the validation or test split are for choosing and reporting only.
+void requireTrainingSplit(const fs::path& data) {
+  std::ifstream in(data / "dataset.json");
+  if (!in) return;
+  const json generator = json::parse(in).value("generator", json::object());
+  const std::string split = generator.value("wide_split", "train");
+  if (generator.value("wide_scenes", 0) > 0 && split != "train")
+    throw std::runtime_error(data.string() + " holds wide scenes of the " + split +
+                             " split: train only on the train split");
+}
+
 TrainingFrames loadTrainingFrames(const TrainOptions& o) {
   const auto t0 = Clock::now();
+  requireTrainingSplit(o.data);
   TrainingFrames set;
   set.frames = readDataset(o.data);
   set.prepared = prepareFrames(o.data, set.frames, DepthTo8BitMap(set.preprocess), o.threads);
