@@ -46,23 +46,28 @@ void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
     std::string out;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--at", args->at, "T in seconds (default: the newest frame)");
+  cmd->add_option("--at", args->at,
+                  "T in seconds (default: the newest frame; in mode 4 the newest the detectors "
+                  "processed)");
   cmd->add_option("--roi", args->roi, "Two opposite corners x1,y1,x2,y2 in pixels (inclusive)")
       ->required();
   cmd->add_option("--mode", args->mode,
                   "1: ROI = front face, box turned to the view (default); 2: ROI contains an "
-                  "axis-aligned box; 3: ROI = front face of an axis-aligned box")
+                  "axis-aligned box; 3: ROI = front face of an axis-aligned box; 4: the box of the "
+                  "segments the ROI covers, upright on their support plane")
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_option("--out", args->out, "Also draw the box over the frame into this PNG");
   cmd->callback([&global, args] {
     const auto [p1, p2] = parseRoi(args->roi);
+    Connection connection(global);
     v1::EstimateBoxRequest request;
-    request.set_at_ns(parseTimeArgument(args->at));
+    // Mode 4 boxes the detectors' segments: without --at, the newest frame they processed.
+    request.set_at_ns(args->at.empty() && args->mode == 4 ? connection.newestProcessedFrame()
+                                                          : parseTimeArgument(args->at));
     *request.mutable_p1() = p1;
     *request.mutable_p2() = p2;
     request.set_mode(static_cast<v1::BoxMode>(args->mode));
-    Connection connection(global);
     v1::EstimateBoxResponse response;
     Connection::check(
         connection.stub().EstimateBox(connection.context().get(), request, &response));

@@ -5,6 +5,7 @@
 
 #include "server_fixture.h"
 #include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/driver/synthetic_scene.h"
 
 namespace shapesense::testing {
@@ -157,6 +158,82 @@ TEST_F(EstimateBoxTest, RoiWithoutDepthIsFailedPrecondition) {
   v1::EstimateBoxResponse response;
   const auto status = call(0, {5, 5}, {40, 40}, 1, response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+// Mode 4 boxes the detectors' segments: frames 0 and 1 carry the default chain's results,
+// frame 2 the results of a chain without segmentation, frame 3 none (the detectors skipped it).
+class EstimateBoxFromSegments : public EstimateBoxTest {
+ protected:
+  void SetUp() override {
+    EstimateBoxTest::SetUp();
+    DetectorConfig config;
+    config.bowls = false;
+    const DetectorChain chain = makeDetectorChain(config);
+    for (int i = 0; i < 2; ++i) {
+      const auto frame = srv.cache().bySequence(i)->frame;
+      ASSERT_TRUE(srv.cache().publishResults(
+          i, std::make_shared<const FrameResults>(chain.process(*frame))));
+    }
+    config.segmentation.reset();
+    const auto frame2 = srv.cache().bySequence(2)->frame;
+    ASSERT_TRUE(srv.cache().publishResults(
+        2, std::make_shared<const FrameResults>(makeDetectorChain(config).process(*frame2))));
+    Frame skipped = *frame2;
+    skipped.timestamp_ns = kServerT0 + 3 * kFramePeriodNs;
+    skipped.sequence = 3;
+    ASSERT_TRUE(srv.cache().insert(std::make_shared<const Frame>(std::move(skipped))));
+  }
+};
+
+TEST_F(EstimateBoxFromSegments, Mode4HoldsTheObjectsPointsInAnUprightBox) {
+  const auto& object = someObject(1);
+  const cv::Rect r = object.image_box;
+  v1::EstimateBoxResponse response;
+  const auto status =
+      call(kServerT0 + kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 4, response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(response.corners_size(), 8);
+  EXPECT_EQ(response.mode(), v1::BOX_MODE_SEGMENTS);
+  EXPECT_EQ(response.frame_sequence(), 1u);
+  EXPECT_GT(response.stats().used_pixels(), 0u);
+  BoxCorners corners;
+  for (int i = 0; i < 8; ++i)
+    corners[i] = {response.corners(i).x(), response.corners(i).y(), response.corners(i).z()};
+  const Frame& frame = *srv.cache().bySequence(1)->frame;
+  int inside = 0, total = 0;
+  for (int v = r.y; v < r.y + r.height; ++v) {
+    for (int u = r.x; u < r.x + r.width; ++u) {
+      if (truths[1].object_labels.at<std::uint16_t>(v, u) != object.id) continue;
+      ++total;
+      const double z = frame.depth.at<std::uint16_t>(v, u) * 1e-3;
+      inside += boxContains(corners, frame.intrinsics.backproject(u, v, z));
+    }
+  }
+  ASSERT_GT(total, 0);
+  // The requirement for mode 4, on one object: 0.95 of its visible points.
+  EXPECT_GE(static_cast<double>(inside) / total, 0.95) << object.name;
+}
+
+TEST_F(EstimateBoxFromSegments, FramesWithoutSegmentsAreFailedPreconditionSayingWhy) {
+  const cv::Rect r = someObject(2).image_box;
+  v1::EstimateBoxResponse response;
+  auto status = call(kServerT0 + 2 * kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 4, response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(status.error_message().find("segmentation or plane stage off"), std::string::npos)
+      << status.error_message();
+  status = call(kServerT0 + 3 * kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 4, response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  // Modes 1-3 need no detector results: the skipped frame still answers.
+  EXPECT_TRUE(
+      call(kServerT0 + 3 * kFramePeriodNs, r.tl(), r.br() - cv::Point(1, 1), 2, response).ok());
+}
+
+TEST_F(EstimateBoxFromSegments, AnRoiOnNoObjectIsFailedPrecondition) {
+  v1::EstimateBoxResponse response;
+  const auto status = call(kServerT0, {319, 239}, {321, 241}, 4, response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(status.error_message().find("no segment lies mostly inside the ROI"), std::string::npos)
+      << status.error_message();
 }
 
 TEST(EstimateBoxEmptyCache, IsUnavailable) {

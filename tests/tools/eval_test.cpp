@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 
+#include "shapesense/eval/box_eval.h"
 #include "shapesense/eval/plane_eval.h"
 #include "shapesense/eval/scene_splits.h"
 #include "shapesense/eval/segment_eval.h"
@@ -110,6 +111,55 @@ TEST(SegmentEval, RealObjectsMergedWithTheTableAreNotKeptApart) {
   EXPECT_EQ(s.kept_apart, 1);
   EXPECT_EQ(s.table_whole, 1);
   EXPECT_NEAR(tableCoverage(regions, labels, depth), 1.0, 1e-12);
+}
+
+// An axis-aligned box from low to high, in BoxCorners order.
+BoxCorners axisBox(const Eigen::Vector3d& low, const Eigen::Vector3d& high) {
+  BoxCorners c;
+  for (int back = 0; back < 2; ++back) {
+    const double z = back ? high.z() : low.z();
+    c[4 * back + 0] = {low.x(), low.y(), z};
+    c[4 * back + 1] = {high.x(), low.y(), z};
+    c[4 * back + 2] = {high.x(), high.y(), z};
+    c[4 * back + 3] = {low.x(), high.y(), z};
+  }
+  return c;
+}
+
+TEST(BoxEval, CountsThePointsInsideAndTheVolumeOverThePointsBox) {
+  // Points filling a 10 x 10 x 10 cm cube at 1 m.
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i <= 10; ++i)
+    for (int j = 0; j <= 10; ++j)
+      for (int k = 0; k <= 10; ++k) points.emplace_back(0.01 * i, 0.01 * j, 1.0 + 0.01 * k);
+  EXPECT_NEAR(pointsBoxVolume(points), 1e-3, 1e-9);
+  BoxModeScore score;
+  // The cube itself, padded by 1 mm: everything inside, volume ratio ~1.06.
+  const BoxCorners padded = axisBox({-0.001, -0.001, 0.999}, {0.101, 0.101, 1.101});
+  score.add(&padded, points);
+  // The lower half in x: 6 of 11 slices inside, volume 0.5.
+  const BoxCorners half = axisBox({-0.001, -0.001, 0.999}, {0.0501, 0.101, 1.101});
+  score.add(&half, points);
+  score.add(nullptr, points);  // a failed box counts 0
+  ASSERT_EQ(score.coverage.size(), 2u);
+  EXPECT_DOUBLE_EQ(score.coverage[0], 1.0);
+  EXPECT_NEAR(score.coverage[1], 6.0 / 11.0, 1e-12);
+  EXPECT_NEAR(score.volume_ratio[0], 1.0612, 1e-3);
+  EXPECT_NEAR(score.volume_ratio[1], 0.5316, 1e-3);
+  EXPECT_EQ(score.failed, 1);
+  EXPECT_NEAR(score.meanCoverage(), (1.0 + 6.0 / 11.0) / 3.0, 1e-12);
+}
+
+TEST(BoxEval, BoxableObjectsLeaveOutTheTableSmallThingsAndThingsCutByTheBorder) {
+  const auto f = clutteredFrame();
+  const auto objects = boxableObjects(f.truth, f.frame.depth.cols, f.frame.depth.rows, 300);
+  ASSERT_FALSE(objects.empty());
+  for (const auto* o : objects) {
+    EXPECT_NE(o->kind, "table");
+    EXPECT_GE(o->pixel_count, 300u);
+    EXPECT_GT(o->image_box.x, 0);
+    EXPECT_LT(o->image_box.br().x, f.frame.depth.cols);
+  }
 }
 
 TEST(SceneSplits, SplitsShareNoSeedAndEveryDrawnSceneGenerates) {

@@ -8,18 +8,24 @@
 // the truth plane's share of the image; spurious planes per frame on plain scenes and on scenes
 // with curved clutter; median angle and distance errors of the correct planes. On real frames:
 // the table found as one plane. Segments: SegComp against the truth an operator wants (planar
-// faces apart, curved objects whole) and, on real frames, the objects kept apart.
+// faces apart, curved objects whole) and, on real frames, the objects kept apart. Boxes:
+// EstimateBox in mode 2 (the seed's best) and mode 4 (segments) with each object's own image
+// bounds as the ROI; the share of the object's visible points inside its box and the box's
+// volume over that of the camera-axis box of those points.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "shapesense/core/boxes/segment_box.h"
 #include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/core/pipeline/stages.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/eval/box_eval.h"
 #include "shapesense/eval/plane_eval.h"
 #include "shapesense/eval/scene_splits.h"
 #include "shapesense/eval/segment_eval.h"
@@ -28,11 +34,54 @@ using namespace shapesense;
 
 namespace {
 
+// Boxes of the modes compared, by mode number.
+using BoxScores = std::map<int, eval::BoxModeScore>;
+
 struct SyntheticResults {
   eval::PlaneScore planes_plain, planes_clutter;
   std::map<SegmentationMethod, SegCompScore> segments;  // summed counts, mean pixel accuracy
+  BoxScores boxes;
   int frames = 0;
 };
+
+// Objects smaller than this share of the image are not boxed (an operator cannot draw them).
+constexpr double kMinBoxedObjectShare = 0.001;
+
+// Scores mode 2 and mode 4 on one object marked by its image bounds `roi`.
+void scoreObjectBoxes(const Frame& frame, const cv::Rect& roi, const SegmentationResult& segments,
+                      const PlaneDetection& planes, const std::vector<Eigen::Vector3d>& points,
+                      BoxScores& scores) {
+  const cv::Point p1 = roi.tl(), p2 = roi.br() - cv::Point(1, 1);
+  const auto contained =
+      estimateBox(frame.depth, frame.intrinsics, p1, p2, BoxMode::kAxisAlignedContained);
+  const auto* box2 = std::get_if<BoxEstimate>(&contained);
+  scores[2].add(box2 ? &box2->corners : nullptr, points);
+  const auto from_segments = boxFromSegments(frame.depth, frame.intrinsics, p1, p2, segments.labels,
+                                             segments.segments, planes);
+  const auto* box4 = std::get_if<BoxEstimate>(&from_segments);
+  scores[4].add(box4 ? &box4->corners : nullptr, points);
+}
+
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+void printBoxTable(const BoxScores& scores) {
+  std::printf(
+      "| mode | objects | no box | mean share of points inside | objects >= 0.95 inside | "
+      "volume / points' box, median | p90 |\n|---|---|---|---|---|---|---|\n");
+  for (const auto& [mode, s] : scores) {
+    const auto well =
+        std::count_if(s.coverage.begin(), s.coverage.end(), [](double c) { return c >= 0.95; });
+    std::printf("| %d (%s) | %d | %d | %.3f | %.3f | %.2f | %.2f |\n", mode,
+                toString(static_cast<BoxMode>(mode)), s.objects, s.failed, s.meanCoverage(),
+                s.objects ? static_cast<double>(well) / s.objects : 0.0,
+                quantile(s.volume_ratio, 0.5), quantile(s.volume_ratio, 0.9));
+  }
+}
 
 void addSegComp(const SegCompScore& s, SegCompScore& total) {
   total.truth_regions += s.truth_regions;
@@ -60,6 +109,17 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
       const SegmentationResult seg =
           segmentFrame(rendered.frame, m, config.segmentation_params, &planes);
       addSegComp(eval::scoreSegments(seg.labels, rendered.truth), results.segments[m]);
+    }
+    const Frame& frame = rendered.frame;
+    const SegmentationResult default_segments =
+        segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+    for (const auto* object : eval::boxableObjects(
+             rendered.truth, frame.depth.cols, frame.depth.rows,
+             static_cast<std::size_t>(kMinBoxedObjectShare * frame.depth.total()))) {
+      const auto points =
+          eval::labelledPoints(rendered.truth.object_labels, frame.depth, frame.intrinsics,
+                               [&](std::uint16_t label) { return label == object->id; });
+      scoreObjectBoxes(frame, object->image_box, default_segments, planes, points, results.boxes);
     }
     ++results.frames;
   }
@@ -100,6 +160,31 @@ void printSynthetic(eval::Split split, const SyntheticResults& r) {
                 std::string(formatSegmentationMethod(m)).c_str(),
                 s.truth_regions ? double(s.correct) / s.truth_regions : 0.0, s.over_segmented,
                 s.under_segmented, s.missed, r.frames ? s.pixel_accuracy / r.frames : 0.0);
+  std::printf("\nBoxes (ROI = the object's image bounds; objects of >= %.1f%% of the image):\n",
+              100 * kMinBoxedObjectShare);
+  printBoxTable(r.boxes);
+}
+
+// Every labelled object of a real frame, boxed from its label's image bounds.
+void scoreRealBoxes(const eval::LabelledFrame& f, const PlaneDetection& planes,
+                    const DetectorConfig& config, BoxScores& scores) {
+  const SegmentationResult segments =
+      segmentFrame(f.frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+  std::map<int, cv::Rect> bounds;
+  for (int v = 0; v < f.labels.rows; ++v)
+    for (int u = 0; u < f.labels.cols; ++u) {
+      const int owner = eval::osdOwner(f.labels.at<std::uint16_t>(v, u));
+      if (owner <= 0 || f.frame.depth.at<std::uint16_t>(v, u) == 0) continue;
+      cv::Rect& b = bounds[owner];
+      b = b.area() == 0 ? cv::Rect(u, v, 1, 1) : (b | cv::Rect(u, v, 1, 1));
+    }
+  for (const auto& [owner, roi] : bounds) {
+    const auto points = eval::labelledPoints(
+        f.labels, f.frame.depth, f.frame.intrinsics,
+        [owner = owner](std::uint16_t label) { return eval::osdOwner(label) == owner; });
+    if (points.size() < kMinBoxedObjectShare * f.frame.depth.total()) continue;
+    scoreObjectBoxes(f.frame, roi, segments, planes, points, scores);
+  }
 }
 
 void evaluateReal(const std::filesystem::path& dir,
@@ -109,9 +194,11 @@ void evaluateReal(const std::filesystem::path& dir,
   HoughPlaneDetector hough(config.hough_params);
   int table_one_plane = 0;
   std::map<SegmentationMethod, eval::RealSegmentScore> segments;
+  BoxScores boxes;
   for (const auto& f : frames) {
     const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
     table_one_plane += eval::tableCoverage(planes.labels, f.labels, f.frame.depth) >= 0.8;
+    scoreRealBoxes(f, planes, config, boxes);
     for (const SegmentationMethod m : methods)
       segments[m].add(eval::scoreRealSegments(
           segmentFrame(f.frame, m, config.segmentation_params, &planes).labels, f.labels,
@@ -124,6 +211,8 @@ void evaluateReal(const std::filesystem::path& dir,
     std::printf("| %s | %.3f (%d of %d) | %d of %d |\n",
                 std::string(formatSegmentationMethod(m)).c_str(), s.keptApartFraction(),
                 s.kept_apart, s.objects, s.table_whole, s.frames);
+  std::printf("\nBoxes of the labelled objects (ROI = the object's label bounds):\n");
+  printBoxTable(boxes);
 }
 
 }  // namespace

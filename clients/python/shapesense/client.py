@@ -19,6 +19,7 @@ _BOX_MODES = {
     "frustum_aligned": pb.BOX_MODE_FRUSTUM_ALIGNED,
     "axis_aligned_contained": pb.BOX_MODE_AXIS_ALIGNED_CONTAINED,
     "axis_aligned_front_face": pb.BOX_MODE_AXIS_ALIGNED_FRONT_FACE,
+    "segments": pb.BOX_MODE_SEGMENTS,
 }
 _PREVIEW_KINDS = {"none": pb.PreviewRequest.NONE, "colour": pb.PreviewRequest.COLOUR,
                   "color": pb.PreviewRequest.COLOUR, "depth": pb.PreviewRequest.DEPTH}
@@ -31,13 +32,13 @@ _STREAM_OPTIONS = [("grpc.http2.bdp_probe", 0), ("grpc.http2.lookahead_bytes", 1
 
 def box_mode(mode: BoxModeArg) -> int:
     """The BoxMode of a name ("frustum_aligned", "axis_aligned_contained",
-    "axis_aligned_front_face") or of the design's mode number 1, 2, 3."""
+    "axis_aligned_front_face", "segments") or of its mode number 1, 2, 3, 4."""
     if isinstance(mode, int):
-        if mode in (1, 2, 3):
+        if mode in (1, 2, 3, 4):
             return mode
     elif mode.lower() in _BOX_MODES:
         return _BOX_MODES[mode.lower()]
-    raise ValueError(f"box mode {mode!r} is not one of {', '.join(_BOX_MODES)} (or 1, 2, 3)")
+    raise ValueError(f"box mode {mode!r} is not one of {', '.join(_BOX_MODES)} (or 1, 2, 3, 4)")
 
 
 def read_token(path: str) -> str:
@@ -247,9 +248,12 @@ class Client:
 
         ``mode``: "frustum_aligned" (1: the ROI is the box's front face, box turned to the
         view), "axis_aligned_contained" (2: the ROI contains an axis-aligned box) or
-        "axis_aligned_front_face" (3: the ROI is an axis-aligned box's front face).
+        "axis_aligned_front_face" (3: the ROI is an axis-aligned box's front face) or
+        "segments" (4: the box of the segments the ROI covers, upright on their support; it
+        needs a frame the detectors processed, so pass a processed frame's ``at_ns``).
         INVALID_ARGUMENT for an ROI outside the image, FAILED_PRECONDITION when it holds no
-        depth, OUT_OF_RANGE when ``at_ns`` is older than the cache.
+        depth (mode 4: no segment, or no detector results), OUT_OF_RANGE when ``at_ns`` is
+        older than the cache.
         """
         request = pb.EstimateBoxRequest(at_ns=at_ns, p1=pb.Pixel(x=int(p1[0]), y=int(p1[1])),
                                         p2=pb.Pixel(x=int(p2[0]), y=int(p2[1])),

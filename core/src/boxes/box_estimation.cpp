@@ -254,17 +254,11 @@ struct RoiBounds {
   int u0, u1, v0, v1;
 };
 
-// Why a request cannot be estimated, if it cannot: an unknown mode, an empty or wrongly typed
-// image, bad intrinsics or an ROI outside the image.
-std::optional<BoxEstimationFailure> invalidRequest(const cv::Mat& depth_mm,
-                                                   const CameraIntrinsics& intrinsics,
-                                                   const RoiBounds& roi, BoxMode mode) {
+// Why a request's image, intrinsics or ROI cannot be estimated, if they cannot.
+std::optional<BoxEstimationFailure> invalidRoiRequest(const cv::Mat& depth_mm,
+                                                      const CameraIntrinsics& intrinsics,
+                                                      const RoiBounds& roi) {
   using Err = BoxEstimationError;
-  if (mode != BoxMode::kFrustumAligned && mode != BoxMode::kAxisAlignedContained &&
-      mode != BoxMode::kAxisAlignedFrontFace) {
-    return fail(Err::kInvalidArgument,
-                "unknown box estimation mode " + std::to_string(static_cast<int>(mode)));
-  }
   if (depth_mm.empty()) {
     return fail(Err::kEmptyRoi, "the depth image has no pixels, so the ROI is empty");
   }
@@ -284,6 +278,28 @@ std::optional<BoxEstimationFailure> invalidRequest(const cv::Mat& depth_mm,
                                            "x" + std::to_string(depth_mm.rows) + " image");
   }
   return std::nullopt;
+}
+
+RoiBounds roiBounds(cv::Point p1, cv::Point p2) {
+  return {std::min(p1.x, p2.x), std::max(p1.x, p2.x), std::min(p1.y, p2.y), std::max(p1.y, p2.y)};
+}
+
+// Why estimateBox cannot estimate a request, if it cannot: a mode it does not handle, or an
+// unsound image, intrinsics or ROI.
+std::optional<BoxEstimationFailure> invalidRequest(const cv::Mat& depth_mm,
+                                                   const CameraIntrinsics& intrinsics,
+                                                   const RoiBounds& roi, BoxMode mode) {
+  if (mode == BoxMode::kSegments) {
+    return fail(BoxEstimationError::kInvalidArgument,
+                "box mode 4 (segments) needs the frame's segmentation and planes: use "
+                "boxFromSegments");
+  }
+  if (mode != BoxMode::kFrustumAligned && mode != BoxMode::kAxisAlignedContained &&
+      mode != BoxMode::kAxisAlignedFrontFace) {
+    return fail(BoxEstimationError::kInvalidArgument,
+                "unknown box estimation mode " + std::to_string(static_cast<int>(mode)));
+  }
+  return invalidRoiRequest(depth_mm, intrinsics, roi);
 }
 
 // The robust depth statistics of the ROI's readings: ranges from the optical centre in mode 1,
@@ -407,8 +423,7 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
                                                             cv::Point p1, cv::Point p2,
                                                             BoxMode mode,
                                                             const BoxEstimationParams& params) {
-  const RoiBounds roi{std::min(p1.x, p2.x), std::max(p1.x, p2.x), std::min(p1.y, p2.y),
-                      std::max(p1.y, p2.y)};
+  const RoiBounds roi = roiBounds(p1, p2);
   if (auto failure = invalidRequest(depth_mm, intrinsics, roi, mode)) return *failure;
   const auto [u0, u1, v0, v1] = roi;
   // |ray| is largest at one of the ROI's corners.
@@ -445,6 +460,12 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
   out.stats.near_m = near;
   out.stats.far_m = far;
   return out;
+}
+
+std::optional<BoxEstimationFailure> checkRoiRequest(const cv::Mat& depth_mm,
+                                                    const CameraIntrinsics& intrinsics,
+                                                    cv::Point p1, cv::Point p2) {
+  return invalidRoiRequest(depth_mm, intrinsics, roiBounds(p1, p2));
 }
 
 double boxVolume(const BoxCorners& corners) {
@@ -515,6 +536,8 @@ const char* toString(BoxMode mode) {
       return "AxisAlignedContained";
     case BoxMode::kAxisAlignedFrontFace:
       return "AxisAlignedFrontFace";
+    case BoxMode::kSegments:
+      return "Segments";
   }
   return "Unknown";
 }

@@ -8,13 +8,13 @@
 #include <unordered_map>
 
 namespace shapesense {
-namespace {
 
-// Which segments touch which, across depth-continuous pixel pairs only (an object's faces touch;
-// an object and the wall behind it only meet across a depth step). Pairs are collected flat and
-// deduplicated once: most pixel pairs lie inside one segment, and the boundary pairs repeat.
-std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
-    const cv::Mat& labels, const cv::Mat& depth_mm, const ObjectBoxParams& params) {
+// Pairs are collected flat and deduplicated once: most pixel pairs lie inside one segment, and
+// the boundary pairs repeat.
+std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(const cv::Mat& labels,
+                                                                      const cv::Mat& depth_mm,
+                                                                      const ObjectBoxParams& params,
+                                                                      const cv::Rect& within) {
   const KinectNoiseModel& noise = params.estimation.noise;
   std::vector<std::uint32_t> pairs;
   const auto consider = [&](std::uint16_t a, std::uint16_t b, std::uint16_t za, std::uint16_t zb) {
@@ -25,12 +25,14 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
     if (std::abs(za - zb) * 1e-3 > max_step_m) return;
     pairs.push_back(static_cast<std::uint32_t>(std::min(a, b)) << 16 | std::max(a, b));
   };
-  for (int v = 0; v + 1 < labels.rows; ++v) {
+  const cv::Rect area = within.area() > 0 ? within & cv::Rect(0, 0, labels.cols, labels.rows)
+                                          : cv::Rect(0, 0, labels.cols, labels.rows);
+  for (int v = area.y; v + 1 < area.y + area.height; ++v) {
     const auto* l0 = labels.ptr<std::uint16_t>(v);
     const auto* l1 = labels.ptr<std::uint16_t>(v + 1);
     const auto* d0 = depth_mm.ptr<std::uint16_t>(v);
     const auto* d1 = depth_mm.ptr<std::uint16_t>(v + 1);
-    for (int u = 0; u + 1 < labels.cols; ++u) {
+    for (int u = area.x; u + 1 < area.x + area.width; ++u) {
       consider(l0[u], l0[u + 1], d0[u], d0[u + 1]);
       consider(l0[u], l1[u], d0[u], d1[u]);
     }
@@ -46,6 +48,8 @@ std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
   }
   return neighbours;
 }
+
+namespace {
 
 // What the steps below share: the inputs and the lookups by id.
 struct ObjectSearch {
@@ -88,38 +92,52 @@ struct ObjectSearch {
   }
 };
 
-// Pixels of each plane region inside the segment.
-std::map<std::uint16_t, int> ownPlaneOverlap(const ObjectSearch& s,
-                                             const SegmentStatistics& segment) {
+// Segments taken together: one segment, or the faces of one object.
+struct SegmentRegion {
+  std::vector<std::uint16_t> ids;  // sorted
+  cv::Rect box;                    // bounds of their pixels
+  int pixels = 0;
+  bool holds(std::uint16_t label) const {
+    return std::binary_search(ids.begin(), ids.end(), label);
+  }
+};
+
+SegmentRegion regionOf(const SegmentStatistics& segment) {
+  return {{segment.id}, segment.box, segment.pixels};
+}
+
+// Pixels of each plane region inside the segments.
+std::map<std::uint16_t, int> ownPlaneOverlap(const ObjectSearch& s, const SegmentRegion& region) {
   std::map<std::uint16_t, int> own_overlap;
-  const cv::Rect r = segment.box;
+  const cv::Rect r = region.box;
   for (int v = r.y; v < r.y + r.height; ++v) {
     const auto* seg = s.segment_labels.ptr<std::uint16_t>(v);
     const auto* pl = s.planes.labels.ptr<std::uint16_t>(v);
     for (int u = r.x; u < r.x + r.width; ++u) {
-      if (seg[u] == segment.id && pl[u] != 0) ++own_overlap[pl[u]];
+      if (pl[u] != 0 && region.holds(seg[u])) ++own_overlap[pl[u]];
     }
   }
   return own_overlap;
 }
 
-// The plane the segment's columns reach first below its lowest pixel (within
-// support_search_px), looking through the planes the segment itself lies on (a box face is a
-// plane too, and its region may reach past the segment's edge); nullptr when too few reach one.
-const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentStatistics& segment) {
+// The plane the segments' columns reach first below their lowest pixel (within
+// support_search_px), looking through the planes the segments themselves lie on (a box face is
+// a plane too, and its region may reach past the segment's edge); nullptr when too few reach
+// one.
+const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentRegion& region) {
   const ObjectBoxParams& params = s.params;
-  const std::map<std::uint16_t, int> own_overlap = ownPlaneOverlap(s, segment);
+  const std::map<std::uint16_t, int> own_overlap = ownPlaneOverlap(s, region);
   const auto isOwnPlane = [&](std::uint16_t plane) {
     const auto it = own_overlap.find(plane);
-    return it != own_overlap.end() && it->second > params.max_support_overlap * segment.pixels;
+    return it != own_overlap.end() && it->second > params.max_support_overlap * region.pixels;
   };
-  const cv::Rect r = segment.box;
+  const cv::Rect r = region.box;
   std::map<std::uint16_t, int> support_votes;
   int columns = 0;
   for (int u = r.x; u < r.x + r.width; ++u) {
     int lowest = -1;
     for (int v = r.y + r.height - 1; v >= r.y; --v) {
-      if (s.segment_labels.at<std::uint16_t>(v, u) == segment.id) {
+      if (region.holds(s.segment_labels.at<std::uint16_t>(v, u))) {
         lowest = v;
         break;
       }
@@ -130,7 +148,7 @@ const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentStatistics
     for (int v = lowest + 1; v <= last; ++v) {
       const std::uint16_t plane = s.planes.labels.at<std::uint16_t>(v, u);
       if (plane != 0 && !isOwnPlane(plane) &&
-          s.segment_labels.at<std::uint16_t>(v, u) != segment.id) {
+          !region.holds(s.segment_labels.at<std::uint16_t>(v, u))) {
         ++support_votes[plane];
         break;
       }
@@ -152,7 +170,7 @@ std::map<std::uint16_t, const DetectedPlane*> standingSegments(const ObjectSearc
   std::map<std::uint16_t, const DetectedPlane*> standing;
   for (const auto& segment : s.segments) {
     if (segment.pixels > s.params.max_image_fraction * s.image_pixels) continue;
-    const DetectedPlane* support = supportBelow(s, segment);
+    const DetectedPlane* support = supportBelow(s, regionOf(segment));
     if (support && s.partOfObjectAbove(segment, *support)) standing[segment.id] = support;
   }
   return standing;
@@ -228,6 +246,27 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
     if (auto box = boxOfGroup(search, intrinsics, group, *support)) boxes.push_back(*box);
   }
   return boxes;
+}
+
+const DetectedPlane* supportPlaneBelow(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
+                                       const std::vector<SegmentStatistics>& segments,
+                                       const PlaneDetection& planes,
+                                       const std::vector<std::uint16_t>& segment_ids,
+                                       const ObjectBoxParams& params) {
+  CV_Assert(segment_labels.type() == CV_16UC1 && planes.labels.type() == CV_16UC1);
+  CV_Assert(segment_labels.size() == depth_mm.size() && planes.labels.size() == depth_mm.size());
+  const ObjectSearch search(depth_mm, segment_labels, segments, planes, params);
+  SegmentRegion region;
+  for (const std::uint16_t id : segment_ids) {
+    const auto it = search.segment_by_id.find(id);
+    if (it == search.segment_by_id.end()) continue;
+    region.ids.push_back(id);
+    region.box = region.box.area() == 0 ? it->second->box : (region.box | it->second->box);
+    region.pixels += it->second->pixels;
+  }
+  if (region.ids.empty()) return nullptr;
+  std::sort(region.ids.begin(), region.ids.end());
+  return supportBelow(search, region);
 }
 
 }  // namespace shapesense

@@ -24,13 +24,12 @@ bool isCurvedObjectKind(const std::string& kind) {
   return false;
 }
 
-// OSD label -> what it belongs to: 0 none, -1 the table, k > 0 object k.
+}  // namespace
+
 int osdOwner(int label) {
   if (label >= 1 && label <= 9) return -1;
   return label >= 20 ? label / 10 : 0;
 }
-
-}  // namespace
 
 cv::Mat segmentTruth(const synthetic::TruthFrame& truth) {
   // Curved objects get labels after every surface id, so the two never collide.

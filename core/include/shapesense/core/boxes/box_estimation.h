@@ -35,6 +35,7 @@
 // invariants (corners on the frustum edges / front face projecting onto the ROI) are kept.
 
 #include <array>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -69,6 +70,10 @@ enum class BoxMode {
   /// The ROI is the projection of the front face of an axis-aligned box: front face at
   /// Z = near spanning exactly the ROI's frustum, back face the same rectangle at Z = far.
   kAxisAlignedFrontFace = 3,
+  /// The ROI marks an object: the box is that of the segments lying mostly inside the ROI,
+  /// minus the plane they stand on (boxFromSegments in segment_box.h; it needs the frame's
+  /// segmentation and planes, so estimateBox refuses this mode).
+  kSegments = 4,
 };
 
 /// Tunables of estimateBox. Defaults suit a Kinect v1 at 0.5 - 4 m.
@@ -188,6 +193,13 @@ std::variant<BoxEstimate, BoxEstimationFailure> estimateBox(const cv::Mat& depth
                                                             BoxMode mode = BoxMode::kFrustumAligned,
                                                             const BoxEstimationParams& params = {});
 
+/// The checks every mode makes of a request: a CV_16UC1 image with pixels, positive finite
+/// focal lengths, and the ROI with corners p1, p2 (inclusive, any two opposite corners) inside
+/// the image. nullopt when the request is sound.
+std::optional<BoxEstimationFailure> checkRoiRequest(const cv::Mat& depth_mm,
+                                                    const CameraIntrinsics& intrinsics,
+                                                    cv::Point p1, cv::Point p2);
+
 /// Robust near/far statistics of the values (metres, > 0) using params' window; exposed so
 /// callers and tests can inspect the statistic on their own samples. The values are counted in
 /// 1 mm bins and every statistic is of the binned values: exact for millimetre depths (what
@@ -218,7 +230,7 @@ bool boxContains(const BoxCorners& corners, const Eigen::Vector3d& point, double
 void drawBox(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const BoxCorners& corners,
              cv::Scalar color, int thickness = 2);
 
-/// "FrustumAligned", "AxisAlignedContained", "AxisAlignedFrontFace", or "Unknown".
+/// "FrustumAligned", "AxisAlignedContained", "AxisAlignedFrontFace", "Segments" or "Unknown".
 const char* toString(BoxMode mode);
 const char* toString(BoxEstimationError code);
 

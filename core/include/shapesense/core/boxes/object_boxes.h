@@ -12,6 +12,8 @@
 // `max_size_m` are left out.
 
 #include <cstdint>
+#include <map>
+#include <set>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -63,5 +65,22 @@ std::vector<ObjectBox> boxesOfObjectsOnPlanes(const cv::Mat& depth_mm,
                                               const std::vector<SegmentStatistics>& segments,
                                               const PlaneDetection& planes,
                                               const ObjectBoxParams& params = {});
+
+/// Which segments of `labels` touch which across depth-continuous pixel pairs only (the
+/// continuity rule of ObjectBoxParams: an object's faces touch; an object and the wall behind it
+/// only meet across a depth step), looking at the pixel pairs inside `within` (empty = the
+/// whole image). Symmetric: b is in result[a] exactly when a is in result[b].
+std::map<std::uint16_t, std::set<std::uint16_t>> continuousNeighbours(
+    const cv::Mat& labels, const cv::Mat& depth_mm, const ObjectBoxParams& params = {},
+    const cv::Rect& within = {});
+
+/// The plane region that the segments `segment_ids` of `segment_labels` stand on, taken
+/// together (the faces of one object), by the rule of the file comment; nullptr when none.
+/// The result points into `planes`.
+const DetectedPlane* supportPlaneBelow(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
+                                       const std::vector<SegmentStatistics>& segments,
+                                       const PlaneDetection& planes,
+                                       const std::vector<std::uint16_t>& segment_ids,
+                                       const ObjectBoxParams& params = {});
 
 }  // namespace shapesense

@@ -34,6 +34,9 @@ struct LabelledFrame {
 /// std::runtime_error when the folder is not a readable recording.
 std::vector<LabelledFrame> loadLabelledRecording(const std::filesystem::path& dir);
 
+/// What an OSD label belongs to: 0 nothing, -1 the table, k > 0 object k.
+int osdOwner(int label);
+
 struct RealSegmentScore {
   int frames = 0;
   int objects = 0;      ///< labelled objects with depth

@@ -1,0 +1,93 @@
+#pragma once
+// A 3D box from what an ROI covers (box mode 4): the operator marks an object with a rectangle,
+// and the box is that of the frame's segments lying mostly inside the rectangle, minus the
+// plane they stand on.
+//
+// Why not the ROI's depth readings (modes 1-3): a rectangle around an object also holds table
+// and wall, and no statistic of the readings alone separates them from the object's own far
+// side; those modes stop at about 0.9 of an object's visible points. The segmentation already
+// separates them: it gives each planar face its own region and each curved object one region,
+// apart from its support.
+//
+// Steps:
+//   1. the ROI's segments: every segment with at least `min_inside_fraction` of its pixels
+//      inside the ROI (a face of the object, wholly, including any pixels outside the ROI),
+//      and the part inside the ROI of every segment with at least `min_clipped_fraction` inside
+//      (an object the segmentation merged with a neighbour touching it); of those, the groups
+//      joined without a depth step (continuousNeighbours) that are not much smaller than the
+//      largest group: a patch of wall seen between two objects is not part of either;
+//   2. their support: the plane region they stand on, as the object boxes find it
+//      (supportPlaneBelow in object_boxes.h);
+//   3. their points, minus the points on the support (within the sensor's noise of its plane:
+//      a segment may have taken a strip of table along the object's foot);
+//   4. the box: on a support, upright on it (its vertical axis along the plane's normal, its
+//      footprint the smallest rectangle around the points cast onto the plane, from the plane
+//      up to the highest point, reaching down to the plane when the object's foot is near it);
+//      with no support, along the camera's axes. Each extent is taken between the
+//      `trim_fraction` and 1 - `trim_fraction` quantiles of the points along that axis, so a
+//      few flying pixels at the object's edges do not stretch it.
+
+#include <cstdint>
+#include <variant>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/boxes/object_boxes.h"
+#include "shapesense/core/planes/planes.h"
+#include "shapesense/core/segmentation/segment_statistics.h"
+
+namespace shapesense {
+
+struct SegmentBoxParams {
+  /// A segment is the ROI's when at least this share of its pixels lie inside the ROI.
+  /// Default 0.5: the table or the wall behind the object lies mostly outside it.
+  double min_inside_fraction = 0.5;
+  /// A segment with at least this share inside (but less than min_inside_fraction) takes part
+  /// with its pixels inside the ROI only. Default 0.2: the table, the floor or a wall an
+  /// object stands before has far less of itself inside an ROI drawn around the object.
+  double min_clipped_fraction = 0.03;
+  /// Groups of covered segments joined without a depth step with fewer pixels than this share
+  /// of the largest group are background. Default 0.25.
+  double min_group_share = 0.1;
+  /// Points within max(support_band_floor_m, support_band_steps sensor depth steps at their
+  /// depth) of the support plane are the support's. Defaults 4 mm and 2 steps.
+  double support_band_floor_m = 0.004;
+  double support_band_steps = 2.0;
+  /// The box reaches down to the support plane when the object's lowest point is at most this
+  /// far above it (the object stands on it; its foot is hidden or was cut with the support).
+  /// Default 0.03 m.
+  double max_foot_gap_m = 0.03;
+  /// Share of the points ignored at each end of each axis (flying pixels). Default 0.002.
+  double trim_fraction = 0.002;
+  /// The support rule (supportPlaneBelow) and the noise model of the band.
+  ObjectBoxParams support{};
+};
+
+/// The box of the object marked by the ROI with corners p1, p2 (inclusive, any two opposite
+/// corners) of `depth_mm`, from `segment_labels` (CV_16UC1, 0 = none; `segments` are its
+/// statistics) and the frame's `planes` (see the file comment). The result's mode is
+/// BoxMode::kSegments; its statistics are of the points' Z (near_m / far_m: the box's nearest
+/// and farthest corner). Fails with kNoValidDepth when no segment lies mostly inside the ROI or
+/// its segments have no point off the support, and as estimateBox for an unsound request.
+std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
+    const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
+    const PlaneDetection& planes, const SegmentBoxParams& params = {});
+
+/// A segment an ROI covers (step 1 of boxFromSegments).
+struct RoiSegment {
+  std::uint16_t id = 0;
+  bool whole = false;  ///< all its pixels belong to the object, not just those inside the ROI
+  int pixels = 0;      ///< the pixels it contributes (with depth, for whole segments)
+};
+
+/// The segments of `segment_labels` that `roi` covers, wholly or clipped (step 1 of
+/// boxFromSegments, before the continuity rule), sorted by id; shares are of the pixels with
+/// depth, as the statistics count them.
+std::vector<RoiSegment> segmentsUnderRoi(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
+                                         const std::vector<SegmentStatistics>& segments,
+                                         const cv::Rect& roi, const SegmentBoxParams& params);
+
+}  // namespace shapesense

@@ -1,0 +1,276 @@
+#include "shapesense/core/boxes/segment_box.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
+
+#include "shapesense/core/geometry/union_find.h"
+
+namespace shapesense {
+namespace {
+
+BoxEstimationFailure noObject(const std::string& why) {
+  return {BoxEstimationError::kNoValidDepth, why};
+}
+
+// A box's frame: orthonormal, right x down = forward (the camera's own axes when nothing
+// better is known).
+struct BoxAxes {
+  Eigen::Vector3d right = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d down = Eigen::Vector3d::UnitY();
+  Eigen::Vector3d forward = Eigen::Vector3d::UnitZ();
+};
+
+// Lowest and highest value after ignoring `trim` of the values at each end.
+std::pair<double, double> trimmedRange(std::vector<double> values, double trim) {
+  const auto n = values.size();
+  const auto lo = static_cast<std::size_t>(std::floor(trim * static_cast<double>(n)));
+  const std::size_t hi = n - 1 - lo;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(lo), values.end());
+  const double low = values[lo];
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(hi), values.end());
+  return {low, values[hi]};
+}
+
+// Step 1, the continuity rule: the covered segments fall into groups joined through
+// depth-continuous contacts; the groups holding at least `min_group_share` of the largest
+// group's pixels are the object (an ROI drawn around a stack holds several objects), the
+// others are what shows between or behind them (a patch of wall, a strip of floor).
+std::vector<RoiSegment> mainGroups(const std::vector<RoiSegment>& covered,
+                                   const cv::Mat& segment_labels, const cv::Mat& depth_mm,
+                                   const cv::Rect& bounds, const SegmentBoxParams& params) {
+  const auto neighbours = continuousNeighbours(segment_labels, depth_mm, params.support, bounds);
+  std::map<std::uint16_t, std::size_t> index_of;
+  for (std::size_t i = 0; i < covered.size(); ++i) index_of[covered[i].id] = i;
+  std::vector<int> parent(covered.size());
+  resetSets(parent);
+  for (const auto& [id, touching] : neighbours) {
+    const auto a = index_of.find(id);
+    if (a == index_of.end()) continue;
+    for (const std::uint16_t other : touching) {
+      const auto b = index_of.find(other);
+      if (b != index_of.end())
+        unite(parent, static_cast<int>(a->second), static_cast<int>(b->second));
+    }
+  }
+  std::map<int, int> group_pixels;
+  for (std::size_t i = 0; i < covered.size(); ++i)
+    group_pixels[findRoot(parent, static_cast<int>(i))] += covered[i].pixels;
+  int largest = 0;
+  for (const auto& [root, pixels] : group_pixels) largest = std::max(largest, pixels);
+  std::vector<RoiSegment> kept;
+  for (std::size_t i = 0; i < covered.size(); ++i)
+    if (group_pixels[findRoot(parent, static_cast<int>(i))] >= params.min_group_share * largest)
+      kept.push_back(covered[i]);
+  return kept;
+}
+
+// Step 3: the 3D points of the segments, minus those within the noise band of the support.
+// Keeps them all when the band would take nearly everything (a board or a lid lying flat, only
+// a few depth steps proud of the table at that range).
+std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
+                                          const CameraIntrinsics& intrinsics,
+                                          const cv::Mat& segment_labels,
+                                          const std::vector<RoiSegment>& object, cv::Rect roi,
+                                          cv::Rect bounds, const DetectedPlane* support,
+                                          const SegmentBoxParams& params) {
+  const auto isObject = [&](std::uint16_t label, int u, int v) {
+    const auto it = std::lower_bound(
+        object.begin(), object.end(), label,
+        [](const RoiSegment& segment, std::uint16_t id) { return segment.id < id; });
+    return it != object.end() && it->id == label && (it->whole || roi.contains({u, v}));
+  };
+  const double max_depth_m = params.support.estimation.max_valid_depth_m;
+  const KinectNoiseModel& noise = params.support.estimation.noise;
+  std::vector<Eigen::Vector3d> all, off_support;
+  for (int v = bounds.y; v < bounds.y + bounds.height; ++v) {
+    const auto* label = segment_labels.ptr<std::uint16_t>(v);
+    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
+    for (int u = bounds.x; u < bounds.x + bounds.width; ++u) {
+      if (depth[u] == 0 || label[u] == 0 || !isObject(label[u], u, v)) continue;
+      const double z = 1e-3 * depth[u];
+      if (z > max_depth_m) continue;
+      const Eigen::Vector3d point = intrinsics.backproject(u, v, z);
+      all.push_back(point);
+      if (!support) continue;
+      const double band =
+          std::max(params.support_band_floor_m, params.support_band_steps * noise.depthStep(z));
+      if (support->normal.dot(point) + support->d > band) off_support.push_back(point);
+    }
+  }
+  constexpr double kMinKeptShare = 0.1;
+  if (support && off_support.size() >= kMinKeptShare * static_cast<double>(all.size()))
+    return off_support;
+  return all;
+}
+
+// Step 4, on a support: vertical axis along the plane's normal, footprint the smallest
+// rectangle around the points cast onto the plane, "right" the footprint side nearer the
+// camera's x axis.
+BoxAxes uprightAxes(const std::vector<Eigen::Vector3d>& points, const DetectedPlane& support) {
+  const Eigen::Vector3d down = -support.normal;
+  Eigen::Vector3d across = Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitX().dot(down) * down;
+  if (across.norm() < 1e-3)
+    across = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(down) * down;
+  across.normalize();
+  const Eigen::Vector3d along = across.cross(down);
+  std::vector<cv::Point2f> footprint;
+  footprint.reserve(points.size());
+  for (const auto& p : points)
+    footprint.emplace_back(static_cast<float>(p.dot(across)), static_cast<float>(p.dot(along)));
+  const double angle = cv::minAreaRect(footprint).angle * CV_PI / 180.0;
+  const Eigen::Vector3d side_a = std::cos(angle) * across + std::sin(angle) * along;
+  const Eigen::Vector3d side_b = down.cross(side_a);
+  BoxAxes axes;
+  axes.down = down;
+  axes.right = std::abs(side_a.x()) >= std::abs(side_b.x()) ? side_a : side_b;
+  if (axes.right.x() < 0.0) axes.right = -axes.right;
+  axes.forward = axes.right.cross(axes.down);
+  return axes;
+}
+
+// Step 4: the box along `axes` around the points; on a support, reaching down to its plane
+// when the object's foot is near it.
+BoxCorners boxAlong(const BoxAxes& axes, const std::vector<Eigen::Vector3d>& points,
+                    const DetectedPlane* support, const SegmentBoxParams& params) {
+  std::array<Eigen::Vector3d, 3> frame{axes.right, axes.down, axes.forward};
+  std::array<std::pair<double, double>, 3> range;
+  std::vector<double> coordinate(points.size());
+  for (std::size_t axis = 0; axis < 3; ++axis) {
+    for (std::size_t i = 0; i < points.size(); ++i) coordinate[i] = points[i].dot(frame[axis]);
+    range[axis] = trimmedRange(coordinate, params.trim_fraction);
+  }
+  if (support) {
+    // Along `down` = -n the plane lies at d; the object's lowest point at range[1].second.
+    const double plane_at = support->d;
+    if (plane_at - range[1].second <= params.max_foot_gap_m)
+      range[1].second = std::max(range[1].second, plane_at);
+  }
+  BoxCorners corners;
+  const auto corner = [&](bool right, bool bottom, bool back) {
+    return (right ? range[0].second : range[0].first) * axes.right +
+           (bottom ? range[1].second : range[1].first) * axes.down +
+           (back ? range[2].second : range[2].first) * axes.forward;
+  };
+  for (int back = 0; back < 2; ++back) {
+    corners[static_cast<std::size_t>(4 * back + 0)] = corner(false, false, back);
+    corners[static_cast<std::size_t>(4 * back + 1)] = corner(true, false, back);
+    corners[static_cast<std::size_t>(4 * back + 2)] = corner(true, true, back);
+    corners[static_cast<std::size_t>(4 * back + 3)] = corner(false, true, back);
+  }
+  return corners;
+}
+
+RoiDepthStatistics pointStatistics(const cv::Mat& depth_mm, const cv::Rect& roi,
+                                   const std::vector<Eigen::Vector3d>& points,
+                                   const BoxCorners& corners, double max_depth_m) {
+  RoiDepthStatistics stats;
+  const cv::Mat roi_depth = depth_mm(roi);
+  for (int v = 0; v < roi_depth.rows; ++v) {
+    const auto* depth = roi_depth.ptr<std::uint16_t>(v);
+    for (int u = 0; u < roi_depth.cols; ++u)
+      stats.valid_pixels += depth[u] != 0 && 1e-3 * depth[u] <= max_depth_m;
+  }
+  std::vector<double> z(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) z[i] = points[i].z();
+  stats.used_pixels = static_cast<int>(z.size());
+  double sum = 0.0, sum_sq = 0.0;
+  for (double value : z) {
+    sum += value;
+    sum_sq += value * value;
+  }
+  const double n = static_cast<double>(z.size());
+  stats.mean_m = sum / n;
+  stats.std_m = std::sqrt(std::max(0.0, sum_sq / n - stats.mean_m * stats.mean_m));
+  const auto [min_it, max_it] = std::minmax_element(z.begin(), z.end());
+  stats.min_m = *min_it;
+  stats.max_m = *max_it;
+  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  stats.median_m = z[z.size() / 2];
+  stats.near_m = corners[0].z();
+  stats.far_m = corners[0].z();
+  for (const auto& c : corners) {
+    stats.near_m = std::min(stats.near_m, c.z());
+    stats.far_m = std::max(stats.far_m, c.z());
+  }
+  return stats;
+}
+
+}  // namespace
+
+std::vector<RoiSegment> segmentsUnderRoi(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
+                                         const std::vector<SegmentStatistics>& segments,
+                                         const cv::Rect& roi, const SegmentBoxParams& params) {
+  // Counted as the statistics count: pixels with depth.
+  std::vector<int> inside(65536, 0);
+  const cv::Mat roi_labels = segment_labels(roi);
+  const cv::Mat roi_depth = depth_mm(roi);
+  for (int v = 0; v < roi_labels.rows; ++v) {
+    const auto* label = roi_labels.ptr<std::uint16_t>(v);
+    const auto* depth = roi_depth.ptr<std::uint16_t>(v);
+    for (int u = 0; u < roi_labels.cols; ++u) inside[label[u]] += depth[u] != 0;
+  }
+  std::vector<RoiSegment> covered;
+  for (const auto& segment : segments) {
+    if (segment.id == 0 || segment.pixels <= 0) continue;
+    const double share = static_cast<double>(inside[segment.id]) / segment.pixels;
+    if (share >= params.min_inside_fraction)
+      covered.push_back({segment.id, true, segment.pixels});
+    else if (share >= params.min_clipped_fraction)
+      covered.push_back({segment.id, false, inside[segment.id]});
+  }
+  std::sort(covered.begin(), covered.end(),
+            [](const RoiSegment& a, const RoiSegment& b) { return a.id < b.id; });
+  return covered;
+}
+
+std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
+    const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
+    const PlaneDetection& planes, const SegmentBoxParams& params) {
+  if (auto failure = checkRoiRequest(depth_mm, intrinsics, p1, p2)) return *failure;
+  if (segment_labels.type() != CV_16UC1 || segment_labels.size() != depth_mm.size() ||
+      planes.labels.type() != CV_16UC1 || planes.labels.size() != depth_mm.size()) {
+    return BoxEstimationFailure{BoxEstimationError::kInvalidArgument,
+                                "segment and plane labels must be CV_16UC1 images of the depth "
+                                "image's size"};
+  }
+  const cv::Rect roi(cv::Point(std::min(p1.x, p2.x), std::min(p1.y, p2.y)),
+                     cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
+  std::vector<RoiSegment> object =
+      segmentsUnderRoi(depth_mm, segment_labels, segments, roi, params);
+  if (object.empty()) {
+    return noObject("no segment lies mostly inside the ROI: draw it around the whole object");
+  }
+  cv::Rect bounds = roi;
+  for (const auto& segment : segments) {
+    const auto it = std::find_if(object.begin(), object.end(),
+                                 [&](const RoiSegment& o) { return o.id == segment.id; });
+    if (it != object.end() && it->whole) bounds |= segment.box;
+  }
+  object = mainGroups(object, segment_labels, depth_mm, bounds, params);
+  // The support is what the object's own faces stand on: a clipped segment may be the table.
+  std::vector<std::uint16_t> ids;
+  for (const auto& segment : object)
+    if (segment.whole) ids.push_back(segment.id);
+  if (ids.empty())
+    for (const auto& segment : object) ids.push_back(segment.id);
+  const DetectedPlane* support =
+      supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
+  const std::vector<Eigen::Vector3d> points =
+      objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
+  if (points.empty()) return noObject("the ROI's segments have no depth reading");
+  const BoxAxes axes = support ? uprightAxes(points, *support) : BoxAxes{};
+  BoxEstimate out;
+  out.mode = BoxMode::kSegments;
+  out.corners = boxAlong(axes, points, support, params);
+  out.stats = pointStatistics(depth_mm, roi, points, out.corners,
+                              params.support.estimation.max_valid_depth_m);
+  return out;
+}
+
+}  // namespace shapesense

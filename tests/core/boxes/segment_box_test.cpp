@@ -1,0 +1,198 @@
+// Box mode 4: the box of the segments an ROI covers, minus their support plane. The
+// requirement (issue 18): >= 0.95 of an object's visible points inside its box, and a volume of
+// at most 1.5 times the box of those points, with the object's image bounds as the ROI, on the
+// evaluation's test split (scenes never used to choose parameters) and on the labelled real
+// objects of mosd_test. The volume requirement is asserted (median over the objects). The
+// coverage requirement is not met on the synthetic test split yet: that test asserts a
+// regression record just under what the code reaches and prints the requirement beside it.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "shapesense/core/boxes/segment_box.h"
+#include "shapesense/core/pipeline/stages.h"
+#include "shapesense/eval/box_eval.h"
+#include "shapesense/eval/scene_splits.h"
+#include "shapesense/eval/segment_eval.h"
+#include "test_paths.h"
+
+namespace shapesense {
+namespace {
+
+constexpr double kRequiredCoverage = 0.95;
+// Regression record, not a requirement: the mean coverage the code reaches on the 60 test-split
+// frames below is 0.931 (docs/benchmarks.md has the 100-frame figures).
+constexpr double kCoverageRecordTestSplit = 0.92;
+// Regression record, not a requirement: mosd_test's 98 objects reach 0.949.
+constexpr double kCoverageRecordMosdTest = 0.94;
+constexpr double kMaxVolumeRatio = 1.5;
+constexpr double kMinObjectShare = 0.001;  // as shapesense-eval: 307 px of VGA
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The daemon's default planes and segmentation of a frame.
+struct FrameAnalysis {
+  PlaneDetection planes;
+  SegmentationResult segments;
+};
+
+FrameAnalysis analyse(const Frame& frame) {
+  const DetectorConfig config;
+  FrameAnalysis a;
+  a.planes = HoughPlaneDetector(config.hough_params).detect(frame.depth, frame.intrinsics);
+  a.segments =
+      segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &a.planes);
+  return a;
+}
+
+std::variant<BoxEstimate, BoxEstimationFailure> segmentBox(const Frame& frame,
+                                                           const FrameAnalysis& a,
+                                                           const cv::Rect& roi) {
+  return boxFromSegments(frame.depth, frame.intrinsics, roi.tl(), roi.br() - cv::Point(1, 1),
+                         a.segments.labels, a.segments.segments, a.planes);
+}
+
+TEST(SegmentBox, HoldsTheVisiblePointsOfTestSplitObjectsTightly) {
+  eval::BoxModeScore score;
+  for (int i = 0; i < 60; ++i) {
+    const eval::EvalScene scene = eval::evalScene(eval::Split::kTest, i);
+    const auto rendered = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+    const Frame& frame = rendered.frame;
+    const FrameAnalysis a = analyse(frame);
+    for (const auto* object :
+         eval::boxableObjects(rendered.truth, frame.depth.cols, frame.depth.rows,
+                              static_cast<std::size_t>(kMinObjectShare * frame.depth.total()))) {
+      const auto points =
+          eval::labelledPoints(rendered.truth.object_labels, frame.depth, frame.intrinsics,
+                               [&](std::uint16_t label) { return label == object->id; });
+      const auto result = segmentBox(frame, a, object->image_box);
+      const auto* box = std::get_if<BoxEstimate>(&result);
+      score.add(box ? &box->corners : nullptr, points);
+    }
+  }
+  std::printf(
+      "[segment boxes, test split] %d objects, %d without a box, mean share inside %.3f, "
+      "median volume ratio %.2f\n",
+      score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio));
+  std::printf("[segment boxes, test split] requirement: mean share inside >= %.2f (%s)\n",
+              kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+  ASSERT_GE(score.objects, 60);
+  EXPECT_GE(score.meanCoverage(), kCoverageRecordTestSplit);
+  EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
+}
+
+TEST(SegmentBox, HoldsTheLabelledRealObjects) {
+  const auto dir = testing::realRecording("mosd_test");
+  if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " is not here";
+  eval::BoxModeScore score;
+  for (const auto& f : eval::loadLabelledRecording(dir)) {
+    const FrameAnalysis a = analyse(f.frame);
+    std::map<int, cv::Rect> bounds;
+    for (int v = 0; v < f.labels.rows; ++v)
+      for (int u = 0; u < f.labels.cols; ++u) {
+        const int owner = eval::osdOwner(f.labels.at<std::uint16_t>(v, u));
+        if (owner <= 0 || f.frame.depth.at<std::uint16_t>(v, u) == 0) continue;
+        cv::Rect& b = bounds[owner];
+        b = b.area() == 0 ? cv::Rect(u, v, 1, 1) : (b | cv::Rect(u, v, 1, 1));
+      }
+    for (const auto& [owner, roi] : bounds) {
+      const auto points = eval::labelledPoints(
+          f.labels, f.frame.depth, f.frame.intrinsics,
+          [owner = owner](std::uint16_t label) { return eval::osdOwner(label) == owner; });
+      if (points.size() < kMinObjectShare * f.frame.depth.total()) continue;
+      const auto result = segmentBox(f.frame, a, roi);
+      const auto* box = std::get_if<BoxEstimate>(&result);
+      score.add(box ? &box->corners : nullptr, points);
+    }
+  }
+  std::printf(
+      "[segment boxes, mosd_test] %d objects, %d without a box, mean share inside %.3f, "
+      "median volume ratio %.2f\n",
+      score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio));
+  std::printf("[segment boxes, mosd_test] requirement: mean share inside >= %.2f (%s)\n",
+              kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+  ASSERT_GE(score.objects, 50);
+  EXPECT_GE(score.meanCoverage(), kCoverageRecordMosdTest);
+  EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
+}
+
+// A plain scene: a table with boxes on it.
+synthetic::RenderedFrame tableScene() {
+  synthetic::SceneParams p;
+  p.seed = 3;
+  p.render_colour = false;
+  return synthetic::SyntheticScene(p).render(0, 0);
+}
+
+TEST(SegmentBox, StandsUprightOnTheTable) {
+  const auto rendered = tableScene();
+  const Frame& frame = rendered.frame;
+  const FrameAnalysis a = analyse(frame);
+  const synthetic::TruthObject* table = nullptr;
+  for (const auto& o : rendered.truth.objects)
+    if (o.kind == "table") table = &o;
+  ASSERT_NE(table, nullptr);
+  const Eigen::Vector3d table_up = table->rotation.col(2);
+  int checked = 0;
+  for (const auto* object :
+       eval::boxableObjects(rendered.truth, frame.depth.cols, frame.depth.rows, 1000)) {
+    if (object->kind != "box") continue;
+    const auto result = segmentBox(frame, a, object->image_box);
+    const auto* box = std::get_if<BoxEstimate>(&result);
+    ASSERT_NE(box, nullptr) << object->name;
+    EXPECT_EQ(box->mode, BoxMode::kSegments);
+    // Its vertical edges (top-left front to bottom-left front) follow the table's normal
+    // within 3 degrees.
+    const Eigen::Vector3d vertical = (box->corners[3] - box->corners[0]).normalized();
+    EXPECT_GT(std::abs(vertical.dot(table_up)), std::cos(3.0 * M_PI / 180.0)) << object->name;
+    EXPECT_GT(box->stats.used_pixels, 0);
+    EXPECT_LT(box->stats.near_m, box->stats.median_m);
+    EXPECT_GT(box->stats.far_m, box->stats.median_m);
+    ++checked;
+  }
+  EXPECT_GE(checked, 1);
+}
+
+TEST(SegmentBox, AnRoiWithNoSegmentMostlyInsideIsRefusedWithAReason) {
+  const auto rendered = tableScene();
+  const Frame& frame = rendered.frame;
+  const FrameAnalysis a = analyse(frame);
+  // A 3 x 3 ROI in the middle of the image lies on some large region (table, floor or wall).
+  const auto result = boxFromSegments(frame.depth, frame.intrinsics, {319, 239}, {321, 241},
+                                      a.segments.labels, a.segments.segments, a.planes);
+  const auto* failure = std::get_if<BoxEstimationFailure>(&result);
+  ASSERT_NE(failure, nullptr);
+  EXPECT_EQ(failure->code, BoxEstimationError::kNoValidDepth);
+  EXPECT_NE(failure->message.find("no segment lies mostly inside the ROI"), std::string::npos);
+}
+
+TEST(SegmentBox, UnsoundRequestsFailAsEstimateBoxDoes) {
+  const auto rendered = tableScene();
+  const Frame& frame = rendered.frame;
+  const FrameAnalysis a = analyse(frame);
+  const auto outside = boxFromSegments(frame.depth, frame.intrinsics, {600, 400}, {700, 470},
+                                       a.segments.labels, a.segments.segments, a.planes);
+  ASSERT_TRUE(std::holds_alternative<BoxEstimationFailure>(outside));
+  EXPECT_EQ(std::get<BoxEstimationFailure>(outside).code, BoxEstimationError::kRoiOutsideImage);
+  const cv::Mat wrong_size = cv::Mat::zeros(10, 10, CV_16UC1);
+  const auto mismatched =
+      boxFromSegments(frame.depth, frame.intrinsics, {0, 0}, {5, 5}, wrong_size, {}, a.planes);
+  ASSERT_TRUE(std::holds_alternative<BoxEstimationFailure>(mismatched));
+  EXPECT_EQ(std::get<BoxEstimationFailure>(mismatched).code, BoxEstimationError::kInvalidArgument);
+  // estimateBox has no segments: it refuses mode 4 rather than guess.
+  const auto refused =
+      estimateBox(frame.depth, frame.intrinsics, {100, 100}, {200, 200}, BoxMode::kSegments);
+  ASSERT_TRUE(std::holds_alternative<BoxEstimationFailure>(refused));
+  EXPECT_EQ(std::get<BoxEstimationFailure>(refused).code, BoxEstimationError::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace shapesense
