@@ -12,6 +12,9 @@
 #include <grpcpp/grpcpp.h>
 
 #include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/boxes/segment_box.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/v1/shapesense.grpc.pb.h"
@@ -92,33 +95,72 @@ void BM_EstimateBoxLoopback(benchmark::State& state) {
   state.counters["max_ms"] = latencies_ms.back();
   server.shutdown();
 }
+// The frame of the in-process benchmarks with its object ROIs, largest first.
+struct BenchFrame {
+  synthetic::RenderedFrame rendered;
+  std::vector<cv::Rect> rois;
+};
+
+const BenchFrame& benchFrame() {
+  static const BenchFrame frame = [] {
+    synthetic::SceneParams params;
+    params.render_colour = false;
+    BenchFrame f{synthetic::SyntheticScene(params).render(0, 0), {}};
+    for (const auto& object : f.rendered.truth.objects) {
+      if (object.pixel_count > 200) f.rois.push_back(object.image_box);
+    }
+    std::sort(f.rois.begin(), f.rois.end(),
+              [](const cv::Rect& a, const cv::Rect& b) { return a.area() > b.area(); });
+    return f;
+  }();
+  return frame;
+}
+
 // The estimate alone, in process, per ROI of the same frame (no gRPC): what each request costs
 // the server before serialisation. Argument: index into the frame's object ROIs, largest first.
 void BM_EstimateBoxInProcess(benchmark::State& state) {
-  synthetic::SceneParams params;
-  params.render_colour = false;
-  const synthetic::SyntheticScene scene(params);
-  const auto rendered = scene.render(0, 0);
-  std::vector<cv::Rect> rois;
-  for (const auto& object : rendered.truth.objects) {
-    if (object.pixel_count > 200) rois.push_back(object.image_box);
-  }
-  std::sort(rois.begin(), rois.end(),
-            [](const cv::Rect& a, const cv::Rect& b) { return a.area() > b.area(); });
+  const BenchFrame& f = benchFrame();
   const auto index = static_cast<std::size_t>(state.range(0));
-  if (index >= rois.size()) {
+  if (index >= f.rois.size()) {
     state.SkipWithError("no such ROI");
     return;
   }
-  const cv::Rect r = rois[index];
+  const cv::Rect r = f.rois[index];
   for (auto _ : state) {
     auto result =
-        estimateBox(rendered.frame.depth, rendered.frame.intrinsics, r.tl(),
+        estimateBox(f.rendered.frame.depth, f.rendered.frame.intrinsics, r.tl(),
                     {r.x + r.width - 1, r.y + r.height - 1}, BoxMode::kAxisAlignedContained);
     benchmark::DoNotOptimize(result);
   }
   state.counters["roi_pixels"] = r.area();
 }
+
+// Mode 4 in process on the same ROIs, over the default segmentation and Hough planes of the
+// frame (computed once, as the daemon's pipeline computes them before any request).
+void BM_EstimateBoxSegmentsInProcess(benchmark::State& state) {
+  const BenchFrame& f = benchFrame();
+  const auto index = static_cast<std::size_t>(state.range(0));
+  if (index >= f.rois.size()) {
+    state.SkipWithError("no such ROI");
+    return;
+  }
+  const Frame& frame = f.rendered.frame;
+  const DetectorConfig config;
+  const PlaneDetection planes =
+      HoughPlaneDetector(config.hough_params).detect(frame.depth, frame.intrinsics);
+  const SegmentationResult segments =
+      segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+  const cv::Rect r = f.rois[index];
+  for (auto _ : state) {
+    auto result = boxFromSegments(frame.depth, frame.intrinsics, r.tl(),
+                                  {r.x + r.width - 1, r.y + r.height - 1}, segments.labels,
+                                  segments.segments, planes);
+    benchmark::DoNotOptimize(result);
+  }
+  state.counters["roi_pixels"] = r.area();
+}
+BENCHMARK(BM_EstimateBoxSegmentsInProcess)->DenseRange(0, 2)->Arg(5)->Unit(benchmark::kMicrosecond);
+
 BENCHMARK(BM_EstimateBoxInProcess)->DenseRange(0, 2)->Arg(5)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK(BM_EstimateBoxLoopback)

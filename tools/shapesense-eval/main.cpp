@@ -47,11 +47,12 @@ struct SyntheticResults {
 // Objects smaller than this share of the image are not boxed (an operator cannot draw them).
 constexpr double kMinBoxedObjectShare = 0.001;
 
-// Scores mode 2 and mode 4 on one object marked by its image bounds `roi`.
-void scoreObjectBoxes(const Frame& frame, const cv::Rect& roi, const SegmentationResult& segments,
-                      const PlaneDetection& planes, const std::vector<Eigen::Vector3d>& points,
+// Scores mode 2 and mode 4 on one object marked by its image bounds.
+void scoreObjectBoxes(const Frame& frame, const eval::BoxTarget& target,
+                      const SegmentationResult& segments, const PlaneDetection& planes,
                       BoxScores& scores) {
-  const cv::Point p1 = roi.tl(), p2 = roi.br() - cv::Point(1, 1);
+  const cv::Point p1 = target.roi.tl(), p2 = target.roi.br() - cv::Point(1, 1);
+  const auto& points = target.points;
   const auto contained =
       estimateBox(frame.depth, frame.intrinsics, p1, p2, BoxMode::kAxisAlignedContained);
   const auto* box2 = std::get_if<BoxEstimate>(&contained);
@@ -113,14 +114,8 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
     const Frame& frame = rendered.frame;
     const SegmentationResult default_segments =
         segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
-    for (const auto* object : eval::boxableObjects(
-             rendered.truth, frame.depth.cols, frame.depth.rows,
-             static_cast<std::size_t>(kMinBoxedObjectShare * frame.depth.total()))) {
-      const auto points =
-          eval::labelledPoints(rendered.truth.object_labels, frame.depth, frame.intrinsics,
-                               [&](std::uint16_t label) { return label == object->id; });
-      scoreObjectBoxes(frame, object->image_box, default_segments, planes, points, results.boxes);
-    }
+    for (const auto& target : eval::syntheticBoxTargets(rendered, kMinBoxedObjectShare))
+      scoreObjectBoxes(frame, target, default_segments, planes, results.boxes);
     ++results.frames;
   }
   return results;
@@ -165,28 +160,6 @@ void printSynthetic(eval::Split split, const SyntheticResults& r) {
   printBoxTable(r.boxes);
 }
 
-// Every labelled object of a real frame, boxed from its label's image bounds.
-void scoreRealBoxes(const eval::LabelledFrame& f, const PlaneDetection& planes,
-                    const DetectorConfig& config, BoxScores& scores) {
-  const SegmentationResult segments =
-      segmentFrame(f.frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
-  std::map<int, cv::Rect> bounds;
-  for (int v = 0; v < f.labels.rows; ++v)
-    for (int u = 0; u < f.labels.cols; ++u) {
-      const int owner = eval::osdOwner(f.labels.at<std::uint16_t>(v, u));
-      if (owner <= 0 || f.frame.depth.at<std::uint16_t>(v, u) == 0) continue;
-      cv::Rect& b = bounds[owner];
-      b = b.area() == 0 ? cv::Rect(u, v, 1, 1) : (b | cv::Rect(u, v, 1, 1));
-    }
-  for (const auto& [owner, roi] : bounds) {
-    const auto points = eval::labelledPoints(
-        f.labels, f.frame.depth, f.frame.intrinsics,
-        [owner = owner](std::uint16_t label) { return eval::osdOwner(label) == owner; });
-    if (points.size() < kMinBoxedObjectShare * f.frame.depth.total()) continue;
-    scoreObjectBoxes(f.frame, roi, segments, planes, points, scores);
-  }
-}
-
 void evaluateReal(const std::filesystem::path& dir,
                   const std::vector<SegmentationMethod>& methods) {
   const std::vector<eval::LabelledFrame> frames = eval::loadLabelledRecording(dir);
@@ -198,7 +171,10 @@ void evaluateReal(const std::filesystem::path& dir,
   for (const auto& f : frames) {
     const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
     table_one_plane += eval::tableCoverage(planes.labels, f.labels, f.frame.depth) >= 0.8;
-    scoreRealBoxes(f, planes, config, boxes);
+    const SegmentationResult default_segments =
+        segmentFrame(f.frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+    for (const auto& target : eval::realBoxTargets(f, kMinBoxedObjectShare))
+      scoreObjectBoxes(f.frame, target, default_segments, planes, boxes);
     for (const SegmentationMethod m : methods)
       segments[m].add(eval::scoreRealSegments(
           segmentFrame(f.frame, m, config.segmentation_params, &planes).labels, f.labels,

@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <map>
 
 #include "shapesense/core/boxes/segment_box.h"
 #include "shapesense/core/pipeline/stages.h"
@@ -60,30 +59,33 @@ std::variant<BoxEstimate, BoxEstimationFailure> segmentBox(const Frame& frame,
                          a.segments.labels, a.segments.segments, a.planes);
 }
 
+// Boxes each target of the frame in mode 4 and scores the box against the target's points.
+void scoreTargets(const Frame& frame, const std::vector<eval::BoxTarget>& targets,
+                  eval::BoxModeScore& score) {
+  const FrameAnalysis a = analyse(frame);
+  for (const auto& target : targets) {
+    const auto result = segmentBox(frame, a, target.roi);
+    const auto* box = std::get_if<BoxEstimate>(&result);
+    score.add(box ? &box->corners : nullptr, target.points);
+  }
+}
+
+void printScore(const char* set, const eval::BoxModeScore& score) {
+  std::printf(
+      "[segment boxes, %s] %d objects, %d without a box, mean share inside %.3f, median "
+      "volume ratio %.2f; requirement: mean share inside >= %.2f (%s)\n",
+      set, score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio),
+      kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+}
+
 TEST(SegmentBox, HoldsTheVisiblePointsOfTestSplitObjectsTightly) {
   eval::BoxModeScore score;
   for (int i = 0; i < 60; ++i) {
     const eval::EvalScene scene = eval::evalScene(eval::Split::kTest, i);
     const auto rendered = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
-    const Frame& frame = rendered.frame;
-    const FrameAnalysis a = analyse(frame);
-    for (const auto* object :
-         eval::boxableObjects(rendered.truth, frame.depth.cols, frame.depth.rows,
-                              static_cast<std::size_t>(kMinObjectShare * frame.depth.total()))) {
-      const auto points =
-          eval::labelledPoints(rendered.truth.object_labels, frame.depth, frame.intrinsics,
-                               [&](std::uint16_t label) { return label == object->id; });
-      const auto result = segmentBox(frame, a, object->image_box);
-      const auto* box = std::get_if<BoxEstimate>(&result);
-      score.add(box ? &box->corners : nullptr, points);
-    }
+    scoreTargets(rendered.frame, eval::syntheticBoxTargets(rendered, kMinObjectShare), score);
   }
-  std::printf(
-      "[segment boxes, test split] %d objects, %d without a box, mean share inside %.3f, "
-      "median volume ratio %.2f\n",
-      score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio));
-  std::printf("[segment boxes, test split] requirement: mean share inside >= %.2f (%s)\n",
-              kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+  printScore("test split", score);
   ASSERT_GE(score.objects, 60);
   EXPECT_GE(score.meanCoverage(), kCoverageRecordTestSplit);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
@@ -93,32 +95,9 @@ TEST(SegmentBox, HoldsTheLabelledRealObjects) {
   const auto dir = testing::realRecording("mosd_test");
   if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " is not here";
   eval::BoxModeScore score;
-  for (const auto& f : eval::loadLabelledRecording(dir)) {
-    const FrameAnalysis a = analyse(f.frame);
-    std::map<int, cv::Rect> bounds;
-    for (int v = 0; v < f.labels.rows; ++v)
-      for (int u = 0; u < f.labels.cols; ++u) {
-        const int owner = eval::osdOwner(f.labels.at<std::uint16_t>(v, u));
-        if (owner <= 0 || f.frame.depth.at<std::uint16_t>(v, u) == 0) continue;
-        cv::Rect& b = bounds[owner];
-        b = b.area() == 0 ? cv::Rect(u, v, 1, 1) : (b | cv::Rect(u, v, 1, 1));
-      }
-    for (const auto& [owner, roi] : bounds) {
-      const auto points = eval::labelledPoints(
-          f.labels, f.frame.depth, f.frame.intrinsics,
-          [owner = owner](std::uint16_t label) { return eval::osdOwner(label) == owner; });
-      if (points.size() < kMinObjectShare * f.frame.depth.total()) continue;
-      const auto result = segmentBox(f.frame, a, roi);
-      const auto* box = std::get_if<BoxEstimate>(&result);
-      score.add(box ? &box->corners : nullptr, points);
-    }
-  }
-  std::printf(
-      "[segment boxes, mosd_test] %d objects, %d without a box, mean share inside %.3f, "
-      "median volume ratio %.2f\n",
-      score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio));
-  std::printf("[segment boxes, mosd_test] requirement: mean share inside >= %.2f (%s)\n",
-              kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+  for (const auto& f : eval::loadLabelledRecording(dir))
+    scoreTargets(f.frame, eval::realBoxTargets(f, kMinObjectShare), score);
+  printScore("mosd_test", score);
   ASSERT_GE(score.objects, 50);
   EXPECT_GE(score.meanCoverage(), kCoverageRecordMosdTest);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);

@@ -13,24 +13,9 @@
 #include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/core/geometry/camera.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/segment_eval.h"
 
 namespace shapesense::eval {
-
-/// The 3D points of the pixels where `is_object(label)` holds and the depth has a reading.
-template <typename Predicate>
-std::vector<Eigen::Vector3d> labelledPoints(const cv::Mat& labels, const cv::Mat& depth_mm,
-                                            const CameraIntrinsics& intrinsics,
-                                            Predicate is_object) {
-  std::vector<Eigen::Vector3d> points;
-  for (int v = 0; v < labels.rows; ++v) {
-    const auto* label = labels.ptr<std::uint16_t>(v);
-    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    for (int u = 0; u < labels.cols; ++u)
-      if (depth[u] != 0 && is_object(label[u]))
-        points.push_back(intrinsics.backproject(u, v, 1e-3 * depth[u]));
-  }
-  return points;
-}
 
 /// Volume (m^3) of the camera-axis-aligned box around `points` (the box "of those points").
 double pointsBoxVolume(const std::vector<Eigen::Vector3d>& points);
@@ -53,5 +38,20 @@ struct BoxModeScore {
 std::vector<const synthetic::TruthObject*> boxableObjects(const synthetic::TruthFrame& truth,
                                                           int image_cols, int image_rows,
                                                           std::size_t min_pixels);
+
+/// An object to box: the ROI an operator would draw around it (its image bounds) and the 3D
+/// points it shows (its pixels with depth).
+struct BoxTarget {
+  cv::Rect roi;
+  std::vector<Eigen::Vector3d> points;
+};
+
+/// The boxableObjects of a synthetic frame with at least `min_image_share` of the image.
+std::vector<BoxTarget> syntheticBoxTargets(const synthetic::RenderedFrame& rendered,
+                                           double min_image_share);
+
+/// The labelled objects of a real OSD frame with at least `min_image_share` of the image in
+/// pixels with depth.
+std::vector<BoxTarget> realBoxTargets(const LabelledFrame& frame, double min_image_share);
 
 }  // namespace shapesense::eval
