@@ -78,11 +78,12 @@ std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
                                           const std::vector<RoiSegment>& object, cv::Rect roi,
                                           cv::Rect bounds, const DetectedPlane* support,
                                           const SegmentBoxParams& params) {
+  enum Membership : std::uint8_t { kNone, kWhole, kInsideRoi };
+  std::vector<std::uint8_t> membership(65536, kNone);
+  for (const auto& segment : object) membership[segment.id] = segment.whole ? kWhole : kInsideRoi;
   const auto isObject = [&](std::uint16_t label, int u, int v) {
-    const auto it = std::lower_bound(
-        object.begin(), object.end(), label,
-        [](const RoiSegment& segment, std::uint16_t id) { return segment.id < id; });
-    return it != object.end() && it->id == label && (it->whole || roi.contains({u, v}));
+    const std::uint8_t m = membership[label];
+    return m == kWhole || (m == kInsideRoi && roi.contains({u, v}));
   };
   const double max_depth_m = params.support.estimation.max_valid_depth_m;
   const KinectNoiseModel& noise = params.support.estimation.noise;
