@@ -157,8 +157,10 @@ void exportWbDetectorData(const fs::path& data, const fs::path& out,
           const int side =
               std::min({cvRound(std::exp(rng.uniform(std::log(20.0), std::log(240.0)))), img.cols,
                         img.rows});
-          const cv::Rect win(rng.uniform(0, img.cols - side + 1),
-                             rng.uniform(0, img.rows - side + 1), side, side);
+          // Row before column, in two statements: in one argument list the compiler would
+          // pick the order of the draws, and the mosaics with it.
+          const int top = rng.uniform(0, img.rows - side + 1);
+          const cv::Rect win(rng.uniform(0, img.cols - side + 1), top, side, side);
           cv::resize(img(win), mosaic(cv::Rect(tx * W, ty * W, W, W)), cv::Size(W, W), 0, 0,
                      cv::INTER_AREA);
         }

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "shapesense/core/geometry/depth_step.h"
+#include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
@@ -250,13 +251,6 @@ Profile profileOf(const std::vector<Eigen::Vector3d>& points, const SupportPlane
     profile.along.push_back(along.dot(p));
   }
   return profile;
-}
-
-/// The q-quantile (0..1) of values (reordered).
-double quantile(std::vector<double>& values, double q) {
-  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[static_cast<std::size_t>(k)];
 }
 
 /// Spread across the line of sight (3rd to 97th percentile) of the points whose height lies

@@ -106,9 +106,9 @@ SegmentRegion regionOf(const SegmentStatistics& segment) {
   return {{segment.id}, segment.box, segment.pixels};
 }
 
-// Pixels of each plane region inside the segments.
-std::map<std::uint16_t, int> ownPlaneOverlap(const ObjectSearch& s, const SegmentRegion& region) {
-  std::map<std::uint16_t, int> own_overlap;
+// Pixels of each plane region inside the segments, indexed by plane id.
+std::vector<int> ownPlaneOverlap(const ObjectSearch& s, const SegmentRegion& region) {
+  std::vector<int> own_overlap(std::size_t{1} << 16, 0);
   const cv::Rect r = region.box;
   for (int v = r.y; v < r.y + r.height; ++v) {
     const auto* seg = s.segment_labels.ptr<std::uint16_t>(v);
@@ -126,10 +126,9 @@ std::map<std::uint16_t, int> ownPlaneOverlap(const ObjectSearch& s, const Segmen
 // one.
 const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentRegion& region) {
   const ObjectBoxParams& params = s.params;
-  const std::map<std::uint16_t, int> own_overlap = ownPlaneOverlap(s, region);
+  const std::vector<int> own_overlap = ownPlaneOverlap(s, region);
   const auto isOwnPlane = [&](std::uint16_t plane) {
-    const auto it = own_overlap.find(plane);
-    return it != own_overlap.end() && it->second > params.max_support_overlap * region.pixels;
+    return own_overlap[plane] > params.max_support_overlap * region.pixels;
   };
   const cv::Rect r = region.box;
   std::map<std::uint16_t, int> support_votes;

@@ -1,13 +1,16 @@
 #include "shapesense/core/boxes/segment_box.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <string>
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/union_find.h"
 
 namespace shapesense {
@@ -24,17 +27,6 @@ struct BoxAxes {
   Eigen::Vector3d down = Eigen::Vector3d::UnitY();
   Eigen::Vector3d forward = Eigen::Vector3d::UnitZ();
 };
-
-// Lowest and highest value after ignoring `trim` of the values at each end.
-std::pair<double, double> trimmedRange(std::vector<double> values, double trim) {
-  const auto n = values.size();
-  const auto lo = static_cast<std::size_t>(std::floor(trim * static_cast<double>(n)));
-  const std::size_t hi = n - 1 - lo;
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(lo), values.end());
-  const double low = values[lo];
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(hi), values.end());
-  return {low, values[hi]};
-}
 
 // Step 1, the continuity rule: the covered segments fall into groups joined through
 // depth-continuous contacts; the groups holding at least `min_group_share` of the largest
@@ -109,6 +101,48 @@ std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
   return all;
 }
 
+// The points of a footprint that can be corners of its convex hull: all but those strictly
+// inside the polygon of its extreme points in eight directions (Akl-Toussaint). minAreaRect
+// orders its input to build that hull, and a filled footprint has a frame's worth of points.
+std::vector<cv::Point2f> hullCandidates(const std::vector<cv::Point2f>& footprint) {
+  constexpr int kDirections = 8;
+  std::array<cv::Point2f, kDirections> extreme;
+  std::array<double, kDirections> best;
+  best.fill(-std::numeric_limits<double>::infinity());
+  std::array<cv::Point2d, kDirections> direction;
+  for (int i = 0; i < kDirections; ++i) {
+    const double angle = 2.0 * CV_PI * i / kDirections;
+    direction[static_cast<std::size_t>(i)] = {std::cos(angle), std::sin(angle)};
+  }
+  for (const cv::Point2f& p : footprint) {
+    for (std::size_t i = 0; i < kDirections; ++i) {
+      const double reach = direction[i].x * p.x + direction[i].y * p.y;
+      if (reach > best[i]) {
+        best[i] = reach;
+        extreme[i] = p;
+      }
+    }
+  }
+  // The extremes in order of direction go round the hull counter-clockwise.
+  std::vector<std::pair<cv::Point2d, cv::Point2d>> edges;
+  for (std::size_t i = 0; i < kDirections; ++i) {
+    const cv::Point2d from = extreme[i], to = extreme[(i + 1) % kDirections];
+    if (from != to) edges.emplace_back(from, to);
+  }
+  const auto strictlyInside = [&](const cv::Point2f& p) {
+    if (edges.size() < 3) return false;
+    return std::all_of(edges.begin(), edges.end(), [&](const auto& edge) {
+      const cv::Point2d along = edge.second - edge.first;
+      const cv::Point2d to_point = cv::Point2d(p) - edge.first;
+      return along.x * to_point.y - along.y * to_point.x > 0.0;
+    });
+  };
+  std::vector<cv::Point2f> candidates;
+  for (const cv::Point2f& p : footprint)
+    if (!strictlyInside(p)) candidates.push_back(p);
+  return candidates;
+}
+
 // Step 4, on a support: vertical axis along the plane's normal, footprint the smallest
 // rectangle around the points cast onto the plane, "right" the footprint side nearer the
 // camera's x axis.
@@ -123,7 +157,7 @@ BoxAxes uprightAxes(const std::vector<Eigen::Vector3d>& points, const DetectedPl
   footprint.reserve(points.size());
   for (const auto& p : points)
     footprint.emplace_back(static_cast<float>(p.dot(across)), static_cast<float>(p.dot(along)));
-  const double angle = cv::minAreaRect(footprint).angle * CV_PI / 180.0;
+  const double angle = cv::minAreaRect(hullCandidates(footprint)).angle * CV_PI / 180.0;
   const Eigen::Vector3d side_a = std::cos(angle) * across + std::sin(angle) * along;
   const Eigen::Vector3d side_b = down.cross(side_a);
   BoxAxes axes;

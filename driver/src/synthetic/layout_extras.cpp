@@ -57,9 +57,8 @@ void LayoutBuilder::addExtraBox() {
 }
 
 void LayoutBuilder::addTouchingBoxPair() {
-  const Eigen::Vector3d a(rng_.uniform(0.06, 0.35), rng_.uniform(0.06, 0.35),
-                          rng_.uniform(0.04, 0.35));
-  Eigen::Vector3d b(rng_.uniform(0.06, 0.35), rng_.uniform(0.06, 0.35), rng_.uniform(0.04, 0.35));
+  const Eigen::Vector3d a = rng_.uniform3({0.06, 0.06, 0.04}, {0.35, 0.35, 0.35});
+  Eigen::Vector3d b = rng_.uniform3({0.06, 0.06, 0.04}, {0.35, 0.35, 0.35});
   const int heights = rng_.uniformInt(0, 2);
   if (heights == 0) b.z() = a.z();                             // one top plane
   if (heights == 1) b.z() = a.z() + rng_.uniform(0.01, 0.03);  // tops 1-3 cm apart
@@ -85,8 +84,7 @@ void LayoutBuilder::addStackedBox() {
     // The footprint circle must fit: sides up to sqrt(2) * (half the shorter side).
     const double max_side = std::min(0.3, std::sqrt(2.0) * (box_tops_[k].half.minCoeff() - 0.01));
     if (max_side < 0.04) continue;
-    const Eigen::Vector3d size(rng_.uniform(0.04, max_side), rng_.uniform(0.04, max_side),
-                               rng_.uniform(0.03, 0.3));
+    const Eigen::Vector3d size = rng_.uniform3({0.04, 0.04, 0.03}, {max_side, max_side, 0.3});
     const auto spot = supportSpot(box_tops_[k], 0.5 * std::hypot(size.x(), size.y()), size.z());
     if (!spot) continue;
     addSupportingBox(*spot, size, box_tops_[k].clearance - size.z());
@@ -213,7 +211,7 @@ void LayoutBuilder::addTorus() {
 }
 
 void LayoutBuilder::addMound() {
-  Eigen::Vector2d half(rng_.uniform(0.1, 0.25), rng_.uniform(0.1, 0.25));
+  Eigen::Vector2d half = rng_.uniform2({0.1, 0.1}, {0.25, 0.25});
   const double height = rng_.uniform(0.03, 0.12);
   std::vector<MoundSolid::Bump> bumps(static_cast<std::size_t>(rng_.uniformInt(1, 3)));
   for (MoundSolid::Bump& b : bumps)
@@ -247,8 +245,7 @@ std::optional<Eigen::Isometry3d> LayoutBuilder::supportSpot(Support& support, do
   const Eigen::Vector2d reach = support.half - Eigen::Vector2d::Constant(radius + 0.005);
   if (reach.minCoeff() < 0.0) return std::nullopt;
   for (int attempt = 0; attempt < 50; ++attempt) {
-    const Eigen::Vector2d c(rng_.uniform(-reach.x(), reach.x()),
-                            rng_.uniform(-reach.y(), reach.y()));
+    const Eigen::Vector2d c = rng_.uniform2(-reach, reach);
     if (!isFree(support.taken, c, radius)) continue;
     support.taken.push_back({c, radius});
     return support.top *
@@ -262,7 +259,7 @@ std::optional<Eigen::Isometry3d> LayoutBuilder::openFloorSpot(double radius, dou
   const Eigen::Vector2d hi = room_max_ - Eigen::Vector2d::Constant(radius + 0.02);
   if ((hi - lo).minCoeff() <= 0.0) return std::nullopt;
   for (int attempt = 0; attempt < 200; ++attempt) {
-    const Eigen::Vector2d c(rng_.uniform(lo.x(), hi.x()), rng_.uniform(lo.y(), hi.y()));
+    const Eigen::Vector2d c = rng_.uniform2(lo, hi);
     if ((c - camera_position_.head<2>()).norm() < radius + 0.45) continue;
     if (!isFree(floor_footprints_, c, radius) || !clearOfBlocks(c, radius)) continue;
     if (!inView({c.x(), c.y(), height}, 20.0) && !inView({c.x(), c.y(), 0.0}, 20.0)) continue;

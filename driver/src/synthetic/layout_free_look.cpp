@@ -23,8 +23,9 @@ void LayoutBuilder::placeFreeLookCamera() {
     table_center_ = {distance * std::sin(azimuth), distance * std::cos(azimuth)};
     table_yaw_ = rng_.uniform(-std::numbers::pi, std::numbers::pi);
     const double spread = p.free_look_target_spread_m;
-    const Eigen::Vector2d target_local(rng_.uniform(-1.0, 1.0) * (table_size_.x() / 2 + spread),
-                                       rng_.uniform(-1.0, 1.0) * (table_size_.y() / 2 + spread));
+    const Eigen::Vector2d target_local =
+        rng_.uniform2({-1.0, -1.0}, {1.0, 1.0})
+            .cwiseProduct(table_size_ / 2 + Eigen::Vector2d::Constant(spread));
     const double pitch =
         degToRad(rng_.uniform(p.free_look_pitch_min_deg, p.free_look_pitch_max_deg));
     const double roll = degToRad(rng_.uniform(-1.0, 1.0));
@@ -56,11 +57,11 @@ void LayoutBuilder::drawRoomSize(Eigen::Vector3d& half, Eigen::Isometry3d& world
       (table_center_ - table_reach).cwiseMin(Eigen::Vector2d::Zero()) - margin;
   const Eigen::Vector2d hi =
       (table_center_ + table_reach).cwiseMax(Eigen::Vector2d::Zero()) + margin;
-  Eigen::Vector2d size(rng_.uniform(p.room_extent_min_m, p.room_extent_max_m),
-                       rng_.uniform(p.room_extent_min_m, p.room_extent_max_m));
+  Eigen::Vector2d size = rng_.uniform2(Eigen::Vector2d::Constant(p.room_extent_min_m),
+                                       Eigen::Vector2d::Constant(p.room_extent_max_m));
   size = size.cwiseMax(hi - lo);
   const Eigen::Vector2d slack = size - (hi - lo);
-  room_min_ = lo - Eigen::Vector2d(rng_.uniform(0.0, slack.x()), rng_.uniform(0.0, slack.y()));
+  room_min_ = lo - rng_.uniform2(Eigen::Vector2d::Zero(), slack);
   room_max_ = room_min_ + size;
   const double height =
       std::max(rng_.uniform(p.room_height_min_m, p.room_height_max_m), camera_position_.z() + 0.3);

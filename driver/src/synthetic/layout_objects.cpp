@@ -12,16 +12,14 @@
 namespace shapesense::synthetic::detail {
 
 void LayoutBuilder::addTableBox() {
-  const Eigen::Vector3d size(rng_.uniform(0.06, 0.32), rng_.uniform(0.06, 0.32),
-                             rng_.uniform(0.05, 0.3));
+  const Eigen::Vector3d size = rng_.uniform3({0.06, 0.06, 0.05}, {0.32, 0.32, 0.3});
   const auto spot = tableSpot(0.5 * std::hypot(size.x(), size.y()));
   if (!spot) return;
   addBox(*spot, size);
 }
 
 void LayoutBuilder::addFloorBox() {
-  const Eigen::Vector3d size(rng_.uniform(0.2, 0.45), rng_.uniform(0.2, 0.45),
-                             rng_.uniform(0.15, 0.45));
+  const Eigen::Vector3d size = rng_.uniform3({0.2, 0.2, 0.15}, {0.45, 0.45, 0.45});
   const auto spot = floorSpot(0.5 * std::hypot(size.x(), size.y()), size.z());
   if (!spot) return;
   addBox(*spot, size);

@@ -14,8 +14,7 @@ std::optional<Eigen::Isometry3d> LayoutBuilder::tableSpot(double radius) {
   const Eigen::Vector2d reach = table_size_ / 2.0 - Eigen::Vector2d::Constant(radius + 0.01);
   if (reach.minCoeff() < 0.0) return std::nullopt;
   for (int attempt = 0; attempt < 200; ++attempt) {
-    const Eigen::Vector2d c(rng_.uniform(-reach.x(), reach.x()),
-                            rng_.uniform(-reach.y(), reach.y()));
+    const Eigen::Vector2d c = rng_.uniform2(-reach, reach);
     if (!isFree(table_footprints_, c, radius)) continue;
     table_footprints_.push_back({c, radius});
     const Eigen::Isometry3d table_top =

@@ -35,8 +35,8 @@ void LayoutBuilder::placeCameraAndTable() {
     const Eigen::Vector2d outside = (camera_in_table.cwiseAbs() - table_size_ / 2.0).cwiseMax(0.0);
     if (outside.norm() < 0.15) continue;
     camera_position_ = {0.0, 0.0, camera_height};
-    const Eigen::Vector3d target(table_center_.x() + rng_.uniform(-0.1, 0.1),
-                                 table_center_.y() + rng_.uniform(-0.1, 0.1), table_height_);
+    const Eigen::Vector2d aim = table_center_ + rng_.uniform2({-0.1, -0.1}, {0.1, 0.1});
+    const Eigen::Vector3d target(aim.x(), aim.y(), table_height_);
     model_->base_world_from_camera =
         lookAt(camera_position_, target, degToRad(rng_.uniform(-1.0, 1.0)));
     return;
@@ -54,10 +54,8 @@ void LayoutBuilder::addRoom() {
     drawRoomExtent(half, world_from_room);
   }
   room_height_ = 2.0 * half.z();
-  const Eigen::Vector3f floor_colour(rng_.uniform(90, 150), rng_.uniform(110, 160),
-                                     rng_.uniform(120, 170));
-  const Eigen::Vector3f wall_colour(rng_.uniform(170, 230), rng_.uniform(180, 235),
-                                    rng_.uniform(185, 240));
+  const Eigen::Vector3f floor_colour = rng_.uniform3({90, 110, 120}, {150, 160, 170}).cast<float>();
+  const Eigen::Vector3f wall_colour = rng_.uniform3({170, 180, 185}, {230, 235, 240}).cast<float>();
   addSolid(
       std::make_unique<RoomSolid>(half), world_from_room, 0, "", [&](int face, const FaceLabel&) {
         return face == RoomSolid::kFloor ? floor_colour : jitterColour(rng_, wall_colour, 0.08);

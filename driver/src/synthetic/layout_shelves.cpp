@@ -120,8 +120,8 @@ void LayoutBuilder::addShelf() {
     Support board{board_pose * poseAt({0.0, 0.0, panel / 2}, 0.0), board_half, clearance, {}};
     const double max_side = std::min(0.3, 2.0 * board_half.minCoeff() - 0.02);
     if (max_side < 0.06) continue;
-    const Eigen::Vector3d size(rng_.uniform(0.06, max_side), rng_.uniform(0.06, max_side),
-                               rng_.uniform(0.05, std::min(0.35, clearance - 0.03)));
+    const Eigen::Vector3d size =
+        rng_.uniform3({0.06, 0.06, 0.05}, {max_side, max_side, std::min(0.35, clearance - 0.03)});
     const auto spot = supportSpot(board, 0.5 * std::hypot(size.x(), size.y()), size.z());
     if (spot) addSupportingBox(*spot, size, clearance - size.z());
   }

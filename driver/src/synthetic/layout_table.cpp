@@ -12,7 +12,7 @@ void LayoutBuilder::addTable() {
   const double top_thickness = rng_.uniform(0.025, 0.045);
   const double leg = rng_.uniform(0.04, 0.07);
   const double inset = rng_.uniform(0.03, 0.1);
-  const Eigen::Vector3f wood(rng_.uniform(40, 90), rng_.uniform(70, 120), rng_.uniform(110, 170));
+  const Eigen::Vector3f wood = rng_.uniform3({40, 70, 110}, {90, 120, 170}).cast<float>();
 
   ObjectDef table;
   table.kind = "table";

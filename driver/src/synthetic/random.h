@@ -9,6 +9,8 @@
 #include <numbers>
 #include <random>
 
+#include <Eigen/Core>
+
 namespace shapesense::synthetic::detail {
 
 inline std::uint64_t mix64(std::uint64_t x) {
@@ -55,6 +57,18 @@ class Rng {
   }
   bool chance(double p) { return uniform() < p; }
   double sign() { return chance(0.5) ? 1.0 : -1.0; }
+  // A point of the box [lo, hi], its components drawn last to first: that order defines the
+  // scenes of every seed. Two draws in one argument list would leave the order to the compiler
+  // (GCC and clang differ), and the scenes with it.
+  Eigen::Vector2d uniform2(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+    const double y = uniform(lo.y(), hi.y());
+    return {uniform(lo.x(), hi.x()), y};
+  }
+  Eigen::Vector3d uniform3(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    const double z = uniform(lo.z(), hi.z());
+    const double y = uniform(lo.y(), hi.y());
+    return {uniform(lo.x(), hi.x()), y, z};
+  }
 
  private:
   std::mt19937_64 engine_;

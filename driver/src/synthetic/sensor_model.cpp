@@ -106,15 +106,15 @@ cv::Mat SensorModel::holeMask() const {
   cv::Mat mask = cv::Mat::zeros(k.height, k.width, CV_8UC1);
   const int count = rng.uniformInt(kp.holes_min, kp.holes_max);
   for (int h = 0; h < count; ++h) {
-    const Eigen::Vector2d centre(rng.uniform(0.0, k.width), rng.uniform(0.0, k.height));
+    const Eigen::Vector2d centre = rng.uniform2({0.0, 0.0}, {k.width, k.height});
     const int parts = rng.uniformInt(1, 3);
     for (int p = 0; p < parts; ++p) {
       const Eigen::Vector2d at =
-          centre + 0.5 * kp.hole_radius_max_px *
-                       Eigen::Vector2d(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
-      const cv::Size axes(
-          static_cast<int>(std::lround(rng.uniform(kp.hole_radius_min_px, kp.hole_radius_max_px))),
-          static_cast<int>(std::lround(rng.uniform(kp.hole_radius_min_px, kp.hole_radius_max_px))));
+          centre + 0.5 * kp.hole_radius_max_px * rng.uniform2({-1.0, -1.0}, {1.0, 1.0});
+      const Eigen::Vector2d radii = rng.uniform2(Eigen::Vector2d::Constant(kp.hole_radius_min_px),
+                                                 Eigen::Vector2d::Constant(kp.hole_radius_max_px));
+      const cv::Size axes(static_cast<int>(std::lround(radii.x())),
+                          static_cast<int>(std::lround(radii.y())));
       const double angle = rng.uniform(0.0, 180.0);
       cv::ellipse(
           mask,

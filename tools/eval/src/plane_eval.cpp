@@ -105,11 +105,12 @@ void planeErrors(const SegCompScore& seg, const cv::Mat& labels, const cv::Mat& 
     const auto t = correct_truth_pixels.find(key.first);
     if (t == correct_truth_pixels.end()) continue;
     if (ov < kOverlap * t->second || ov < kOverlap * found_pixels[key.second]) continue;
-    const auto fp = std::find_if(planes.begin(), planes.end(),
-                                 [&](const DetectedPlane& p) { return p.id == key.second; });
-    const auto tp =
-        std::find_if(truth.surfaces.begin(), truth.surfaces.end(),
-                     [&](const synthetic::TruthSurface& x) { return x.id == key.first; });
+    const auto fp =
+        std::find_if(planes.begin(), planes.end(),
+                     [found_id = key.second](const DetectedPlane& p) { return p.id == found_id; });
+    const auto tp = std::find_if(
+        truth.surfaces.begin(), truth.surfaces.end(),
+        [truth_id = key.first](const synthetic::TruthSurface& x) { return x.id == truth_id; });
     if (fp == planes.end() || tp == truth.surfaces.end()) continue;
     const Eigen::Vector3d tn = tp->plane.head<3>();
     s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) /
