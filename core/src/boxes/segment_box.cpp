@@ -80,6 +80,8 @@ std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
   const double max_depth_m = params.support.estimation.max_valid_depth_m;
   const KinectNoiseModel& noise = params.support.estimation.noise;
   std::vector<Eigen::Vector3d> all, off_support;
+  all.reserve(static_cast<std::size_t>(bounds.area()));
+  if (support) off_support.reserve(static_cast<std::size_t>(bounds.area()));
   for (int v = bounds.y; v < bounds.y + bounds.height; ++v) {
     const auto* label = segment_labels.ptr<std::uint16_t>(v);
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);

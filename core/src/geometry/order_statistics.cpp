@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 
 namespace shapesense {
 
@@ -19,20 +20,22 @@ namespace {
 // values sharing the rank's bin are a small fraction of a frame.
 constexpr std::size_t kBins = 4096;
 
-// The value of rank `rank` among `values`, given their histogram: only the values in the bin
-// holding that rank are ordered.
-template <typename BinOf>
-double valueOfRank(std::span<const double> values, const std::array<std::size_t, kBins>& counts,
-                   std::size_t rank, const BinOf& bin_of) {
-  std::size_t bin = 0, before = 0;
-  while (before + counts[bin] <= rank) before += counts[bin++];
-  std::vector<double> in_bin;
-  in_bin.reserve(counts[bin]);
-  for (const double v : values)
-    if (bin_of(v) == bin) in_bin.push_back(v);
-  const auto k = static_cast<std::ptrdiff_t>(rank - before);
+// Where a rank falls: its bin, and its rank among the values of that bin.
+struct RankInBin {
+  std::size_t bin = 0;
+  std::size_t rank = 0;
+};
+
+RankInBin locate(const std::array<std::size_t, kBins>& counts, std::size_t rank) {
+  std::size_t bin = 0;
+  while (counts[bin] <= rank) rank -= counts[bin++];
+  return {bin, rank};
+}
+
+double select(std::vector<double>& in_bin, std::size_t rank) {
+  const auto k = static_cast<std::ptrdiff_t>(rank);
   std::nth_element(in_bin.begin(), in_bin.begin() + k, in_bin.end());
-  return in_bin[static_cast<std::size_t>(k)];
+  return in_bin[rank];
 }
 
 }  // namespace
@@ -46,13 +49,22 @@ std::pair<double, double> trimmedRange(std::span<const double> values, double tr
   if (low_rank == 0 || highest == lowest) return {lowest, highest};
   // Monotone in the value, so the bins are in the values' order and a rank falls in one bin.
   const double scale = static_cast<double>(kBins) / (highest - lowest);
-  const auto bin_of = [&](double v) {
-    return std::min(kBins - 1, static_cast<std::size_t>((v - lowest) * scale));
-  };
+  std::vector<std::uint16_t> bin_of(n);
   std::array<std::size_t, kBins> counts{};
-  for (const double v : values) ++counts[bin_of(v)];
-  return {valueOfRank(values, counts, low_rank, bin_of),
-          valueOfRank(values, counts, high_rank, bin_of)};
+  for (std::size_t i = 0; i < n; ++i) {
+    bin_of[i] = static_cast<std::uint16_t>(
+        std::min(kBins - 1, static_cast<std::size_t>((values[i] - lowest) * scale)));
+    ++counts[bin_of[i]];
+  }
+  const RankInBin low = locate(counts, low_rank), high = locate(counts, high_rank);
+  std::vector<double> low_bin, high_bin;
+  low_bin.reserve(counts[low.bin]);
+  high_bin.reserve(counts[high.bin]);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (bin_of[i] == low.bin) low_bin.push_back(values[i]);
+    if (bin_of[i] == high.bin) high_bin.push_back(values[i]);
+  }
+  return {select(low_bin, low.rank), select(high_bin, high.rank)};
 }
 
 }  // namespace shapesense
