@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "shapesense/core/boxes/segment_box.h"
+#include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/core/pipeline/stages.h"
 #include "shapesense/core/planes/planes.h"
@@ -63,11 +64,8 @@ void scoreObjectBoxes(const Frame& frame, const eval::BoxTarget& target,
   scores[4].add(box4 ? &box4->corners : nullptr, points);
 }
 
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
+double quantileOrZero(std::vector<double> values, double q) {
+  return values.empty() ? 0.0 : quantile(values, q);
 }
 
 void printBoxTable(const BoxScores& scores) {
@@ -80,7 +78,7 @@ void printBoxTable(const BoxScores& scores) {
     std::printf("| %d (%s) | %d | %d | %.3f | %.3f | %.2f | %.2f |\n", mode,
                 toString(static_cast<BoxMode>(mode)), s.objects, s.failed, s.meanCoverage(),
                 s.objects ? static_cast<double>(well) / s.objects : 0.0,
-                quantile(s.volume_ratio, 0.5), quantile(s.volume_ratio, 0.9));
+                quantileOrZero(s.volume_ratio, 0.5), quantileOrZero(s.volume_ratio, 0.9));
   }
 }
 

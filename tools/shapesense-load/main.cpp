@@ -29,6 +29,7 @@
 
 #include "commands.h"
 #include "connection.h"
+#include "shapesense/core/geometry/order_statistics.h"
 
 namespace {
 
@@ -195,10 +196,7 @@ void runSlowWatcher(const shapesense::cli::GlobalOptions& global, Clock::time_po
 }
 
 double percentile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[static_cast<std::size_t>(k)];
+  return values.empty() ? 0.0 : shapesense::quantile(values, q);
 }
 
 void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& watchers,

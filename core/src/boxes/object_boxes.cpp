@@ -106,15 +106,17 @@ SegmentRegion regionOf(const SegmentStatistics& segment) {
   return {{segment.id}, segment.box, segment.pixels};
 }
 
-// Pixels of each plane region inside the segments, indexed by plane id.
+// Pixels of each plane region inside the segments, indexed by plane id (the labels are the
+// planes' ids, and the planes are ordered by id).
 std::vector<int> ownPlaneOverlap(const ObjectSearch& s, const SegmentRegion& region) {
-  std::vector<int> own_overlap(std::size_t{1} << 16, 0);
+  const std::size_t ids = s.planes.planes.empty() ? 1 : s.planes.planes.back().id + 1u;
+  std::vector<int> own_overlap(ids, 0);
   const cv::Rect r = region.box;
   for (int v = r.y; v < r.y + r.height; ++v) {
     const auto* seg = s.segment_labels.ptr<std::uint16_t>(v);
     const auto* pl = s.planes.labels.ptr<std::uint16_t>(v);
     for (int u = r.x; u < r.x + r.width; ++u) {
-      if (pl[u] != 0 && region.holds(seg[u])) ++own_overlap[pl[u]];
+      if (pl[u] != 0 && pl[u] < ids && region.holds(seg[u])) ++own_overlap[pl[u]];
     }
   }
   return own_overlap;
@@ -128,7 +130,8 @@ const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentRegion& re
   const ObjectBoxParams& params = s.params;
   const std::vector<int> own_overlap = ownPlaneOverlap(s, region);
   const auto isOwnPlane = [&](std::uint16_t plane) {
-    return own_overlap[plane] > params.max_support_overlap * region.pixels;
+    return plane < own_overlap.size() &&
+           own_overlap[plane] > params.max_support_overlap * region.pixels;
   };
   const cv::Rect r = region.box;
   std::map<std::uint16_t, int> support_votes;

@@ -131,8 +131,8 @@ std::vector<cv::Point2f> hullCandidates(const std::vector<cv::Point2f>& footprin
     const cv::Point2d from = extreme[i], to = extreme[(i + 1) % kDirections];
     if (from != to) edges.emplace_back(from, to);
   }
+  if (edges.size() < 3) return footprint;  // no polygon with an inside: a line or a point
   const auto strictlyInside = [&](const cv::Point2f& p) {
-    if (edges.size() < 3) return false;
     return std::all_of(edges.begin(), edges.end(), [&](const auto& edge) {
       const cv::Point2d along = edge.second - edge.first;
       const cv::Point2d to_point = cv::Point2d(p) - edge.first;
