@@ -1,0 +1,117 @@
+#pragma once
+// Finding a taught object (object_model.h) in a depth frame, with a 6-DoF pose.
+//
+// Steps (findObject):
+//   1. candidate matches: each model feature's nearest scene features by descriptor;
+//   2. a pose from them by RANSAC over 3-point samples whose pairwise distances agree in the
+//      model and the scene (a rigid motion keeps them), scored by the matches it carries;
+//   3. refinement by point-to-plane ICP of the model's surface on the scene's surface;
+//   4. verification in the depth: of the model's points that face the camera in that pose and
+//      fall in the image, the share the depth confirms (a reading at the predicted depth, within
+//      the sensor's noise) among those it confirms or contradicts (a reading behind where the
+//      object would be); readings in front are occluders and count neither way. And the
+//      outline: where the taught view saw background just beyond the object, the scene must not
+//      show surface at the object's depth (the object ends there).
+// The scene's surface and features are computed once per frame (SceneSurface) and shared by
+// every model looked for.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/recognition/object_model.h"
+
+namespace shapesense {
+
+namespace detail {
+class CloudIndex;
+}
+
+/// One depth frame's surface, features and neighbour index, made once for all the models.
+class SceneSurface {
+ public:
+  /// `params` must be the models' (surface and feature parameters), so that the descriptors
+  /// compare. Keeps a reference-counted copy of `depth_mm` (cv::Mat semantics).
+  SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+               const ObjectModelParams& params = {});
+  ~SceneSurface();
+  SceneSurface(const SceneSurface&) = delete;
+  SceneSurface& operator=(const SceneSurface&) = delete;
+
+  const SurfaceCloud& surface() const { return surface_; }
+  const std::vector<ShapeFeature>& features() const { return features_; }
+  const cv::Mat& depth() const { return depth_mm_; }
+  const CameraIntrinsics& intrinsics() const { return intrinsics_; }
+  const detail::CloudIndex& index() const { return *index_; }
+
+ private:
+  cv::Mat depth_mm_;
+  CameraIntrinsics intrinsics_;
+  SurfaceCloud surface_;
+  std::vector<ShapeFeature> features_;
+  std::unique_ptr<detail::CloudIndex> index_;
+};
+
+struct ObjectMatchParams {
+  /// Scene features matched to each model feature (nearest descriptors first). Default 5.
+  int matches_per_feature = 5;
+  /// RANSAC samples drawn. Default 3000.
+  int ransac_iterations = 3000;
+  /// A match agrees with a pose when the posed model feature lies this close to its scene
+  /// feature (m). Default 1.5 cm.
+  float inlier_distance_m = 0.015f;
+  /// A sample's pairwise distances may differ this much between model and scene (m).
+  /// Default 1 cm.
+  float pair_tolerance_m = 0.01f;
+  /// A sample's points lie at least this far apart (m): near points give a poor rotation.
+  /// Default 2 cm.
+  float min_sample_spacing_m = 0.02f;
+  /// Fewest agreeing matches (distinct model features) for a pose to be refined. Default 7.
+  int min_inliers = 7;
+  /// Point-to-plane ICP iterations and the farthest pair it uses (m). Defaults 20 and 2 cm.
+  int icp_iterations = 20;
+  float icp_max_distance_m = 0.02f;
+  /// A depth reading confirms a model point within max(this, confirm_steps sensor depth
+  /// steps) of its predicted depth (m). Defaults 1 cm and 3 steps.
+  float confirm_distance_m = 0.01f;
+  float confirm_steps = 3.0f;
+  /// Smallest share of confirmed points for a detection. Default 0.85.
+  float min_score = 0.85f;
+  /// Fewest model points the depth must confirm, as a share of the model's points: a pose that
+  /// shows only part of the object (the rest hidden behind other surfaces, or facing away) is
+  /// not evidence enough; corners and edges of other boxes fit a part. Default 0.5, the least
+  /// of an object that must be visible for it to be found.
+  float min_confirmed_share = 0.5f;
+  /// Of the model's outline probes (object_model.h), at least this share must be seen (a
+  /// reading not in front of them): an object whose outline is hidden or out of view cannot be
+  /// told from a part of something larger. Default 0.3.
+  float min_seen_outline = 0.3f;
+  /// ...and at most this share of those seen may show surface at the object's depth: more
+  /// means the match is part of a larger thing. Default 0.15.
+  float max_continued_outline = 0.15f;
+  /// Seed of RANSAC's random draws (deterministic results). Default 1.
+  std::uint64_t seed = 1;
+  /// Sensor noise model for confirm_steps.
+  KinectNoiseModel noise{};
+};
+
+struct ObjectDetection {
+  std::string name;
+  Eigen::Isometry3f camera_from_model = Eigen::Isometry3f::Identity();
+  float score = 0.0f;        ///< share of the visible model points the depth confirms
+  int confirmed_points = 0;  ///< model points the depth confirms
+  int feature_inliers = 0;   ///< model features that agree with the pose (step 2)
+  OrientedBox box;           ///< the model's box in the camera frame
+};
+
+/// The best pose of `model` in `scene` that passes the verification, or none.
+std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
+                                          const ObjectMatchParams& params = {});
+
+}  // namespace shapesense

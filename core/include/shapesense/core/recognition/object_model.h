@@ -1,0 +1,71 @@
+#pragma once
+// A taught object: its surface and shape features from one view (a depth frame and the
+// object's pixels) or from a point cloud, kept in the model's own frame (for a taught view, the
+// camera frame of the frame it was taught from).
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/recognition/shape_features.h"
+#include "shapesense/core/recognition/surface_cloud.h"
+
+namespace shapesense {
+
+/// A box with its own axes: corner = centre + axes * (+-size / 2) per axis.
+struct OrientedBox {
+  Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+  Eigen::Matrix3f axes = Eigen::Matrix3f::Identity();  ///< columns, unit and orthogonal
+  Eigen::Vector3f size = Eigen::Vector3f::Zero();      ///< full extent along each axis (m)
+};
+
+struct ObjectModelParams {
+  SurfaceCloudParams surface{};
+  ShapeFeatureParams features{};
+  /// The surface within this distance of the object's points is its context (m): features are
+  /// described with what lies around them, as a scene will show them. Default: the features'
+  /// support radius.
+  float context_margin_m = 0.035f;
+  /// The object's surface is thinned to at most this many points for pose refinement and
+  /// scoring (every k-th point). Default 2000.
+  int max_surface_points = 2000;
+  /// Fewest features a model needs to be found again. Default 6.
+  int min_features = 6;
+  /// Outline probes lie this many pixels beyond the outline (past its flying pixels). Default 3.
+  int outline_probe_offset_px = 3;
+  /// At most this many outline probes (every k-th). Default 400.
+  int max_outline_probes = 400;
+};
+
+struct ObjectModel {
+  std::string name;
+  SurfaceCloud surface;                ///< the object alone, model frame
+  std::vector<ShapeFeature> features;  ///< interest points on the object, model frame
+  OrientedBox box;                     ///< around `surface`, along its principal axes
+  /// Points just beyond the object's outline where the taught view saw background: if a
+  /// scene shows surface there, at the object's depth, what matched is part of something
+  /// larger (a corner of a bigger box fits a small box's corner). Empty for models from a
+  /// point cloud.
+  std::vector<Eigen::Vector3f> outline_probes;
+};
+
+/// The model of the object whose pixels are non-zero in `object_mask` (CV_8UC1, the depth
+/// image's size), taught from `depth_mm` (CV_16UC1 mm). Throws std::invalid_argument when the
+/// object has too little surface or too few features to be found again (the message says which).
+ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
+                             const CameraIntrinsics& intrinsics, const cv::Mat& object_mask,
+                             const ObjectModelParams& params = {});
+
+/// The model of an object given as a surface of its own (a point cloud file), seen from
+/// `viewpoint`. Throws std::invalid_argument as teachObjectModel.
+ObjectModel objectModelFromSurface(std::string name, const SurfaceCloud& object,
+                                   const Eigen::Vector3f& viewpoint = Eigen::Vector3f::Zero(),
+                                   const ObjectModelParams& params = {});
+
+/// The box along the principal axes of `points` that holds them all.
+OrientedBox principalBox(const std::vector<Eigen::Vector3f>& points);
+
+}  // namespace shapesense

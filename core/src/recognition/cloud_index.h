@@ -1,0 +1,34 @@
+#pragma once
+// Radius and nearest-neighbour queries over a fixed set of 3D points (a k-d tree from
+// nanoflann). The points must outlive the index.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace shapesense::detail {
+
+class CloudIndex {
+ public:
+  explicit CloudIndex(const std::vector<Eigen::Vector3f>& points);
+  ~CloudIndex();
+  CloudIndex(const CloudIndex&) = delete;
+  CloudIndex& operator=(const CloudIndex&) = delete;
+
+  /// The indices of the points within `radius` of `query`, in no particular order.
+  void withinRadius(const Eigen::Vector3f& query, float radius,
+                    std::vector<std::uint32_t>& indices) const;
+  /// The nearest point's index and its squared distance; -1 for an empty set.
+  int nearest(const Eigen::Vector3f& query, float& squared_distance) const;
+
+  const std::vector<Eigen::Vector3f>& points() const { return points_; }
+
+ private:
+  struct Tree;
+  const std::vector<Eigen::Vector3f>& points_;
+  std::unique_ptr<Tree> tree_;
+};
+
+}  // namespace shapesense::detail

@@ -1,0 +1,293 @@
+#include "shapesense/core/recognition/object_matching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <opencv2/features2d.hpp>
+
+#include "cloud_index.h"
+
+namespace shapesense {
+namespace {
+
+struct Match {
+  int model = 0;  ///< index into the model's features
+  int scene = 0;  ///< index into the scene's features
+};
+
+cv::Mat descriptorMatrix(const std::vector<ShapeFeature>& features) {
+  cv::Mat out(static_cast<int>(features.size()), kShapeDescriptorSize, CV_32F);
+  for (int i = 0; i < out.rows; ++i)
+    std::copy(features[static_cast<std::size_t>(i)].descriptor.begin(),
+              features[static_cast<std::size_t>(i)].descriptor.end(), out.ptr<float>(i));
+  return out;
+}
+
+// Step 1.
+std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface& scene,
+                                    const ObjectMatchParams& params) {
+  if (model.features.empty() || scene.features().empty()) return {};
+  std::vector<std::vector<cv::DMatch>> knn;
+  cv::BFMatcher(cv::NORM_L2)
+      .knnMatch(descriptorMatrix(model.features), descriptorMatrix(scene.features()), knn,
+                params.matches_per_feature);
+  std::vector<Match> out;
+  for (const auto& row : knn)
+    for (const cv::DMatch& m : row) out.push_back({m.queryIdx, m.trainIdx});
+  return out;
+}
+
+struct Hypothesis {
+  Eigen::Isometry3f scene_from_model = Eigen::Isometry3f::Identity();
+  int inliers = 0;
+};
+
+// In double: the float version trips GCC 12's array-bounds warning inside Eigen, and the
+// solve is cheap either way.
+Eigen::Isometry3f rigidFromPairs(const Eigen::Matrix3Xf& model, const Eigen::Matrix3Xf& scene) {
+  const Eigen::Matrix4d transform =
+      Eigen::umeyama(model.cast<double>().eval(), scene.cast<double>().eval(), false);
+  return Eigen::Isometry3f(transform.cast<float>());
+}
+
+// The matches that agree with a pose, one per model feature (the closest).
+std::vector<Match> agreeingMatches(const Eigen::Isometry3f& pose, const std::vector<Match>& matches,
+                                   const ObjectModel& model, const SceneSurface& scene,
+                                   float inlier_distance) {
+  std::vector<float> best(model.features.size(), inlier_distance * inlier_distance);
+  std::vector<int> chosen(model.features.size(), -1);
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    const Match& m = matches[i];
+    const float d2 = (pose * model.features[static_cast<std::size_t>(m.model)].position -
+                      scene.features()[static_cast<std::size_t>(m.scene)].position)
+                         .squaredNorm();
+    if (d2 < best[static_cast<std::size_t>(m.model)]) {
+      best[static_cast<std::size_t>(m.model)] = d2;
+      chosen[static_cast<std::size_t>(m.model)] = static_cast<int>(i);
+    }
+  }
+  std::vector<Match> out;
+  for (int c : chosen)
+    if (c >= 0) out.push_back(matches[static_cast<std::size_t>(c)]);
+  return out;
+}
+
+// Pairs of matches that a rigid motion could carry together: their model points and their
+// scene points lie equally far apart (and far enough apart to fix a rotation), and they share
+// neither feature. RANSAC draws its samples from these pairs only.
+std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
+                                                        const ObjectModel& model,
+                                                        const SceneSurface& scene,
+                                                        const ObjectMatchParams& params) {
+  const float min_spacing2 = params.min_sample_spacing_m * params.min_sample_spacing_m;
+  std::vector<std::vector<std::uint32_t>> out(matches.size());
+  for (std::size_t a = 0; a < matches.size(); ++a) {
+    const Eigen::Vector3f& ma = model.features[static_cast<std::size_t>(matches[a].model)].position;
+    const Eigen::Vector3f& sa =
+        scene.features()[static_cast<std::size_t>(matches[a].scene)].position;
+    for (std::size_t b = a + 1; b < matches.size(); ++b) {
+      if (matches[a].model == matches[b].model || matches[a].scene == matches[b].scene) continue;
+      const float dm2 =
+          (model.features[static_cast<std::size_t>(matches[b].model)].position - ma).squaredNorm();
+      if (dm2 < min_spacing2) continue;
+      const float ds =
+          (scene.features()[static_cast<std::size_t>(matches[b].scene)].position - sa).norm();
+      if (std::abs(std::sqrt(dm2) - ds) > params.pair_tolerance_m) continue;
+      out[a].push_back(static_cast<std::uint32_t>(b));
+      out[b].push_back(static_cast<std::uint32_t>(a));
+    }
+  }
+  for (auto& partners : out) std::sort(partners.begin(), partners.end());
+  return out;
+}
+
+// Step 2: a triangle of compatible matches gives a pose; the pose the most model features
+// agree with wins.
+std::optional<Hypothesis> ransacPose(const std::vector<Match>& matches, const ObjectModel& model,
+                                     const SceneSurface& scene, const ObjectMatchParams& params) {
+  const std::vector<std::vector<std::uint32_t>> partners =
+      compatiblePairs(matches, model, scene, params);
+  std::vector<std::uint32_t> starts;
+  for (std::size_t i = 0; i < matches.size(); ++i)
+    if (partners[i].size() >= 2) starts.push_back(static_cast<std::uint32_t>(i));
+  if (starts.empty()) return std::nullopt;
+  std::mt19937_64 rng(params.seed);
+  const auto pick = [&rng](std::size_t n) {
+    return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
+  };
+  std::optional<Hypothesis> best;
+  Eigen::Matrix3Xf model_points(3, 3), scene_points(3, 3);
+  for (int iteration = 0; iteration < params.ransac_iterations; ++iteration) {
+    const std::uint32_t a = starts[pick(starts.size())];
+    const std::uint32_t b = partners[a][pick(partners[a].size())];
+    const std::uint32_t c = partners[a][pick(partners[a].size())];
+    if (c == b || !std::binary_search(partners[b].begin(), partners[b].end(), c)) continue;
+    const std::array<std::uint32_t, 3> sample{a, b, c};
+    for (int i = 0; i < 3; ++i) {
+      const Match& m = matches[sample[static_cast<std::size_t>(i)]];
+      model_points.col(i) = model.features[static_cast<std::size_t>(m.model)].position;
+      scene_points.col(i) = scene.features()[static_cast<std::size_t>(m.scene)].position;
+    }
+    const Eigen::Isometry3f pose = rigidFromPairs(model_points, scene_points);
+    const int inliers = static_cast<int>(
+        agreeingMatches(pose, matches, model, scene, params.inlier_distance_m).size());
+    if (!best || inliers > best->inliers) best = Hypothesis{pose, inliers};
+  }
+  if (!best || best->inliers < params.min_inliers) return std::nullopt;
+  // Refit on every agreeing match.
+  const std::vector<Match> agreeing =
+      agreeingMatches(best->scene_from_model, matches, model, scene, params.inlier_distance_m);
+  Eigen::Matrix3Xf all_model(3, static_cast<Eigen::Index>(agreeing.size()));
+  Eigen::Matrix3Xf all_scene(3, static_cast<Eigen::Index>(agreeing.size()));
+  for (std::size_t i = 0; i < agreeing.size(); ++i) {
+    all_model.col(static_cast<Eigen::Index>(i)) =
+        model.features[static_cast<std::size_t>(agreeing[i].model)].position;
+    all_scene.col(static_cast<Eigen::Index>(i)) =
+        scene.features()[static_cast<std::size_t>(agreeing[i].scene)].position;
+  }
+  best->scene_from_model = rigidFromPairs(all_model, all_scene);
+  return best;
+}
+
+// Step 3: point-to-plane ICP, linearised about the current pose.
+Eigen::Isometry3f refinePose(Eigen::Isometry3f pose, const ObjectModel& model,
+                             const SceneSurface& scene, const ObjectMatchParams& params) {
+  const float max_d2 = params.icp_max_distance_m * params.icp_max_distance_m;
+  for (int iteration = 0; iteration < params.icp_iterations; ++iteration) {
+    Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    int pairs = 0;
+    for (std::size_t i = 0; i < model.surface.size(); ++i) {
+      const Eigen::Vector3f p = pose * model.surface.points[i];
+      float d2 = 0.0f;
+      const int j = scene.index().nearest(p, d2);
+      if (j < 0 || d2 > max_d2) continue;
+      const Eigen::Vector3f& normal = scene.surface().normals[static_cast<std::size_t>(j)];
+      if (normal.dot(pose.linear() * model.surface.normals[i]) < 0.5f) continue;
+      const Eigen::Vector3d q = scene.surface().points[static_cast<std::size_t>(j)].cast<double>();
+      const Eigen::Vector3d n = normal.cast<double>();
+      const Eigen::Vector3d pd = p.cast<double>();
+      Eigen::Matrix<double, 6, 1> row;
+      row << pd.cross(n), n;
+      normal_matrix += row * row.transpose();
+      rhs += row * n.dot(q - pd);
+      ++pairs;
+    }
+    if (pairs < 6) break;
+    const Eigen::Matrix<double, 6, 1> step = normal_matrix.ldlt().solve(rhs);
+    if (!step.allFinite()) break;
+    const Eigen::Vector3d omega = step.head<3>();
+    Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+    if (omega.norm() > 0.0)
+      delta.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+    delta.translation() = step.tail<3>();
+    pose = delta.cast<float>() * pose;
+    if (omega.norm() < 1e-6 && step.tail<3>().norm() < 1e-6) break;
+  }
+  return pose;
+}
+
+struct Verification {
+  int confirmed = 0;
+  int contradicted = 0;
+  int outline_seen = 0;       ///< outline probes with a reading
+  int outline_continued = 0;  ///< ...at the object's depth
+};
+
+float confirmTolerance(float z, const ObjectMatchParams& params) {
+  return std::max(params.confirm_distance_m,
+                  params.confirm_steps * static_cast<float>(params.noise.depthStep(z)));
+}
+
+// The reading (m) where a camera-frame point projects; 0 outside the image or without one.
+float readingAt(const Eigen::Vector3f& p, const SceneSurface& scene) {
+  if (p.z() <= 0.0f) return 0.0f;
+  const Eigen::Vector2d uv = scene.intrinsics().project(p.cast<double>());
+  const long u = std::lround(uv.x());
+  const long v = std::lround(uv.y());
+  if (u < 0 || v < 0 || u >= scene.depth().cols || v >= scene.depth().rows) return 0.0f;
+  return 1e-3f * static_cast<float>(
+                     scene.depth().at<std::uint16_t>(static_cast<int>(v), static_cast<int>(u)));
+}
+
+// Step 4.
+Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& model,
+                           const SceneSurface& scene, const ObjectMatchParams& params) {
+  Verification out;
+  for (std::size_t i = 0; i < model.surface.size(); ++i) {
+    const Eigen::Vector3f p = pose * model.surface.points[i];
+    const Eigen::Vector3f n = pose.linear() * model.surface.normals[i];
+    if (n.dot(p) >= 0.0f) continue;  // facing away
+    const float measured = readingAt(p, scene);
+    if (measured == 0.0f) continue;
+    const float tolerance = confirmTolerance(p.z(), params);
+    if (measured < p.z() - tolerance) continue;  // something in front of the object
+    if (measured <= p.z() + tolerance) {
+      ++out.confirmed;
+    } else {
+      ++out.contradicted;
+    }
+  }
+  for (const Eigen::Vector3f& probe : model.outline_probes) {
+    const Eigen::Vector3f p = pose * probe;
+    const float measured = readingAt(p, scene);
+    const float tolerance = confirmTolerance(p.z(), params);
+    if (measured == 0.0f || measured < p.z() - tolerance) continue;  // unseen, or hidden
+    ++out.outline_seen;
+    if (measured <= p.z() + tolerance) ++out.outline_continued;
+  }
+  return out;
+}
+
+OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
+  OrientedBox out = box;
+  out.centre = pose * box.centre;
+  out.axes = pose.linear() * box.axes;
+  return out;
+}
+
+}  // namespace
+
+SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                           const ObjectModelParams& params)
+    : depth_mm_(depth_mm),
+      intrinsics_(intrinsics),
+      surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
+      features_(detectShapeFeatures(surface_, params.features)),
+      index_(std::make_unique<detail::CloudIndex>(surface_.points)) {}
+
+SceneSurface::~SceneSurface() = default;
+
+std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
+                                          const ObjectMatchParams& params) {
+  const std::vector<Match> matches = candidateMatches(model, scene, params);
+  const std::optional<Hypothesis> hypothesis = ransacPose(matches, model, scene, params);
+  if (!hypothesis) return std::nullopt;
+  const Eigen::Isometry3f pose = refinePose(hypothesis->scene_from_model, model, scene, params);
+  const Verification check = verifyInDepth(pose, model, scene, params);
+  const int seen = check.confirmed + check.contradicted;
+  if (seen == 0) return std::nullopt;
+  const float score = static_cast<float>(check.confirmed) / static_cast<float>(seen);
+  if (score < params.min_score ||
+      check.confirmed < params.min_confirmed_share * static_cast<float>(model.surface.size()))
+    return std::nullopt;
+  if (!model.outline_probes.empty() &&
+      (check.outline_seen <
+           params.min_seen_outline * static_cast<float>(model.outline_probes.size()) ||
+       check.outline_continued >
+           params.max_continued_outline * static_cast<float>(check.outline_seen)))
+    return std::nullopt;
+  ObjectDetection out;
+  out.name = model.name;
+  out.camera_from_model = pose;
+  out.score = score;
+  out.confirmed_points = check.confirmed;
+  out.feature_inliers = hypothesis->inliers;
+  out.box = boxInCamera(model.box, pose);
+  return out;
+}
+
+}  // namespace shapesense

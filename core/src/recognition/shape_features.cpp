@@ -1,0 +1,219 @@
+#include "shapesense/core/recognition/shape_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "cloud_index.h"
+
+namespace shapesense {
+namespace {
+
+struct Candidate {
+  std::uint32_t point = 0;
+  float response = 0.0f;
+};
+
+// Step 1a: the spread of the normals around each allowed point.
+std::vector<Candidate> interestResponses(const SurfaceCloud& surface,
+                                         const detail::CloudIndex& index,
+                                         const ShapeFeatureParams& params,
+                                         const std::vector<std::uint8_t>& may_hold_keypoint) {
+  std::vector<Candidate> out;
+  std::vector<std::uint32_t> neighbours;
+  for (std::uint32_t i = 0; i < surface.size(); ++i) {
+    if (!may_hold_keypoint.empty() && !may_hold_keypoint[i]) continue;
+    index.withinRadius(surface.points[i], params.keypoint_radius_m, neighbours);
+    if (neighbours.size() < 4) continue;
+    Eigen::Matrix3f outer = Eigen::Matrix3f::Zero();
+    for (std::uint32_t j : neighbours) outer += surface.normals[j] * surface.normals[j].transpose();
+    outer /= static_cast<float>(neighbours.size());
+    const Eigen::Vector3f eigenvalues =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(outer, Eigen::EigenvaluesOnly).eigenvalues();
+    const float response = 1.0f - eigenvalues[2] + eigenvalues[0];
+    if (response >= params.min_response) out.push_back({i, response});
+  }
+  return out;
+}
+
+// Step 1b: the strongest first; a candidate within keypoint_spacing_m of a kept one goes.
+std::vector<Candidate> suppressNonMaxima(std::vector<Candidate> candidates,
+                                         const SurfaceCloud& surface, float spacing) {
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.response > b.response; });
+  const auto cellOf = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / spacing)),
+                           static_cast<int>(std::floor(p.y() / spacing)),
+                           static_cast<int>(std::floor(p.z() / spacing)));
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (static_cast<std::int64_t>(c.x() & 0x1FFFFF) << 42) |
+           (static_cast<std::int64_t>(c.y() & 0x1FFFFF) << 21) |
+           static_cast<std::int64_t>(c.z() & 0x1FFFFF);
+  };
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> kept_by_cell;
+  std::vector<Candidate> kept;
+  const float spacing2 = spacing * spacing;
+  for (const Candidate& c : candidates) {
+    const Eigen::Vector3f& p = surface.points[c.point];
+    const Eigen::Vector3i cell = cellOf(p);
+    bool near_kept = false;
+    for (int dz = -1; dz <= 1 && !near_kept; ++dz)
+      for (int dy = -1; dy <= 1 && !near_kept; ++dy)
+        for (int dx = -1; dx <= 1 && !near_kept; ++dx) {
+          const auto it = kept_by_cell.find(key(cell + Eigen::Vector3i(dx, dy, dz)));
+          if (it == kept_by_cell.end()) continue;
+          for (std::uint32_t k : it->second)
+            if ((surface.points[k] - p).squaredNorm() < spacing2) near_kept = true;
+        }
+    if (near_kept) continue;
+    kept.push_back(c);
+    kept_by_cell[key(cell)].push_back(c.point);
+  }
+  return kept;
+}
+
+// Step 2: the local frame (columns x, y, z) from the distance-weighted covariance about the
+// interest point; signs chosen by where the points are, so they do not depend on the view.
+Eigen::Matrix3f localFrame(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
+                           const Eigen::Vector3f& centre, float radius,
+                           const Eigen::Vector3f& viewpoint) {
+  Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
+  float weight_sum = 0.0f;
+  for (std::uint32_t j : support) {
+    const Eigen::Vector3f d = surface.points[j] - centre;
+    const float w = radius - d.norm();
+    covariance += w * d * d.transpose();
+    weight_sum += w;
+  }
+  covariance /= std::max(weight_sum, 1e-12f);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
+  Eigen::Vector3f z = solver.eigenvectors().col(0);
+  Eigen::Vector3f x = solver.eigenvectors().col(2);
+  if (z.dot(viewpoint - centre) < 0.0f) z = -z;
+  int positive = 0;
+  for (std::uint32_t j : support)
+    if ((surface.points[j] - centre).dot(x) >= 0.0f) ++positive;
+  if (2 * positive < static_cast<int>(support.size())) x = -x;
+  Eigen::Matrix3f frame;
+  frame.col(0) = x;
+  frame.col(1) = z.cross(x);
+  frame.col(2) = z;
+  return frame;
+}
+
+// Step 3: mean height over the local plane per cell; empty cells take their filled
+// neighbours' mean, ring by ring. Returns the share of cells that held a point.
+float heightImage(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
+                  const Eigen::Vector3f& centre, const Eigen::Matrix3f& frame, float radius,
+                  int size, cv::Mat& heights) {
+  cv::Mat sums = cv::Mat::zeros(size, size, CV_32F);
+  cv::Mat counts = cv::Mat::zeros(size, size, CV_32S);
+  const float cell = 2.0f * radius / static_cast<float>(size);
+  for (std::uint32_t j : support) {
+    const Eigen::Vector3f local = frame.transpose() * (surface.points[j] - centre);
+    const int cx = static_cast<int>(std::floor((local.x() + radius) / cell));
+    const int cy = static_cast<int>(std::floor((local.y() + radius) / cell));
+    if (cx < 0 || cy < 0 || cx >= size || cy >= size) continue;
+    sums.at<float>(cy, cx) += local.z();
+    counts.at<int>(cy, cx) += 1;
+  }
+  heights.create(size, size, CV_32F);
+  cv::Mat filled(size, size, CV_8U);
+  int filled_cells = 0;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const int n = counts.at<int>(y, x);
+      filled.at<std::uint8_t>(y, x) = n > 0;
+      heights.at<float>(y, x) = n > 0 ? sums.at<float>(y, x) / static_cast<float>(n) : 0.0f;
+      filled_cells += n > 0;
+    }
+  if (filled_cells == 0) return 0.0f;
+  for (int pass = 0; pass < size && filled_cells < size * size; ++pass) {
+    cv::Mat next_filled = filled.clone();
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        if (filled.at<std::uint8_t>(y, x)) continue;
+        float sum = 0.0f;
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = y + dy, xx = x + dx;
+            if (yy < 0 || xx < 0 || yy >= size || xx >= size || !filled.at<std::uint8_t>(yy, xx))
+              continue;
+            sum += heights.at<float>(yy, xx);
+            ++n;
+          }
+        if (n == 0) continue;
+        heights.at<float>(y, x) = sum / static_cast<float>(n);
+        next_filled.at<std::uint8_t>(y, x) = 1;
+        ++filled_cells;
+      }
+    filled = next_filled;
+  }
+  return static_cast<float>(cv::countNonZero(counts)) / static_cast<float>(size * size);
+}
+
+// Step 4: average pooling to the descriptor's grid, in units of the support radius.
+std::array<float, kShapeDescriptorSize> pooledDescriptor(const cv::Mat& heights, float radius) {
+  cv::Mat pooled;
+  cv::resize(heights, pooled, cv::Size(kShapeDescriptorCells, kShapeDescriptorCells), 0, 0,
+             cv::INTER_AREA);
+  std::array<float, kShapeDescriptorSize> out{};
+  for (int y = 0; y < kShapeDescriptorCells; ++y)
+    for (int x = 0; x < kShapeDescriptorCells; ++x)
+      out[static_cast<std::size_t>(y * kShapeDescriptorCells + x)] =
+          pooled.at<float>(y, x) / radius;
+  return out;
+}
+
+}  // namespace
+
+std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
+                                              const ShapeFeatureParams& params,
+                                              const Eigen::Vector3f& viewpoint,
+                                              const std::vector<std::uint8_t>& may_hold_keypoint) {
+  CV_Assert(surface.normals.size() == surface.points.size());
+  CV_Assert(may_hold_keypoint.empty() || may_hold_keypoint.size() == surface.size());
+  CV_Assert(params.support_radius_m > 0.0f && params.height_image_size >= kShapeDescriptorCells);
+  if (surface.empty()) return {};
+  const detail::CloudIndex index(surface.points);
+  const std::vector<Candidate> keypoints =
+      suppressNonMaxima(interestResponses(surface, index, params, may_hold_keypoint), surface,
+                        params.keypoint_spacing_m);
+  std::vector<ShapeFeature> out;
+  std::vector<std::uint32_t> support;
+  cv::Mat heights;
+  for (const Candidate& keypoint : keypoints) {
+    const Eigen::Vector3f& centre = surface.points[keypoint.point];
+    index.withinRadius(centre, params.support_radius_m, support);
+    if (support.size() < 8) continue;
+    ShapeFeature feature;
+    feature.position = centre;
+    feature.response = keypoint.response;
+    feature.frame = localFrame(surface, support, centre, params.support_radius_m, viewpoint);
+    const float filled_share =
+        heightImage(surface, support, centre, feature.frame, params.support_radius_m,
+                    params.height_image_size, heights);
+    if (filled_share < params.min_filled_share) continue;
+    feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
+    out.push_back(feature);
+    if (params.max_features > 0 && static_cast<int>(out.size()) >= params.max_features) break;
+  }
+  return out;
+}
+
+float descriptorDistance2(const ShapeFeature& a, const ShapeFeature& b) {
+  float sum = 0.0f;
+  for (std::size_t i = 0; i < a.descriptor.size(); ++i) {
+    const float d = a.descriptor[i] - b.descriptor[i];
+    sum += d * d;
+  }
+  return sum;
+}
+
+}  // namespace shapesense
