@@ -64,12 +64,15 @@ std::vector<RoiSegment> mainGroups(const std::vector<RoiSegment>& covered,
 // Step 3: the 3D points of the segments, minus those within the noise band of the support.
 // Keeps them all when the band would take nearly everything (a board or a lid lying flat, only
 // a few depth steps proud of the table at that range).
-std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
-                                          const CameraIntrinsics& intrinsics,
-                                          const cv::Mat& segment_labels,
-                                          const std::vector<RoiSegment>& object, cv::Rect roi,
-                                          cv::Rect bounds, const DetectedPlane* support,
-                                          const SegmentBoxParams& params) {
+struct ObjectPixels {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<cv::Point> pixels;
+};
+
+ObjectPixels objectPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                          const cv::Mat& segment_labels, const std::vector<RoiSegment>& object,
+                          cv::Rect roi, cv::Rect bounds, const DetectedPlane* support,
+                          const SegmentBoxParams& params) {
   enum Membership : std::uint8_t { kNone, kWhole, kInsideRoi };
   std::vector<std::uint8_t> membership(65536, kNone);
   for (const auto& segment : object) membership[segment.id] = segment.whole ? kWhole : kInsideRoi;
@@ -79,9 +82,9 @@ std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
   };
   const double max_depth_m = params.support.estimation.max_valid_depth_m;
   const KinectNoiseModel& noise = params.support.estimation.noise;
-  std::vector<Eigen::Vector3d> all, off_support;
-  all.reserve(static_cast<std::size_t>(bounds.area()));
-  if (support) off_support.reserve(static_cast<std::size_t>(bounds.area()));
+  ObjectPixels all, off_support;
+  all.points.reserve(static_cast<std::size_t>(bounds.area()));
+  if (support) off_support.points.reserve(static_cast<std::size_t>(bounds.area()));
   for (int v = bounds.y; v < bounds.y + bounds.height; ++v) {
     const auto* label = segment_labels.ptr<std::uint16_t>(v);
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);
@@ -90,15 +93,20 @@ std::vector<Eigen::Vector3d> objectPoints(const cv::Mat& depth_mm,
       const double z = 1e-3 * depth[u];
       if (z > max_depth_m) continue;
       const Eigen::Vector3d point = intrinsics.backproject(u, v, z);
-      all.push_back(point);
+      all.points.push_back(point);
+      all.pixels.emplace_back(u, v);
       if (!support) continue;
       const double band =
           std::max(params.support_band_floor_m, params.support_band_steps * noise.depthStep(z));
-      if (support->normal.dot(point) + support->d > band) off_support.push_back(point);
+      if (support->normal.dot(point) + support->d > band) {
+        off_support.points.push_back(point);
+        off_support.pixels.emplace_back(u, v);
+      }
     }
   }
   constexpr double kMinKeptShare = 0.1;
-  if (support && off_support.size() >= kMinKeptShare * static_cast<double>(all.size()))
+  if (support &&
+      off_support.points.size() >= kMinKeptShare * static_cast<double>(all.points.size()))
     return off_support;
   return all;
 }
@@ -265,7 +273,7 @@ std::vector<RoiSegment> segmentsUnderRoi(const cv::Mat& depth_mm, const cv::Mat&
   return covered;
 }
 
-std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
+std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params) {
@@ -298,14 +306,32 @@ std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     for (const auto& segment : object) ids.push_back(segment.id);
   const DetectedPlane* support =
       supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
-  const std::vector<Eigen::Vector3d> points =
+  ObjectPixels found =
       objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
-  if (points.empty()) return noObject("the ROI's segments have no depth reading");
-  const BoxAxes axes = support ? uprightAxes(points, *support) : BoxAxes{};
+  if (found.points.empty()) return noObject("the ROI's segments have no depth reading");
+  RoiObject out;
+  out.mask = cv::Mat::zeros(depth_mm.size(), CV_8UC1);
+  for (const cv::Point& pixel : found.pixels) out.mask.at<std::uint8_t>(pixel) = 255;
+  out.points = std::move(found.points);
+  out.support = support;
+  return out;
+}
+
+std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
+    const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
+    const PlaneDetection& planes, const SegmentBoxParams& params) {
+  auto found =
+      objectUnderRoi(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
+  if (auto* failure = std::get_if<BoxEstimationFailure>(&found)) return *failure;
+  const RoiObject& object = std::get<RoiObject>(found);
+  const cv::Rect roi(cv::Point(std::min(p1.x, p2.x), std::min(p1.y, p2.y)),
+                     cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
+  const BoxAxes axes = object.support ? uprightAxes(object.points, *object.support) : BoxAxes{};
   BoxEstimate out;
   out.mode = BoxMode::kSegments;
-  out.corners = boxAlong(axes, points, support, params);
-  out.stats = pointStatistics(depth_mm, roi, points, out.corners,
+  out.corners = boxAlong(axes, object.points, object.support, params);
+  out.stats = pointStatistics(depth_mm, roi, object.points, out.corners,
                               params.support.estimation.max_valid_depth_m);
   return out;
 }

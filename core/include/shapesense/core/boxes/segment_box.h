@@ -76,6 +76,20 @@ std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params = {});
 
+/// The object an ROI marks: steps 1-3 of boxFromSegments.
+struct RoiObject {
+  cv::Mat mask;  ///< CV_8UC1, the depth image's size: 255 on the object's pixels
+  std::vector<Eigen::Vector3d> points;     ///< their camera-frame points, row by row
+  const DetectedPlane* support = nullptr;  ///< the plane it stands on (in `planes`), if any
+};
+
+/// The object the ROI with corners p1, p2 marks (steps 1-3 of boxFromSegments, which see for
+/// the arguments and the failures). Other uses: what to teach as an object (recognition).
+std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
+    const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
+    const PlaneDetection& planes, const SegmentBoxParams& params = {});
+
 /// A segment an ROI covers (step 1 of boxFromSegments).
 struct RoiSegment {
   std::uint16_t id = 0;
