@@ -267,6 +267,14 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   const std::optional<Hypothesis> hypothesis = ransacPose(matches, model, scene, params);
   if (!hypothesis) return std::nullopt;
   const Eigen::Isometry3f pose = refinePose(hypothesis->scene_from_model, model, scene, params);
+  auto detection = verifyObjectPose(model, scene, pose, params);
+  if (detection) detection->feature_inliers = hypothesis->inliers;
+  return detection;
+}
+
+std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,
+                                                const Eigen::Isometry3f& pose,
+                                                const ObjectMatchParams& params) {
   const Verification check = verifyInDepth(pose, model, scene, params);
   const int seen = check.confirmed + check.contradicted;
   if (seen == 0) return std::nullopt;
@@ -285,7 +293,6 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   out.camera_from_model = pose;
   out.score = score;
   out.confirmed_points = check.confirmed;
-  out.feature_inliers = hypothesis->inliers;
   out.box = boxInCamera(model.box, pose);
   return out;
 }

@@ -114,4 +114,10 @@ struct ObjectDetection {
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
                                           const ObjectMatchParams& params = {});
 
+/// Step 4 alone: `model` at `camera_from_model` as a detection if the depth confirms it (a pose
+/// from elsewhere: the last frame's, another method's). feature_inliers is left 0.
+std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,
+                                                const Eigen::Isometry3f& camera_from_model,
+                                                const ObjectMatchParams& params = {});
+
 }  // namespace shapesense
