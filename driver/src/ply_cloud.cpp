@@ -37,6 +37,10 @@ constexpr std::size_t kMaxProperties = 256;
 constexpr std::size_t kBufferBytes = 64 * 1024;
 constexpr std::size_t kVerticesPerChunk = 4096;
 
+// A name or value from the file, quoted short: a message names two of them at most and stays a
+// status line.
+std::string shortQuote(std::string_view text) { return quoteExcerpt(text, 40); }
+
 // Where the bytes come from: a file or memory.
 class ByteSource {
  public:
@@ -252,7 +256,7 @@ std::vector<std::string_view> tokens(std::string_view line) {
 const ScalarType& scalarType(const Reader& r, std::string_view name) {
   for (const ScalarType& t : kScalarTypes)
     if (t.name == name) return t;
-  r.failAtLine("unknown property type " + quoteExcerpt(name));
+  r.failAtLine("unknown property type " + shortQuote(name));
 }
 
 void parseFormat(const Reader& r, const std::vector<std::string_view>& t, Header& header) {
@@ -265,7 +269,7 @@ void parseFormat(const Reader& r, const std::vector<std::string_view>& t, Header
   } else if (t[1] == "binary_big_endian") {
     r.failAtLine("binary_big_endian files are not supported (ascii and binary_little_endian are)");
   } else {
-    r.failAtLine("unknown format " + quoteExcerpt(t[1]));
+    r.failAtLine("unknown format " + shortQuote(t[1]));
   }
 }
 
@@ -277,8 +281,8 @@ void parseElement(const Reader& r, const std::vector<std::string_view>& t, Heade
   element.name = std::string(t[1]);
   const auto [end, ec] = std::from_chars(t[2].data(), t[2].data() + t[2].size(), element.count);
   if (ec != std::errc() || end != t[2].data() + t[2].size())
-    r.failAtLine("the count of element " + quoteExcerpt(t[1]) +
-                 " is not a number below 2^64: " + quoteExcerpt(t[2]));
+    r.failAtLine("the count of element " + shortQuote(t[1]) +
+                 " is not a number below 2^64: " + shortQuote(t[2]));
   header.elements.push_back(std::move(element));
 }
 
@@ -287,7 +291,7 @@ void parseProperty(const Reader& r, const std::vector<std::string_view>& t, Head
   Element& element = header.elements.back();
   if (element.properties.size() == kMaxProperties)
     r.failAtLine("more than " + std::to_string(kMaxProperties) + " properties in element " +
-                 quoteExcerpt(element.name));
+                 shortQuote(element.name));
   Property property;
   if (t.size() == 5 && t[1] == "list") {
     if (scalarType(r, t[2]).floating) r.failAtLine("a list's count type must be an integer type");
@@ -299,8 +303,8 @@ void parseProperty(const Reader& r, const std::vector<std::string_view>& t, Head
   }
   for (const Property& p : element.properties)
     if (p.name == property.name)
-      r.failAtLine("element " + quoteExcerpt(element.name) + " has two properties " +
-                   quoteExcerpt(property.name));
+      r.failAtLine("element " + shortQuote(element.name) + " has two properties " +
+                   shortQuote(property.name));
   element.properties.push_back(std::move(property));
 }
 
@@ -325,7 +329,7 @@ Header readHeader(Reader& r) {
     } else if (t[0] == "property") {
       parseProperty(r, t, header);
     } else {
-      r.failAtLine("unknown header line " + quoteExcerpt(*line));
+      r.failAtLine("unknown header line " + shortQuote(*line));
     }
   }
   if (!header.format) r.fail("the header has no format line");
@@ -352,7 +356,7 @@ std::size_t fixedStride(const Reader& r, const Element& e) {
   std::size_t stride = 0;
   for (const Property& p : e.properties) {
     if (p.list)
-      r.fail("element " + quoteExcerpt(e.name) +
+      r.fail("element " + shortQuote(e.name) +
              " has a list property before the vertex data of a binary file (not supported)");
     stride += p.type.size;
   }
@@ -401,16 +405,16 @@ void skipElement(Reader& r, const Element& e, Format format) {
   if (format == Format::kAscii) {
     for (std::uint64_t i = 0; i < e.count; ++i)
       if (!r.line(kMaxBodyLine))
-        r.fail("truncated: the file ends inside element " + quoteExcerpt(e.name));
+        r.fail("truncated: the file ends inside element " + shortQuote(e.name));
     return;
   }
   const std::size_t stride = fixedStride(r, e);
   if (stride > 0 && e.count > r.remaining() / stride)
-    r.fail("truncated: element " + quoteExcerpt(e.name) + " needs more bytes than follow");
+    r.fail("truncated: element " + shortQuote(e.name) + " needs more bytes than follow");
   std::vector<char> scratch(std::min<std::uint64_t>(kBufferBytes, e.count * stride));
   for (std::uint64_t left = e.count * stride; left > 0;) {
     const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(left, scratch.size()));
-    r.bytes(scratch.data(), n, "element " + quoteExcerpt(e.name));
+    r.bytes(scratch.data(), n, "element " + shortQuote(e.name));
     left -= n;
   }
 }
@@ -441,7 +445,7 @@ void readAsciiVertices(Reader& r, const Element& vertex, const VertexLayout& lay
     for (std::size_t k = 0; k < t.size(); ++k) {
       const auto [end, ec] = std::from_chars(t[k].data(), t[k].data() + t[k].size(), values[k]);
       if (ec != std::errc() || end != t[k].data() + t[k].size())
-        r.failAtLine(quoteExcerpt(t[k]) + " is not a number");
+        r.failAtLine(shortQuote(t[k]) + " is not a number");
     }
     std::array<double, 6> v{};
     for (std::size_t k = 0; k < (layout.normals ? 6u : 3u); ++k) v[k] = values[layout.property[k]];
