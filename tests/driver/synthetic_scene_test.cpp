@@ -114,6 +114,79 @@ TEST(SyntheticScene, StaticCameraGivesIdenticalGeometryButFreshNoise) {
   EXPECT_FALSE(identical(f0.frame.depth, f45.frame.depth));  // the sensor noise is per frame
 }
 
+TEST(SyntheticScene, RenderingFromTheFramesOwnPoseIsTheSameFrame) {
+  const SyntheticScene scene(SceneParams{});
+  const RenderedFrame plain = scene.render(17, 42);
+  const RenderedFrame posed = scene.render(17, 42, scene.worldFromCamera(17));
+  EXPECT_TRUE(identical(plain.frame.depth, posed.frame.depth));
+  EXPECT_TRUE(identical(plain.frame.rgb, posed.frame.rgb));
+  EXPECT_TRUE(identical(plain.truth.surface_labels, posed.truth.surface_labels));
+  EXPECT_TRUE(identical(plain.truth.object_labels, posed.truth.object_labels));
+  EXPECT_TRUE(identical(plain.truth.ideal_depth, posed.truth.ideal_depth));
+  EXPECT_TRUE(plain.truth.world_from_camera.isApprox(posed.truth.world_from_camera, 0.0));
+  EXPECT_EQ(posed.frame.sequence, 17u);
+  EXPECT_EQ(posed.frame.timestamp_ns, 42);
+  ASSERT_EQ(plain.truth.objects.size(), posed.truth.objects.size());
+  for (std::size_t i = 0; i < plain.truth.objects.size(); ++i) {
+    EXPECT_EQ(plain.truth.objects[i].center, posed.truth.objects[i].center);
+    EXPECT_EQ(plain.truth.objects[i].pixel_count, posed.truth.objects[i].pixel_count);
+  }
+}
+
+// Share of the object's pixels in `from` whose ideal 3D point, moved into `to`'s camera frame,
+// lands on a pixel of `to` that shows that same point (ideal depth within 5 mm); points that
+// leave the image are not counted.
+double shareSeenAgain(const TruthFrame& from, const TruthFrame& to, std::uint16_t object_id) {
+  const CameraIntrinsics k;
+  const Eigen::Isometry3d to_from_from = to.world_from_camera.inverse() * from.world_from_camera;
+  std::size_t inside = 0, same = 0;
+  for (int v = 0; v < from.object_labels.rows; ++v)
+    for (int u = 0; u < from.object_labels.cols; ++u) {
+      if (from.object_labels.at<std::uint16_t>(v, u) != object_id) continue;
+      const Eigen::Vector3d p =
+          to_from_from * k.backproject(u, v, from.ideal_depth.at<float>(v, u));
+      const Eigen::Vector2d px = k.project(p);
+      const int pu = static_cast<int>(std::lround(px.x()));
+      const int pv = static_cast<int>(std::lround(px.y()));
+      if (pu < 0 || pv < 0 || pu >= to.ideal_depth.cols || pv >= to.ideal_depth.rows) continue;
+      ++inside;
+      same += std::abs(to.ideal_depth.at<float>(pv, pu) - p.z()) < 0.005;
+    }
+  return inside > 0 ? static_cast<double>(same) / static_cast<double>(inside) : 0.0;
+}
+
+TEST(SyntheticScene, ACameraMovedSidewaysSeesTheObjectsMovedTheOtherWay) {
+  SceneParams params;
+  params.camera_motion = 0.0;
+  const SyntheticScene scene(params);
+  const Eigen::Isometry3d pose = scene.worldFromCamera(0);
+  const Eigen::Isometry3d moved = pose * Eigen::Translation3d(0.1, 0.0, 0.0);  // 10 cm right
+  const RenderedFrame before = scene.render(0, 0);
+  const RenderedFrame after = scene.render(0, 0, moved);
+  EXPECT_TRUE(after.truth.world_from_camera.isApprox(moved, 0.0));
+  EXPECT_FALSE(identical(before.truth.ideal_depth, after.truth.ideal_depth));
+  ASSERT_EQ(before.truth.objects.size(), after.truth.objects.size());
+  for (std::size_t i = 0; i < before.truth.objects.size(); ++i) {
+    const TruthObject& a = before.truth.objects[i];
+    const TruthObject& b = after.truth.objects[i];
+    EXPECT_LT((b.center - (a.center - Eigen::Vector3d(0.1, 0.0, 0.0))).norm(), 1e-9) << a.name;
+    EXPECT_TRUE(b.rotation.isApprox(a.rotation, 1e-12)) << a.name;  // a pure translation
+  }
+  // The rendering moved too: the boxes' pixels are found again where the truth transform puts
+  // them (not all: a box can hide part of another from the new viewpoint, and a pixel is
+  // rounded to the nearest in the other view, which misses at steep depth edges).
+  int checked = 0;
+  for (const TruthObject& o : before.truth.objects) {
+    if (o.kind != "box" || o.pixel_count < 500) continue;
+    EXPECT_GT(shareSeenAgain(before.truth, after.truth, o.id), 0.8) << o.name;
+    TruthFrame unmoved = after.truth;  // the new pixels under the old pose: they do not agree
+    unmoved.world_from_camera = pose;
+    EXPECT_LT(shareSeenAgain(before.truth, unmoved, o.id), 0.5) << o.name;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
+}
+
 TEST(SyntheticScene, LayoutIsPlausible) {
   for (std::uint64_t seed = 1; seed <= 12; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));

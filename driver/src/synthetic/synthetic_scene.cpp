@@ -101,8 +101,12 @@ Eigen::Isometry3d SyntheticScene::worldFromCamera(std::uint64_t index) const {
 }
 
 RenderedFrame SyntheticScene::render(std::uint64_t index, TimestampNs timestamp_ns) const {
+  return render(index, timestamp_ns, worldFromCamera(index));
+}
+
+RenderedFrame SyntheticScene::render(std::uint64_t index, TimestampNs timestamp_ns,
+                                     const Eigen::Isometry3d& world_from_camera) const {
   const CameraIntrinsics& k = params_.intrinsics;
-  const Eigen::Isometry3d world_from_camera = worldFromCamera(index);
 
   detail::HitBuffer hits(k.width + detail::projectorShadowColumns(params_), k.height);
   detail::RayCaster caster(k, world_from_camera, hits);

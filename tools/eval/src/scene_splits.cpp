@@ -2,6 +2,8 @@
 
 #include <random>
 
+#include "random_draws.h"
+
 namespace shapesense::eval {
 namespace {
 
@@ -19,15 +21,9 @@ std::uint64_t splitSeedBase(Split split) {
   return 0;
 }
 
-double uniform(std::mt19937_64& rng, double lo, double hi) {
-  return std::uniform_real_distribution<double>(lo, hi)(rng);
-}
-
-int uniformInt(std::mt19937_64& rng, int lo, int hi) {
-  return std::uniform_int_distribution<int>(lo, hi)(rng);
-}
-
-bool chance(std::mt19937_64& rng, double p) { return uniform(rng, 0.0, 1.0) < p; }
+using detail::chance;
+using detail::uniform;
+using detail::uniformInt;
 
 void drawCamera(std::mt19937_64& rng, synthetic::SceneParams& p) {
   p.camera_motion = uniform(rng, 0.0, 1.5);

@@ -321,6 +321,15 @@ class SyntheticScene {
   /// Renders frame `index`; timestamp_ns is only stored in the frame. Thread-safe.
   RenderedFrame render(std::uint64_t index, TimestampNs timestamp_ns) const;
 
+  /// Renders frame `index` as a camera at `world_from_camera` sees the scene: the same layout
+  /// from another viewpoint, with frame `index`'s sensor noise. For data sets that need one
+  /// scene from several known poses (teach an object in one view, find it in another: the truth
+  /// transform between two views is camera_b_from_world * world_from_camera_a). The truth is in
+  /// that camera's coordinates and truth.world_from_camera is the given pose. Given
+  /// worldFromCamera(index) it is render(index, timestamp_ns), byte for byte. Thread-safe.
+  RenderedFrame render(std::uint64_t index, TimestampNs timestamp_ns,
+                       const Eigen::Isometry3d& world_from_camera) const;
+
   /// The camera pose of frame `index` (the same as render(index, ...).truth.world_from_camera).
   Eigen::Isometry3d worldFromCamera(std::uint64_t index) const;
 
