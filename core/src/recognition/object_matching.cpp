@@ -104,21 +104,69 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
   return out;
 }
 
-// Step 2: a triangle of compatible matches gives a pose; the pose the most model features
-// agree with wins.
-std::optional<Hypothesis> ransacPose(const std::vector<Match>& matches, const ObjectModel& model,
-                                     const SceneSurface& scene, const ObjectMatchParams& params) {
+bool samePose(const Eigen::Isometry3f& a, const Eigen::Isometry3f& b,
+              const Eigen::Vector3f& centre) {
+  constexpr float kDistanceM = 0.02f;
+  constexpr float kAngleRad = 0.17f;  // 10 deg
+  const Eigen::AngleAxisf turn(a.linear() * b.linear().transpose());
+  return (a * centre - b * centre).norm() < kDistanceM && std::abs(turn.angle()) < kAngleRad;
+}
+
+// Keeps the `capacity` hypotheses with the most inliers, one per distinct pose.
+void keepHypothesis(std::vector<Hypothesis>& kept, const Hypothesis& candidate,
+                    std::size_t capacity, const Eigen::Vector3f& centre) {
+  for (Hypothesis& h : kept) {
+    if (!samePose(h.scene_from_model, candidate.scene_from_model, centre)) continue;
+    if (candidate.inliers > h.inliers) h = candidate;
+    std::sort(kept.begin(), kept.end(),
+              [](const Hypothesis& x, const Hypothesis& y) { return x.inliers > y.inliers; });
+    return;
+  }
+  if (kept.size() < capacity) {
+    kept.push_back(candidate);
+  } else if (candidate.inliers > kept.back().inliers) {
+    kept.back() = candidate;
+  } else {
+    return;
+  }
+  std::sort(kept.begin(), kept.end(),
+            [](const Hypothesis& x, const Hypothesis& y) { return x.inliers > y.inliers; });
+}
+
+// The pose fitted to every match that agrees with `h`.
+Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matches,
+                           const ObjectModel& model, const SceneSurface& scene,
+                           const ObjectMatchParams& params) {
+  const std::vector<Match> agreeing =
+      agreeingMatches(h.scene_from_model, matches, model, scene, params.inlier_distance_m);
+  Eigen::Matrix3Xf all_model(3, static_cast<Eigen::Index>(agreeing.size()));
+  Eigen::Matrix3Xf all_scene(3, static_cast<Eigen::Index>(agreeing.size()));
+  for (std::size_t i = 0; i < agreeing.size(); ++i) {
+    all_model.col(static_cast<Eigen::Index>(i)) =
+        model.features[static_cast<std::size_t>(agreeing[i].model)].position;
+    all_scene.col(static_cast<Eigen::Index>(i)) =
+        scene.features()[static_cast<std::size_t>(agreeing[i].scene)].position;
+  }
+  return Hypothesis{rigidFromPairs(all_model, all_scene), h.inliers};
+}
+
+// Step 2: a triangle of compatible matches gives a pose. The distinct poses the most model
+// features agree with are kept, best first: the most agreed-on pose is often a box turned
+// half round (its corners look alike), which only the depth check tells from the right one.
+std::vector<Hypothesis> ransacPoses(const std::vector<Match>& matches, const ObjectModel& model,
+                                    const SceneSurface& scene, const ObjectMatchParams& params) {
   const std::vector<std::vector<std::uint32_t>> partners =
       compatiblePairs(matches, model, scene, params);
   std::vector<std::uint32_t> starts;
   for (std::size_t i = 0; i < matches.size(); ++i)
     if (partners[i].size() >= 2) starts.push_back(static_cast<std::uint32_t>(i));
-  if (starts.empty()) return std::nullopt;
+  if (starts.empty()) return {};
   std::mt19937_64 rng(params.seed);
   const auto pick = [&rng](std::size_t n) {
     return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
   };
-  std::optional<Hypothesis> best;
+  const std::size_t capacity = static_cast<std::size_t>(std::max(1, params.pose_hypotheses));
+  std::vector<Hypothesis> kept;
   Eigen::Matrix3Xf model_points(3, 3), scene_points(3, 3);
   for (int iteration = 0; iteration < params.ransac_iterations; ++iteration) {
     const std::uint32_t a = starts[pick(starts.size())];
@@ -134,22 +182,11 @@ std::optional<Hypothesis> ransacPose(const std::vector<Match>& matches, const Ob
     const Eigen::Isometry3f pose = rigidFromPairs(model_points, scene_points);
     const int inliers = static_cast<int>(
         agreeingMatches(pose, matches, model, scene, params.inlier_distance_m).size());
-    if (!best || inliers > best->inliers) best = Hypothesis{pose, inliers};
+    if (inliers >= params.min_inliers)
+      keepHypothesis(kept, Hypothesis{pose, inliers}, capacity, model.box.centre);
   }
-  if (!best || best->inliers < params.min_inliers) return std::nullopt;
-  // Refit on every agreeing match.
-  const std::vector<Match> agreeing =
-      agreeingMatches(best->scene_from_model, matches, model, scene, params.inlier_distance_m);
-  Eigen::Matrix3Xf all_model(3, static_cast<Eigen::Index>(agreeing.size()));
-  Eigen::Matrix3Xf all_scene(3, static_cast<Eigen::Index>(agreeing.size()));
-  for (std::size_t i = 0; i < agreeing.size(); ++i) {
-    all_model.col(static_cast<Eigen::Index>(i)) =
-        model.features[static_cast<std::size_t>(agreeing[i].model)].position;
-    all_scene.col(static_cast<Eigen::Index>(i)) =
-        scene.features()[static_cast<std::size_t>(agreeing[i].scene)].position;
-  }
-  best->scene_from_model = rigidFromPairs(all_model, all_scene);
-  return best;
+  for (Hypothesis& h : kept) h = refitOnAgreeing(h, matches, model, scene, params);
+  return kept;
 }
 
 // Step 3: point-to-plane ICP, linearised about the current pose.
@@ -264,12 +301,15 @@ SceneSurface::~SceneSurface() = default;
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
                                           const ObjectMatchParams& params) {
   const std::vector<Match> matches = candidateMatches(model, scene, params);
-  const std::optional<Hypothesis> hypothesis = ransacPose(matches, model, scene, params);
-  if (!hypothesis) return std::nullopt;
-  const Eigen::Isometry3f pose = refinePose(hypothesis->scene_from_model, model, scene, params);
-  auto detection = verifyObjectPose(model, scene, pose, params);
-  if (detection) detection->feature_inliers = hypothesis->inliers;
-  return detection;
+  std::optional<ObjectDetection> best;
+  for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
+    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, scene, params);
+    auto detection = verifyObjectPose(model, scene, pose, params);
+    if (!detection) continue;
+    detection->feature_inliers = hypothesis.inliers;
+    if (!best || detection->confirmed_points > best->confirmed_points) best = detection;
+  }
+  return best;
 }
 
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

@@ -3,9 +3,10 @@
 //
 // Steps (findObject):
 //   1. candidate matches: each model feature's nearest scene features by descriptor;
-//   2. a pose from them by RANSAC over 3-point samples whose pairwise distances agree in the
-//      model and the scene (a rigid motion keeps them), scored by the matches it carries;
-//   3. refinement by point-to-plane ICP of the model's surface on the scene's surface;
+//   2. poses from them by RANSAC over 3-point samples whose pairwise distances agree in the
+//      model and the scene (a rigid motion keeps them), scored by the matches they carry; the
+//      few best distinct ones go on;
+//   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface;
 //   4. verification in the depth: of the model's points that face the camera in that pose and
 //      fall in the image, the share the depth confirms (a reading at the predicted depth, within
 //      the sensor's noise) among those it confirms or contradicts (a reading behind where the
@@ -74,6 +75,9 @@ struct ObjectMatchParams {
   float min_sample_spacing_m = 0.02f;
   /// Fewest agreeing matches (distinct model features) for a pose to be refined. Default 7.
   int min_inliers = 7;
+  /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
+  /// matches that are refined and checked; the one the depth confirms most wins. Default 5.
+  int pose_hypotheses = 5;
   /// Point-to-plane ICP iterations and the farthest pair it uses (m). Defaults 20 and 2 cm.
   int icp_iterations = 20;
   float icp_max_distance_m = 0.02f;
@@ -82,7 +86,7 @@ struct ObjectMatchParams {
   float confirm_distance_m = 0.01f;
   float confirm_steps = 3.0f;
   /// Smallest share of confirmed points for a detection. Default 0.85.
-  float min_score = 0.85f;
+  float min_score = 0.95f;
   /// Fewest model points the depth must confirm, as a share of the model's points: a pose that
   /// shows only part of the object (the rest hidden behind other surfaces, or facing away) is
   /// not evidence enough; corners and edges of other boxes fit a part. Default 0.5, the least
@@ -110,7 +114,8 @@ struct ObjectDetection {
   OrientedBox box;           ///< the model's box in the camera frame
 };
 
-/// The best pose of `model` in `scene` that passes the verification, or none.
+/// Of the poses of `model` in `scene` that pass the verification, the one the depth confirms
+/// most; or none.
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
                                           const ObjectMatchParams& params = {});
 

@@ -1,0 +1,68 @@
+#pragma once
+// Scoring of taught-object recognition (core/recognition) on the recognition cases
+// (recognition_views.h): each teachable object is taught as an operator would (its truth image
+// box as the ROI, the object that ROI marks after the detector chain has run on the teach
+// frame), then looked for in the other views. Issue 22's measure: recall at a pose error of at
+// most 1 cm and 5 deg where at least half of the object is visible, and false detections per
+// frame for five taught objects.
+
+#include <string>
+#include <vector>
+
+#include "shapesense/core/recognition/object_matching.h"
+#include "shapesense/eval/recognition_views.h"
+
+namespace shapesense::eval {
+
+/// How a found pose is judged.
+struct PoseTolerance {
+  double translation_m = 0.01;
+  double rotation_deg = 5.0;
+  /// A view must show at least this share of the object (visibleShare) for it to be required;
+  /// below `min_visible_share_present` a detection is false whatever its pose.
+  double min_visible_share = 0.5;
+  double min_visible_share_present = 0.1;
+};
+
+struct RecognitionScore {
+  int cases = 0;
+  int views = 0;             ///< other views searched
+  int taught = 0;            ///< objects taught
+  int refused = 0;           ///< teachable objects the ROI could not teach (reasons counted below)
+  int required = 0;          ///< (object, view) pairs that must be found
+  int found = 0;             ///< ...found within the tolerance
+  int wrong_pose = 0;        ///< ...detected with a pose outside it (also counted false)
+  int false_detections = 0;  ///< detections not within the tolerance of a present object
+  std::vector<double> translation_errors_m;  ///< of the found ones
+  std::vector<double> rotation_errors_deg;
+  double describe_ms_total = 0.0;  ///< SceneSurface, summed over views
+  double find_ms_total = 0.0;      ///< findObject, summed over (model, view)
+  int searches = 0;                ///< findObject calls
+
+  double recall() const { return required ? static_cast<double>(found) / required : 0.0; }
+  /// False detections per frame, scaled to five taught objects (the issue's measure).
+  double falsePerFrameForFive() const;
+};
+
+struct PoseErrorDeg {
+  double translation_m = 0.0;
+  double rotation_deg = 0.0;
+};
+
+/// Pose error of `estimated` (camera from model, the model in the teach camera's frame)
+/// against `truth` (teachToView), at `centre` (model frame). Tins and cups look the same turned
+/// about their axis, so for them only the axis (`axis`, model frame) counts.
+PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
+                       const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
+                       bool axially_symmetric);
+
+/// Scores cases [first, first + count) of a split with `other_views` views each.
+RecognitionScore scoreRecognition(Split split, int first, int count, int other_views = 3,
+                                  const ObjectModelParams& model_params = {},
+                                  const ObjectMatchParams& match_params = {},
+                                  const PoseTolerance& tolerance = {});
+
+/// The score as the table shapesense-eval prints.
+std::string formatRecognitionScore(const std::string& label, const RecognitionScore& score);
+
+}  // namespace shapesense::eval
