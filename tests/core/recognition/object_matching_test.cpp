@@ -87,7 +87,7 @@ TEST(ShapeFeatures, MoveWithTheSurface) {
       << features.size() << " features, " << moved_features.size() << " after the motion";
 }
 
-TEST(ObjectMatching, FindsATaughtBoxInALaterFrame) {
+TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
   int found = 0, tried = 0;
   for (std::uint64_t seed = 21; seed < 27; ++seed) {
     synthetic::SceneParams params;
@@ -135,7 +135,7 @@ TEST(ObjectMatching, FindsATaughtBoxInALaterFrame) {
 
 // Models taught in some scenes, looked for in scenes of other seeds, whose boxes and tins have
 // other sizes: every detection is false.
-TEST(ObjectMatching, FindsNoTaughtObjectInScenesWithoutIt) {
+TEST(ObjectMatchingQuality, FindsNoTaughtObjectInScenesWithoutIt) {
   std::vector<ObjectModel> models;
   for (std::uint64_t seed = 21; seed < 24; ++seed) {
     const auto teach = synthetic::SyntheticScene([&] {
