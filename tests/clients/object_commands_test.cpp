@@ -41,6 +41,7 @@ class ObjectCommands : public ::testing::Test {
  protected:
   void SetUp() override {
     global.server = "127.0.0.1:" + std::to_string(srv.port());
+    global.timeout_s = 60;  // a loaded machine; the calls' own speed is not tested here
     const cv::Rect r = scene.roi("box1");
     roi = std::to_string(r.x) + "," + std::to_string(r.y) + "," +
           std::to_string(r.x + r.width - 1) + "," + std::to_string(r.y + r.height - 1);
@@ -53,7 +54,7 @@ class ObjectCommands : public ::testing::Test {
     return run(global, args);
   }
 
-  testing::TestServer srv;
+  testing::TestServer srv{16, {}, {}, testing::patientLimits()};
   testing::ObjectScene scene{srv};
   cli::GlobalOptions global;
   std::string roi;

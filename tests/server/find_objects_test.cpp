@@ -30,7 +30,7 @@ class FindObjectsTest : public ::testing::Test {
 
   static Eigen::Vector3d point(const v1::Point3& p) { return {p.x(), p.y(), p.z()}; }
 
-  TestServer srv;
+  TestServer srv{16, {}, {}, patientLimits()};
   ObjectScene scene{srv};
 };
 

@@ -32,7 +32,7 @@ TEST(ListObjectModels, ListsWhatWasTaughtByNameAndAgainAfterARestart) {
   const auto dir = scratchDir("list-object-models");
   v1::ListObjectModelsResponse before;
   {
-    TestServer srv(16, {}, {}, {}, dir);
+    TestServer srv(16, {}, {}, patientLimits(), dir);
     ObjectScene scene(srv);
     v1::TeachObjectResponse taught;
     const auto start_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -47,7 +47,7 @@ TEST(ListObjectModels, ListsWhatWasTaughtByNameAndAgainAfterARestart) {
     EXPECT_EQ(before.models(0).feature_count(), taught.model().feature_count());
     EXPECT_GE(before.models(0).taught_at_ns(), start_ns - 2'000'000'000);  // file time grain
   }
-  TestServer restarted(16, {}, {}, {}, dir);
+  TestServer restarted(16, {}, {}, patientLimits(), dir);
   const auto after = listModels(restarted);
   ASSERT_EQ(after.models_size(), 2);
   for (int i = 0; i < 2; ++i) {
@@ -62,7 +62,7 @@ TEST(ListObjectModels, ListsWhatWasTaughtByNameAndAgainAfterARestart) {
 TEST(ListObjectModels, ACorruptFileIsSkippedWithALogLineAndTheRestLoads) {
   const auto dir = scratchDir("list-object-models-corrupt");
   {
-    TestServer srv(16, {}, {}, {}, dir);
+    TestServer srv(16, {}, {}, patientLimits(), dir);
     ObjectScene scene(srv);
     v1::TeachObjectResponse taught;
     ASSERT_TRUE(teachObject(srv, 0, scene.roi("box1"), "good", false, taught).ok());
@@ -71,7 +71,7 @@ TEST(ListObjectModels, ACorruptFileIsSkippedWithALogLineAndTheRestLoads) {
   auto sink = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
   spdlog::default_logger()->sinks().push_back(sink);
   {
-    TestServer restarted(16, {}, {}, {}, dir);
+    TestServer restarted(16, {}, {}, patientLimits(), dir);
     const auto listed = listModels(restarted);
     ASSERT_EQ(listed.models_size(), 1);
     EXPECT_EQ(listed.models(0).name(), "good");

@@ -28,7 +28,7 @@ class TeachObjectTest : public ::testing::Test {
     return teachObject(srv, at_ns, scene.roi("box1"), name, replace, response);
   }
 
-  TestServer srv;
+  TestServer srv{16, {}, {}, patientLimits()};
   ObjectScene scene{srv};
   v1::TeachObjectResponse response;
 };
@@ -114,7 +114,7 @@ TEST_F(TeachObjectTest, AnRoiOnNoObjectOrOnTooLittleShapeIsFailedPreconditionSay
 }
 
 TEST(TeachObjectFull, AFullFolderIsResourceExhaustedButReplacingStillWorks) {
-  TestServer srv(16, {}, {}, {}, {}, /*max_object_models=*/1);
+  TestServer srv(16, {}, {}, patientLimits(), {}, /*max_object_models=*/1);
   ObjectScene scene(srv);
   v1::TeachObjectResponse response;
   ASSERT_TRUE(teachObject(srv, 0, scene.roi("box1"), "first", false, response).ok());

@@ -38,6 +38,12 @@ Eigen::Isometry3d ObjectScene::motion(int sequence) const {
   return truths.at(sequence).world_from_camera.inverse() * truths.front().world_from_camera;
 }
 
+ServerLimits patientLimits() {
+  ServerLimits limits;
+  limits.queries.max_wait = std::chrono::seconds(30);
+  return limits;
+}
+
 grpc::Status teachObject(TestServer& srv, std::int64_t at_ns, const cv::Rect& roi,
                          const std::string& name, bool replace, v1::TeachObjectResponse& response) {
   v1::TeachObjectRequest request;

@@ -34,6 +34,11 @@ struct ObjectScene {
   std::vector<synthetic::TruthFrame> truths;
 };
 
+/// Limits under which a query waits for the query worker as long as it takes: teaching and
+/// finding take long on a loaded machine, and these tests are about them, not the load limits
+/// (query_limits_test.cpp).
+ServerLimits patientLimits();
+
 /// Teaches `name` from the ROI `roi` of the frame at `at_ns`.
 grpc::Status teachObject(TestServer& srv, std::int64_t at_ns, const cv::Rect& roi,
                          const std::string& name, bool replace, v1::TeachObjectResponse& response);
