@@ -1,39 +1,16 @@
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
 #include "overlay.h"
+#include "roi_arg.h"
 #include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/core/geometry/timestamp.h"
 #include "time_arg.h"
 
 namespace shapesense::cli {
-namespace {
-
-// "x1,y1,x2,y2" -> two pixels.
-std::pair<v1::Pixel, v1::Pixel> parseRoi(const std::string& text) {
-  std::array<int, 4> values{};
-  std::istringstream in(text);
-  char comma = 0;
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    if (!(in >> values[i]) || (i < 3 && !(in >> comma && comma == ','))) {
-      throw CLI::ValidationError("--roi",
-                                 "'" + text + "' is not x1,y1,x2,y2 (four whole pixel numbers)");
-    }
-  }
-  if (in >> comma) throw CLI::ValidationError("--roi", "'" + text + "' has more than four numbers");
-  v1::Pixel p1, p2;
-  p1.set_x(values[0]);
-  p1.set_y(values[1]);
-  p2.set_x(values[2]);
-  p2.set_y(values[3]);
-  return {p1, p2};
-}
-
-}  // namespace
 
 void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
   auto* cmd =
@@ -59,7 +36,7 @@ void addBboxCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_option("--out", args->out, "Also draw the box over the frame into this PNG");
   cmd->callback([&global, args] {
-    const auto [p1, p2] = parseRoi(args->roi);
+    const auto [p1, p2] = parseRoiArgument(args->roi);
     Connection connection(global);
     v1::EstimateBoxRequest request;
     // Mode 4 boxes the detectors' segments: without --at, the newest frame they processed.

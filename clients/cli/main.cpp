@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
   addBowlsCommand(app, global);
   addSceneCommand(app, global);
   addRecordCommand(app, global);
+  addTeachCommand(app, global);
+  addObjectsCommand(app, global);
+  addFindCommand(app, global);
   addConsoleCommand(app, global);
   addSynthCommand(app);
   addAnalyzeCommand(app);

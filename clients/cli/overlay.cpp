@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <string>
 
 #include "shapesense/core/boxes/box_estimation.h"
 
@@ -82,6 +84,29 @@ void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& 
   cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 3,
               cv::LINE_AA);
   cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv::LINE_AA);
+}
+
+void drawObjectDetection(cv::Mat& bgr, const CameraIntrinsics& intrinsics,
+                         const v1::ObjectDetection& detection) {
+  const cv::Vec3b colour = labelColour(static_cast<std::uint32_t>(
+      std::hash<std::string>{}(detection.name()) % 65521 + 1));  // one colour per name
+  const cv::Scalar scalar(colour[0], colour[1], colour[2]);
+  if (detection.box().corners_size() == 8) {
+    BoxCorners corners;
+    for (int i = 0; i < 8; ++i) {
+      const auto& c = detection.box().corners(i);
+      corners[i] = {c.x(), c.y(), c.z()};
+    }
+    drawBox(bgr, intrinsics, corners, scalar, 2);
+  }
+  const auto& b = detection.image_box();
+  char label[96];
+  std::snprintf(label, sizeof label, "%s %.2f", detection.name().c_str(), detection.score());
+  // Above the box's projection, or inside its top edge when that touches the image's top.
+  const cv::Point origin(b.x(), b.y() >= 16 ? b.y() - 5 : b.y() + 14);
+  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3,
+              cv::LINE_AA);
+  cv::putText(bgr, label, origin, cv::FONT_HERSHEY_SIMPLEX, 0.5, scalar, 1, cv::LINE_AA);
 }
 
 FrameBackground fetchFrameBackground(Connection& connection, TimestampNs timestamp_ns) {

@@ -26,6 +26,10 @@ cv::Vec3b labelColour(std::uint32_t id);
 /// above the box.
 void drawBowl(cv::Mat& bgr, const CameraIntrinsics& intrinsics, const v1::Bowl& bowl);
 
+/// Draws a found taught object: its 3D box and "name score" above the box's projection.
+void drawObjectDetection(cv::Mat& bgr, const CameraIntrinsics& intrinsics,
+                         const v1::ObjectDetection& detection);
+
 /// A cached frame fetched for drawing: its picture (colour when the source has it, else
 /// coloured depth) and intrinsics.
 struct FrameBackground {

@@ -19,7 +19,7 @@ constexpr std::size_t kMaxTokenFileBytes = 1 << 20;
 
 /// Methods a `read` token may call. Anything not listed needs `record`, so a method added
 /// later is closed until someone decides it only reads.
-constexpr std::array<std::string_view, 14> kReadMethods = {
+constexpr std::array<std::string_view, 16> kReadMethods = {
     "/shapesense.v1.ShapeSense/GetStatus",
     "/shapesense.v1.ShapeSense/ListFrames",
     "/shapesense.v1.ShapeSense/GetFrame",
@@ -31,6 +31,8 @@ constexpr std::array<std::string_view, 14> kReadMethods = {
     "/shapesense.v1.ShapeSense/GetBowls",
     "/shapesense.v1.ShapeSense/GetScene",
     "/shapesense.v1.ShapeSense/WatchScene",
+    "/shapesense.v1.ShapeSense/ListObjectModels",
+    "/shapesense.v1.ShapeSense/FindObjects",
     "/grpc.health.v1.Health/Check",
     "/grpc.health.v1.Health/Watch",
     "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",

@@ -35,6 +35,10 @@ Daemon::Daemon(const DaemonOptions& options)
                    options.record.root.string(), error.message());
     }
   }
+  if (!options.object_models.empty()) {
+    object_models_ =
+        std::make_unique<ObjectModelStore>(options.object_models, options.object_models_max);
+  }
   DetectorChain chain = makeDetectorChain(options.detectors);
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
                                          std::move(chain), cache_, hub_, &tap_);
@@ -42,6 +46,7 @@ Daemon::Daemon(const DaemonOptions& options)
   context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };
   context.record = options.record;
+  context.object_models = object_models_.get();
   runAtNice(options.limits.grpc_nice, [&] {
     server_ =
         std::make_unique<RpcServer>(options.listen, std::move(context), std::move(server_options));

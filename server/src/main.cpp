@@ -118,6 +118,7 @@ struct CommandLine {
       100 * options.detectors.bowl_geometry_params.min_rim_diameter_m,
       100 * options.detectors.bowl_geometry_params.max_rim_diameter_m};
   std::string models;
+  std::string object_models = shapesense::defaultObjectModelsDir().string();
   double stall_seconds = std::chrono::duration<double>(options.stall_limit).count();
   int query_max_wait_ms = static_cast<int>(options.limits.queries.max_wait.count());
   double keepalive_seconds = options.limits.keepalive_ms / 1000.0;
@@ -178,6 +179,18 @@ void addRecordOptions(CLI::App& app, CommandLine& c) {
   app.add_option("--record-max-seconds", options.record.max_seconds,
                  "Longest recording a client may ask for")
       ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
+}
+
+void addObjectModelOptions(CLI::App& app, CommandLine& c) {
+  app.add_option("--object-models", c.object_models,
+                 "Folder of the taught objects (<name>.json, written by TeachObject; created "
+                 "when missing); default: object-models beside the default recordings root")
+      ->capture_default_str();
+  app.add_option("--object-models-max", c.options.object_models_max,
+                 "Most taught objects the folder may hold; TeachObject answers "
+                 "RESOURCE_EXHAUSTED beyond")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1000}))
       ->capture_default_str();
 }
 
@@ -309,6 +322,11 @@ std::optional<DaemonOptions> toDaemonOptions(CommandLine c) {
   options.limits.keepalive_timeout_ms = static_cast<int>(c.keepalive_timeout_seconds * 1000);
   options.record.root = c.record_root;
   options.record.min_free_bytes = c.record_min_free_mb << 20;
+  if (c.object_models.empty()) {
+    std::cerr << "--object-models: name a folder\n";
+    return std::nullopt;
+  }
+  options.object_models = c.object_models;
   return options;
 }
 
@@ -330,10 +348,11 @@ int serve(const DaemonOptions& options) {
     return 1;
   }
   const auto& security = options.security;
-  spdlog::info("shapesensed {} serving {} on {} (port {}, {}{}); recordings under {}",
-               SHAPESENSE_VERSION, options.source, options.listen, daemon->port(),
-               security.tls() ? "TLS" : "plain", security.tokens() ? " with tokens" : "",
-               options.record.root.string());
+  spdlog::info(
+      "shapesensed {} serving {} on {} (port {}, {}{}); recordings under {}; taught objects in {}",
+      SHAPESENSE_VERSION, options.source, options.listen, daemon->port(),
+      security.tls() ? "TLS" : "plain", security.tokens() ? " with tokens" : "",
+      options.record.root.string(), options.object_models.string());
   notifySystemd("READY=1");
 
   const int signal_number = waitForShutdown(
@@ -356,6 +375,7 @@ int main(int argc, char** argv) {
   addSecurityOptions(app, command_line);
   addRecordOptions(app, command_line);
   addDetectorOptions(app, command_line);
+  addObjectModelOptions(app, command_line);
   addHealthAndLimitOptions(app, command_line);
   addToolOptions(app, command_line);
   CLI11_PARSE(app, argc, argv);

@@ -123,4 +123,13 @@ void toProto(const DetectedBowl& bowl, v1::Bowl* out) {
   }
 }
 
+void toProto(const StoredObjectModel& stored, v1::ObjectModelInfo* out) {
+  const ObjectModel& model = *stored.model;
+  out->set_name(model.name);
+  out->set_feature_count(static_cast<std::uint32_t>(model.features.size()));
+  out->set_surface_points(static_cast<std::uint32_t>(model.surface.size()));
+  toProto(model.box.size.cast<double>().eval(), out->mutable_box_size());
+  out->set_taught_at_ns(stored.taught_at_ns);
+}
+
 }  // namespace shapesense

@@ -123,6 +123,21 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
       grpc::CallbackServerContext* call, const v1::WatchSceneRequest* request) override {
     return startWatchScene(context_, call, *request, &queries_);
   }
+  grpc::ServerUnaryReactor* TeachObject(grpc::CallbackServerContext* call,
+                                        const v1::TeachObjectRequest* request,
+                                        v1::TeachObjectResponse* response) override {
+    return onPool(call, [=, this] { return handleTeachObject(context_, *request, response); });
+  }
+  grpc::ServerUnaryReactor* ListObjectModels(grpc::CallbackServerContext* call,
+                                             const v1::ListObjectModelsRequest* request,
+                                             v1::ListObjectModelsResponse* response) override {
+    return here(call, [=, this] { return handleListObjectModels(context_, *request, response); });
+  }
+  grpc::ServerUnaryReactor* FindObjects(grpc::CallbackServerContext* call,
+                                        const v1::FindObjectsRequest* request,
+                                        v1::FindObjectsResponse* response) override {
+    return onPool(call, [=, this] { return handleFindObjects(context_, *request, response); });
+  }
 
  private:
   /// Admits one more unary call, or says why not.

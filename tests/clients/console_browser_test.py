@@ -119,6 +119,7 @@ def run(build_dir, chromium):
     cli = os.path.join(build_dir, "clients", "shapesense")
     daemon = Process([os.path.join(build_dir, "server", "shapesensed"), "--source", "synthetic",
                       "--listen", "127.0.0.1:0", "--record-root", os.path.join(scratch, "rec"),
+                      "--object-models", os.path.join(scratch, "object-models"),
                       # This machine also runs chromium: let a query wait for the daemon's
                       # worker rather than be refused (the load limits have tests of their own).
                       "--query-max-wait-ms", "500"],

@@ -35,7 +35,7 @@ class Daemon:
         self.process = subprocess.Popen(
             [os.path.join(BINARY_DIR, "server", "shapesensed"), "--source", "synthetic",
              "--listen", "127.0.0.1:0", "--record-root", os.path.join(scratch, "recordings"),
-             *options], stdout=self.log, stderr=subprocess.STDOUT)
+             "--object-models", os.path.join(scratch, "object-models"), *options], stdout=self.log, stderr=subprocess.STDOUT)
         self.port = self._wait_for_port(20.0)
         self.address = f"127.0.0.1:{self.port}"
 
@@ -161,6 +161,43 @@ class PythonClientTest(unittest.TestCase):
                 for g, w in zip(got, (want["x"], want["y"], want["z"])):
                     self.assertAlmostEqual(g, w, delta=1e-9)
             self.assertTrue(all(0 < s < 2 for s in box.size_m), box.size_m)
+
+    def test_teach_list_and_find_an_object(self):
+        # An object the detectors boxed; not every one has the shape to be taught.
+        stamp = self.client.newest_processed_ns()
+        boxes = [b for b in self.client.detected_boxes(at_ns=stamp) if b.source == "segment"]
+        self.assertGreater(len(boxes), 0)
+        taught = None
+        for box in boxes:
+            try:
+                taught = self.client.teach_object("py-object", box.p1, box.p2, at_ns=stamp)
+                break
+            except shapesense.ShapeSenseError as e:
+                self.assertEqual(e.code, "FAILED_PRECONDITION", e.message)
+        self.assertIsNotNone(taught, "no segment box of the frame could be taught")
+        self.assertEqual(taught.model.name, "py-object")
+        self.assertEqual(taught.frame_timestamp_ns, stamp)
+        self.assertGreater(taught.model.feature_count, 0)
+        self.assertTrue(all(s > 0 for s in taught.model.box_size_m))
+        self.assertTrue(os.path.isfile(
+            os.path.join(self.scratch.name, "object-models", "py-object.json")))
+        self.assertIn("py-object", [m.name for m in self.client.list_object_models()])
+        found = self.client.find_objects(at_ns=stamp, names=["py-object"])
+        self.assertEqual(found.frame_timestamp_ns, stamp)
+        self.assertEqual([d.name for d in found], ["py-object"])
+        detection = found[0]
+        self.assertGreaterEqual(detection.score, 0.85)
+        self.assertLess(math.sqrt(sum(c * c for c in detection.translation)), 0.01)
+        self.assertGreater(abs(detection.rotation[0]), math.cos(math.radians(1.0)))
+        self.assertEqual(len(detection.box.corners), 8)
+        self.assertGreater(detection.image_box.width, 0)
+        with self.assertRaises(shapesense.ShapeSenseError) as caught:
+            self.client.teach_object("py-object", boxes[0].p1, boxes[0].p2, at_ns=stamp)
+        self.assertEqual(caught.exception.code, "ALREADY_EXISTS")
+        with self.assertRaises(shapesense.ShapeSenseError) as caught:
+            self.client.find_objects(names=["no-such-object"])
+        self.assertEqual(caught.exception.code, "NOT_FOUND")
+        self.assertIn("no-such-object", caught.exception.message)
 
     def test_roi_outside_the_image_is_invalid_argument(self):
         with self.assertRaises(shapesense.ShapeSenseError) as caught:

@@ -80,11 +80,14 @@ TEST(AccessTokens, ClientTokenIsTheFirstLineThatIsNotACommentOrBlank) {
   EXPECT_THROW(readClientToken(dir / "empty"), std::runtime_error);
 }
 
-TEST(AccessTokens, OnlyRecordNeedsTheRecordRoleAndUnknownMethodsDoToo) {
+TEST(AccessTokens, OnlyRecordAndTeachObjectNeedTheRecordRoleAndUnknownMethodsDoToo) {
   EXPECT_EQ(requiredRole("/shapesense.v1.ShapeSense/Record"), Role::kRecord);
+  // It writes a model file.
+  EXPECT_EQ(requiredRole("/shapesense.v1.ShapeSense/TeachObject"), Role::kRecord);
   for (const char* method :
        {"/shapesense.v1.ShapeSense/GetStatus", "/shapesense.v1.ShapeSense/Watch",
         "/shapesense.v1.ShapeSense/EstimateBox", "/shapesense.v1.ShapeSense/GetBowls",
+        "/shapesense.v1.ShapeSense/ListObjectModels", "/shapesense.v1.ShapeSense/FindObjects",
         "/grpc.health.v1.Health/Check"}) {
     EXPECT_EQ(requiredRole(method), Role::kRead) << method;
   }

@@ -218,6 +218,7 @@ class WatchedDaemon {
     const std::string binary = std::string(SHAPESENSE_BINARY_DIR) + "/server/shapesensed";
     arguments.insert(arguments.begin(), binary);
     arguments.push_back("--record-root=" + (dir / "recordings").string());
+    arguments.push_back("--object-models=" + (dir / "object-models").string());
     std::vector<char*> argv;
     for (auto& a : arguments) argv.push_back(a.data());
     argv.push_back(nullptr);

@@ -131,12 +131,22 @@ TEST(QueryLimits, FullQueueAnswersResourceExhaustedAtOnceAndCheapCallsStillWork)
   EXPECT_EQ(srv.stub().GetBowls(clientContext().get(), {}, &bowls).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED)
       << "GetBowls runs on the same pool";
+  v1::FindObjectsResponse found;
+  EXPECT_EQ(srv.stub().FindObjects(clientContext().get(), {}, &found).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << "FindObjects runs on the same pool";
+  v1::TeachObjectResponse taught;
+  EXPECT_EQ(srv.stub().TeachObject(clientContext().get(), {}, &taught).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << "TeachObject runs on the same pool";
 
   // Cheap calls are answered on gRPC's own threads.
   v1::GetStatusResponse status;
   EXPECT_TRUE(srv.stub().GetStatus(clientContext().get(), {}, &status).ok());
   v1::ListFramesResponse frames;
   EXPECT_TRUE(srv.stub().ListFrames(clientContext().get(), {}, &frames).ok());
+  v1::ListObjectModelsResponse models;
+  EXPECT_TRUE(srv.stub().ListObjectModels(clientContext().get(), {}, &models).ok());
 
   blocker.release();
   ASSERT_EQ(queued.status.wait_for(5s), std::future_status::ready);

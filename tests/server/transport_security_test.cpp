@@ -315,7 +315,8 @@ std::pair<int, std::string> runDaemon(const std::string& arguments, int seconds 
       std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
   const fs::path log = dir / "out.txt";
   const std::string line = "timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
-                           arguments + " --record-root '" + (dir / "recordings").string() + "' >'" +
+                           arguments + " --record-root '" + (dir / "recordings").string() +
+                           "' --object-models '" + (dir / "object-models").string() + "' >'" +
                            log.string() + "' 2>&1";
   const int status = std::system(line.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};

@@ -46,18 +46,20 @@ std::shared_ptr<const FrameResults> makeTestResults(const Frame& frame) {
 }
 
 TestServer::TestServer(std::size_t cache_capacity, std::function<PipelineStatus()> pipeline_status,
-                       RecordLimits record, ServerLimits limits)
+                       RecordLimits record, ServerLimits limits,
+                       std::filesystem::path object_models_dir, std::size_t max_object_models)
     : cache_(std::make_unique<FrameCache>(cache_capacity)) {
-  if (record.root.empty()) {
-    static std::atomic<int> servers{0};
-    record.root =
-        scratchDir("record-root-" + std::to_string(::getpid()) + "-" + std::to_string(servers++));
-  }
+  static std::atomic<int> servers{0};
+  const std::string server_id = std::to_string(::getpid()) + "-" + std::to_string(servers++);
+  if (record.root.empty()) record.root = scratchDir("record-root-" + server_id);
+  if (object_models_dir.empty()) object_models_dir = scratchDir("object-models-" + server_id);
+  object_models_ = std::make_unique<ObjectModelStore>(object_models_dir, max_object_models);
   record_root_ = record.root;
   ServiceContext context{.cache = *cache_, .hub = hub_};
   if (pipeline_status) context.pipeline_status = std::move(pipeline_status);
   context.frame_tap = &tap_;
   context.record = std::move(record);
+  context.object_models = object_models_.get();
   RpcServerOptions options;
   options.limits = std::move(limits);
   server_ = std::make_unique<RpcServer>("127.0.0.1:0", std::move(context), std::move(options));

@@ -13,6 +13,7 @@
 
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
+#include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/rpc_server.h"
 #include "shapesense/server/summary_hub.h"
@@ -34,12 +35,15 @@ std::shared_ptr<const FrameResults> makeTestResults(const Frame& frame);
 
 /// Owns a FrameCache, a SummaryHub and an RpcServer on 127.0.0.1:<free port>, and a client stub.
 /// Record writes under recordRoot(): record.root, or a fresh scratch directory when that is
-/// empty.
+/// empty. Taught objects live in objectModels(), over `object_models_dir` (a fresh scratch
+/// directory when empty).
 class TestServer {
  public:
   explicit TestServer(std::size_t cache_capacity = 16,
                       std::function<PipelineStatus()> pipeline_status = {},
-                      RecordLimits record = {}, ServerLimits limits = {});
+                      RecordLimits record = {}, ServerLimits limits = {},
+                      std::filesystem::path object_models_dir = {},
+                      std::size_t max_object_models = ObjectModelStore::kDefaultMaxModels);
   ~TestServer();
   TestServer(const TestServer&) = delete;
   TestServer& operator=(const TestServer&) = delete;
@@ -53,6 +57,7 @@ class TestServer {
   std::shared_ptr<grpc::Channel> channel() { return channel_; }
   int port() const { return server_->port(); }
   const std::filesystem::path& recordRoot() const { return record_root_; }
+  ObjectModelStore& objectModels() { return *object_models_; }
 
   /// Inserts the next frame (sequence = frames added so far) captured at `timestamp_ns`, hands
   /// it to tap(), and publishes results for it unless `publish_results` is false.
@@ -67,6 +72,7 @@ class TestServer {
  private:
   std::filesystem::path record_root_;
   std::unique_ptr<FrameCache> cache_;
+  std::unique_ptr<ObjectModelStore> object_models_;
   SummaryHub hub_;
   FrameTap tap_;
   std::unique_ptr<RpcServer> server_;

@@ -16,14 +16,16 @@ from .client import DEFAULT_ADDRESS, Client, SceneState, box_mode, read_token
 from .errors import ShapeSenseError
 from .times import format_ns, parse_time
 from .types import (Bowl, Box, CacheRange, DepthStats, DetectedBox, Frame, FrameInfo,
-                    FrameSummary, Intrinsics, PixelBox, Plane, RecordProgress, ResultList,
-                    RoiDepthStats, SceneObject, ScenePlane, SceneUpdate, Segment, Segments,
-                    StageLatency, StageTiming, Status, images_available)
+                    FrameSummary, Intrinsics, ObjectDetection, ObjectModelInfo, OrientedBox,
+                    PixelBox, Plane, RecordProgress, ResultList, RoiDepthStats, SceneObject,
+                    ScenePlane, SceneUpdate, Segment, Segments, StageLatency, StageTiming,
+                    Status, TaughtObject, images_available)
 
 __all__ = [
     "DEFAULT_ADDRESS", "Client", "SceneState", "ShapeSenseError", "box_mode", "read_token",
     "format_ns", "parse_time", "Bowl", "Box", "CacheRange", "DepthStats", "DetectedBox", "Frame",
-    "FrameInfo", "FrameSummary", "Intrinsics", "PixelBox", "Plane", "RecordProgress",
-    "ResultList", "RoiDepthStats", "SceneObject", "ScenePlane", "SceneUpdate", "Segment",
-    "Segments", "StageLatency", "StageTiming", "Status", "images_available",
+    "FrameInfo", "FrameSummary", "Intrinsics", "ObjectDetection", "ObjectModelInfo",
+    "OrientedBox", "PixelBox", "Plane", "RecordProgress", "ResultList", "RoiDepthStats",
+    "SceneObject", "ScenePlane", "SceneUpdate", "Segment", "Segments", "StageLatency",
+    "StageTiming", "Status", "TaughtObject", "images_available",
 ]

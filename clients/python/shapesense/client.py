@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from typing import Any, Callable, Iterator, List, Optional, Tuple, Union
+from typing import Any, Callable, Iterator, List, Optional, Sequence, Tuple, Union
 
 import grpc
 
@@ -299,6 +299,43 @@ class Client:
         return t.ResultList(bowls, stamp, info=t.frame_info(m.info), compute_ms=m.compute_ms)
 
     # -- recording -------------------------------------------------------------------------
+
+    # -- taught objects --------------------------------------------------------------------
+
+    def teach_object(self, name: str, p1: t.Pixel, p2: t.Pixel, at_ns: int = 0,
+                     replace: bool = False) -> t.TaughtObject:
+        """Teaches the object the ROI with opposite corners ``p1`` and ``p2`` ((x, y) pixels,
+        inclusive) marks in the frame at ``at_ns`` (0: the newest processed frame) as
+        ``name``; the daemon saves it and finds it from then on (:meth:`find_objects`).
+
+        The object is what ``estimate_box(..., mode="segments")`` boxes. ``name``: 1-64
+        letters, digits, '-', '_' or '.'. Raises with ALREADY_EXISTS when that name is taught
+        (pass ``replace``), RESOURCE_EXHAUSTED when the daemon holds its most models,
+        FAILED_PRECONDITION when the ROI holds no object or it cannot be taught (the message
+        says why), PERMISSION_DENIED for a token without the ``record`` role.
+        """
+        request = pb.TeachObjectRequest(at_ns=self._processed(at_ns),
+                                        p1=pb.Pixel(x=int(p1[0]), y=int(p1[1])),
+                                        p2=pb.Pixel(x=int(p2[0]), y=int(p2[1])), name=name,
+                                        replace=replace)
+        m = self._call(self._stub.TeachObject, request)
+        return t.TaughtObject(t.object_model_info(m.model), m.frame_timestamp_ns,
+                              m.frame_sequence, m.replaced)
+
+    def list_object_models(self) -> List[t.ObjectModelInfo]:
+        """The taught objects, by name."""
+        m = self._call(self._stub.ListObjectModels, pb.ListObjectModelsRequest())
+        return [t.object_model_info(model) for model in m.models]
+
+    def find_objects(self, at_ns: int = 0,
+                     names: Sequence[str] = ()) -> "t.ResultList[t.ObjectDetection]":
+        """The taught objects ``names`` (empty: all) found in the frame at ``at_ns`` (0: the
+        newest), highest score first; those not found are left out. NOT_FOUND for a name that
+        is not taught. ``extra`` holds ``frame_sequence`` and ``compute_ms``."""
+        m = self._call(self._stub.FindObjects,
+                       pb.FindObjectsRequest(at_ns=at_ns, names=list(names)))
+        return t.ResultList([t.object_detection(d) for d in m.detections], m.frame_timestamp_ns,
+                            frame_sequence=m.frame_sequence, compute_ms=m.compute_ms)
 
     def record(self, dir: str, seconds: float) -> Iterator[t.RecordProgress]:
         """Has the daemon record its source for ``seconds`` into ``dir`` (relative to its

@@ -264,6 +264,59 @@ class Bowl:
 
 
 @dataclass
+class ObjectModelInfo:
+    """A taught object: its name, how many shape features and surface points describe it, the
+    full extent of its box along the box's axes (metres) and when its file was written
+    (``taught_at_ns``, wall clock)."""
+
+    name: str
+    feature_count: int
+    surface_points: int
+    box_size_m: Vec3
+    taught_at_ns: int
+
+
+@dataclass
+class TaughtObject:
+    """What TeachObject answered: the model and the frame it was taught from; ``replaced``
+    says a model of that name was replaced."""
+
+    model: ObjectModelInfo
+    frame_timestamp_ns: int
+    frame_sequence: int
+    replaced: bool
+
+
+@dataclass
+class OrientedBox:
+    """A box with its own axes, camera frame: ``orientation`` (w, x, y, z) turns the box's
+    axes into the camera's; ``size_m`` is its full extent along them; ``corners`` the 8
+    corners (a face loop at -z, then the same loop at +z)."""
+
+    centre: Vec3
+    orientation: Tuple[float, float, float, float]
+    size_m: Vec3
+    corners: List[Vec3]
+
+
+@dataclass
+class ObjectDetection:
+    """A taught object found in a frame: the pose ``camera_from_model`` as ``translation``
+    (metres) and ``rotation`` (w, x, y, z) (about the identity in the frame it was taught
+    from), ``score`` (share of its visible points the depth confirms), its box in this frame
+    and that box's projection into the image (``image_box``, clipped)."""
+
+    name: str
+    translation: Vec3
+    rotation: Tuple[float, float, float, float]
+    score: float
+    confirmed_points: int
+    feature_inliers: int
+    box: OrientedBox
+    image_box: PixelBox
+
+
+@dataclass
 class StageTiming:
     """Time of one pipeline stage on one frame."""
 
@@ -476,3 +529,19 @@ def depth_metres(depth_png: bytes) -> Optional[Any]:
         return None
     np = _numpy_and_cv2()[0]  # type: ignore[index]
     return millimetres.astype(np.float32) * np.float32(0.001)
+
+
+def quaternion(m: Any) -> Tuple[float, float, float, float]:
+    return (m.w, m.x, m.y, m.z)
+
+
+def object_model_info(m: Any) -> ObjectModelInfo:
+    return ObjectModelInfo(m.name, m.feature_count, m.surface_points, vec3(m.box_size),
+                           m.taught_at_ns)
+
+
+def object_detection(m: Any) -> ObjectDetection:
+    box = OrientedBox(vec3(m.box.centre), quaternion(m.box.orientation), vec3(m.box.size),
+                      [vec3(c) for c in m.box.corners])
+    return ObjectDetection(m.name, vec3(m.translation), quaternion(m.rotation), m.score,
+                           m.confirmed_points, m.feature_inliers, box, pixel_box(m.image_box))

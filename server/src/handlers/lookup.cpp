@@ -39,4 +39,11 @@ grpc::Status lookupProcessedFrame(const FrameCache& cache, std::int64_t at_ns, C
   return grpc::Status::OK;
 }
 
+grpc::Status objectModelsOf(const ServiceContext& context, ObjectModelStore*& out) {
+  out = context.object_models;
+  if (out) return grpc::Status::OK;
+  return {grpc::StatusCode::FAILED_PRECONDITION,
+          "this daemon keeps no taught objects (it runs without an object models folder)"};
+}
+
 }  // namespace shapesense

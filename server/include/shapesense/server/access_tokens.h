@@ -5,8 +5,9 @@
 //
 // Token file: one token per line, `NAME ROLE TOKEN` separated by blanks; `#` starts a comment.
 // NAME labels the client in the log, ROLE is `read` (queries and streams) or `record` (also
-// Record), TOKEN is at least kMinTokenLength printable characters. The file must not be
-// readable by group or others: a token file others can read is a leaked token file.
+// Record and TeachObject, which write files), TOKEN is at least kMinTokenLength printable
+// characters. The file must not be readable by group or others: a token file others can read is
+// a leaked token file.
 
 #include <filesystem>
 #include <optional>

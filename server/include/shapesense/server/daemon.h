@@ -10,6 +10,7 @@
 #include "shapesense/driver/frame_source.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
+#include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/pipeline_health.h"
 #include "shapesense/server/recording_root.h"
@@ -36,6 +37,10 @@ struct DaemonOptions {
   TransportSecurity security;
   /// Where Record writes (created at start when missing); an empty root disables Record.
   RecordLimits record;
+  /// The taught objects' folder (created at start when missing; TeachObject writes only
+  /// there) and the most models it may hold. Empty: the daemon keeps no taught objects.
+  std::filesystem::path object_models;
+  std::size_t object_models_max = ObjectModelStore::kDefaultMaxModels;
   /// How long the source may deliver nothing, or the detectors take on one frame, before
   /// health() says the pipeline hangs.
   std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);
@@ -64,6 +69,7 @@ class Daemon {
   FrameCache cache_;
   SummaryHub hub_;
   FrameTap tap_;
+  std::unique_ptr<ObjectModelStore> object_models_;  // outlives the server, which reads it
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<RpcServer> server_;
   std::chrono::steady_clock::duration stall_limit_;

@@ -59,6 +59,20 @@ grpc::ServerWriteReactor<v1::SceneUpdate>* startWatchScene(
     const ServiceContext& context, grpc::CallbackServerContext* server_context,
     const v1::WatchSceneRequest& request, QueryPool* builders);
 
+/// Teaches the object the ROI marks in the frame at T (as EstimateBox mode 4 finds it) and
+/// saves it in context.object_models.
+grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObjectRequest& request,
+                               v1::TeachObjectResponse* response);
+
+grpc::Status handleListObjectModels(const ServiceContext& context,
+                                    const v1::ListObjectModelsRequest& request,
+                                    v1::ListObjectModelsResponse* response);
+
+/// Looks for taught objects in the frame at T; the frame's surface comes from
+/// context.scene_surfaces.
+grpc::Status handleFindObjects(const ServiceContext& context, const v1::FindObjectsRequest& request,
+                               v1::FindObjectsResponse* response);
+
 /// Blocks for the whole recording; `write` sends one progress message and returns false once
 /// the client is gone.
 grpc::Status handleRecord(const ServiceContext& context,

@@ -5,6 +5,7 @@
 
 #include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/server/frame_cache.h"
+#include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/v1/shapesense.pb.h"
 
@@ -21,5 +22,6 @@ void toProto(const cv::Rect& box, v1::PixelBox* out);
 void toProto(const SegmentStatistics& segment, v1::Segment* out);
 void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out);
 void toProto(const DetectedBowl& bowl, v1::Bowl* out);
+void toProto(const StoredObjectModel& stored, v1::ObjectModelInfo* out);
 
 }  // namespace shapesense

@@ -22,7 +22,8 @@ class AccessTokens;
 
 /// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
 struct ServerLimits {
-  /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes.
+  /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes, GetScene,
+  /// TeachObject, FindObjects.
   QueryPoolOptions queries;
   /// Unary calls admitted at once (running, or queued for a worker); more: RESOURCE_EXHAUSTED.
   std::size_t max_calls = 128;

@@ -12,8 +12,10 @@
 
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
+#include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
 #include "shapesense/server/recording_root.h"
+#include "shapesense/server/scene_surface_cache.h"
 #include "shapesense/server/stream_quota.h"
 #include "shapesense/server/summary_hub.h"
 
@@ -40,6 +42,11 @@ struct ServiceContext {
   RecordLimits record = {};
   /// Set while a Record call runs; shared by the copies of this context.
   std::shared_ptr<std::atomic<bool>> recording = std::make_shared<std::atomic<bool>>(false);
+  /// The taught objects (TeachObject, ListObjectModels, FindObjects); null when the daemon has
+  /// none (those calls then answer FAILED_PRECONDITION).
+  ObjectModelStore* object_models = nullptr;
+  /// The last searched frame's surface; shared by the copies of this context.
+  std::shared_ptr<SceneSurfaceCache> scene_surfaces = std::make_shared<SceneSurfaceCache>();
 
   std::string session_id = newSessionId();
   bool shuttingDown() const { return shutting_down && shutting_down->load(); }
@@ -49,6 +56,9 @@ struct ServiceContext {
 /// for a negative T, UNAVAILABLE while nothing is cached, OUT_OF_RANGE (naming the cached range)
 /// for T before the cache.
 grpc::Status lookupFrame(const FrameCache& cache, std::int64_t at_ns, CachedFrame& out);
+
+/// The store, or FAILED_PRECONDITION saying the daemon has no object models folder.
+grpc::Status objectModelsOf(const ServiceContext& context, ObjectModelStore*& out);
 
 /// lookupFrame for queries of detector results: also FAILED_PRECONDITION when the detectors
 /// have not processed the frame (skipped, or still running). On OK, out.results is set.
