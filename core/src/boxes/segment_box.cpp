@@ -273,7 +273,15 @@ std::vector<RoiSegment> segmentsUnderRoi(const cv::Mat& depth_mm, const cv::Mat&
   return covered;
 }
 
-std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
+namespace {
+
+struct FoundObject {
+  ObjectPixels pixels;
+  const DetectedPlane* support = nullptr;
+};
+
+// Steps 1-3 of boxFromSegments.
+std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params) {
@@ -309,11 +317,24 @@ std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
   ObjectPixels found =
       objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
   if (found.points.empty()) return noObject("the ROI's segments have no depth reading");
+  return FoundObject{std::move(found), support};
+}
+
+}  // namespace
+
+std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
+    const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
+    const PlaneDetection& planes, const SegmentBoxParams& params) {
+  auto found =
+      findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
+  if (auto* failure = std::get_if<BoxEstimationFailure>(&found)) return *failure;
+  FoundObject& object = std::get<FoundObject>(found);
   RoiObject out;
   out.mask = cv::Mat::zeros(depth_mm.size(), CV_8UC1);
-  for (const cv::Point& pixel : found.pixels) out.mask.at<std::uint8_t>(pixel) = 255;
-  out.points = std::move(found.points);
-  out.support = support;
+  for (const cv::Point& pixel : object.pixels.pixels) out.mask.at<std::uint8_t>(pixel) = 255;
+  out.points = std::move(object.pixels.points);
+  out.support = object.support;
   return out;
 }
 
@@ -321,17 +342,19 @@ std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params) {
+  // Not objectUnderRoi: the box needs the points, not a frame-sized mask of them.
   auto found =
-      objectUnderRoi(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
+      findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
   if (auto* failure = std::get_if<BoxEstimationFailure>(&found)) return *failure;
-  const RoiObject& object = std::get<RoiObject>(found);
+  const FoundObject& object = std::get<FoundObject>(found);
   const cv::Rect roi(cv::Point(std::min(p1.x, p2.x), std::min(p1.y, p2.y)),
                      cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
-  const BoxAxes axes = object.support ? uprightAxes(object.points, *object.support) : BoxAxes{};
+  const std::vector<Eigen::Vector3d>& points = object.pixels.points;
+  const BoxAxes axes = object.support ? uprightAxes(points, *object.support) : BoxAxes{};
   BoxEstimate out;
   out.mode = BoxMode::kSegments;
-  out.corners = boxAlong(axes, object.points, object.support, params);
-  out.stats = pointStatistics(depth_mm, roi, object.points, out.corners,
+  out.corners = boxAlong(axes, points, object.support, params);
+  out.stats = pointStatistics(depth_mm, roi, points, out.corners,
                               params.support.estimation.max_valid_depth_m);
   return out;
 }

@@ -10,6 +10,19 @@
 
 namespace shapesense::detail {
 
+/// The integer cell of side `size` holding `p`.
+inline Eigen::Vector3i cellOf(const Eigen::Vector3f& p, float size) {
+  return (p / size).array().floor().cast<int>();
+}
+
+/// A cell as one hashable, sortable key: 21 bits a coordinate (+-1 M cells, +-5 km at 5 mm).
+inline std::int64_t cellKey(const Eigen::Vector3i& cell) {
+  constexpr std::int64_t kOffset = 1 << 20;
+  constexpr std::int64_t kMask = (1 << 21) - 1;
+  const auto bits = [&](int c) { return (static_cast<std::int64_t>(c) + kOffset) & kMask; };
+  return (bits(cell.x()) << 42) | (bits(cell.y()) << 21) | bits(cell.z());
+}
+
 class CloudIndex {
  public:
   explicit CloudIndex(const std::vector<Eigen::Vector3f>& points);

@@ -45,34 +45,24 @@ std::vector<Candidate> suppressNonMaxima(std::vector<Candidate> candidates,
                                          const SurfaceCloud& surface, float spacing) {
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const Candidate& a, const Candidate& b) { return a.response > b.response; });
-  const auto cellOf = [&](const Eigen::Vector3f& p) {
-    return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / spacing)),
-                           static_cast<int>(std::floor(p.y() / spacing)),
-                           static_cast<int>(std::floor(p.z() / spacing)));
-  };
-  const auto key = [](const Eigen::Vector3i& c) {
-    return (static_cast<std::int64_t>(c.x() & 0x1FFFFF) << 42) |
-           (static_cast<std::int64_t>(c.y() & 0x1FFFFF) << 21) |
-           static_cast<std::int64_t>(c.z() & 0x1FFFFF);
-  };
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> kept_by_cell;
   std::vector<Candidate> kept;
   const float spacing2 = spacing * spacing;
   for (const Candidate& c : candidates) {
     const Eigen::Vector3f& p = surface.points[c.point];
-    const Eigen::Vector3i cell = cellOf(p);
+    const Eigen::Vector3i cell = detail::cellOf(p, spacing);
     bool near_kept = false;
     for (int dz = -1; dz <= 1 && !near_kept; ++dz)
       for (int dy = -1; dy <= 1 && !near_kept; ++dy)
         for (int dx = -1; dx <= 1 && !near_kept; ++dx) {
-          const auto it = kept_by_cell.find(key(cell + Eigen::Vector3i(dx, dy, dz)));
+          const auto it = kept_by_cell.find(detail::cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
           if (it == kept_by_cell.end()) continue;
           for (std::uint32_t k : it->second)
             if ((surface.points[k] - p).squaredNorm() < spacing2) near_kept = true;
         }
     if (near_kept) continue;
     kept.push_back(c);
-    kept_by_cell[key(cell)].push_back(c.point);
+    kept_by_cell[detail::cellKey(cell)].push_back(c.point);
   }
   return kept;
 }

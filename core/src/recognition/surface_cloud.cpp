@@ -12,23 +12,13 @@
 namespace shapesense {
 namespace {
 
-std::int64_t voxelKey(const Eigen::Vector3f& p, float voxel) {
-  // 21 bits a coordinate: +-1 M voxels, +-5 km at 5 mm.
-  constexpr std::int64_t kOffset = 1 << 20;
-  constexpr std::int64_t kMask = (1 << 21) - 1;
-  const auto cell = [&](float c) {
-    return (static_cast<std::int64_t>(std::floor(c / voxel)) + kOffset) & kMask;
-  };
-  return (cell(p.x()) << 42) | (cell(p.y()) << 21) | cell(p.z());
-}
-
 // One point per voxel: the mean of its points and of their normals (renormalised). Normals may
 // be empty; then only the points are thinned.
 SurfaceCloud thinToVoxels(const std::vector<Eigen::Vector3f>& points,
                           const std::vector<Eigen::Vector3f>& normals, float voxel) {
   std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
-    keyed[i] = {voxelKey(points[i], voxel), static_cast<std::uint32_t>(i)};
+    keyed[i] = {detail::cellKey(detail::cellOf(points[i], voxel)), static_cast<std::uint32_t>(i)};
   std::sort(keyed.begin(), keyed.end());
   SurfaceCloud out;
   for (std::size_t begin = 0; begin < keyed.size();) {
