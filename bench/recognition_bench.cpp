@@ -67,16 +67,6 @@ void BM_ShapeFeatures(benchmark::State& state) {
 }
 BENCHMARK(BM_ShapeFeatures)->Unit(benchmark::kMillisecond);
 
-// The interest responses alone: no point reaches the threshold, so nothing is described.
-void BM_InterestResponses(benchmark::State& state) {
-  const auto& frame = fixture().later.frame;
-  const SurfaceCloud cloud = surfaceCloudFromDepth(frame.depth, frame.intrinsics);
-  ShapeFeatureParams params;
-  params.min_response = 10.0f;
-  for (auto _ : state) benchmark::DoNotOptimize(detectShapeFeatures(cloud, params));
-}
-BENCHMARK(BM_InterestResponses)->Unit(benchmark::kMillisecond);
-
 void BM_SceneSurface(benchmark::State& state) {
   const auto& frame = fixture().later.frame;
   for (auto _ : state) {

@@ -1,5 +1,8 @@
 #include "cloud_index.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <nanoflann.hpp>
 
 namespace shapesense::detail {
@@ -35,16 +38,97 @@ CloudIndex::CloudIndex(const std::vector<Eigen::Vector3f>& points)
 
 CloudIndex::~CloudIndex() = default;
 
-void CloudIndex::withinRadius(const Eigen::Vector3f& query, float radius,
-                              std::vector<std::uint32_t>& indices) const {
-  indices.clear();
-  if (points_.empty()) return;
-  // nanoflann's L2 metric works in squared distances.
-  std::vector<std::pair<std::uint32_t, float>> found;
-  tree_->tree.radiusSearch(query.data(), radius * radius, found,
-                           nanoflann::SearchParams(32, 0.0f, false));
-  indices.reserve(found.size());
-  for (const auto& [index, distance] : found) indices.push_back(index);
+namespace {
+
+// Cube keys (cellKey) pack (x, y, z) with z lowest: a column of cubes along z is a run of
+// consecutive keys, and a step in y or x adds these.
+constexpr std::int64_t kKeyStepY = std::int64_t{1} << 21;
+constexpr std::int64_t kKeyStepX = std::int64_t{1} << 42;
+
+}  // namespace
+
+PointGrid::PointGrid(const std::vector<Eigen::Vector3f>& points, float cube_side)
+    : points_(points), side_(cube_side) {
+  std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    keyed[i] = {cellKey(cellOf(points[i], cube_side)), static_cast<std::uint32_t>(i)};
+  std::sort(keyed.begin(), keyed.end());
+  order_.resize(keyed.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) {
+    order_[k] = keyed[k].second;
+    if (cubes_.empty() || cubes_.back().key != keyed[k].first)
+      cubes_.push_back({keyed[k].first, static_cast<std::uint32_t>(k), 0});
+    cubes_.back().end = static_cast<std::uint32_t>(k + 1);
+  }
+}
+
+int PointGrid::reachOf(float radius) const {
+  return std::max(1, static_cast<int>(std::ceil(radius / side_)));
+}
+
+PointGrid::Walk::Walk(const PointGrid& grid, int reach) : grid_(grid), reach_(reach) {
+  for (int dx = -reach; dx <= reach; ++dx)
+    for (int dy = -reach; dy <= reach; ++dy)
+      column_offsets_.push_back(dx * kKeyStepX + dy * kKeyStepY - reach);
+  cursors_.assign(column_offsets_.size(), 0);
+}
+
+void PointGrid::Walk::cubesAround(std::size_t cube, std::vector<std::uint32_t>& around) {
+  around.clear();
+  const auto& cubes = grid_.cubes_;
+  const std::int64_t centre = cubes[cube].key;
+  for (std::size_t column = 0; column < column_offsets_.size(); ++column) {
+    const std::int64_t first = centre + column_offsets_[column];
+    std::size_t& cursor = cursors_[column];
+    while (cursor < cubes.size() && cubes[cursor].key < first) ++cursor;
+    for (std::size_t c = cursor; c < cubes.size() && cubes[c].key <= first + 2 * reach_; ++c)
+      around.push_back(static_cast<std::uint32_t>(c));
+  }
+}
+
+void PointGrid::gather(Candidates& candidates) const {
+  candidates.index.clear();
+  candidates.x.clear();
+  candidates.y.clear();
+  candidates.z.clear();
+  for (std::uint32_t c : candidates.cubes)
+    for (std::uint32_t k = cubes_[c].begin; k < cubes_[c].end; ++k) {
+      const Eigen::Vector3f& p = points_[order_[k]];
+      candidates.index.push_back(order_[k]);
+      candidates.x.push_back(p.x());
+      candidates.y.push_back(p.y());
+      candidates.z.push_back(p.z());
+    }
+}
+
+void PointGrid::Candidates::within(const Eigen::Vector3f& centre, float radius2,
+                                   std::vector<std::uint32_t>& neighbours) const {
+  // Written without a branch: which candidates fall inside is unpredictable.
+  neighbours.resize(index.size());
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < index.size(); ++k) {
+    const float dx = x[k] - centre.x(), dy = y[k] - centre.y(), dz = z[k] - centre.z();
+    neighbours[count] = index[k];
+    count += dx * dx + dy * dy + dz * dz <= radius2;
+  }
+  neighbours.resize(count);
+}
+
+void PointGrid::withinRadius(const Eigen::Vector3f& query, float radius,
+                             std::vector<std::uint32_t>& indices) const {
+  const int reach = reachOf(radius);
+  const std::int64_t centre = cellKey(cellOf(query, side_));
+  Candidates candidates;
+  for (int dx = -reach; dx <= reach; ++dx)
+    for (int dy = -reach; dy <= reach; ++dy) {
+      const std::int64_t first = centre + dx * kKeyStepX + dy * kKeyStepY - reach;
+      auto it = std::lower_bound(cubes_.begin(), cubes_.end(), first,
+                                 [](const Cube& c, std::int64_t key) { return c.key < key; });
+      for (; it != cubes_.end() && it->key <= first + 2 * reach; ++it)
+        candidates.cubes.push_back(static_cast<std::uint32_t>(it - cubes_.begin()));
+    }
+  gather(candidates);
+  candidates.within(query, radius * radius, indices);
 }
 
 int CloudIndex::nearest(const Eigen::Vector3f& query, float& squared_distance) const {

@@ -1,7 +1,8 @@
 #pragma once
-// Radius and nearest-neighbour queries over a fixed set of 3D points (a k-d tree from
-// nanoflann). The points must outlive the index.
+// Neighbour queries over a fixed set of 3D points: within a radius (PointGrid, cubes) and the
+// nearest (CloudIndex, a k-d tree from nanoflann). The points must outlive either index.
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -23,6 +24,106 @@ inline std::int64_t cellKey(const Eigen::Vector3i& cell) {
   return (bits(cell.x()) << 42) | (bits(cell.y()) << 21) | bits(cell.z());
 }
 
+/// Every how many-th element to keep so that at most `max_count` of `count` remain (1 = all;
+/// max_count <= 0 means no limit).
+inline std::size_t thinningStep(std::size_t count, int max_count) {
+  if (max_count <= 0 || count <= static_cast<std::size_t>(max_count)) return 1;
+  return (count + static_cast<std::size_t>(max_count) - 1) / static_cast<std::size_t>(max_count);
+}
+
+/// Points bucketed into cubes of one side: neighbour queries within a radius of a few sides,
+/// for many points at once (an interest response at each point of a cloud) or one at a time.
+/// A point's neighbours within r lie in the cubes up to ceil(r / side) away from its own, and
+/// the candidates are gathered once per cube for all the points in it. For a whole cloud this is
+/// several times faster than a k-d tree query per point, and it gives the same sets.
+class PointGrid {
+ public:
+  PointGrid(const std::vector<Eigen::Vector3f>& points, float cube_side);
+
+  std::size_t cubeCount() const { return cubes_.size(); }
+  template <class Visit>
+  void forEachPointIn(std::size_t cube, Visit&& visit) const {
+    for (std::uint32_t k = cubes_[cube].begin; k < cubes_[cube].end; ++k) visit(order_[k]);
+  }
+
+  /// Calls `visit(cube, around)` for every cube in order, with the indices of the cubes that
+  /// hold points among the 27 around it (itself included).
+  template <class Visit>
+  void forEachCube(Visit&& visit) const {
+    Walk walk(*this, 1);
+    std::vector<std::uint32_t> around;
+    for (std::size_t cube = 0; cube < cubes_.size(); ++cube) {
+      walk.cubesAround(cube, around);
+      visit(cube, around);
+    }
+  }
+
+  /// Calls `visit(i, neighbours)` for every point i whose `wanted[i]` is set (every point when
+  /// `wanted` is empty), cube by cube; `neighbours` holds the indices of the points within
+  /// `radius` of point i, i included, in no particular order.
+  template <class Visit>
+  void forEachPoint(float radius, const std::vector<std::uint8_t>& wanted, Visit&& visit) const {
+    Walk walk(*this, reachOf(radius));
+    Candidates candidates;
+    std::vector<std::uint32_t> neighbours;
+    for (std::size_t cube = 0; cube < cubes_.size(); ++cube) {
+      bool any_wanted = wanted.empty();
+      for (std::uint32_t k = cubes_[cube].begin; k < cubes_[cube].end && !any_wanted; ++k)
+        any_wanted = wanted[order_[k]] != 0;
+      if (!any_wanted) continue;
+      walk.cubesAround(cube, candidates.cubes);
+      gather(candidates);
+      for (std::uint32_t k = cubes_[cube].begin; k < cubes_[cube].end; ++k) {
+        const std::uint32_t i = order_[k];
+        if (!wanted.empty() && !wanted[i]) continue;
+        candidates.within(points_[i], radius * radius, neighbours);
+        visit(i, neighbours);
+      }
+    }
+  }
+
+  /// The indices of the points within `radius` of `query` (any point), in no particular order.
+  void withinRadius(const Eigen::Vector3f& query, float radius,
+                    std::vector<std::uint32_t>& indices) const;
+
+ private:
+  struct Cube {
+    std::int64_t key = 0;
+    std::uint32_t begin = 0;  ///< range in order_
+    std::uint32_t end = 0;
+  };
+  // The points of the cubes around one, their coordinates copied side by side so that the
+  // distance tests run over contiguous memory.
+  struct Candidates {
+    std::vector<std::uint32_t> cubes;
+    std::vector<std::uint32_t> index;
+    std::vector<float> x, y, z;
+    void within(const Eigen::Vector3f& centre, float radius2,
+                std::vector<std::uint32_t>& neighbours) const;
+  };
+  // The cubes within `reach` cubes of each cube, for cubes visited in key order: one cursor per
+  // column of cubes (x, y), which only moves forward, so no search is needed.
+  class Walk {
+   public:
+    Walk(const PointGrid& grid, int reach);
+    void cubesAround(std::size_t cube, std::vector<std::uint32_t>& around);
+
+   private:
+    const PointGrid& grid_;
+    int reach_;
+    std::vector<std::int64_t> column_offsets_;
+    std::vector<std::size_t> cursors_;
+  };
+
+  int reachOf(float radius) const;
+  void gather(Candidates& candidates) const;
+
+  const std::vector<Eigen::Vector3f>& points_;
+  float side_ = 0.0f;
+  std::vector<std::uint32_t> order_;  ///< point indices sorted by cube key
+  std::vector<Cube> cubes_;           ///< sorted by key
+};
+
 class CloudIndex {
  public:
   explicit CloudIndex(const std::vector<Eigen::Vector3f>& points);
@@ -30,9 +131,6 @@ class CloudIndex {
   CloudIndex(const CloudIndex&) = delete;
   CloudIndex& operator=(const CloudIndex&) = delete;
 
-  /// The indices of the points within `radius` of `query`, in no particular order.
-  void withinRadius(const Eigen::Vector3f& query, float radius,
-                    std::vector<std::uint32_t>& indices) const;
   /// The nearest point's index and its squared distance; -1 for an empty set.
   int nearest(const Eigen::Vector3f& query, float& squared_distance) const;
 

@@ -189,28 +189,43 @@ std::vector<Hypothesis> ransacPoses(const std::vector<Match>& matches, const Obj
   return kept;
 }
 
-// Step 3: point-to-plane ICP, linearised about the current pose.
-Eigen::Isometry3f refinePose(Eigen::Isometry3f pose, const ObjectModel& model,
-                             const SceneSurface& scene, const ObjectMatchParams& params) {
-  const float max_d2 = params.icp_max_distance_m * params.icp_max_distance_m;
-  for (int iteration = 0; iteration < params.icp_iterations; ++iteration) {
+// The pixel a camera-frame point projects to; false behind the camera or outside the image.
+bool pixelOf(const Eigen::Vector3f& p, const SceneSurface& scene, int& row, int& col) {
+  if (p.z() <= 0.0f) return false;
+  const Eigen::Vector2d uv = scene.intrinsics().project(p.cast<double>());
+  const long u = std::lround(uv.x());
+  const long v = std::lround(uv.y());
+  if (u < 0 || v < 0 || u >= scene.depth().cols || v >= scene.depth().rows) return false;
+  row = static_cast<int>(v);
+  col = static_cast<int>(u);
+  return true;
+}
+
+// Point-to-plane ICP, linearised about the current pose, with each model point facing the
+// camera (at most `max_points` of them, evenly spread; 0 = all) paired by
+// `partner(p, q, normal)` (false: no partner).
+template <class Partner>
+Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& model, int iterations,
+                                  int max_points, float max_distance, Partner&& partner) {
+  const float max_d2 = max_distance * max_distance;
+  const std::size_t stride = detail::thinningStep(model.surface.size(), max_points);
+  Eigen::Vector3f q, normal;
+  for (int iteration = 0; iteration < iterations; ++iteration) {
     Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
     int pairs = 0;
-    for (std::size_t i = 0; i < model.surface.size(); ++i) {
+    for (std::size_t i = 0; i < model.surface.size(); i += stride) {
       const Eigen::Vector3f p = pose * model.surface.points[i];
-      float d2 = 0.0f;
-      const int j = scene.index().nearest(p, d2);
-      if (j < 0 || d2 > max_d2) continue;
-      const Eigen::Vector3f& normal = scene.surface().normals[static_cast<std::size_t>(j)];
-      if (normal.dot(pose.linear() * model.surface.normals[i]) < 0.5f) continue;
-      const Eigen::Vector3d q = scene.surface().points[static_cast<std::size_t>(j)].cast<double>();
+      const Eigen::Vector3f model_normal = pose.linear() * model.surface.normals[i];
+      if (model_normal.dot(p) >= 0.0f) continue;  // facing away
+      if (!partner(p, q, normal)) continue;
+      if ((q - p).squaredNorm() > max_d2 || normal.dot(model_normal) < 0.5f) continue;
       const Eigen::Vector3d n = normal.cast<double>();
       const Eigen::Vector3d pd = p.cast<double>();
       Eigen::Matrix<double, 6, 1> row;
       row << pd.cross(n), n;
       normal_matrix += row * row.transpose();
-      rhs += row * n.dot(q - pd);
+      rhs += row * n.dot(q.cast<double>() - pd);
       ++pairs;
     }
     if (pairs < 6) break;
@@ -222,9 +237,30 @@ Eigen::Isometry3f refinePose(Eigen::Isometry3f pose, const ObjectModel& model,
       delta.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
     delta.translation() = step.tail<3>();
     pose = delta.cast<float>() * pose;
-    if (omega.norm() < 1e-6 && step.tail<3>().norm() < 1e-6) break;
+    // Converged: under 0.01 mm and 0.0006 deg a step.
+    if (omega.norm() < 1e-5 && step.tail<3>().norm() < 1e-5) break;
   }
   return pose;
+}
+
+// Step 3: each model point pairs with the nearest scene point (which holds a face from sliding
+// past the scene's edges, as pairing along the line of sight does not); the first iterations
+// on a share of the model, the last on all of it.
+Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& model,
+                             const SceneSurface& scene, const ObjectMatchParams& params) {
+  const auto nearest = [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
+    float d2 = 0.0f;
+    const int j = scene.nearestIndex().nearest(p, d2);
+    if (j < 0) return false;
+    q = scene.surface().points[static_cast<std::size_t>(j)];
+    normal = scene.surface().normals[static_cast<std::size_t>(j)];
+    return true;
+  };
+  const Eigen::Isometry3f near =
+      pointToPlaneIcp(start, model, params.icp_iterations, params.icp_max_points,
+                      params.icp_max_distance_m, nearest);
+  return pointToPlaneIcp(near, model, params.icp_final_iterations, 0, params.icp_max_distance_m,
+                         nearest);
 }
 
 struct Verification {
@@ -241,13 +277,9 @@ float confirmTolerance(float z, const ObjectMatchParams& params) {
 
 // The reading (m) where a camera-frame point projects; 0 outside the image or without one.
 float readingAt(const Eigen::Vector3f& p, const SceneSurface& scene) {
-  if (p.z() <= 0.0f) return 0.0f;
-  const Eigen::Vector2d uv = scene.intrinsics().project(p.cast<double>());
-  const long u = std::lround(uv.x());
-  const long v = std::lround(uv.y());
-  if (u < 0 || v < 0 || u >= scene.depth().cols || v >= scene.depth().rows) return 0.0f;
-  return 1e-3f * static_cast<float>(
-                     scene.depth().at<std::uint16_t>(static_cast<int>(v), static_cast<int>(u)));
+  int row = 0, col = 0;
+  if (!pixelOf(p, scene, row, col)) return 0.0f;
+  return 1e-3f * static_cast<float>(scene.depth().at<std::uint16_t>(row, col));
 }
 
 // Step 4.
@@ -279,6 +311,17 @@ Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& mod
   return out;
 }
 
+// A pose from step 2 goes to ICP only if the depth already confirms, within ICP's reach, half
+// the model points the final check needs: most wrong poses stop here, before their ICP.
+bool worthRefining(const Eigen::Isometry3f& pose, const ObjectModel& model,
+                   const SceneSurface& scene, const ObjectMatchParams& params) {
+  ObjectMatchParams within_reach = params;
+  within_reach.confirm_distance_m = std::max(params.confirm_distance_m, params.icp_max_distance_m);
+  const Verification check = verifyInDepth(pose, model, scene, within_reach);
+  return check.confirmed >=
+         0.5f * params.min_confirmed_share * static_cast<float>(model.surface.size());
+}
+
 OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
   OrientedBox out = box;
   out.centre = pose * box.centre;
@@ -294,7 +337,7 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
       features_(detectShapeFeatures(surface_, params.features)),
-      index_(std::make_unique<detail::CloudIndex>(surface_.points)) {}
+      nearest_index_(std::make_unique<detail::CloudIndex>(surface_.points)) {}
 
 SceneSurface::~SceneSurface() = default;
 
@@ -303,6 +346,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   const std::vector<Match> matches = candidateMatches(model, scene, params);
   std::optional<ObjectDetection> best;
   for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
+    if (!worthRefining(hypothesis.scene_from_model, model, scene, params)) continue;
     const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, scene, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection) continue;

@@ -10,15 +10,8 @@
 namespace shapesense {
 namespace {
 
-// Every how many-th element to keep so that at most `max_count` of `count` remain (1 = all;
-// max_count <= 0 means no limit).
-std::size_t thinningStep(std::size_t count, int max_count) {
-  if (max_count <= 0 || count <= static_cast<std::size_t>(max_count)) return 1;
-  return (count + static_cast<std::size_t>(max_count) - 1) / static_cast<std::size_t>(max_count);
-}
-
 SurfaceCloud everyKth(const SurfaceCloud& cloud, int max_points) {
-  const std::size_t step = thinningStep(cloud.size(), max_points);
+  const std::size_t step = detail::thinningStep(cloud.size(), max_points);
   if (step == 1) return cloud;
   SurfaceCloud out;
   for (std::size_t i = 0; i < cloud.size(); i += step) {
@@ -91,7 +84,7 @@ std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
         probes.push_back(intrinsics.backproject(out.x, out.y, z).cast<float>());
       }
     }
-  const std::size_t step = thinningStep(probes.size(), params.max_outline_probes);
+  const std::size_t step = detail::thinningStep(probes.size(), params.max_outline_probes);
   if (step == 1) return probes;
   std::vector<Eigen::Vector3f> kept;
   for (std::size_t i = 0; i < probes.size(); i += step) kept.push_back(probes[i]);

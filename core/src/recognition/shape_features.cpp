@@ -18,25 +18,64 @@ struct Candidate {
   float response = 0.0f;
 };
 
-// Step 1a: the spread of the normals around each allowed point.
-std::vector<Candidate> interestResponses(const SurfaceCloud& surface,
-                                         const detail::CloudIndex& index,
+// Which points may reach the smallest response. If every normal around a point lies within
+// angle t of one axis m, the normals' mean outer product has its largest eigenvalue at least
+// cos^2 t (along m) and its smallest at most sin^2 t (across m), so the response is at most
+// 2 sin^2 t. The normals' cone is bounded cube by cube (`grid`'s cubes have the response's
+// radius as side, so a point's neighbours lie in the 27 cubes around its own), and the points
+// of a cube whose surroundings fit in a narrow enough cone are left out: the flat parts of a
+// scene, without computing their neighbourhoods and without changing any response that counts.
+std::vector<std::uint8_t> mayRespond(const SurfaceCloud& surface, const detail::PointGrid& grid,
+                                     float min_response,
+                                     const std::vector<std::uint8_t>& may_hold_keypoint) {
+  const auto angle = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+    return std::acos(std::clamp(a.dot(b), -1.0f, 1.0f));
+  };
+  std::vector<std::uint8_t> out = may_hold_keypoint;
+  if (out.empty()) out.assign(surface.size(), 1);
+  std::vector<Eigen::Vector3f> axis(grid.cubeCount(), Eigen::Vector3f::Zero());
+  std::vector<float> spread(grid.cubeCount(), 0.0f);  // largest angle of a normal from the axis
+  for (std::size_t c = 0; c < grid.cubeCount(); ++c) {
+    grid.forEachPointIn(c, [&](std::uint32_t i) { axis[c] += surface.normals[i]; });
+    axis[c].normalize();
+    grid.forEachPointIn(c, [&](std::uint32_t i) {
+      spread[c] = std::max(spread[c], angle(surface.normals[i], axis[c]));
+    });
+  }
+  // Half a percent inside the bound, for rounding.
+  const float narrow = 0.995f * std::asin(std::sqrt(std::clamp(0.5f * min_response, 0.0f, 1.0f)));
+  grid.forEachCube([&](std::size_t c, const std::vector<std::uint32_t>& around) {
+    Eigen::Vector3f common = Eigen::Vector3f::Zero();
+    for (std::uint32_t a : around) common += axis[a];
+    if (common.norm() < 1e-6f) return;
+    common.normalize();
+    float widest = 0.0f;
+    for (std::uint32_t a : around) widest = std::max(widest, spread[a] + angle(axis[a], common));
+    if (widest < narrow) grid.forEachPointIn(c, [&](std::uint32_t i) { out[i] = 0; });
+  });
+  return out;
+}
+
+// Step 1a: the spread of the normals around each allowed point, in point order.
+std::vector<Candidate> interestResponses(const SurfaceCloud& surface, const detail::PointGrid& grid,
                                          const ShapeFeatureParams& params,
                                          const std::vector<std::uint8_t>& may_hold_keypoint) {
-  std::vector<Candidate> out;
-  std::vector<std::uint32_t> neighbours;
-  for (std::uint32_t i = 0; i < surface.size(); ++i) {
-    if (!may_hold_keypoint.empty() && !may_hold_keypoint[i]) continue;
-    index.withinRadius(surface.points[i], params.keypoint_radius_m, neighbours);
-    if (neighbours.size() < 4) continue;
+  std::vector<float> responses(surface.size(), -1.0f);  // -1: too few neighbours
+  const std::vector<std::uint8_t> wanted =
+      mayRespond(surface, grid, params.min_response, may_hold_keypoint);
+  grid.forEachPoint(params.keypoint_radius_m, wanted, [&](std::uint32_t i, const auto& neighbours) {
+    if (neighbours.size() < 4) return;
     Eigen::Matrix3f outer = Eigen::Matrix3f::Zero();
     for (std::uint32_t j : neighbours) outer += surface.normals[j] * surface.normals[j].transpose();
     outer /= static_cast<float>(neighbours.size());
-    const Eigen::Vector3f eigenvalues =
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f>(outer, Eigen::EigenvaluesOnly).eigenvalues();
-    const float response = 1.0f - eigenvalues[2] + eigenvalues[0];
-    if (response >= params.min_response) out.push_back({i, response});
-  }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver;
+    solver.computeDirect(outer, Eigen::EigenvaluesOnly);
+    const Eigen::Vector3f& eigenvalues = solver.eigenvalues();
+    responses[i] = 1.0f - eigenvalues[2] + eigenvalues[0];
+  });
+  std::vector<Candidate> out;
+  for (std::uint32_t i = 0; i < surface.size(); ++i)
+    if (responses[i] >= params.min_response) out.push_back({i, responses[i]});
   return out;
 }
 
@@ -169,18 +208,20 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
                                               const std::vector<std::uint8_t>& may_hold_keypoint) {
   CV_Assert(surface.normals.size() == surface.points.size());
   CV_Assert(may_hold_keypoint.empty() || may_hold_keypoint.size() == surface.size());
-  CV_Assert(params.support_radius_m > 0.0f && params.height_image_size >= kShapeDescriptorCells);
+  CV_Assert(params.support_radius_m > 0.0f && params.keypoint_radius_m > 0.0f &&
+            params.height_image_size >= kShapeDescriptorCells);
   if (surface.empty()) return {};
-  const detail::CloudIndex index(surface.points);
+  // Cubes of the response's radius: mayRespond's bound needs that side.
+  const detail::PointGrid grid(surface.points, params.keypoint_radius_m);
   const std::vector<Candidate> keypoints =
-      suppressNonMaxima(interestResponses(surface, index, params, may_hold_keypoint), surface,
+      suppressNonMaxima(interestResponses(surface, grid, params, may_hold_keypoint), surface,
                         params.keypoint_spacing_m);
   std::vector<ShapeFeature> out;
   std::vector<std::uint32_t> support;
   cv::Mat heights;
   for (const Candidate& keypoint : keypoints) {
     const Eigen::Vector3f& centre = surface.points[keypoint.point];
-    index.withinRadius(centre, params.support_radius_m, support);
+    grid.withinRadius(centre, params.support_radius_m, support);
     if (support.size() < 8) continue;
     ShapeFeature feature;
     feature.position = centre;

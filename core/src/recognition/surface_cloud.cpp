@@ -45,13 +45,11 @@ SurfaceCloud thinToVoxels(const std::vector<Eigen::Vector3f>& points,
 }
 
 // Smallest principal axis of each point's neighbourhood; points with too few neighbours go.
-SurfaceCloud estimateNormals(SurfaceCloud thinned, const SurfaceCloudParams& params) {
-  const detail::CloudIndex index(thinned.points);
-  SurfaceCloud out;
-  std::vector<std::uint32_t> neighbours;
-  for (const Eigen::Vector3f& p : thinned.points) {
-    index.withinRadius(p, params.normal_radius_m, neighbours);
-    if (static_cast<int>(neighbours.size()) < params.min_normal_neighbours) continue;
+SurfaceCloud estimateNormals(const SurfaceCloud& thinned, const SurfaceCloudParams& params) {
+  std::vector<Eigen::Vector3f> normals(thinned.size(), Eigen::Vector3f::Zero());
+  const detail::PointGrid grid(thinned.points, params.normal_radius_m);
+  grid.forEachPoint(params.normal_radius_m, {}, [&](std::uint32_t i, const auto& neighbours) {
+    if (static_cast<int>(neighbours.size()) < params.min_normal_neighbours) return;
     Eigen::Vector3f mean = Eigen::Vector3f::Zero();
     for (std::uint32_t j : neighbours) mean += thinned.points[j];
     mean /= static_cast<float>(neighbours.size());
@@ -60,9 +58,14 @@ SurfaceCloud estimateNormals(SurfaceCloud thinned, const SurfaceCloudParams& par
       const Eigen::Vector3f d = thinned.points[j] - mean;
       covariance += d * d.transpose();
     }
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
-    out.points.push_back(p);
-    out.normals.push_back(solver.eigenvectors().col(0).normalized());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
+    normals[i] = solver.eigenvectors().col(0).normalized();
+  });
+  SurfaceCloud out;
+  for (std::size_t i = 0; i < thinned.size(); ++i) {
+    if (normals[i].isZero()) continue;
+    out.points.push_back(thinned.points[i]);
+    out.normals.push_back(normals[i]);
   }
   return out;
 }
@@ -112,7 +115,7 @@ SurfaceCloud surfaceCloudFromPoints(const std::vector<Eigen::Vector3f>& points,
     if (!normals.empty()) finite_normals.push_back(normals[i].normalized());
   }
   SurfaceCloud cloud = thinToVoxels(finite_points, finite_normals, params.voxel_m);
-  if (normals.empty()) cloud = estimateNormals(std::move(cloud), params);
+  if (normals.empty()) cloud = estimateNormals(cloud, params);
   faceViewpoint(cloud, viewpoint);
   return cloud;
 }

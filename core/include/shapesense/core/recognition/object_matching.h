@@ -34,7 +34,7 @@ namespace detail {
 class CloudIndex;
 }
 
-/// One depth frame's surface, features and neighbour index, made once for all the models.
+/// One depth frame's surface, features and nearest-point index, made once for all the models.
 class SceneSurface {
  public:
   /// `params` must be the models' (surface and feature parameters), so that the descriptors
@@ -49,14 +49,14 @@ class SceneSurface {
   const std::vector<ShapeFeature>& features() const { return features_; }
   const cv::Mat& depth() const { return depth_mm_; }
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
-  const detail::CloudIndex& index() const { return *index_; }
+  const detail::CloudIndex& nearestIndex() const { return *nearest_index_; }
 
  private:
   cv::Mat depth_mm_;
   CameraIntrinsics intrinsics_;
   SurfaceCloud surface_;
   std::vector<ShapeFeature> features_;
-  std::unique_ptr<detail::CloudIndex> index_;
+  std::unique_ptr<detail::CloudIndex> nearest_index_;
 };
 
 struct ObjectMatchParams {
@@ -78,9 +78,13 @@ struct ObjectMatchParams {
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
   /// matches that are refined and checked; the one the depth confirms most wins. Default 5.
   int pose_hypotheses = 5;
-  /// Point-to-plane ICP iterations and the farthest pair it uses (m). Defaults 20 and 2 cm.
-  int icp_iterations = 20;
+  /// Point-to-plane ICP with nearest-point pairs: iterations on at most `icp_max_points` of
+  /// the model (evenly spread), then iterations on all of it, and the farthest pair it uses
+  /// (m). Defaults 15, 5, 500 and 2 cm.
+  int icp_iterations = 15;
+  int icp_final_iterations = 5;
   float icp_max_distance_m = 0.02f;
+  int icp_max_points = 500;
   /// A depth reading confirms a model point within max(this, confirm_steps sensor depth
   /// steps) of its predicted depth (m). Defaults 1 cm and 3 steps.
   float confirm_distance_m = 0.01f;

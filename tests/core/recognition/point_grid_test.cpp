@@ -1,0 +1,100 @@
+// The cube grid's neighbourhoods (recognition/cloud_index.h) against a brute-force search, for
+// radii within one cube side and beyond it.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "../../../core/src/recognition/cloud_index.h"
+
+namespace shapesense::detail {
+namespace {
+
+// A bent sheet (two faces meeting at a crease) and a scatter of loose points, in a 20 cm box.
+std::vector<Eigen::Vector3f> testPoints() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 3000; ++i) {
+    const float u = 0.2f * unit(rng);
+    const float v = 0.2f * unit(rng);
+    points.emplace_back(u - 0.1f, v - 0.1f, 1.0f + 0.5f * std::abs(u - 0.1f));
+  }
+  for (int i = 0; i < 500; ++i) {
+    const float x = 0.2f * unit(rng) - 0.1f;
+    const float y = 0.2f * unit(rng) - 0.1f;
+    const float z = 0.2f * unit(rng) + 0.95f;
+    points.emplace_back(x, y, z);
+  }
+  return points;
+}
+
+std::vector<std::uint32_t> bruteForce(const std::vector<Eigen::Vector3f>& points,
+                                      const Eigen::Vector3f& query, float radius) {
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t i = 0; i < points.size(); ++i)
+    if ((points[i] - query).squaredNorm() <= radius * radius) out.push_back(i);
+  return out;
+}
+
+std::vector<std::uint32_t> sorted(std::vector<std::uint32_t> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+TEST(PointGrid, EveryPointsNeighbourhoodIsTheBruteForceOne) {
+  const std::vector<Eigen::Vector3f> points = testPoints();
+  const PointGrid grid(points, 0.015f);
+  for (float radius : {0.01f, 0.015f, 0.035f}) {
+    std::size_t visited = 0, total_neighbours = 0;
+    grid.forEachPoint(radius, {}, [&](std::uint32_t i, const std::vector<std::uint32_t>& found) {
+      ++visited;
+      total_neighbours += found.size();
+      ASSERT_EQ(sorted(found), bruteForce(points, points[i], radius)) << "point " << i;
+    });
+    EXPECT_EQ(visited, points.size());
+    EXPECT_GT(total_neighbours, 3 * points.size());  // the test has neighbours to find
+  }
+}
+
+TEST(PointGrid, VisitsOnlyTheWantedPoints) {
+  const std::vector<Eigen::Vector3f> points = testPoints();
+  const PointGrid grid(points, 0.015f);
+  std::vector<std::uint8_t> wanted(points.size(), 0);
+  for (std::size_t i = 0; i < wanted.size(); i += 7) wanted[i] = 1;
+  std::vector<std::uint8_t> seen(points.size(), 0);
+  grid.forEachPoint(0.015f, wanted,
+                    [&](std::uint32_t i, const std::vector<std::uint32_t>&) { ++seen[i]; });
+  EXPECT_EQ(seen, wanted);
+}
+
+TEST(PointGrid, QueriesAnywhereMatchBruteForce) {
+  const std::vector<Eigen::Vector3f> points = testPoints();
+  const PointGrid grid(points, 0.015f);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> coordinate(-0.12f, 0.12f);
+  std::vector<std::uint32_t> found;
+  for (int q = 0; q < 200; ++q) {
+    const Eigen::Vector3f query(coordinate(rng), coordinate(rng), 1.05f + coordinate(rng));
+    for (float radius : {0.015f, 0.035f}) {
+      grid.withinRadius(query, radius, found);
+      EXPECT_EQ(sorted(found), bruteForce(points, query, radius));
+    }
+  }
+}
+
+TEST(PointGrid, EmptyCloud) {
+  const std::vector<Eigen::Vector3f> none;
+  const PointGrid grid(none, 0.015f);
+  std::vector<std::uint32_t> found{1, 2};
+  grid.withinRadius(Eigen::Vector3f(0, 0, 1), 0.02f, found);
+  EXPECT_TRUE(found.empty());
+  EXPECT_EQ(grid.cubeCount(), 0u);
+}
+
+}  // namespace
+}  // namespace shapesense::detail
