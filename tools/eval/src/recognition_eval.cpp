@@ -22,12 +22,20 @@ double angleDeg(double cosine) {
   return std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
-struct TaughtObject {
+// An object of a case as an operator marks it in the teach view: the same pixels for every
+// method.
+struct TeachingExample {
   std::uint16_t id = 0;
-  ObjectModel model;
+  std::string name;
+  cv::Mat mask;            ///< the object's pixels in the teach frame
   Eigen::Vector3d centre;  ///< the truth centre, teach camera frame
   Eigen::Vector3d axis;    ///< the truth axis 2, teach camera frame
   bool axially_symmetric = false;
+};
+
+struct TaughtObject {
+  const TeachingExample* example = nullptr;
+  std::unique_ptr<Recognizer::Model> model;
 };
 
 const synthetic::TruthObject* objectById(const synthetic::TruthFrame& truth, std::uint16_t id) {
@@ -36,13 +44,12 @@ const synthetic::TruthObject* objectById(const synthetic::TruthFrame& truth, std
   return nullptr;
 }
 
-// Teaches every teachable object of the case through its truth image box, as an operator
-// drawing a rectangle would.
-std::vector<TaughtObject> teachCase(const RecognitionCase& c, const ObjectModelParams& params,
-                                    RecognitionScore& score) {
+// The pixels of every teachable object of the case under its truth image box, as an operator
+// drawing a rectangle would mark it; `refused` counts the objects the ROI does not mark.
+std::vector<TeachingExample> markTeachableObjects(const RecognitionCase& c, int& refused) {
   const Frame& frame = c.teach.rendered.frame;
   const FrameResults results = makeDetectorChain(DetectorConfig{}).process(frame);
-  std::vector<TaughtObject> out;
+  std::vector<TeachingExample> out;
   if (!results.segmentation || !results.planes) return out;
   for (std::uint16_t id : teachableObjects(c)) {
     const synthetic::TruthObject& object = *objectById(c.teach.rendered.truth, id);
@@ -52,24 +59,48 @@ std::vector<TaughtObject> teachCase(const RecognitionCase& c, const ObjectModelP
                                        results.segmentation->segments, results.planes->frame);
     const auto* roi_object = std::get_if<RoiObject>(&marked);
     if (!roi_object) {
-      ++score.refused;
+      ++refused;
       continue;
     }
+    out.push_back(TeachingExample{id, object.name, roi_object->mask, object.center,
+                                  object.rotation.col(2),
+                                  object.kind == "tin" || object.kind == "cup"});
+  }
+  return out;
+}
+
+std::vector<TaughtObject> teachExamples(Recognizer& recognizer, const Frame& frame,
+                                        const std::vector<TeachingExample>& examples,
+                                        RecognitionScore& score) {
+  std::vector<TaughtObject> out;
+  for (const TeachingExample& example : examples) {
     try {
-      TaughtObject taught;
-      taught.id = id;
-      taught.model =
-          teachObjectModel(object.name, frame.depth, frame.intrinsics, roi_object->mask, params);
-      taught.centre = object.center;
-      taught.axis = object.rotation.col(2);
-      taught.axially_symmetric = object.kind == "tin" || object.kind == "cup";
-      out.push_back(std::move(taught));
+      out.push_back(
+          {&example, recognizer.teach(example.name, frame.depth, frame.intrinsics, example.mask)});
       ++score.taught;
     } catch (const std::invalid_argument&) {
       ++score.refused;
     }
   }
   return out;
+}
+
+// The one place a detection is judged, for the scoring and for withMinScore alike.
+void countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
+                    RecognitionScore& score) {
+  const bool required = d.visible_share >= tolerance.min_visible_share;
+  const bool right = d.error.translation_m <= tolerance.translation_m &&
+                     d.error.rotation_deg <= tolerance.rotation_deg;
+  if (right && d.visible_share >= tolerance.min_visible_share_present) {
+    if (required) {
+      ++score.found;
+      score.translation_errors_m.push_back(d.error.translation_m);
+      score.rotation_errors_deg.push_back(d.error.rotation_deg);
+    }
+    return;
+  }
+  ++score.false_detections;
+  if (required) ++score.wrong_pose;
 }
 
 }  // namespace
@@ -100,45 +131,65 @@ RecognitionScore scoreRecognition(Split split, int first, int count, int other_v
                                   const ObjectModelParams& model_params,
                                   const ObjectMatchParams& match_params,
                                   const PoseTolerance& tolerance) {
-  RecognitionScore score;
+  ShapesenseRecognizer ours(model_params, match_params);
+  return scoreRecognizers({&ours}, split, first, count, other_views, tolerance).front();
+}
+
+std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& recognizers,
+                                               Split split, int first, int count, int other_views,
+                                               const PoseTolerance& tolerance) {
+  std::vector<RecognitionScore> scores(recognizers.size());
   for (int index = first; index < first + count; ++index) {
     const RecognitionCase c = recognitionCase(split, index, other_views);
-    ++score.cases;
-    const std::vector<TaughtObject> taught = teachCase(c, model_params, score);
-    for (const RecognitionView& view : c.others) {
-      ++score.views;
-      const Eigen::Isometry3d truth = teachToView(c, view);
-      auto start = Clock::now();
-      const SceneSurface scene(view.rendered.frame.depth, view.rendered.frame.intrinsics,
-                               model_params);
-      score.describe_ms_total += msSince(start);
-      for (const TaughtObject& t : taught) {
-        const double share = visibleShare(c, view, t.id);
-        const bool required = share >= tolerance.min_visible_share;
-        if (required) ++score.required;
-        start = Clock::now();
-        const auto detection = findObject(t.model, scene, match_params);
-        score.find_ms_total += msSince(start);
-        ++score.searches;
-        if (!detection) continue;
-        const PoseErrorDeg error =
-            poseError(detection->camera_from_model, truth, t.centre, t.axis, t.axially_symmetric);
-        const bool right = error.translation_m <= tolerance.translation_m &&
-                           error.rotation_deg <= tolerance.rotation_deg;
-        if (right && share >= tolerance.min_visible_share_present) {
-          if (required) {
-            ++score.found;
-            score.translation_errors_m.push_back(error.translation_m);
-            score.rotation_errors_deg.push_back(error.rotation_deg);
-          }
-          continue;
+    int refused_by_roi = 0;
+    const std::vector<TeachingExample> examples = markTeachableObjects(c, refused_by_roi);
+    for (std::size_t r = 0; r < recognizers.size(); ++r) {
+      RecognitionScore& score = scores[r];
+      ++score.cases;
+      score.refused += refused_by_roi;
+      const std::vector<TaughtObject> taught =
+          teachExamples(*recognizers[r], c.teach.rendered.frame, examples, score);
+      for (const RecognitionView& view : c.others) {
+        ++score.views;
+        const Frame& frame = view.rendered.frame;
+        const Eigen::Isometry3d truth = teachToView(c, view);
+        auto start = Clock::now();
+        const auto scene = recognizers[r]->describe(frame.depth, frame.intrinsics);
+        score.describe_ms_total += msSince(start);
+        for (const TaughtObject& t : taught) {
+          const double share = visibleShare(c, view, t.example->id);
+          if (share >= tolerance.min_visible_share) ++score.required;
+          start = Clock::now();
+          const auto detection = recognizers[r]->find(*t.model, *scene);
+          score.find_ms_total += msSince(start);
+          ++score.searches;
+          if (!detection) continue;
+          const ScoredDetection scored{
+              detection->score, share,
+              poseError(detection->camera_from_model, truth, t.example->centre, t.example->axis,
+                        t.example->axially_symmetric)};
+          score.detections.push_back(scored);
+          countDetection(scored, tolerance, score);
         }
-        ++score.false_detections;
-        if (required) ++score.wrong_pose;
       }
     }
   }
-  return score;
+  return scores;
+}
+
+RecognitionScore withMinScore(const RecognitionScore& score, double min_score,
+                              const PoseTolerance& tolerance) {
+  RecognitionScore out = score;
+  out.found = out.wrong_pose = out.false_detections = 0;
+  out.translation_errors_m.clear();
+  out.rotation_errors_deg.clear();
+  out.detections.clear();
+  for (const ScoredDetection& d : score.detections) {
+    if (d.score < min_score) continue;
+    out.detections.push_back(d);
+    countDetection(d, tolerance, out);
+  }
+  return out;
 }
 
 std::string formatRecognitionScore(const std::string& label, const RecognitionScore& s) {

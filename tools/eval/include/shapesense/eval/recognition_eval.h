@@ -11,6 +11,7 @@
 
 #include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/eval/recognition_views.h"
+#include "shapesense/eval/recognizer.h"
 
 namespace shapesense::eval {
 
@@ -24,6 +25,18 @@ struct PoseTolerance {
   double min_visible_share_present = 0.1;
 };
 
+struct PoseErrorDeg {
+  double translation_m = 0.0;
+  double rotation_deg = 0.0;
+};
+
+/// One detection as it was judged: enough to count it again at another detection threshold.
+struct ScoredDetection {
+  double score = 0.0;          ///< the method's (RecognizerDetection::score)
+  double visible_share = 0.0;  ///< visibleShare of the object in the searched view
+  PoseErrorDeg error;
+};
+
 struct RecognitionScore {
   int cases = 0;
   int views = 0;             ///< other views searched
@@ -35,18 +48,14 @@ struct RecognitionScore {
   int false_detections = 0;  ///< detections not within the tolerance of a present object
   std::vector<double> translation_errors_m;  ///< of the found ones
   std::vector<double> rotation_errors_deg;
-  double describe_ms_total = 0.0;  ///< SceneSurface, summed over views
-  double find_ms_total = 0.0;      ///< findObject, summed over (model, view)
-  int searches = 0;                ///< findObject calls
+  double describe_ms_total = 0.0;  ///< Recognizer::describe (SceneSurface), summed over views
+  double find_ms_total = 0.0;      ///< Recognizer::find (findObject), summed over (model, view)
+  int searches = 0;                ///< Recognizer::find calls
+  std::vector<ScoredDetection> detections;  ///< every detection, in the order made
 
   double recall() const { return required ? static_cast<double>(found) / required : 0.0; }
   /// False detections per frame, scaled to five taught objects (the measure).
   double falsePerFrameForFive() const;
-};
-
-struct PoseErrorDeg {
-  double translation_m = 0.0;
-  double rotation_deg = 0.0;
 };
 
 /// Pose error of `estimated` (camera from model, the model in the teach camera's frame)
@@ -56,11 +65,27 @@ PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry
                        const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
                        bool axially_symmetric);
 
-/// Scores cases [first, first + count) of a split with `other_views` views each.
+/// Scores cases [first, first + count) of a split with `other_views` views each: shapesense's
+/// own method (ShapesenseRecognizer with these parameters).
 RecognitionScore scoreRecognition(Split split, int first, int count, int other_views = 3,
                                   const ObjectModelParams& model_params = {},
                                   const ObjectMatchParams& match_params = {},
                                   const PoseTolerance& tolerance = {});
+
+/// Scores each of `recognizers` on cases [first, first + count) of a split with `other_views`
+/// views each, all taught from the same pixels (the object the truth image box marks after the
+/// detector chain, objectUnderRoi) and searched in the same frames, one recognizer after the
+/// other on each frame. One score per recognizer, in their order.
+std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& recognizers,
+                                               Split split, int first, int count,
+                                               int other_views = 3,
+                                               const PoseTolerance& tolerance = {});
+
+/// `score` as it would have been had the method's detections below `min_score` been dropped
+/// (its detection threshold raised to `min_score`; it keeps its best pose per search).
+/// `tolerance` must be the one `score` was counted with.
+RecognitionScore withMinScore(const RecognitionScore& score, double min_score,
+                              const PoseTolerance& tolerance = {});
 
 /// The score as the table shapesense-eval prints.
 std::string formatRecognitionScore(const std::string& label, const RecognitionScore& score);
