@@ -243,24 +243,22 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
   return pose;
 }
 
-// Step 3: each model point pairs with the nearest scene point (which holds a face from sliding
-// past the scene's edges, as pairing along the line of sight does not); the first iterations
-// on a share of the model, the last on all of it.
+// Step 3: point-to-plane ICP, each model point paired with the nearest scene point (which
+// holds a face from sliding past the scene's edges, as pairing along the line of sight does
+// not), on at most `max_points` of the model.
 Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& model,
-                             const SceneSurface& scene, const ObjectMatchParams& params) {
-  const auto nearest = [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
-    float d2 = 0.0f;
-    const int j = scene.nearestIndex().nearest(p, d2);
-    if (j < 0) return false;
-    q = scene.surface().points[static_cast<std::size_t>(j)];
-    normal = scene.surface().normals[static_cast<std::size_t>(j)];
-    return true;
-  };
-  const Eigen::Isometry3f near =
-      pointToPlaneIcp(start, model, params.icp_iterations, params.icp_max_points,
-                      params.icp_max_distance_m, nearest);
-  return pointToPlaneIcp(near, model, params.icp_final_iterations, 0, params.icp_max_distance_m,
-                         nearest);
+                             const SceneSurface& scene, int iterations, int max_points,
+                             const ObjectMatchParams& params) {
+  return pointToPlaneIcp(
+      start, model, iterations, max_points, params.icp_max_distance_m,
+      [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
+        float d2 = 0.0f;
+        const int j = scene.nearestIndex().nearest(p, d2);
+        if (j < 0) return false;
+        q = scene.surface().points[static_cast<std::size_t>(j)];
+        normal = scene.surface().normals[static_cast<std::size_t>(j)];
+        return true;
+      });
 }
 
 struct Verification {
@@ -344,16 +342,25 @@ SceneSurface::~SceneSurface() = default;
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
                                           const ObjectMatchParams& params) {
   const std::vector<Match> matches = candidateMatches(model, scene, params);
+  // Every hypothesis is refined on a share of the model and checked; only the winner is
+  // refined on all of it.
   std::optional<ObjectDetection> best;
   for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
     if (!worthRefining(hypothesis.scene_from_model, model, scene, params)) continue;
-    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, scene, params);
+    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, scene,
+                                              params.icp_iterations, params.icp_max_points, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection) continue;
     detection->feature_inliers = hypothesis.inliers;
     if (!best || detection->confirmed_points > best->confirmed_points) best = detection;
   }
-  return best;
+  if (!best) return best;
+  const Eigen::Isometry3f final_pose =
+      refinePose(best->camera_from_model, model, scene, params.icp_final_iterations, 0, params);
+  auto final_detection = verifyObjectPose(model, scene, final_pose, params);
+  if (!final_detection) return best;
+  final_detection->feature_inliers = best->feature_inliers;
+  return final_detection;
 }
 
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

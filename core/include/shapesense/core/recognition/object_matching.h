@@ -78,9 +78,9 @@ struct ObjectMatchParams {
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
   /// matches that are refined and checked; the one the depth confirms most wins. Default 5.
   int pose_hypotheses = 5;
-  /// Point-to-plane ICP with nearest-point pairs: iterations on at most `icp_max_points` of
-  /// the model (evenly spread), then iterations on all of it, and the farthest pair it uses
-  /// (m). Defaults 15, 5, 500 and 2 cm.
+  /// Point-to-plane ICP with nearest-point pairs: iterations for each pose from step 2 on at
+  /// most `icp_max_points` of the model (evenly spread), then iterations on all of it for the
+  /// pose that wins the check, and the farthest pair it uses (m). Defaults 15, 5, 500, 2 cm.
   int icp_iterations = 15;
   int icp_final_iterations = 5;
   float icp_max_distance_m = 0.02f;
