@@ -2,7 +2,7 @@
 // Neighbour queries over a fixed set of 3D points: within a radius (PointGrid, cubes) and the
 // nearest (CloudIndex, a k-d tree from nanoflann). The points must outlive either index.
 
-#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>

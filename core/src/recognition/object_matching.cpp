@@ -189,18 +189,6 @@ std::vector<Hypothesis> ransacPoses(const std::vector<Match>& matches, const Obj
   return kept;
 }
 
-// The pixel a camera-frame point projects to; false behind the camera or outside the image.
-bool pixelOf(const Eigen::Vector3f& p, const SceneSurface& scene, int& row, int& col) {
-  if (p.z() <= 0.0f) return false;
-  const Eigen::Vector2d uv = scene.intrinsics().project(p.cast<double>());
-  const long u = std::lround(uv.x());
-  const long v = std::lround(uv.y());
-  if (u < 0 || v < 0 || u >= scene.depth().cols || v >= scene.depth().rows) return false;
-  row = static_cast<int>(v);
-  col = static_cast<int>(u);
-  return true;
-}
-
 // Point-to-plane ICP, linearised about the current pose, with each model point facing the
 // camera (at most `max_points` of them, evenly spread; 0 = all) paired by
 // `partner(p, q, normal)` (false: no partner).
@@ -275,9 +263,13 @@ float confirmTolerance(float z, const ObjectMatchParams& params) {
 
 // The reading (m) where a camera-frame point projects; 0 outside the image or without one.
 float readingAt(const Eigen::Vector3f& p, const SceneSurface& scene) {
-  int row = 0, col = 0;
-  if (!pixelOf(p, scene, row, col)) return 0.0f;
-  return 1e-3f * static_cast<float>(scene.depth().at<std::uint16_t>(row, col));
+  if (p.z() <= 0.0f) return 0.0f;
+  const Eigen::Vector2d uv = scene.intrinsics().project(p.cast<double>());
+  const long u = std::lround(uv.x());
+  const long v = std::lround(uv.y());
+  if (u < 0 || v < 0 || u >= scene.depth().cols || v >= scene.depth().rows) return 0.0f;
+  return 1e-3f * static_cast<float>(
+                     scene.depth().at<std::uint16_t>(static_cast<int>(v), static_cast<int>(u)));
 }
 
 // Step 4.
