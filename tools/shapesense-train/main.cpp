@@ -377,6 +377,8 @@ void addVerificationOptions(CLI::App& a, BowlVerification& verification) {
   a.add_option("--height-ratio-min", g.min_height_to_diameter, "3D check: height / rim, min");
   a.add_option("--height-ratio-max", g.max_height_to_diameter, "3D check: height / rim, max");
   a.add_option("--band-fraction", g.band_fraction, "3D check: rim / foot band share");
+  a.add_option("--box-samples", g.max_box_samples,
+               "3D check: samples of the box at most (0 = every pixel)");
 }
 
 CLI::App* addEvalCommand(CLI::App& app, CommandLine& c) {

@@ -131,31 +131,44 @@ double heightAbove(const SupportPlane& support, const Eigen::Vector3d& point) {
   return support.normal.dot(point) + support.d;
 }
 
-/// The box's readings in the camera frame and their heights above the support, row by row
-/// (z = 0: no reading), computed once for the object and the dish.
+/// The box's readings in the camera frame and their heights above the support, on a grid of
+/// every `step`-th pixel in each direction (z = 0: no reading), computed once for the object
+/// and the dish.
 struct BoxReadings {
   cv::Rect box;
+  int step = 1;
+  cv::Size grid;  ///< samples across and down
   std::vector<double> z;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> heights;
 
-  std::size_t at(int u, int v) const { return static_cast<std::size_t>(v * box.width + u); }
+  std::size_t at(int u, int v) const { return static_cast<std::size_t>(v * grid.width + u); }
 };
 
+/// The smallest whole pixel step at which the box holds at most `max_samples` samples.
+int sampleStep(const cv::Rect& box, int max_samples) {
+  if (max_samples <= 0) return 1;
+  return std::max(
+      1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(box.area()) / max_samples))));
+}
+
 BoxReadings readBox(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                    const cv::Rect& box, const SupportPlane& support) {
-  BoxReadings readings{box, {}, {}, {}};
-  const auto n = static_cast<std::size_t>(box.area());
+                    const cv::Rect& box, const SupportPlane& support, int step) {
+  BoxReadings readings{box, step, {(box.width + step - 1) / step, (box.height + step - 1) / step},
+                       {},  {},   {}};
+  const auto n = static_cast<std::size_t>(readings.grid.area());
   readings.z.assign(n, 0.0);
   readings.points.assign(n, Eigen::Vector3d::Zero());
   readings.heights.assign(n, 0.0);
-  for (int v = 0; v < box.height; ++v) {
-    const auto* row = depth_mm.ptr<std::uint16_t>(box.y + v);
-    for (int u = 0; u < box.width; ++u) {
-      if (row[box.x + u] == 0) continue;
+  for (int v = 0; v < readings.grid.height; ++v) {
+    const int y = box.y + v * step;
+    const auto* row = depth_mm.ptr<std::uint16_t>(y);
+    for (int u = 0; u < readings.grid.width; ++u) {
+      const int x = box.x + u * step;
+      if (row[x] == 0) continue;
       const std::size_t i = readings.at(u, v);
-      readings.z[i] = row[box.x + u] * 1e-3;
-      readings.points[i] = intrinsics.backproject(box.x + u, box.y + v, readings.z[i]);
+      readings.z[i] = row[x] * 1e-3;
+      readings.points[i] = intrinsics.backproject(x, y, readings.z[i]);
       readings.heights[i] = heightAbove(support, readings.points[i]);
     }
   }
@@ -167,28 +180,30 @@ BoxReadings readBox(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
 /// components reaching the central half of the box, the largest.
 std::vector<Eigen::Vector3d> objectOnSupport(const BoxReadings& readings,
                                              const BowlGeometryParams& params) {
-  const cv::Rect& box = readings.box;
+  const cv::Size grid = readings.grid;
   const double max_height = maxObjectHeight(params);
-  cv::Mat standing(box.size(), CV_8UC1, cv::Scalar(0));
-  for (int v = 0; v < box.height; ++v) {
-    for (int u = 0; u < box.width; ++u) {
+  cv::Mat standing(grid, CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < grid.height; ++v) {
+    for (int u = 0; u < grid.width; ++u) {
       const std::size_t i = readings.at(u, v);
       const double z = readings.z[i], h = readings.heights[i];
       if (z > 0 && h > clearance(z, params) && h < max_height) standing.at<std::uint8_t>(v, u) = 1;
     }
   }
-  const DepthStepRule surface_break{.noise_steps = params.max_step_steps,
-                                    .floor_m = params.max_step_floor_m,
+  // Samples `step` pixels apart on one smooth surface differ up to `step` times as much as
+  // neighbouring pixels do.
+  const DepthStepRule surface_break{.noise_steps = params.max_step_steps * readings.step,
+                                    .floor_m = params.max_step_floor_m * readings.step,
                                     .noise = params.noise};
   auto joined = [&](int u0, int v0, int u1, int v1) {
     return !surface_break.isStep(readings.z[readings.at(u0, v0)], readings.z[readings.at(u1, v1)]);
   };
-  cv::Mat component(box.size(), CV_32SC1, cv::Scalar(0));
-  const cv::Rect centre(box.width / 4, box.height / 4, box.width / 2, box.height / 2);
+  cv::Mat component(grid, CV_32SC1, cv::Scalar(0));
+  const cv::Rect centre(grid.width / 4, grid.height / 4, grid.width / 2, grid.height / 2);
   int best_label = 0, best_size = 0, label = 0;
   std::vector<cv::Point> stack;
-  for (int v = 0; v < box.height; ++v) {
-    for (int u = 0; u < box.width; ++u) {
+  for (int v = 0; v < grid.height; ++v) {
+    for (int u = 0; u < grid.width; ++u) {
       if (!standing.at<std::uint8_t>(v, u) || component.at<int>(v, u) != 0) continue;
       ++label;
       int size = 0;
@@ -203,7 +218,7 @@ std::vector<Eigen::Vector3d> objectOnSupport(const BoxReadings& readings,
         const cv::Point neighbours[4] = {
             {p.x - 1, p.y}, {p.x + 1, p.y}, {p.x, p.y - 1}, {p.x, p.y + 1}};
         for (const cv::Point& q : neighbours) {
-          if (q.x < 0 || q.y < 0 || q.x >= box.width || q.y >= box.height) continue;
+          if (q.x < 0 || q.y < 0 || q.x >= grid.width || q.y >= grid.height) continue;
           if (!standing.at<std::uint8_t>(q) || component.at<int>(q) != 0) continue;
           if (!joined(p.x, p.y, q.x, q.y)) continue;
           component.at<int>(q) = label;
@@ -219,8 +234,8 @@ std::vector<Eigen::Vector3d> objectOnSupport(const BoxReadings& readings,
   std::vector<Eigen::Vector3d> points;
   if (best_label == 0) return points;
   points.reserve(static_cast<std::size_t>(best_size));
-  for (int v = 0; v < box.height; ++v)
-    for (int u = 0; u < box.width; ++u)
+  for (int v = 0; v < grid.height; ++v)
+    for (int u = 0; u < grid.width; ++u)
       if (component.at<int>(v, u) == best_label)
         points.push_back(readings.points[readings.at(u, v)]);
   return points;
@@ -391,7 +406,8 @@ BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntr
   result.geometry.support_normal = support->normal;
   result.geometry.support_d = support->d;
   result.geometry.support_plane_id = support->id;
-  const BoxReadings readings = readBox(depth_mm, intrinsics, clipped, *support);
+  const BoxReadings readings =
+      readBox(depth_mm, intrinsics, clipped, *support, sampleStep(clipped, params.max_box_samples));
   const auto points = objectOnSupport(readings, params);
   if (points.size() < static_cast<std::size_t>(4 * kMinBandPoints)) {
     result.rejection = BowlGeometryRejection::kNoObject;

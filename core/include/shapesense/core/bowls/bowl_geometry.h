@@ -73,6 +73,11 @@ struct BowlGeometryParams {
   /// depth steps (and at least max_step_floor_m). Defaults 4 steps, 1 cm.
   double max_step_steps = 4.0;
   double max_step_floor_m = 0.01;
+  /// The box is read on a grid of every s-th pixel, s the smallest step that leaves at most
+  /// this many samples (0: every pixel); samples s pixels apart are one surface within s times
+  /// the step limit above. The measures are quantiles and band widths, which a few thousand
+  /// samples settle as well as every pixel does, at a fraction of the time.
+  int max_box_samples = 2000;
   /// A plane is a support candidate when at least this many of the ~1200 grid samples of the
   /// support window carry its label. Default 12 (1%).
   int min_support_samples = 12;
