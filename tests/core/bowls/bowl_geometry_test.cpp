@@ -2,6 +2,7 @@
 // truth boxes of the objects: upright bowls seen whole are bowls with the right rim, and the
 // look-alikes the classifier confuses with them (upside-down bowls, tins, balls, cups) are not.
 // Seeds 777000+ are used by no other test, by training or by the evaluation sets.
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -118,6 +119,50 @@ TEST(BowlGeometry, UpsideDownBowlsTinsBallsAndCupsAreNotBowls) {
               contradicted);
   ASSERT_GE(look_alikes, 40);
   EXPECT_GE(rejected, kMinLookAlikesRejected * look_alikes);
+}
+
+// Reading the box on a grid (max_box_samples) must not change what the check decides: on
+// the bowls and look-alikes of the scenes above, the sampled and the every-pixel check agree on
+// at least 95% of the verdicts, and their rims differ by at most 5% on at least 90% of the
+// bowls both measure.
+TEST(BowlGeometry, GridSampledBoxAgreesWithEveryPixel) {
+  HoughPlaneDetector plane_detector;
+  BowlGeometryParams every_pixel;
+  every_pixel.max_box_samples = 0;
+  const BowlGeometryParams sampled;
+  ASSERT_GT(sampled.max_box_samples, 0);
+  int objects = 0, agreed = 0, both_bowls = 0, rims_close = 0, sampled_boxes = 0;
+  for (int k = 0; k < 24; ++k) {
+    auto p = sceneParams(k);
+    p.tins_min = 1;
+    p.balls_min = 1;
+    const synthetic::SyntheticScene scene(p);
+    const auto r = scene.render(0, 0);
+    const auto planes = plane_detector.detect(r.frame.depth, r.frame.intrinsics);
+    for (const auto& o : r.truth.objects) {
+      if (o.kind != "bowl" && o.kind != "tin" && o.kind != "ball") continue;
+      if (o.image_box.width < 20 || o.pixel_count < 300) continue;
+      ++objects;
+      sampled_boxes += o.image_box.area() > sampled.max_box_samples;
+      const auto full =
+          measureBowlGeometry(r.frame.depth, r.frame.intrinsics, o.image_box, planes, every_pixel);
+      const auto grid =
+          measureBowlGeometry(r.frame.depth, r.frame.intrinsics, o.image_box, planes, sampled);
+      agreed += full.isBowl() == grid.isBowl();
+      if (!full.isBowl() || !grid.isBowl()) continue;
+      ++both_bowls;
+      const double a = full.geometry.rim_diameter_m, b = grid.geometry.rim_diameter_m;
+      rims_close += std::abs(a - b) <= 0.05 * a;
+    }
+  }
+  std::printf(
+      "objects %d (boxes sampled: %d), verdicts agreed %d, both bowls %d, rims within "
+      "5%%: %d\n",
+      objects, sampled_boxes, agreed, both_bowls, rims_close);
+  ASSERT_GE(sampled_boxes, 20);
+  EXPECT_GE(agreed, 0.95 * objects);
+  ASSERT_GE(both_bowls, 10);
+  EXPECT_GE(rims_close, 0.90 * both_bowls);
 }
 
 // Nothing to stand on (no plane detection), an empty box, a box off the image: a clear
