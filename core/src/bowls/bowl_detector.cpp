@@ -139,6 +139,8 @@ struct DepthGate {
   bool on = false;
   int z_lo = 0, z_hi = 0;
   std::vector<int> input_column;
+  /// One flag per window row (y / stride): whether any window of the row lies in the gate.
+  std::vector<std::uint8_t> open_rows;
   const std::uint16_t* row(const cv::Mat& filled_mm, int y, int win_h, double scale) const {
     return filled_mm.ptr<std::uint16_t>(
         std::min(filled_mm.rows - 1, static_cast<int>((y + win_h * 0.5) * scale)));
@@ -155,31 +157,28 @@ DepthGate depthGate(const BowlViewModel& model, const BowlPyramidLevel& level,
   const double zmax_mm = model.max_object_width_m * fx / obj_px * 1000.0;
   g.z_lo = static_cast<int>(std::clamp(std::ceil(zmin_mm), 0.0, 65536.0));
   g.z_hi = static_cast<int>(std::clamp(std::floor(zmax_mm), -1.0, 65535.0));
-  if (g.on)
-    for (int x = 0; x + W <= level.image8.cols; x += stride)
-      g.input_column.push_back(
-          std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  if (!g.on) return g;
+  for (int x = 0; x + W <= level.image8.cols; x += stride)
+    g.input_column.push_back(
+        std::min(filled_mm.cols - 1, static_cast<int>((x + W * 0.5) * level.scale)));
+  const int H = model.classifier.win_h;
+  for (int y = 0; y + H <= level.image8.rows; y += stride) {
+    const std::uint16_t* zrow = g.row(filled_mm, y, H, level.scale);
+    g.open_rows.push_back(std::any_of(g.input_column.begin(), g.input_column.end(), [&](int c) {
+      return zrow[c] >= g.z_lo && zrow[c] <= g.z_hi;
+    }));
+  }
   return g;
 }
 
 /// Marks in `rows` the level rows that the windows of `model` passing its depth gate `g` on this
 /// level cover (all rows of any window row with at least one window in the gate).
-void markGatedRows(const BowlViewModel& model, const BowlPyramidLevel& level,
-                   const cv::Mat& filled_mm, const DepthGate& g, int stride,
-                   std::vector<std::uint8_t>& rows) {
+void markGatedRows(const BowlViewModel& model, const BowlPyramidLevel& level, const DepthGate& g,
+                   int stride, std::vector<std::uint8_t>& rows) {
   const int H = model.classifier.win_h;
-  for (int y = 0; y + H <= level.image8.rows; y += stride) {
-    if (!g.on) {
+  for (int y = 0; y + H <= level.image8.rows; y += stride)
+    if (!g.on || g.open_rows[static_cast<std::size_t>(y / stride)])
       std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
-      continue;
-    }
-    const std::uint16_t* zrow = g.row(filled_mm, y, H, level.scale);
-    for (const int c : g.input_column)
-      if (zrow[c] >= g.z_lo && zrow[c] <= g.z_hi) {
-        std::fill(rows.begin() + y, rows.begin() + y + H, std::uint8_t{1});
-        break;
-      }
-  }
 }
 
 /// A model that cannot reach the final score anywhere would only cost time (a model without
@@ -232,44 +231,40 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   const std::size_t row_windows = static_cast<std::size_t>((lw - W) / stride + 1);
   std::vector<int> alive_x(row_windows);               // x of the windows still in the cascade
   std::vector<std::int32_t> alive_score(row_windows);  // their running scores
-  // The first two stages (when both read code images) are fused into one compaction pass.
-  // The depth gate goes first, in a pass of its own: on real frames it passes about half of
-  // the windows (and no window at all in about a third of the rows of a level), so the stages
-  // then run on the gated windows only.
+  // The depth gate and the first two stages (when both read code images) share the first
+  // compaction pass. Rows where no window lies in the gate (about a third of the rows of a
+  // level on real frames) are skipped whole.
   const std::size_t fused_stages =
       n_stages >= 2 && readers[0].code_base && readers[1].code_base ? 2 : 0;
   for (int y = 0; y + H <= lh; y += stride) {
-    std::size_t alive = 0;
-    if (gate) {
-      const std::uint16_t* zrow = dg.row(filled_mm, y, H, level.scale);
-      for (std::size_t i = 0; i < row_windows; ++i) {
-        const int z = zrow[input_column[i]];
-        alive_x[alive] = static_cast<int>(i) * stride;
-        alive += static_cast<std::size_t>((z >= z_lo) & (z <= z_hi));
-      }
-      if (alive == 0) continue;
-    } else {
-      for (std::size_t i = 0; i < row_windows; ++i) alive_x[i] = static_cast<int>(i) * stride;
-      alive = row_windows;
-    }
+    if (gate && !dg.open_rows[static_cast<std::size_t>(y / stride)]) continue;
+    const std::uint16_t* zrow = gate ? dg.row(filled_mm, y, H, level.scale) : nullptr;
+    auto inGate = [&](std::size_t i) -> int {
+      if (!gate) return 1;
+      const int z = zrow[input_column[i]];
+      return (z >= z_lo) & (z <= z_hi);
+    };
     const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
+    std::size_t alive = 0;
     if (fused_stages == 2) {
       const std::uint8_t* codes0 = readers[0].code_base + code_row;
       const std::uint8_t* codes1 = readers[1].code_base + code_row;
       const std::int16_t* lut0 = clf.stages[0].lut.data();
       const std::int16_t* lut1 = clf.stages[1].lut.data();
       const std::int32_t threshold0 = thresholds[0], threshold1 = thresholds[1];
-      std::size_t kept = 0;
-      for (std::size_t k = 0; k < alive; ++k) {
-        const int x = alive_x[k];
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        const int x = static_cast<int>(i) * stride;
         const std::int32_t h0 = lut0[codes0[x]], h1 = h0 + lut1[codes1[x]];
-        alive_x[kept] = x;
-        alive_score[kept] = h1;
-        kept += static_cast<std::size_t>((h0 >= threshold0) & (h1 >= threshold1));
+        alive_x[alive] = x;
+        alive_score[alive] = h1;
+        alive += static_cast<std::size_t>(inGate(i) & (h0 >= threshold0) & (h1 >= threshold1));
       }
-      alive = kept;
     } else {
-      std::fill(alive_score.begin(), alive_score.begin() + static_cast<std::ptrdiff_t>(alive), 0);
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        alive_x[alive] = static_cast<int>(i) * stride;
+        alive_score[alive] = 0;
+        alive += static_cast<std::size_t>(inGate(i));
+      }
     }
     const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
     for (std::size_t t = fused_stages; t < n_stages && alive > 0; ++t) {
@@ -447,8 +442,7 @@ std::vector<BowlDetection> BowlDetector::detectRaw(const cv::Mat& depth_mm,
       rows.assign(static_cast<std::size_t>(level.image8.rows), 0);
       for (std::size_t v = 0; v < active.size(); ++v)
         if (scanned(level, v))
-          markGatedRows(*active[v], level, gate, gates[l * active.size() + v], params_.stride,
-                        rows);
+          markGatedRows(*active[v], level, gates[l * active.size() + v], params_.stride, rows);
       if (std::find(rows.begin(), rows.end(), std::uint8_t{1}) != rows.end())
         addLbpCodeImages(level, code_cell_sizes, rows);
     }
