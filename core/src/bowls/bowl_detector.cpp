@@ -1,6 +1,7 @@
 #include "shapesense/core/bowls/bowl_detector.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -9,6 +10,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bowls/bowl_scan_kernels.h"
 #include "shapesense/core/bowls/depth_preprocess.h"
 #include "shapesense/core/bowls/lbp.h"
 #include "shapesense/core/geometry/image_boxes.h"
@@ -236,34 +238,57 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   // level on real frames) are skipped whole.
   const std::size_t fused_stages =
       n_stages >= 2 && readers[0].code_base && readers[1].code_base ? 2 : 0;
+  // At the default stride the first pass runs in SIMD vectors (bowl_scan_kernels.h), which
+  // gather the votes from 32-bit tables and read the gate from a flag per window.
+  const bool vector_pass = fused_stages == 2 && stride == 2;
+  std::array<std::int32_t, 256> lut0_32{}, lut1_32{};
+  if (vector_pass) {
+    std::copy(clf.stages[0].lut.begin(), clf.stages[0].lut.end(), lut0_32.begin());
+    std::copy(clf.stages[1].lut.begin(), clf.stages[1].lut.end(), lut1_32.begin());
+  }
+  std::vector<std::uint8_t> in_gate(row_windows, 1);  // per window of the row: in the gate
   for (int y = 0; y + H <= lh; y += stride) {
-    if (gate && !dg.open_rows[static_cast<std::size_t>(y / stride)]) continue;
-    const std::uint16_t* zrow = gate ? dg.row(filled_mm, y, H, level.scale) : nullptr;
-    auto inGate = [&](std::size_t i) -> int {
-      if (!gate) return 1;
-      const int z = zrow[input_column[i]];
-      return (z >= z_lo) & (z <= z_hi);
-    };
+    if (gate) {
+      if (!dg.open_rows[static_cast<std::size_t>(y / stride)]) continue;
+      const std::uint16_t* zrow = dg.row(filled_mm, y, H, level.scale);
+      for (std::size_t i = 0; i < row_windows; ++i) {
+        const int z = zrow[input_column[i]];
+        in_gate[i] = static_cast<std::uint8_t>((z >= z_lo) & (z <= z_hi));
+      }
+    }
     const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
-    std::size_t alive = 0;
+    std::size_t alive = 0, first = 0;
     if (fused_stages == 2) {
       const std::uint8_t* codes0 = readers[0].code_base + code_row;
       const std::uint8_t* codes1 = readers[1].code_base + code_row;
+      const std::int32_t threshold0 = thresholds[0], threshold1 = thresholds[1];
+      if (vector_pass) {
+        const auto done = bowls::firstStagesStride2({.codes0 = codes0,
+                                                     .codes1 = codes1,
+                                                     .lut0 = lut0_32.data(),
+                                                     .lut1 = lut1_32.data(),
+                                                     .threshold0 = threshold0,
+                                                     .threshold1 = threshold1,
+                                                     .in_gate = in_gate.data(),
+                                                     .windows = row_windows},
+                                                    alive_x.data(), alive_score.data());
+        first = done.processed;
+        alive = done.kept;
+      }
       const std::int16_t* lut0 = clf.stages[0].lut.data();
       const std::int16_t* lut1 = clf.stages[1].lut.data();
-      const std::int32_t threshold0 = thresholds[0], threshold1 = thresholds[1];
-      for (std::size_t i = 0; i < row_windows; ++i) {
+      for (std::size_t i = first; i < row_windows; ++i) {
         const int x = static_cast<int>(i) * stride;
         const std::int32_t h0 = lut0[codes0[x]], h1 = h0 + lut1[codes1[x]];
         alive_x[alive] = x;
         alive_score[alive] = h1;
-        alive += static_cast<std::size_t>(inGate(i) & (h0 >= threshold0) & (h1 >= threshold1));
+        alive += static_cast<std::size_t>(in_gate[i] & (h0 >= threshold0) & (h1 >= threshold1));
       }
     } else {
       for (std::size_t i = 0; i < row_windows; ++i) {
         alive_x[alive] = static_cast<int>(i) * stride;
         alive_score[alive] = 0;
-        alive += static_cast<std::size_t>(inGate(i));
+        alive += in_gate[i];
       }
     }
     const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
