@@ -194,33 +194,6 @@ int FillHolesInRow(const std::uint16_t* above, std::uint16_t* here, const std::u
                  : fillRow<false>(above, here, below, cols);
 }
 
-int MapDepthRowTo8Bit(const std::uint16_t* in, std::uint8_t* out, int n, const LinearDepthMap& m) {
-  int x = 0;
-#if HWY_HAVE_FLOAT64
-  const hn::ScalableTag<double> df;
-  const hn::Rebind<std::int32_t, decltype(df)> di;
-  const hn::Rebind<std::uint16_t, decltype(df)> d16;
-  const hn::Rebind<std::uint8_t, decltype(df)> d8;
-  const int lanes = static_cast<int>(hn::Lanes(df));
-  const auto near_mm = hn::Set(df, m.near_mm), gain = hn::Set(df, m.gain);
-  const auto low_f = hn::Set(df, static_cast<double>(m.low)), half = hn::Set(df, 0.5);
-  const auto lo_end = hn::Set(di, m.lo_end), hi_begin = hn::Set(di, m.hi_begin);
-  const auto low = hn::Set(di, m.low), high = hn::Set(di, m.high);
-  const auto unfilled = hn::Set(di, m.unfilled), zero = hn::Zero(di);
-  for (; x + lanes <= n; x += lanes) {
-    const auto v = hn::PromoteTo(di, hn::LoadU(d16, in + x));
-    // low + (v - near) * gain, rounded half up: lround for the non-negative values in range.
-    const auto linear = hn::Add(low_f, hn::Mul(hn::Sub(hn::PromoteTo(df, v), near_mm), gain));
-    auto mapped = hn::DemoteTo(di, hn::Floor(hn::Add(linear, half)));
-    mapped = hn::IfThenElse(hn::Lt(v, lo_end), low, mapped);
-    mapped = hn::IfThenElse(hn::Lt(v, hi_begin), mapped, high);
-    mapped = hn::IfThenElse(hn::Eq(v, zero), unfilled, mapped);
-    hn::StoreU(hn::DemoteTo(d8, mapped), d8, out + x);
-  }
-#endif
-  return x;
-}
-
 void LbpCodeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2, int cw,
                 std::uint8_t* out, int out_cols) {
   int x = 0;
@@ -264,15 +237,10 @@ namespace shapesense::bowls {
 
 HWY_EXPORT(FillHolesInRow);
 HWY_EXPORT(LbpCodeRow);
-HWY_EXPORT(MapDepthRowTo8Bit);
 
 int fillHolesInRow(const std::uint16_t* above, std::uint16_t* here, const std::uint16_t* below,
                    int cols, bool forward) {
   return HWY_DYNAMIC_DISPATCH(FillHolesInRow)(above, here, below, cols, forward);
-}
-
-int mapDepthRowTo8Bit(const std::uint16_t* in, std::uint8_t* out, int n, const LinearDepthMap& m) {
-  return HWY_DYNAMIC_DISPATCH(MapDepthRowTo8Bit)(in, out, n, m);
 }
 
 void lbpCodeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2, int cw,

@@ -38,37 +38,28 @@ DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(pa
   if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 ||
       params.low >= params.high)
     throw std::invalid_argument("DepthTo8BitMap: bad range");
+  // One lookup table over all 16-bit values: the mapping is then a single gather per pixel.
   // Only the [near, far] part needs arithmetic; below and above are constant (clamping).
-  near_mm_ = params.near_m * 1000.0;
-  const double far_mm = params.far_m * 1000.0;
-  gain_ = (params.high - params.low) / (far_mm - near_mm_);
-  lo_end_ = std::clamp(static_cast<int>(std::ceil(near_mm_)), 1, 65536);
-  hi_begin_ = std::clamp(static_cast<int>(std::floor(far_mm)) + 1, lo_end_, 65536);
+  const double near_mm = params.near_m * 1000.0, far_mm = params.far_m * 1000.0;
+  const double gain = (params.high - params.low) / (far_mm - near_mm);
+  const int lo_end = std::clamp(static_cast<int>(std::ceil(near_mm)), 1, 65536);
+  const int hi_begin = std::clamp(static_cast<int>(std::floor(far_mm)) + 1, lo_end, 65536);
   lut_.resize(65536);
-  std::fill(lut_.begin() + 1, lut_.begin() + lo_end_, static_cast<std::uint8_t>(params.low));
-  for (int v = lo_end_; v < hi_begin_; ++v)
-    lut_[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm_) * gain_));
-  std::fill(lut_.begin() + hi_begin_, lut_.end(), static_cast<std::uint8_t>(params.high));
+  std::fill(lut_.begin() + 1, lut_.begin() + lo_end, static_cast<std::uint8_t>(params.low));
+  for (int v = lo_end; v < hi_begin; ++v)
+    lut_[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm) * gain));
+  std::fill(lut_.begin() + hi_begin, lut_.end(), static_cast<std::uint8_t>(params.high));
   lut_[0] = static_cast<std::uint8_t>(std::clamp(params.unfilled_value, 0, 255));
 }
 
 cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
   if (depth_mm.type() != CV_16UC1) throw std::invalid_argument("DepthTo8BitMap: need CV_16UC1");
   const std::uint8_t* lut = lut_.data();
-  const bowls::LinearDepthMap linear{.near_mm = near_mm_,
-                                     .gain = gain_,
-                                     .low = params_.low,
-                                     .high = params_.high,
-                                     .unfilled = lut_[0],
-                                     .lo_end = lo_end_,
-                                     .hi_begin = hi_begin_};
   cv::Mat out(depth_mm.size(), CV_8UC1);
   for (int r = 0; r < depth_mm.rows; ++r) {
     const auto* s = depth_mm.ptr<std::uint16_t>(r);
     auto* d = out.ptr<std::uint8_t>(r);
-    // Vectors by the formula, the row's tail by the table; both give the same bits.
-    for (int c = bowls::mapDepthRowTo8Bit(s, d, depth_mm.cols, linear); c < depth_mm.cols; ++c)
-      d[c] = lut[s[c]];
+    for (int c = 0; c < depth_mm.cols; ++c) d[c] = lut[s[c]];
   }
   return out;
 }

@@ -228,30 +228,5 @@ TEST(BowlPreprocess, PrebuiltMapEqualsTheFormulaAndFreshMapping) {
   }
 }
 
-// The mapping runs in SIMD vectors, the row's tail from the table: every depth value maps to
-// the table's value. In rows 64 wide every value goes through the vectors; 67 and 641 add tails.
-TEST(BowlPreprocess, VectorMappingEqualsTheTableForEveryDepth) {
-  for (const DepthPreprocessParams p :
-       {DepthPreprocessParams{},
-        DepthPreprocessParams{
-            .near_m = 0.4, .far_m = 1.9, .low = 0, .high = 200, .unfilled_value = 7},
-        DepthPreprocessParams{.near_m = 0.3337, .far_m = 6.5551, .low = 1, .high = 254}}) {
-    const DepthTo8BitMap map(p);
-    for (const int width : {64, 67, 641}) {
-      const int rows = (65536 + width - 1) / width;
-      cv::Mat d(rows, width, CV_16UC1);
-      for (int i = 0; i < rows * width; ++i)
-        d.at<std::uint16_t>(i / width, i % width) = static_cast<std::uint16_t>((i * 7) % 65536);
-      const cv::Mat mapped = map(d);
-      for (int i = 0; i < rows * width; ++i) {
-        const int v = d.at<std::uint16_t>(i / width, i % width);
-        ASSERT_EQ(mapped.at<std::uint8_t>(i / width, i % width),
-                  map.table()[static_cast<std::size_t>(v)])
-            << "depth " << v << " width " << width;
-      }
-    }
-  }
-}
-
 }  // namespace
 }  // namespace shapesense

@@ -36,9 +36,9 @@ struct DepthPreprocessParams {
 /// number of pixels still invalid.
 int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes);
 
-/// The 8-bit mapping of one DepthPreprocessParams, prepared once: its constants for the SIMD
-/// kernel that maps whole vectors of a row, and a table over all 65536 depth values (the same
-/// bits) for the rest of the row.
+/// The 8-bit mapping of one DepthPreprocessParams as a table over all 65536 depth values, built
+/// once: building it costs about as much as mapping a whole 640x480 frame, so a caller that maps
+/// every frame with the same parameters (the detector) keeps one instead of rebuilding it.
 class DepthTo8BitMap {
  public:
   /// Throws std::invalid_argument for an empty or inverted range.
@@ -51,8 +51,6 @@ class DepthTo8BitMap {
 
  private:
   DepthPreprocessParams params_;
-  double near_mm_ = 0, gain_ = 0;  ///< depth v in [lo_end_, hi_begin_) maps to
-  int lo_end_ = 1, hi_begin_ = 1;  ///< round(low + (v - near_mm_) * gain_)
   std::vector<std::uint8_t> lut_;
 };
 
