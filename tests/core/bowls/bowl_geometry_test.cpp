@@ -40,6 +40,17 @@ synthetic::SceneParams sceneParams(int k) {
   return p;
 }
 
+/// A rendered frame of the scene and the plane stage's planes of it, which the check uses.
+struct FrameWithPlanes {
+  synthetic::RenderedFrame r;
+  PlaneDetection planes;
+};
+FrameWithPlanes renderWithPlanes(const synthetic::SceneParams& p) {
+  FrameWithPlanes f{synthetic::SyntheticScene(p).render(0, 0), {}};
+  f.planes = HoughPlaneDetector().detect(f.r.frame.depth, f.r.frame.intrinsics);
+  return f;
+}
+
 /// Seen whole: not hidden, not cut by the image border (the rim's width is then measurable).
 bool seenWhole(const synthetic::TruthObject& o, const cv::Size& image) {
   const cv::Rect inner(2, 2, image.width - 4, image.height - 4);
@@ -47,12 +58,9 @@ bool seenWhole(const synthetic::TruthObject& o, const cv::Size& image) {
 }
 
 TEST(BowlGeometry, UprightBowlsSeenWholeAreBowlsWithTheirRim) {
-  HoughPlaneDetector plane_detector;
   int bowls = 0, measured_bowls = 0, contradicted = 0, rim_ok = 0;
   for (int k = 0; k < 24; ++k) {
-    const synthetic::SyntheticScene scene(sceneParams(k));
-    const auto r = scene.render(0, 0);
-    const auto planes = plane_detector.detect(r.frame.depth, r.frame.intrinsics);
+    const auto [r, planes] = renderWithPlanes(sceneParams(k));
     for (const auto& o : r.truth.objects) {
       if (o.kind != "bowl" || !o.upright || !seenWhole(o, r.frame.depth.size())) continue;
       ++bowls;
@@ -84,7 +92,6 @@ TEST(BowlGeometry, UprightBowlsSeenWholeAreBowlsWithTheirRim) {
 }
 
 TEST(BowlGeometry, UpsideDownBowlsTinsBallsAndCupsAreNotBowls) {
-  HoughPlaneDetector plane_detector;
   int look_alikes = 0, rejected = 0, contradicted = 0;
   for (int k = 0; k < 24; ++k) {
     auto p = sceneParams(k);
@@ -92,9 +99,7 @@ TEST(BowlGeometry, UpsideDownBowlsTinsBallsAndCupsAreNotBowls) {
     p.tins_min = 1;
     p.balls_min = 1;
     p.cups_min = 1;
-    const synthetic::SyntheticScene scene(p);
-    const auto r = scene.render(0, 0);
-    const auto planes = plane_detector.detect(r.frame.depth, r.frame.intrinsics);
+    const auto [r, planes] = renderWithPlanes(p);
     for (const auto& o : r.truth.objects) {
       const bool look_alike = (o.kind == "bowl" && !o.upright) || o.kind == "tin" ||
                               o.kind == "ball" || o.kind == "cup";
@@ -126,7 +131,6 @@ TEST(BowlGeometry, UpsideDownBowlsTinsBallsAndCupsAreNotBowls) {
 // at least 95% of the verdicts, and their rims differ by at most 5% on at least 90% of the
 // bowls both measure.
 TEST(BowlGeometry, GridSampledBoxAgreesWithEveryPixel) {
-  HoughPlaneDetector plane_detector;
   BowlGeometryParams every_pixel;
   every_pixel.max_box_samples = 0;
   const BowlGeometryParams sampled;
@@ -136,9 +140,7 @@ TEST(BowlGeometry, GridSampledBoxAgreesWithEveryPixel) {
     auto p = sceneParams(k);
     p.tins_min = 1;
     p.balls_min = 1;
-    const synthetic::SyntheticScene scene(p);
-    const auto r = scene.render(0, 0);
-    const auto planes = plane_detector.detect(r.frame.depth, r.frame.intrinsics);
+    const auto [r, planes] = renderWithPlanes(p);
     for (const auto& o : r.truth.objects) {
       if (o.kind != "bowl" && o.kind != "tin" && o.kind != "ball") continue;
       if (o.image_box.width < 20 || o.pixel_count < 300) continue;
