@@ -143,6 +143,7 @@ struct DepthGate {
   std::vector<int> input_column;
   /// One flag per window row (y / stride): whether any window of the row lies in the gate.
   std::vector<std::uint8_t> open_rows;
+  bool admits(int z_mm) const { return (z_mm >= z_lo) & (z_mm <= z_hi); }
   const std::uint16_t* row(const cv::Mat& filled_mm, int y, int win_h, double scale) const {
     return filled_mm.ptr<std::uint16_t>(
         std::min(filled_mm.rows - 1, static_cast<int>((y + win_h * 0.5) * scale)));
@@ -166,9 +167,8 @@ DepthGate depthGate(const BowlViewModel& model, const BowlPyramidLevel& level,
   const int H = model.classifier.win_h;
   for (int y = 0; y + H <= level.image8.rows; y += stride) {
     const std::uint16_t* zrow = g.row(filled_mm, y, H, level.scale);
-    g.open_rows.push_back(std::any_of(g.input_column.begin(), g.input_column.end(), [&](int c) {
-      return zrow[c] >= g.z_lo && zrow[c] <= g.z_hi;
-    }));
+    g.open_rows.push_back(std::any_of(g.input_column.begin(), g.input_column.end(),
+                                      [&](int c) { return g.admits(zrow[c]); }));
   }
   return g;
 }
@@ -221,7 +221,6 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
       readers[t].offsets = lbpOffsets(f, integral_stride);
   }
   const bool gate = dg.on;
-  const int z_lo = dg.z_lo, z_hi = dg.z_hi;
   const std::vector<int>& input_column = dg.input_column;
 
   // The windows of one row go through the cascade together, stage by stage: each stage adds
@@ -251,10 +250,8 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
     if (gate) {
       if (!dg.open_rows[static_cast<std::size_t>(y / stride)]) continue;
       const std::uint16_t* zrow = dg.row(filled_mm, y, H, level.scale);
-      for (std::size_t i = 0; i < row_windows; ++i) {
-        const int z = zrow[input_column[i]];
-        in_gate[i] = static_cast<std::uint8_t>((z >= z_lo) & (z <= z_hi));
-      }
+      for (std::size_t i = 0; i < row_windows; ++i)
+        in_gate[i] = static_cast<std::uint8_t>(dg.admits(zrow[input_column[i]]));
     }
     const std::ptrdiff_t code_row = static_cast<std::ptrdiff_t>(y) * code_stride;
     std::size_t alive = 0, first = 0;

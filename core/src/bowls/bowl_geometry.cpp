@@ -43,14 +43,20 @@ cv::Rect supportWindow(const cv::Rect& box, const cv::Size& image) {
   return cv::Rect(tl, br) & cv::Rect(cv::Point(0, 0), image);
 }
 
+/// The smallest whole pixel step at which the box holds at most `max_samples` samples.
+int sampleStep(const cv::Rect& box, int max_samples) {
+  if (max_samples <= 0) return 1;
+  return std::max(
+      1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(box.area()) / max_samples))));
+}
+
 /// Labelled pixels of each plane in the window but outside the box, sampled on a grid of
 /// about kMaxSupportSamples.
 std::map<std::uint16_t, int> planePixelsBeside(const cv::Mat& labels, const cv::Rect& window,
                                                const cv::Rect& box) {
   std::map<std::uint16_t, int> counts;
   if (window.empty()) return counts;
-  const double area = static_cast<double>(window.area());
-  const int step = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / kMaxSupportSamples))));
+  const int step = sampleStep(window, kMaxSupportSamples);
   for (int v = window.y; v < window.br().y; v += step) {
     const auto* row = labels.ptr<std::uint16_t>(v);
     for (int u = window.x; u < window.br().x; u += step)
@@ -135,7 +141,6 @@ double heightAbove(const SupportPlane& support, const Eigen::Vector3d& point) {
 /// every `step`-th pixel in each direction (z = 0: no reading), computed once for the object
 /// and the dish.
 struct BoxReadings {
-  cv::Rect box;
   int step = 1;
   cv::Size grid;  ///< samples across and down
   std::vector<double> z;
@@ -145,17 +150,10 @@ struct BoxReadings {
   std::size_t at(int u, int v) const { return static_cast<std::size_t>(v * grid.width + u); }
 };
 
-/// The smallest whole pixel step at which the box holds at most `max_samples` samples.
-int sampleStep(const cv::Rect& box, int max_samples) {
-  if (max_samples <= 0) return 1;
-  return std::max(
-      1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(box.area()) / max_samples))));
-}
-
 BoxReadings readBox(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                     const cv::Rect& box, const SupportPlane& support, int step) {
-  BoxReadings readings{box, step, {(box.width + step - 1) / step, (box.height + step - 1) / step},
-                       {},  {},   {}};
+  BoxReadings readings{
+      step, {(box.width + step - 1) / step, (box.height + step - 1) / step}, {}, {}, {}};
   const auto n = static_cast<std::size_t>(readings.grid.area());
   readings.z.assign(n, 0.0);
   readings.points.assign(n, Eigen::Vector3d::Zero());
