@@ -240,11 +240,6 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
   // At the default stride the first pass runs in SIMD vectors (bowl_scan_kernels.h), which
   // gather the votes from 32-bit tables and read the gate from a flag per window.
   const bool vector_pass = fused_stages == 2 && stride == 2;
-  std::array<std::int32_t, 256> lut0_32{}, lut1_32{};
-  if (vector_pass) {
-    std::copy(clf.stages[0].lut.begin(), clf.stages[0].lut.end(), lut0_32.begin());
-    std::copy(clf.stages[1].lut.begin(), clf.stages[1].lut.end(), lut1_32.begin());
-  }
   std::vector<std::uint8_t> in_gate(row_windows, 1);  // per window of the row: in the gate
   for (int y = 0; y + H <= lh; y += stride) {
     if (gate) {
@@ -262,8 +257,8 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
       if (vector_pass) {
         const auto done = bowls::firstStagesStride2({.codes0 = codes0,
                                                      .codes1 = codes1,
-                                                     .lut0 = lut0_32.data(),
-                                                     .lut1 = lut1_32.data(),
+                                                     .lut0 = clf.stages[0].lut.data(),
+                                                     .lut1 = clf.stages[1].lut.data(),
                                                      .threshold0 = threshold0,
                                                      .threshold1 = threshold1,
                                                      .in_gate = in_gate.data(),
@@ -272,8 +267,8 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
         first = done.processed;
         alive = done.kept;
       }
-      const std::int16_t* lut0 = clf.stages[0].lut.data();
-      const std::int16_t* lut1 = clf.stages[1].lut.data();
+      const std::int32_t* lut0 = clf.stages[0].lut.data();
+      const std::int32_t* lut1 = clf.stages[1].lut.data();
       for (std::size_t i = first; i < row_windows; ++i) {
         const int x = static_cast<int>(i) * stride;
         const std::int32_t h0 = lut0[codes0[x]], h1 = h0 + lut1[codes1[x]];
@@ -291,7 +286,7 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
     const std::int32_t* integral_row = level.integral.ptr<std::int32_t>(y);
     for (std::size_t t = fused_stages; t < n_stages && alive > 0; ++t) {
       const StageCodeReader& r = readers[t];
-      const std::int16_t* lut = clf.stages[t].lut.data();
+      const std::int32_t* lut = clf.stages[t].lut.data();
       const std::int32_t threshold = thresholds[t];
       std::size_t kept = 0;
       if (r.code_base) {

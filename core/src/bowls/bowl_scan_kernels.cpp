@@ -39,8 +39,11 @@ FirstStagesResult FirstStagesStride2(const FirstStagesRow& row, int* alive_x,
         hn::And(hn::And(hn::Not(hn::Lt(h0, threshold0)), hn::Not(hn::Lt(h1, threshold1))),
                 hn::Ne(gated, hn::Zero(d32)));
     const auto x = hn::ShiftLeft<1>(hn::Iota(d32, static_cast<std::int32_t>(i)));
-    hn::CompressStore(x, keep, d32, alive_x + r.kept);
-    r.kept += hn::CompressStore(h1, keep, d32, alive_score + r.kept);
+    // Compress in registers, then a full store: kept <= i, so the store stays inside the
+    // row's buffers, and AVX-512's compress-to-memory is microcoded and slow on AMD Zen 4.
+    hn::StoreU(hn::Compress(x, keep), d32, alive_x + r.kept);
+    hn::StoreU(hn::Compress(h1, keep), d32, alive_score + r.kept);
+    r.kept += hn::CountTrue(d32, keep);
   }
   r.processed = i;
 #else

@@ -40,7 +40,9 @@ inline constexpr double kWaldBoostScoreUnit = 1e-3;
 
 struct WaldBoostStage {
   LbpFeature feature;
-  std::array<std::int16_t, 256> lut{};  ///< vote per LBP code, kWaldBoostScoreUnit units
+  /// Vote per LBP code, kWaldBoostScoreUnit units. The values fit 16 bits (the model files
+  /// store them so); they are held as 32-bit so that the vector scan gathers them directly.
+  std::array<std::int32_t, 256> lut{};
   /// Reject when the running score after this stage is < threshold. INT32_MIN = never.
   std::int32_t threshold = INT32_MIN;
   bool operator==(const WaldBoostStage&) const = default;
