@@ -61,18 +61,23 @@ std::vector<RoiSegment> mainGroups(const std::vector<RoiSegment>& covered,
   return kept;
 }
 
-// Step 3: the 3D points of the segments, minus those within the noise band of the support.
-// Keeps them all when the band would take nearly everything (a board or a lid lying flat, only
-// a few depth steps proud of the table at that range).
+// Step 3 reads the segments' 3D points and sorts them by the support plane: above its noise
+// band, inside it, below it.
 struct ObjectPixels {
   std::vector<Eigen::Vector3d> points;
   std::vector<cv::Point> pixels;
 };
 
-ObjectPixels objectPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                          const cv::Mat& segment_labels, const std::vector<RoiSegment>& object,
-                          cv::Rect roi, cv::Rect bounds, const DetectedPlane* support,
-                          const SegmentBoxParams& params) {
+struct SupportedPoints {
+  ObjectPixels all;
+  ObjectPixels above;  ///< off the support's band on the camera's side (empty without support)
+  std::size_t below = 0;
+};
+
+SupportedPoints objectPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                             const cv::Mat& segment_labels, const std::vector<RoiSegment>& object,
+                             cv::Rect roi, cv::Rect bounds, const DetectedPlane* support,
+                             const SegmentBoxParams& params) {
   enum Membership : std::uint8_t { kNone, kWhole, kInsideRoi };
   std::vector<std::uint8_t> membership(65536, kNone);
   for (const auto& segment : object) membership[segment.id] = segment.whole ? kWhole : kInsideRoi;
@@ -82,9 +87,9 @@ ObjectPixels objectPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intri
   };
   const double max_depth_m = params.support.estimation.max_valid_depth_m;
   const KinectNoiseModel& noise = params.support.estimation.noise;
-  ObjectPixels all, off_support;
-  all.points.reserve(static_cast<std::size_t>(bounds.area()));
-  if (support) off_support.points.reserve(static_cast<std::size_t>(bounds.area()));
+  SupportedPoints out;
+  out.all.points.reserve(static_cast<std::size_t>(bounds.area()));
+  if (support) out.above.points.reserve(static_cast<std::size_t>(bounds.area()));
   for (int v = bounds.y; v < bounds.y + bounds.height; ++v) {
     const auto* label = segment_labels.ptr<std::uint16_t>(v);
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);
@@ -93,22 +98,20 @@ ObjectPixels objectPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intri
       const double z = 1e-3 * depth[u];
       if (z > max_depth_m) continue;
       const Eigen::Vector3d point = intrinsics.backproject(u, v, z);
-      all.points.push_back(point);
-      all.pixels.emplace_back(u, v);
+      out.all.points.push_back(point);
+      out.all.pixels.emplace_back(u, v);
       if (!support) continue;
       const double band =
           std::max(params.support_band_floor_m, params.support_band_steps * noise.depthStep(z));
-      if (support->normal.dot(point) + support->d > band) {
-        off_support.points.push_back(point);
-        off_support.pixels.emplace_back(u, v);
+      const double height = support->normal.dot(point) + support->d;
+      if (height > band) {
+        out.above.points.push_back(point);
+        out.above.pixels.emplace_back(u, v);
       }
+      out.below += height < -band;
     }
   }
-  constexpr double kMinKeptShare = 0.1;
-  if (support &&
-      off_support.points.size() >= kMinKeptShare * static_cast<double>(all.points.size()))
-    return off_support;
-  return all;
+  return out;
 }
 
 // The points of a footprint that can be corners of its convex hull: all but those strictly
@@ -314,9 +317,19 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     for (const auto& segment : object) ids.push_back(segment.id);
   const DetectedPlane* support =
       supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
-  ObjectPixels found =
+  SupportedPoints read =
       objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
-  if (found.points.empty()) return noObject("the ROI's segments have no depth reading");
+  if (read.all.points.empty()) return noObject("the ROI's segments have no depth reading");
+  // A plane most of the object lies below is not what it stands on (an object beyond the
+  // table's far edge, seen over it).
+  if (support && read.below > read.above.points.size()) support = nullptr;
+  // Nearly all of it within the support's band: a board or a lid lying flat, only a few depth
+  // steps proud of the table at that range.
+  constexpr double kMinAboveShare = 0.1;
+  const bool stands_out =
+      support &&
+      read.above.points.size() >= kMinAboveShare * static_cast<double>(read.all.points.size());
+  ObjectPixels found = stands_out ? std::move(read.above) : std::move(read.all);
   return FoundObject{std::move(found), support};
 }
 

@@ -24,10 +24,8 @@ namespace {
 
 constexpr double kRequiredCoverage = 0.95;
 // Regression record, not a requirement: the mean coverage the code reaches on the 60 test-split
-// frames below is 0.931 (docs/benchmarks.md has the 100-frame figures).
-constexpr double kCoverageRecordTestSplit = 0.92;
-// Regression record, not a requirement: mosd_test's 98 objects reach 0.949.
-constexpr double kCoverageRecordMosdTest = 0.94;
+// frames below is 0.939 (docs/benchmarks.md has the 100-frame figures).
+constexpr double kCoverageRecordTestSplit = 0.93;
 constexpr double kMaxVolumeRatio = 1.5;
 constexpr double kMinObjectShare = 0.001;  // as shapesense-eval: 307 px of VGA
 
@@ -99,8 +97,30 @@ TEST(SegmentBox, HoldsTheLabelledRealObjects) {
     scoreTargets(f.frame, eval::realBoxTargets(f, kMinObjectShare), score);
   printScore("mosd_test", score);
   ASSERT_GE(score.objects, 50);
-  EXPECT_GE(score.meanCoverage(), kCoverageRecordMosdTest);
+  EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
+}
+
+// Validation scene 51 has a board beyond the table's far edge, seen over it: the table is the
+// plane below its segments, yet the board lies below the table's plane. Boxed as if it stood on
+// the table, every one of its points was cut as "under the support" and the box held a strip of
+// the box in front instead (share inside 0).
+TEST(SegmentBox, AnObjectBelowThePlaneUnderItIsNotCutAway) {
+  const eval::EvalScene scene = eval::evalScene(eval::Split::kValidation, 51);
+  const auto rendered = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+  const FrameAnalysis a = analyse(rendered.frame);
+  const cv::Rect board_roi(466, 55, 142, 62);
+  int checked = 0;
+  for (const auto& target : eval::syntheticBoxTargets(rendered, kMinObjectShare)) {
+    if (target.roi != board_roi) continue;
+    eval::BoxModeScore score;
+    const auto result = segmentBox(rendered.frame, a, target.roi);
+    const auto* box = std::get_if<BoxEstimate>(&result);
+    score.add(box ? &box->corners : nullptr, target.points);
+    EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 1) << "the scene no longer has the board where this test expects it";
 }
 
 // A plain scene: a table with boxes on it.

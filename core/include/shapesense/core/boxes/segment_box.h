@@ -17,7 +17,8 @@
 //      joined without a depth step (continuousNeighbours) that are not much smaller than the
 //      largest group: a patch of wall seen between two objects is not part of either;
 //   2. their support: the plane region they stand on, as the object boxes find it
-//      (supportPlaneBelow in object_boxes.h);
+//      (supportPlaneBelow in object_boxes.h), unless more of their points lie below that plane
+//      than above it (an object beyond the table's far edge, seen over it: no support);
 //   3. their points, minus the points on the support (within the sensor's noise of its plane:
 //      a segment may have taken a strip of table along the object's foot);
 //   4. the box: on a support, upright on it (its vertical axis along the plane's normal, its
@@ -45,11 +46,11 @@ struct SegmentBoxParams {
   /// Default 0.5: the table or the wall behind the object lies mostly outside it.
   double min_inside_fraction = 0.5;
   /// A segment with at least this share inside (but less than min_inside_fraction) takes part
-  /// with its pixels inside the ROI only. Default 0.2: the table, the floor or a wall an
+  /// with its pixels inside the ROI only. Default 0.03: the table, the floor or a wall an
   /// object stands before has far less of itself inside an ROI drawn around the object.
   double min_clipped_fraction = 0.03;
   /// Groups of covered segments joined without a depth step with fewer pixels than this share
-  /// of the largest group are background. Default 0.25.
+  /// of the largest group are background. Default 0.1.
   double min_group_share = 0.1;
   /// Points within max(support_band_floor_m, support_band_steps sensor depth steps at their
   /// depth) of the support plane are the support's. Defaults 4 mm and 2 steps.
