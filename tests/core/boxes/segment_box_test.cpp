@@ -24,8 +24,8 @@ namespace {
 
 constexpr double kRequiredCoverage = 0.95;
 // Regression record, not a requirement: the mean coverage the code reaches on the 60 test-split
-// frames below is 0.939 (docs/benchmarks.md has the 100-frame figures).
-constexpr double kCoverageRecordTestSplit = 0.93;
+// frames below is 0.947 (docs/benchmarks.md has the 100-frame figures).
+constexpr double kCoverageRecordTestSplit = 0.94;
 constexpr double kMaxVolumeRatio = 1.5;
 constexpr double kMinObjectShare = 0.001;  // as shapesense-eval: 307 px of VGA
 

@@ -58,8 +58,9 @@ struct SegmentBoxParams {
   double support_band_steps = 2.0;
   /// The box reaches down to the support plane when the object's lowest point is at most this
   /// far above it (the object stands on it; its foot is hidden or was cut with the support).
-  /// Default 0.03 m.
-  double max_foot_gap_m = 0.03;
+  /// Default 0.05 m, chosen on the validation split and mosd_learn (docs/benchmarks.md, box
+  /// mode 4).
+  double max_foot_gap_m = 0.05;
   /// Share of the points ignored at each end of each axis (flying pixels). Default 0.002.
   double trim_fraction = 0.002;
   /// The support rule (supportPlaneBelow) and the noise model of the band.
