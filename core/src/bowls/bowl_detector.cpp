@@ -289,6 +289,25 @@ std::vector<BowlWindowHit> scanLevel(const BowlViewModel& model, const BowlPyram
       const std::int32_t* lut = clf.stages[t].lut.data();
       const std::int32_t threshold = thresholds[t];
       std::size_t kept = 0;
+      // Two code-image stages in one compaction pass, as the first two: a window the first
+      // rejects costs one more lookup, every survivor one load and store fewer.
+      if (r.code_base && t + 1 < n_stages && readers[t + 1].code_base) {
+        const std::uint8_t* codes = r.code_base + code_row;
+        const std::uint8_t* codes_next = readers[t + 1].code_base + code_row;
+        const std::int32_t* lut_next = clf.stages[t + 1].lut.data();
+        const std::int32_t threshold_next = thresholds[t + 1];
+        for (std::size_t k = 0; k < alive; ++k) {
+          const int x = alive_x[k];
+          const std::int32_t h = alive_score[k] + lut[codes[x]];
+          const std::int32_t h_next = h + lut_next[codes_next[x]];
+          alive_x[kept] = x;
+          alive_score[kept] = h_next;
+          kept += static_cast<std::size_t>((h >= threshold) & (h_next >= threshold_next));
+        }
+        alive = kept;
+        ++t;
+        continue;
+      }
       if (r.code_base) {
         const std::uint8_t* codes = r.code_base + code_row;
         for (std::size_t k = 0; k < alive; ++k) {
