@@ -134,19 +134,17 @@ bool noValidAround(const std::uint16_t* above, const std::uint16_t* here,
 template <bool Forward>
 int fillBlock(const BlockStats& st, std::uint16_t* here, int c, int n, std::int16_t L) {
   int filled = 0;
+  // Without branches: holes and valid pixels alternate unpredictably at a hole's edge.
   for (int k = 0; k < n; ++k) {
     const int i = Forward ? k : n - 1 - k;
     const std::uint16_t v = here[c + i];
-    if (v != 0) {
-      L = toOrdered(v);
-      continue;
-    }
-    const std::int16_t t = L == kInvalid ? st.mid[i] : std::max(st.lo[i], std::min(L, st.hi[i]));
-    if (t != kInvalid) {
-      here[c + i] = fromOrdered(t);
-      ++filled;
-    }
-    L = t;
+    const std::int16_t median =
+        L == kInvalid ? st.mid[i] : std::max(st.lo[i], std::min(L, st.hi[i]));
+    const bool hole = v == 0;
+    const bool fills = hole & (median != kInvalid);
+    here[c + i] = fills ? fromOrdered(median) : v;
+    filled += fills;
+    L = hole ? median : toOrdered(v);
   }
   return filled;
 }
