@@ -138,8 +138,11 @@ int fillBlock(const BlockStats& st, std::uint16_t* here, int c, int n, std::int1
   for (int k = 0; k < n; ++k) {
     const int i = Forward ? k : n - 1 - k;
     const std::uint16_t v = here[c + i];
-    const std::int16_t median =
-        L == kInvalid ? st.mid[i] : std::max(st.lo[i], std::min(L, st.hi[i]));
+    // On values, not std::min/max's references: a select of addresses puts a load in the
+    // chain from one pixel to the next.
+    const std::int16_t lo = st.lo[i], hi = st.hi[i], mid = st.mid[i];
+    const std::int16_t below_hi = L < hi ? L : hi;
+    const std::int16_t median = L == kInvalid ? mid : (below_hi > lo ? below_hi : lo);
     const bool hole = v == 0;
     const bool fills = hole & (median != kInvalid);
     here[c + i] = fills ? fromOrdered(median) : v;
