@@ -250,11 +250,8 @@ cv::Mat planePredictionEdges(const WorkingImage& w, const PlanePredictionParams&
       const float t = o.long_range ? thr_long : thr;
       std::uint8_t* acc = o.long_range ? acc_long.data() : acc_short.data();
       const int u0 = std::max(0, -o.du), u1 = std::min(cols, cols - o.du);
-      for (int u = u0; u < u1; ++u) {
-        const float pred = centre[u] + gxp[u] * fdu + gyp[u] * fdv;
-        const float y = wq[u + o.du];
-        acc[u] += static_cast<std::uint8_t>((y > 0.0f) & (std::fabs(y - pred) > t));
-      }
+      countPredictionAnomalies(centre.data() + u0, gxp + u0, gyp + u0, wq + u0 + o.du, fdu, fdv, t,
+                               u1 - u0, acc + u0);
     }
     auto* e = edges.ptr<std::uint8_t>(v);
     for (int u = 0; u < cols; ++u)

@@ -293,6 +293,37 @@ bool LabelFullRow(const std::uint16_t* d, const std::uint16_t* lab2, const std::
   return any_bad;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Plane prediction
+
+void CountPredictionAnomalies(const float* centre, const float* gx, const float* gy,
+                              const float* neighbour, float du, float dv, float threshold, int n,
+                              std::uint8_t* counts) {
+  int u = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const hn::Rebind<std::uint8_t, decltype(df)> d8;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto du_v = hn::Set(df, du), dv_v = hn::Set(df, dv), t = hn::Set(df, threshold);
+  const auto zero = hn::Zero(df);
+  const auto one = hn::Set(di, 1);
+  for (; u + lanes <= n; u += lanes) {
+    // Multiplies and adds apart, in the scalar rule's order: no fused multiply-add.
+    const auto predicted =
+        hn::Add(hn::Add(hn::LoadU(df, centre + u), hn::Mul(hn::LoadU(df, gx + u), du_v)),
+                hn::Mul(hn::LoadU(df, gy + u), dv_v));
+    const auto y = hn::LoadU(df, neighbour + u);
+    const auto anomaly = hn::And(hn::Gt(y, zero), hn::Gt(hn::Abs(hn::Sub(y, predicted)), t));
+    const auto count = hn::And(hn::BitCast(di, hn::VecFromMask(df, anomaly)), one);
+    hn::StoreU(hn::Add(hn::LoadU(d8, counts + u), hn::DemoteTo(d8, count)), d8, counts + u);
+  }
+#endif
+  for (; u < n; ++u)
+    counts[u] += static_cast<std::uint8_t>(
+        predictionAnomaly(centre[u], gx[u], gy[u], neighbour[u], du, dv, threshold));
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace shapesense::segmentation
 HWY_AFTER_NAMESPACE();
@@ -305,6 +336,7 @@ HWY_EXPORT(ReduceRow);
 HWY_EXPORT(CollectFloodSeeds);
 HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
+HWY_EXPORT(CountPredictionAnomalies);
 
 void countDepthSteps(const std::uint16_t* centre, const StepWindow& window, int cols,
                      std::uint8_t* edges) {
@@ -332,6 +364,13 @@ bool labelFullRow(const std::uint16_t* depth, const std::uint16_t* labels2,
                   const std::uint16_t* depth2, const std::uint16_t* tolerance2, int cols,
                   std::uint16_t* out, std::uint8_t* bad) {
   return HWY_DYNAMIC_DISPATCH(LabelFullRow)(depth, labels2, depth2, tolerance2, cols, out, bad);
+}
+
+void countPredictionAnomalies(const float* centre, const float* gx, const float* gy,
+                              const float* neighbour, float du, float dv, float threshold, int n,
+                              std::uint8_t* counts) {
+  HWY_DYNAMIC_DISPATCH(CountPredictionAnomalies)
+  (centre, gx, gy, neighbour, du, dv, threshold, n, counts);
 }
 
 }  // namespace shapesense::segmentation

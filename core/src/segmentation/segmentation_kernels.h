@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -78,5 +79,21 @@ void expandBlockRow(const std::uint16_t* labels, const std::uint16_t* depth, int
 bool labelFullRow(const std::uint16_t* depth, const std::uint16_t* labels2,
                   const std::uint16_t* depth2, const std::uint16_t* tolerance2, int cols,
                   std::uint16_t* out, std::uint8_t* bad);
+
+/// Plane prediction's rule for one neighbour: its inverse depth `neighbour` is a reading (> 0)
+/// off the prediction from the centre's inverse depth and gradient, centre + gx * du + gy * dv,
+/// by more than `threshold`.
+inline bool predictionAnomaly(float centre, float gx, float gy, float neighbour, float du, float dv,
+                              float threshold) {
+  const float predicted = centre + gx * du + gy * dv;
+  return (neighbour > 0.0f) & (std::fabs(neighbour - predicted) > threshold);
+}
+
+/// One neighbour offset (du, dv) of plane prediction over a row: counts[u] += 1 where
+/// predictionAnomaly(centre[u], gx[u], gy[u], neighbour[u], ...) holds, u in [0, n);
+/// `neighbour` is the offset row shifted by du.
+void countPredictionAnomalies(const float* centre, const float* gx, const float* gy,
+                              const float* neighbour, float du, float dv, float threshold, int n,
+                              std::uint8_t* counts);
 
 }  // namespace shapesense::segmentation
