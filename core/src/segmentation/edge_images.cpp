@@ -234,6 +234,13 @@ cv::Mat planePredictionEdges(const WorkingImage& w, const PlanePredictionParams&
   if (short_edges) short_edges->create(rows, cols, CV_8UC1);
   std::vector<std::uint8_t> acc_short(cols), acc_long(cols);
   std::vector<float> centre(cols);
+  // Rows padded with `reach` columns of no reading on each side: a neighbour off the image
+  // then counts as a neighbour without depth, which is never anomalous.
+  int reach = 0;
+  for (const PredictionOffset& o : offsets) reach = std::max(reach, std::abs(o.du));
+  cv::Mat padded;
+  cv::copyMakeBorder(inv, padded, 0, 0, reach, reach, cv::BORDER_CONSTANT, cv::Scalar(0));
+  std::vector<PredictionNeighbour> neighbours;
   for (int v = 0; v < rows; ++v) {
     const float* wc = inv.ptr<float>(v);
     const float* smc = sm.ptr<float>(v);
@@ -242,17 +249,16 @@ cv::Mat planePredictionEdges(const WorkingImage& w, const PlanePredictionParams&
     for (int u = 0; u < cols; ++u) centre[u] = smc[u] > 0 ? smc[u] : wc[u];
     std::fill(acc_short.begin(), acc_short.end(), 0);
     std::fill(acc_long.begin(), acc_long.end(), 0);
+    neighbours.clear();
     for (const PredictionOffset& o : offsets) {
       const int vq = v + o.dv;
-      if (vq < 0 || vq >= rows) continue;
-      const float* wq = inv.ptr<float>(vq);
-      const float fdu = static_cast<float>(o.du), fdv = static_cast<float>(o.dv);
-      const float t = o.long_range ? thr_long : thr;
-      std::uint8_t* acc = o.long_range ? acc_long.data() : acc_short.data();
-      const int u0 = std::max(0, -o.du), u1 = std::min(cols, cols - o.du);
-      countPredictionAnomalies(centre.data() + u0, gxp + u0, gyp + u0, wq + u0 + o.du, fdu, fdv, t,
-                               u1 - u0, acc + u0);
+      if (vq >= 0 && vq < rows)
+        neighbours.push_back({padded.ptr<float>(vq) + reach, o.du, o.dv,
+                              o.long_range ? thr_long : thr, o.long_range});
     }
+    countPredictionAnomaliesRow(centre.data(), gxp, gyp, neighbours.data(),
+                                static_cast<int>(neighbours.size()), cols, acc_short.data(),
+                                acc_long.data());
     auto* e = edges.ptr<std::uint8_t>(v);
     for (int u = 0; u < cols; ++u)
       e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);

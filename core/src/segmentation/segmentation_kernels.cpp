@@ -296,32 +296,50 @@ bool LabelFullRow(const std::uint16_t* d, const std::uint16_t* lab2, const std::
 // ---------------------------------------------------------------------------------------------
 // Plane prediction
 
-void CountPredictionAnomalies(const float* centre, const float* gx, const float* gy,
-                              const float* neighbour, float du, float dv, float threshold, int n,
-                              std::uint8_t* counts) {
+void CountPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
+                                 const PredictionNeighbour* neighbours, int count, int cols,
+                                 std::uint8_t* counts_short, std::uint8_t* counts_long) {
   int u = 0;
 #if HWY_TARGET != HWY_SCALAR
   const hn::ScalableTag<float> df;
   const hn::RebindToSigned<decltype(df)> di;
   const hn::Rebind<std::uint8_t, decltype(df)> d8;
   const int lanes = static_cast<int>(hn::Lanes(df));
-  const auto du_v = hn::Set(df, du), dv_v = hn::Set(df, dv), t = hn::Set(df, threshold);
   const auto zero = hn::Zero(df);
-  const auto one = hn::Set(di, 1);
-  for (; u + lanes <= n; u += lanes) {
-    // Multiplies and adds apart, in the scalar rule's order: no fused multiply-add.
-    const auto predicted =
-        hn::Add(hn::Add(hn::LoadU(df, centre + u), hn::Mul(hn::LoadU(df, gx + u), du_v)),
-                hn::Mul(hn::LoadU(df, gy + u), dv_v));
-    const auto y = hn::LoadU(df, neighbour + u);
-    const auto anomaly = hn::And(hn::Gt(y, zero), hn::Gt(hn::Abs(hn::Sub(y, predicted)), t));
-    const auto count = hn::And(hn::BitCast(di, hn::VecFromMask(df, anomaly)), one);
-    hn::StoreU(hn::Add(hn::LoadU(d8, counts + u), hn::DemoteTo(d8, count)), d8, counts + u);
+  for (; u + lanes <= cols; u += lanes) {
+    const auto c = hn::LoadU(df, centre + u), g_x = hn::LoadU(df, gx + u),
+               g_y = hn::LoadU(df, gy + u);
+    auto short_count = hn::Zero(di), long_count = hn::Zero(di);
+    for (int k = 0; k < count; ++k) {
+      const PredictionNeighbour& q = neighbours[k];
+      // As the scalar rule: multiplies and adds apart, in its order.
+      const auto predicted =
+          hn::Add(hn::Add(c, hn::Mul(g_x, hn::Set(df, static_cast<float>(q.du)))),
+                  hn::Mul(g_y, hn::Set(df, static_cast<float>(q.dv))));
+      const auto y = hn::LoadU(df, q.row + u + q.du);
+      const auto anomaly = hn::And(
+          hn::Gt(y, zero), hn::Gt(hn::Abs(hn::Sub(y, predicted)), hn::Set(df, q.threshold)));
+      // A mask lane is all ones: -1 as an integer, so subtracting it counts.
+      const auto minus_one = hn::BitCast(di, hn::VecFromMask(df, anomaly));
+      if (q.long_range)
+        long_count = hn::Sub(long_count, minus_one);
+      else
+        short_count = hn::Sub(short_count, minus_one);
+    }
+    hn::StoreU(hn::Add(hn::LoadU(d8, counts_short + u), hn::DemoteTo(d8, short_count)), d8,
+               counts_short + u);
+    hn::StoreU(hn::Add(hn::LoadU(d8, counts_long + u), hn::DemoteTo(d8, long_count)), d8,
+               counts_long + u);
   }
 #endif
-  for (; u < n; ++u)
-    counts[u] += static_cast<std::uint8_t>(
-        predictionAnomaly(centre[u], gx[u], gy[u], neighbour[u], du, dv, threshold));
+  for (; u < cols; ++u)
+    for (int k = 0; k < count; ++k) {
+      const PredictionNeighbour& q = neighbours[k];
+      const bool anomaly =
+          predictionAnomaly(centre[u], gx[u], gy[u], q.row[u + q.du], static_cast<float>(q.du),
+                            static_cast<float>(q.dv), q.threshold);
+      (q.long_range ? counts_long : counts_short)[u] += static_cast<std::uint8_t>(anomaly);
+    }
 }
 
 }  // namespace HWY_NAMESPACE
@@ -336,7 +354,7 @@ HWY_EXPORT(ReduceRow);
 HWY_EXPORT(CollectFloodSeeds);
 HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
-HWY_EXPORT(CountPredictionAnomalies);
+HWY_EXPORT(CountPredictionAnomaliesRow);
 
 void countDepthSteps(const std::uint16_t* centre, const StepWindow& window, int cols,
                      std::uint8_t* edges) {
@@ -366,11 +384,11 @@ bool labelFullRow(const std::uint16_t* depth, const std::uint16_t* labels2,
   return HWY_DYNAMIC_DISPATCH(LabelFullRow)(depth, labels2, depth2, tolerance2, cols, out, bad);
 }
 
-void countPredictionAnomalies(const float* centre, const float* gx, const float* gy,
-                              const float* neighbour, float du, float dv, float threshold, int n,
-                              std::uint8_t* counts) {
-  HWY_DYNAMIC_DISPATCH(CountPredictionAnomalies)
-  (centre, gx, gy, neighbour, du, dv, threshold, n, counts);
+void countPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
+                                 const PredictionNeighbour* neighbours, int count, int cols,
+                                 std::uint8_t* counts_short, std::uint8_t* counts_long) {
+  HWY_DYNAMIC_DISPATCH(CountPredictionAnomaliesRow)
+  (centre, gx, gy, neighbours, count, cols, counts_short, counts_long);
 }
 
 }  // namespace shapesense::segmentation

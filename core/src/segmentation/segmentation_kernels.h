@@ -89,11 +89,20 @@ inline bool predictionAnomaly(float centre, float gx, float gy, float neighbour,
   return (neighbour > 0.0f) & (std::fabs(neighbour - predicted) > threshold);
 }
 
-/// One neighbour offset (du, dv) of plane prediction over a row: counts[u] += 1 where
-/// predictionAnomaly(centre[u], gx[u], gy[u], neighbour[u], ...) holds, u in [0, n);
-/// `neighbour` is the offset row shifted by du.
-void countPredictionAnomalies(const float* centre, const float* gx, const float* gy,
-                              const float* neighbour, float du, float dv, float threshold, int n,
-                              std::uint8_t* counts);
+/// A neighbour of plane prediction: its offset (du, dv), the inverse-depth row v + dv (readable
+/// at every column u + du of the pixels counted; 0 = no reading), and its ring's threshold.
+struct PredictionNeighbour {
+  const float* row = nullptr;
+  int du = 0, dv = 0;
+  float threshold = 0.0f;
+  bool long_range = false;  ///< counts into the long-range counts, else the short-range ones
+};
+
+/// Row v's pixels u in [0, cols) against their `count` neighbours: the short- and long-range
+/// counts of predictionAnomaly are added to counts_short[u] and counts_long[u]. Each pixel's
+/// centre, gradient and counts stay in registers across the neighbours.
+void countPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
+                                 const PredictionNeighbour* neighbours, int count, int cols,
+                                 std::uint8_t* counts_short, std::uint8_t* counts_long);
 
 }  // namespace shapesense::segmentation
