@@ -7,6 +7,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "segmentation/segmentation_kernels.h"
+
 namespace shapesense::segmentation {
 namespace {
 
@@ -56,44 +58,39 @@ cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int
 // along creases and borders between planes, which the growth below hands to their neighbours.
 void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams& p) {
   const std::size_t count = static_cast<std::size_t>(largestLabel(labels)) + 1;
-  // Pixels whose 3x3 window holds one label (rows agreeing along u first, then across rows),
-  // then eroded to the (2 r + 1)^2 window.
-  cv::Mat row_same = cv::Mat::zeros(labels.size(), CV_8UC1);
-  for (int v = 0; v < labels.rows; ++v) {
-    const int* row = labels.ptr<int>(v);
-    auto* out = row_same.ptr<std::uint8_t>(v);
-    for (int u = 1; u + 1 < labels.cols; ++u)
-      out[u] = (row[u - 1] == row[u]) & (row[u + 1] == row[u]);
-  }
+  // Pixels whose 3x3 window holds one label, eroded to the (2 r + 1)^2 window.
   cv::Mat uniform = cv::Mat::zeros(labels.size(), CV_8UC1);
-  for (int v = 1; v + 1 < labels.rows; ++v) {
-    const int* above = labels.ptr<int>(v - 1);
-    const int* row = labels.ptr<int>(v);
-    const int* below = labels.ptr<int>(v + 1);
-    const auto* same_above = row_same.ptr<std::uint8_t>(v - 1);
-    const auto* same_here = row_same.ptr<std::uint8_t>(v);
-    const auto* same_below = row_same.ptr<std::uint8_t>(v + 1);
-    auto* out = uniform.ptr<std::uint8_t>(v);
-    for (int u = 0; u < labels.cols; ++u)
-      out[u] = static_cast<std::uint8_t>(-(same_above[u] & same_here[u] & same_below[u] &
-                                           (above[u] == row[u]) & (below[u] == row[u])));
-  }
+  for (int v = 1; v + 1 < labels.rows; ++v)
+    uniformLabelRow(labels.ptr<int>(v - 1), labels.ptr<int>(v), labels.ptr<int>(v + 1), labels.cols,
+                    uniform.ptr<std::uint8_t>(v));
   if (p.sliver_radius_px > 1) {
     const int k = 2 * (p.sliver_radius_px - 1) + 1;
     cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
   }
   const std::vector<int> size = labelCounts(labels, count);
+  // Run by run, as labelCounts: a store per pixel would stall on its own address.
   std::vector<std::uint8_t> has_interior(count, 0);
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
     const auto* in = uniform.ptr<std::uint8_t>(v);
-    for (int u = 0; u < labels.cols; ++u)
-      if (in[u]) has_interior[l[u]] = 1;
+    int current = l[0];
+    std::uint8_t any = 0;
+    for (int u = 0; u < labels.cols; ++u) {
+      if (l[u] != current) {
+        has_interior[current] |= any;
+        current = l[u];
+        any = 0;
+      }
+      any |= in[u];
+    }
+    has_interior[current] |= any;
   }
+  std::vector<std::uint8_t> cleared(count, 0);
+  for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label)
+    cleared[label] = size[label] < p.min_object_px || !has_interior[label];
   for (int v = 0; v < labels.rows; ++v) {
     int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u)
-      if (l[u] > plane_count && (size[l[u]] < p.min_object_px || !has_interior[l[u]])) l[u] = 0;
+    for (int u = 0; u < labels.cols; ++u) l[u] = cleared[l[u]] ? 0 : l[u];
   }
 }
 

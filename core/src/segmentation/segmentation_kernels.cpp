@@ -342,6 +342,39 @@ void CountPredictionAnomaliesRow(const float* centre, const float* gx, const flo
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Uniform label windows
+
+void UniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
+                     int cols, std::uint8_t* out) {
+  if (cols <= 0) return;
+  out[0] = 0;
+  int u = 1;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<std::int32_t> di;
+  const hn::Rebind<std::uint8_t, decltype(di)> d8;
+  const int lanes = static_cast<int>(hn::Lanes(di));
+  const auto all_ones = hn::Set(di, 255);
+  for (; u + lanes + 1 <= cols; u += lanes) {
+    const auto centre = hn::LoadU(di, row + u);
+    auto same = hn::Eq(hn::LoadU(di, row + u - 1), centre);
+    same = hn::And(same, hn::Eq(hn::LoadU(di, row + u + 1), centre));
+    for (const std::int32_t* r : {above, below})
+      for (int du = -1; du <= 1; ++du)
+        same = hn::And(same, hn::Eq(hn::LoadU(di, r + u + du), centre));
+    hn::StoreU(hn::DemoteTo(d8, hn::IfThenElseZero(same, all_ones)), d8, out + u);
+  }
+#endif
+  for (; u + 1 < cols; ++u) {
+    const std::int32_t c = row[u];
+    bool same = true;
+    for (int du = -1; du <= 1; ++du)
+      same = same & (above[u + du] == c) & (row[u + du] == c) & (below[u + du] == c);
+    out[u] = same ? 255 : 0;
+  }
+  if (cols > 1) out[cols - 1] = 0;
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace shapesense::segmentation
 HWY_AFTER_NAMESPACE();
@@ -355,6 +388,7 @@ HWY_EXPORT(CollectFloodSeeds);
 HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
 HWY_EXPORT(CountPredictionAnomaliesRow);
+HWY_EXPORT(UniformLabelRow);
 
 void countDepthSteps(const std::uint16_t* centre, const StepWindow& window, int cols,
                      std::uint8_t* edges) {
@@ -389,6 +423,11 @@ void countPredictionAnomaliesRow(const float* centre, const float* gx, const flo
                                  std::uint8_t* counts_short, std::uint8_t* counts_long) {
   HWY_DYNAMIC_DISPATCH(CountPredictionAnomaliesRow)
   (centre, gx, gy, neighbours, count, cols, counts_short, counts_long);
+}
+
+void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
+                     int cols, std::uint8_t* out) {
+  HWY_DYNAMIC_DISPATCH(UniformLabelRow)(above, row, below, cols, out);
 }
 
 }  // namespace shapesense::segmentation

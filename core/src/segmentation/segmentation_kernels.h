@@ -105,4 +105,10 @@ void countPredictionAnomaliesRow(const float* centre, const float* gx, const flo
                                  const PredictionNeighbour* neighbours, int count, int cols,
                                  std::uint8_t* counts_short, std::uint8_t* counts_long);
 
+/// One row of a label image's uniform pixels: out[u] = 255 where the 3 x 3 window around u in
+/// the rows `above`, `row`, `below` holds row[u]'s label only, else 0; 0 in the first and last
+/// column.
+void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
+                     int cols, std::uint8_t* out);
+
 }  // namespace shapesense::segmentation
