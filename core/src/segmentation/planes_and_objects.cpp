@@ -12,22 +12,14 @@
 namespace shapesense::segmentation {
 namespace {
 
-// Pixels of each label (index = label). Counted run by run: a per-pixel increment of one counter
+// Pixels of each label (index = label), run by run: a per-pixel increment of one counter
 // stalls on its own store wherever neighbours share a label, which is almost everywhere.
 std::vector<int> labelCounts(const cv::Mat& labels, std::size_t count) {
   std::vector<int> counts(count, 0);
+  std::vector<LabelRun> runs;
   for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
-    int current = l[0], run = 0;
-    for (int u = 0; u < labels.cols; ++u) {
-      if (l[u] != current) {
-        counts[current] += run;
-        current = l[u];
-        run = 0;
-      }
-      ++run;
-    }
-    counts[current] += run;
+    labelRuns(labels.ptr<int>(v), labels.cols, runs);
+    for (const LabelRun& run : runs) counts[run.label] += run.end - run.begin;
   }
   return counts;
 }
@@ -68,22 +60,14 @@ void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams
     cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
   }
   const std::vector<int> size = labelCounts(labels, count);
-  // Run by run, as labelCounts: a store per pixel would stall on its own address.
   std::vector<std::uint8_t> has_interior(count, 0);
+  std::vector<LabelRun> runs;
   for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
     const auto* in = uniform.ptr<std::uint8_t>(v);
-    int current = l[0];
-    std::uint8_t any = 0;
-    for (int u = 0; u < labels.cols; ++u) {
-      if (l[u] != current) {
-        has_interior[current] |= any;
-        current = l[u];
-        any = 0;
-      }
-      any |= in[u];
-    }
-    has_interior[current] |= any;
+    labelRuns(labels.ptr<int>(v), labels.cols, runs);
+    for (const LabelRun& run : runs)
+      if (!has_interior[run.label])
+        has_interior[run.label] = std::find(in + run.begin, in + run.end, 255) != in + run.end;
   }
   std::vector<std::uint8_t> cleared(count, 0);
   for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label)
@@ -156,13 +140,14 @@ cv::Mat compactRegions(const cv::Mat& labels, int min_pixels) {
   std::vector<int> id(size.size(), 0);
   int next = 0;
   cv::Mat out(labels.size(), CV_16UC1);
+  std::vector<LabelRun> runs;
   for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
     auto* o = out.ptr<std::uint16_t>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      const int label = l[u];
+    labelRuns(labels.ptr<int>(v), labels.cols, runs);
+    for (const LabelRun& run : runs) {
+      const int label = run.label;
       if (label && size[label] >= min_pixels && !id[label] && next < 65535) id[label] = ++next;
-      o[u] = static_cast<std::uint16_t>(label ? id[label] : 0);
+      std::fill(o + run.begin, o + run.end, static_cast<std::uint16_t>(label ? id[label] : 0));
     }
   }
   return out;

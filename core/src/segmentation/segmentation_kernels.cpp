@@ -375,6 +375,39 @@ void UniformLabelRow(const std::int32_t* above, const std::int32_t* row, const s
   if (cols > 1) out[cols - 1] = 0;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Label runs
+
+void LabelRuns(const std::int32_t* row, int cols, std::vector<LabelRun>& runs) {
+  runs.clear();
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<std::int32_t> di;
+  const int lanes = static_cast<int>(hn::Lanes(di));
+#endif
+  int u = 0;
+  while (u < cols) {
+    const std::int32_t label = row[u];
+    int end = u + 1;
+    bool found = false;
+#if HWY_TARGET != HWY_SCALAR
+    // Regions are wide: a whole vector of the same label is the common case.
+    const auto same = hn::Set(di, label);
+    for (; end + lanes <= cols; end += lanes) {
+      const intptr_t other = hn::FindFirstTrue(di, hn::Ne(hn::LoadU(di, row + end), same));
+      if (other >= 0) {
+        end += static_cast<int>(other);
+        found = true;
+        break;
+      }
+    }
+#endif
+    if (!found)
+      while (end < cols && row[end] == label) ++end;
+    runs.push_back({u, end, label});
+    u = end;
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace shapesense::segmentation
 HWY_AFTER_NAMESPACE();
@@ -389,6 +422,7 @@ HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
 HWY_EXPORT(CountPredictionAnomaliesRow);
 HWY_EXPORT(UniformLabelRow);
+HWY_EXPORT(LabelRuns);
 
 void countDepthSteps(const std::uint16_t* centre, const StepWindow& window, int cols,
                      std::uint8_t* edges) {
@@ -428,6 +462,10 @@ void countPredictionAnomaliesRow(const float* centre, const float* gx, const flo
 void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
                      int cols, std::uint8_t* out) {
   HWY_DYNAMIC_DISPATCH(UniformLabelRow)(above, row, below, cols, out);
+}
+
+void labelRuns(const std::int32_t* row, int cols, std::vector<LabelRun>& runs) {
+  HWY_DYNAMIC_DISPATCH(LabelRuns)(row, cols, runs);
 }
 
 }  // namespace shapesense::segmentation

@@ -111,4 +111,14 @@ void countPredictionAnomaliesRow(const float* centre, const float* gx, const flo
 void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
                      int cols, std::uint8_t* out);
 
+/// A run of one label in a row: columns [begin, end).
+struct LabelRun {
+  int begin = 0, end = 0;
+  std::int32_t label = 0;
+};
+
+/// The runs of equal labels of a row of `cols` labels, left to right, into `runs` (cleared
+/// first).
+void labelRuns(const std::int32_t* row, int cols, std::vector<LabelRun>& runs);
+
 }  // namespace shapesense::segmentation
