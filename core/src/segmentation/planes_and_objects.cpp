@@ -59,22 +59,27 @@ void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams
     const int k = 2 * (p.sliver_radius_px - 1) + 1;
     cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
   }
-  const std::vector<int> size = labelCounts(labels, count);
+  // The runs of every row, found once: they give the sizes, the interior flags and the clearing.
+  std::vector<std::vector<LabelRun>> runs(static_cast<std::size_t>(labels.rows));
+  std::vector<int> size(count, 0);
   std::vector<std::uint8_t> has_interior(count, 0);
-  std::vector<LabelRun> runs;
   for (int v = 0; v < labels.rows; ++v) {
     const auto* in = uniform.ptr<std::uint8_t>(v);
-    labelRuns(labels.ptr<int>(v), labels.cols, runs);
-    for (const LabelRun& run : runs)
+    auto& row_runs = runs[static_cast<std::size_t>(v)];
+    labelRuns(labels.ptr<int>(v), labels.cols, row_runs);
+    for (const LabelRun& run : row_runs) {
+      size[run.label] += run.end - run.begin;
       if (!has_interior[run.label])
         has_interior[run.label] = std::find(in + run.begin, in + run.end, 255) != in + run.end;
+    }
   }
   std::vector<std::uint8_t> cleared(count, 0);
   for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label)
     cleared[label] = size[label] < p.min_object_px || !has_interior[label];
   for (int v = 0; v < labels.rows; ++v) {
     int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u) l[u] = cleared[l[u]] ? 0 : l[u];
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)])
+      if (cleared[run.label]) std::fill(l + run.begin, l + run.end, 0);
   }
 }
 
