@@ -229,6 +229,33 @@ void LbpCodeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16
   }
 }
 
+void MapDepthRow(const std::uint16_t* depth, int cols, const FixedPointDepthMap& map,
+                 std::uint8_t* out) {
+  int u = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<std::int32_t> d32;
+  const hn::Rebind<std::uint16_t, decltype(d32)> d16;
+  const hn::Rebind<std::uint8_t, decltype(d32)> d8;
+  const int lanes = static_cast<int>(hn::Lanes(d32));
+  const auto ramp_begin = hn::Set(d32, map.ramp_begin), ramp_last = hn::Set(d32, map.ramp_end - 1);
+  const auto ramp_end = hn::Set(d32, map.ramp_end);
+  const auto gain = hn::Set(d32, map.gain), offset = hn::Set(d32, map.offset);
+  const auto low = hn::Set(d32, map.low), high = hn::Set(d32, map.high);
+  const auto unfilled = hn::Set(d32, map.unfilled);
+  const auto zero = hn::Zero(d32);
+  for (; u + lanes <= cols; u += lanes) {
+    const auto v = hn::PromoteTo(d32, hn::LoadU(d16, depth + u));
+    const auto on_ramp = hn::Min(hn::Max(v, ramp_begin), ramp_last);
+    const auto ramp = hn::ShiftRightSame(hn::Add(hn::Mul(on_ramp, gain), offset), map.shift);
+    auto mapped = hn::IfThenElse(hn::Lt(v, ramp_begin), low, ramp);
+    mapped = hn::IfThenElse(hn::Lt(v, ramp_end), mapped, high);
+    mapped = hn::IfThenElse(hn::Eq(v, zero), unfilled, mapped);
+    hn::StoreU(hn::DemoteTo(d8, mapped), d8, out + u);
+  }
+#endif
+  for (; u < cols; ++u) out[u] = map.at(depth[u]);
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace shapesense::bowls
 HWY_AFTER_NAMESPACE();
@@ -238,6 +265,7 @@ namespace shapesense::bowls {
 
 HWY_EXPORT(FillHolesInRow);
 HWY_EXPORT(LbpCodeRow);
+HWY_EXPORT(MapDepthRow);
 
 int fillHolesInRow(const std::uint16_t* above, std::uint16_t* here, const std::uint16_t* below,
                    int cols, bool forward) {
@@ -247,6 +275,11 @@ int fillHolesInRow(const std::uint16_t* above, std::uint16_t* here, const std::u
 void lbpCodeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2, int cw,
                 std::uint8_t* out, int out_cols) {
   HWY_DYNAMIC_DISPATCH(LbpCodeRow)(r0, r1, r2, cw, out, out_cols);
+}
+
+void mapDepthRow(const std::uint16_t* depth, int cols, const FixedPointDepthMap& map,
+                 std::uint8_t* out) {
+  HWY_DYNAMIC_DISPATCH(MapDepthRow)(depth, cols, map, out);
 }
 
 }  // namespace shapesense::bowls

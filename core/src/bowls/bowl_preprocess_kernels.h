@@ -19,4 +19,25 @@ int fillHolesInRow(const std::uint16_t* above, std::uint16_t* here, const std::u
 void lbpCodeRow(const std::int16_t* r0, const std::int16_t* r1, const std::int16_t* r2, int cw,
                 std::uint8_t* out, int out_cols);
 
+/// The 8-bit depth mapping in fixed point (DepthTo8BitMap uses it where it gives every value of
+/// its table): 0 -> `unfilled`; (0, ramp_begin) -> `low`; [ramp_begin, ramp_end) ->
+/// (v * gain + offset) >> shift; ramp_end and above -> `high`. ramp_end * gain + offset must
+/// fit in 31 bits.
+struct FixedPointDepthMap {
+  std::int32_t ramp_begin = 1, ramp_end = 1;
+  std::int32_t gain = 0, offset = 0;
+  int shift = 0;
+  std::uint8_t low = 0, high = 0, unfilled = 0;
+  std::uint8_t at(std::uint16_t v) const {
+    if (v == 0) return unfilled;
+    if (v < ramp_begin) return low;
+    if (v >= ramp_end) return high;
+    return static_cast<std::uint8_t>((v * gain + offset) >> shift);
+  }
+};
+
+/// out[u] = map.at(depth[u]) for u in [0, cols).
+void mapDepthRow(const std::uint16_t* depth, int cols, const FixedPointDepthMap& map,
+                 std::uint8_t* out);
+
 }  // namespace shapesense::bowls

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -34,6 +35,44 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
   return remaining;
 }
 
+struct DepthTo8BitMap::FixedPoint : bowls::FixedPointDepthMap {};
+
+namespace {
+
+/// The fixed-point form of the table's ramp [ramp_begin, ramp_end): the finest shift whose
+/// rounded gain and offset (or an offset a unit or two off) give every ramp value of the table,
+/// if any does.
+std::optional<bowls::FixedPointDepthMap> fixedPointOf(const std::vector<std::uint8_t>& lut,
+                                                      int ramp_begin, int ramp_end, double near_mm,
+                                                      double gain, double low) {
+  bowls::FixedPointDepthMap map;
+  map.ramp_begin = ramp_begin;
+  map.ramp_end = ramp_end;
+  map.unfilled = lut[0];
+  map.low = ramp_begin > 1 ? lut[1] : lut[static_cast<std::size_t>(ramp_begin)];
+  map.high = lut[65535];
+  for (int shift = 24; shift >= 8; --shift) {
+    const double scale = std::ldexp(1.0, shift);
+    const double a = std::round(gain * scale);
+    const double b = std::round((low - near_mm * gain + 0.5) * scale);
+    // The largest intermediate, (ramp_end - 1) * gain + offset, must fit in 31 bits.
+    if (a < 0 || b < -2147483647.0 || (ramp_end - 1) * a + std::abs(b) + 2 >= 2147483647.0)
+      continue;
+    for (int nudge = -2; nudge <= 2; ++nudge) {
+      map.shift = shift;
+      map.gain = static_cast<std::int32_t>(a);
+      map.offset = static_cast<std::int32_t>(b) + nudge;
+      bool exact = true;
+      for (int v = ramp_begin; v < ramp_end && exact; ++v)
+        exact = map.at(static_cast<std::uint16_t>(v)) == lut[static_cast<std::size_t>(v)];
+      if (exact) return map;
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(params) {
   if (!(params.far_m > params.near_m) || params.low < 0 || params.high > 255 ||
       params.low >= params.high)
@@ -50,6 +89,17 @@ DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(pa
     lut_[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm) * gain));
   std::fill(lut_.begin() + hi_begin, lut_.end(), static_cast<std::uint8_t>(params.high));
   lut_[0] = static_cast<std::uint8_t>(std::clamp(params.unfilled_value, 0, 255));
+  if (hi_begin > lo_end && hi_begin < 65536) {
+    if (const auto fixed = fixedPointOf(lut_, lo_end, hi_begin, near_mm, gain, params.low)) {
+      auto kept = std::make_shared<FixedPoint>();
+      static_cast<bowls::FixedPointDepthMap&>(*kept) = *fixed;
+      // Every 16-bit value, not only the ramp: the vector path must be the table.
+      bool exact = true;
+      for (int v = 0; v < 65536 && exact; ++v)
+        exact = kept->at(static_cast<std::uint16_t>(v)) == lut_[static_cast<std::size_t>(v)];
+      if (exact) fixed_point_ = std::move(kept);
+    }
+  }
 }
 
 cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
@@ -59,6 +109,10 @@ cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
   for (int r = 0; r < depth_mm.rows; ++r) {
     const auto* s = depth_mm.ptr<std::uint16_t>(r);
     auto* d = out.ptr<std::uint8_t>(r);
+    if (fixed_point_) {
+      bowls::mapDepthRow(s, depth_mm.cols, *fixed_point_, d);
+      continue;
+    }
     for (int c = 0; c < depth_mm.cols; ++c) d[c] = lut[s[c]];
   }
   return out;

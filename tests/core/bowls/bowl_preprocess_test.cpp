@@ -228,5 +228,26 @@ TEST(BowlPreprocess, PrebuiltMapEqualsTheFormulaAndFreshMapping) {
   }
 }
 
+// Where the map runs in vectors (a fixed-point form of its ramp, kept only when it reproduces
+// the table), every 16-bit depth still maps to the table's value: the shipped models' range and
+// ranges whose bounds fall between millimetres.
+TEST(BowlPreprocess, MappingAnImageGivesTheTableForEveryDepth) {
+  cv::Mat every_depth(256, 256, CV_16UC1);
+  for (int v = 0; v < 65536; ++v)
+    every_depth.at<std::uint16_t>(v / 256, v % 256) = static_cast<std::uint16_t>(v);
+  for (const DepthPreprocessParams p :
+       {DepthPreprocessParams{},
+        DepthPreprocessParams{.near_m = 0.5, .far_m = 3.0, .low = 2, .high = 255},
+        DepthPreprocessParams{.near_m = 0.4003, .far_m = 4.5007, .low = 0, .high = 255},
+        DepthPreprocessParams{.near_m = 0.5, .far_m = 0.6, .low = 10, .high = 250},
+        DepthPreprocessParams{.near_m = 0.0, .far_m = 60.0, .low = 0, .high = 255}}) {
+    const DepthTo8BitMap map(p);
+    const cv::Mat mapped = map(every_depth);
+    for (int v = 0; v < 65536; ++v)
+      ASSERT_EQ(mapped.at<std::uint8_t>(v / 256, v % 256), map.table()[static_cast<std::size_t>(v)])
+          << "depth " << v << " mm, range " << p.near_m << "-" << p.far_m;
+  }
+}
+
 }  // namespace
 }  // namespace shapesense

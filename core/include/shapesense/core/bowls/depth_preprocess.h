@@ -8,6 +8,7 @@
 // was trained with and the detector applies the same one.
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -50,8 +51,12 @@ class DepthTo8BitMap {
   const std::vector<std::uint8_t>& table() const { return lut_; }
 
  private:
+  /// The same mapping in fixed point, run in vectors; found at construction, and only kept
+  /// when it gives every value of the table (else null: the table maps).
+  struct FixedPoint;
   DepthPreprocessParams params_;
   std::vector<std::uint8_t> lut_;
+  std::shared_ptr<const FixedPoint> fixed_point_;
 };
 
 /// fillInvalidRecursiveMedian (on a copy, map.params().fill_passes) then the 8-bit mapping. If
