@@ -35,13 +35,15 @@ int fillInvalidRecursiveMedian(cv::Mat& depth_mm, int passes) {
   return remaining;
 }
 
-struct DepthTo8BitMap::FixedPoint : bowls::FixedPointDepthMap {};
+struct DepthTo8BitMap::FixedPoint {
+  bowls::FixedPointDepthMap map;
+};
 
 namespace {
 
-/// The fixed-point form of the table's ramp [ramp_begin, ramp_end): the finest shift whose
-/// rounded gain and offset (or an offset a unit or two off) give every ramp value of the table,
-/// if any does.
+/// A fixed-point form of the table, its ramp [ramp_begin, ramp_end) as (v * gain + offset) >>
+/// shift: the finest shift whose rounded gain and offset (or an offset a unit or two off) give
+/// every one of the table's 65536 values, if any does.
 std::optional<bowls::FixedPointDepthMap> fixedPointOf(const std::vector<std::uint8_t>& lut,
                                                       int ramp_begin, int ramp_end, double near_mm,
                                                       double gain, double low) {
@@ -49,7 +51,7 @@ std::optional<bowls::FixedPointDepthMap> fixedPointOf(const std::vector<std::uin
   map.ramp_begin = ramp_begin;
   map.ramp_end = ramp_end;
   map.unfilled = lut[0];
-  map.low = ramp_begin > 1 ? lut[1] : lut[static_cast<std::size_t>(ramp_begin)];
+  map.low = lut[1];  // only read below the ramp, which then starts past 1
   map.high = lut[65535];
   for (int shift = 24; shift >= 8; --shift) {
     const double scale = std::ldexp(1.0, shift);
@@ -63,7 +65,7 @@ std::optional<bowls::FixedPointDepthMap> fixedPointOf(const std::vector<std::uin
       map.gain = static_cast<std::int32_t>(a);
       map.offset = static_cast<std::int32_t>(b) + nudge;
       bool exact = true;
-      for (int v = ramp_begin; v < ramp_end && exact; ++v)
+      for (int v = 0; v < 65536 && exact; ++v)
         exact = map.at(static_cast<std::uint16_t>(v)) == lut[static_cast<std::size_t>(v)];
       if (exact) return map;
     }
@@ -89,17 +91,9 @@ DepthTo8BitMap::DepthTo8BitMap(const DepthPreprocessParams& params) : params_(pa
     lut_[v] = static_cast<std::uint8_t>(std::lround(params.low + (v - near_mm) * gain));
   std::fill(lut_.begin() + hi_begin, lut_.end(), static_cast<std::uint8_t>(params.high));
   lut_[0] = static_cast<std::uint8_t>(std::clamp(params.unfilled_value, 0, 255));
-  if (hi_begin > lo_end && hi_begin < 65536) {
-    if (const auto fixed = fixedPointOf(lut_, lo_end, hi_begin, near_mm, gain, params.low)) {
-      auto kept = std::make_shared<FixedPoint>();
-      static_cast<bowls::FixedPointDepthMap&>(*kept) = *fixed;
-      // Every 16-bit value, not only the ramp: the vector path must be the table.
-      bool exact = true;
-      for (int v = 0; v < 65536 && exact; ++v)
-        exact = kept->at(static_cast<std::uint16_t>(v)) == lut_[static_cast<std::size_t>(v)];
-      if (exact) fixed_point_ = std::move(kept);
-    }
-  }
+  if (hi_begin > lo_end && hi_begin < 65536)
+    if (const auto fixed = fixedPointOf(lut_, lo_end, hi_begin, near_mm, gain, params.low))
+      fixed_point_ = std::make_shared<const FixedPoint>(FixedPoint{*fixed});
 }
 
 cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
@@ -110,7 +104,7 @@ cv::Mat DepthTo8BitMap::operator()(const cv::Mat& depth_mm) const {
     const auto* s = depth_mm.ptr<std::uint16_t>(r);
     auto* d = out.ptr<std::uint8_t>(r);
     if (fixed_point_) {
-      bowls::mapDepthRow(s, depth_mm.cols, *fixed_point_, d);
+      bowls::mapDepthRow(s, depth_mm.cols, fixed_point_->map, d);
       continue;
     }
     for (int c = 0; c < depth_mm.cols; ++c) d[c] = lut[s[c]];

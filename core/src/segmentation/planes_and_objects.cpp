@@ -12,22 +12,28 @@
 namespace shapesense::segmentation {
 namespace {
 
-// Pixels of each label (index = label), run by run: a per-pixel increment of one counter
-// stalls on its own store wherever neighbours share a label, which is almost everywhere.
-std::vector<int> labelCounts(const cv::Mat& labels, std::size_t count) {
-  std::vector<int> counts(count, 0);
-  std::vector<LabelRun> runs;
-  for (int v = 0; v < labels.rows; ++v) {
-    labelRuns(labels.ptr<int>(v), labels.cols, runs);
-    for (const LabelRun& run : runs) counts[run.label] += run.end - run.begin;
-  }
-  return counts;
+// The runs of equal labels of every row.
+using RowRuns = std::vector<std::vector<LabelRun>>;
+
+RowRuns labelRunsOf(const cv::Mat& labels) {
+  RowRuns runs(static_cast<std::size_t>(labels.rows));
+  for (int v = 0; v < labels.rows; ++v)
+    labelRuns(labels.ptr<int>(v), labels.cols, runs[static_cast<std::size_t>(v)]);
+  return runs;
 }
 
-int largestLabel(const cv::Mat& labels) {
-  double max_label = 0;
-  cv::minMaxLoc(labels, nullptr, &max_label);
-  return static_cast<int>(max_label);
+// Pixels of each label (index = label, up to the largest), run by run: a per-pixel increment of
+// one counter stalls on its own store wherever neighbours share a label, which is almost
+// everywhere.
+std::vector<int> labelCounts(const RowRuns& runs) {
+  std::vector<int> counts(1, 0);
+  for (const auto& row : runs)
+    for (const LabelRun& run : row) {
+      const auto label = static_cast<std::size_t>(run.label);
+      if (label >= counts.size()) counts.resize(label + 1, 0);
+      counts[label] += run.end - run.begin;
+    }
+  return counts;
 }
 
 // Plane ids stay as they are; object region o becomes plane_count + o. CV_32SC1, 0 = none.
@@ -49,7 +55,6 @@ cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int
 // its whole (2 r + 1)^2 window in the region), are cleared: the slivers plane_prediction leaves
 // along creases and borders between planes, which the growth below hands to their neighbours.
 void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams& p) {
-  const std::size_t count = static_cast<std::size_t>(largestLabel(labels)) + 1;
   // Pixels whose 3x3 window holds one label, eroded to the (2 r + 1)^2 window.
   cv::Mat uniform = cv::Mat::zeros(labels.size(), CV_8UC1);
   for (int v = 1; v + 1 < labels.rows; ++v)
@@ -60,18 +65,15 @@ void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams
     cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
   }
   // The runs of every row, found once: they give the sizes, the interior flags and the clearing.
-  std::vector<std::vector<LabelRun>> runs(static_cast<std::size_t>(labels.rows));
-  std::vector<int> size(count, 0);
+  const RowRuns runs = labelRunsOf(labels);
+  const std::vector<int> size = labelCounts(runs);
+  const std::size_t count = size.size();
   std::vector<std::uint8_t> has_interior(count, 0);
   for (int v = 0; v < labels.rows; ++v) {
     const auto* in = uniform.ptr<std::uint8_t>(v);
-    auto& row_runs = runs[static_cast<std::size_t>(v)];
-    labelRuns(labels.ptr<int>(v), labels.cols, row_runs);
-    for (const LabelRun& run : row_runs) {
-      size[run.label] += run.end - run.begin;
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)])
       if (!has_interior[run.label])
         has_interior[run.label] = std::find(in + run.begin, in + run.end, 255) != in + run.end;
-    }
   }
   std::vector<std::uint8_t> cleared(count, 0);
   for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label)
@@ -140,16 +142,14 @@ void growIntoUnlabelled(const cv::Mat& depth_mm, const PlanesAndObjectsParams& p
 
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.
 cv::Mat compactRegions(const cv::Mat& labels, int min_pixels) {
-  const std::vector<int> size =
-      labelCounts(labels, static_cast<std::size_t>(largestLabel(labels)) + 1);
+  const RowRuns runs = labelRunsOf(labels);
+  const std::vector<int> size = labelCounts(runs);
   std::vector<int> id(size.size(), 0);
   int next = 0;
   cv::Mat out(labels.size(), CV_16UC1);
-  std::vector<LabelRun> runs;
   for (int v = 0; v < labels.rows; ++v) {
     auto* o = out.ptr<std::uint16_t>(v);
-    labelRuns(labels.ptr<int>(v), labels.cols, runs);
-    for (const LabelRun& run : runs) {
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)]) {
       const int label = run.label;
       if (label && size[label] >= min_pixels && !id[label] && next < 65535) id[label] = ++next;
       std::fill(o + run.begin, o + run.end, static_cast<std::uint16_t>(label ? id[label] : 0));
