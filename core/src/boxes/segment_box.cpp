@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -283,6 +284,45 @@ struct FoundObject {
   const DetectedPlane* support = nullptr;
 };
 
+// The segment holding most of the ROI's depth readings, clipped to the ROI, and the plane
+// region most of that part lies on.
+struct RoiSurface {
+  RoiSegment segment;
+  const DetectedPlane* plane = nullptr;
+};
+
+std::optional<RoiSurface> surfaceUnderRoi(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
+                                          const PlaneDetection& planes, const cv::Rect& roi) {
+  std::map<std::uint16_t, int> segment_pixels;
+  for (int v = roi.y; v < roi.y + roi.height; ++v) {
+    const auto* label = segment_labels.ptr<std::uint16_t>(v);
+    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
+    for (int u = roi.x; u < roi.x + roi.width; ++u)
+      if (depth[u] != 0 && label[u] != 0) ++segment_pixels[label[u]];
+  }
+  if (segment_pixels.empty()) return std::nullopt;
+  const auto widest =
+      std::max_element(segment_pixels.begin(), segment_pixels.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  std::map<std::uint16_t, int> plane_pixels;
+  for (int v = roi.y; v < roi.y + roi.height; ++v) {
+    const auto* label = segment_labels.ptr<std::uint16_t>(v);
+    const auto* plane = planes.labels.ptr<std::uint16_t>(v);
+    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
+    for (int u = roi.x; u < roi.x + roi.width; ++u)
+      if (depth[u] != 0 && label[u] == widest->first && plane[u] != 0) ++plane_pixels[plane[u]];
+  }
+  if (plane_pixels.empty()) return std::nullopt;
+  const std::uint16_t plane_id =
+      std::max_element(plane_pixels.begin(), plane_pixels.end(), [](const auto& a, const auto& b) {
+        return a.second < b.second;
+      })->first;
+  const auto plane = std::find_if(planes.planes.begin(), planes.planes.end(),
+                                  [&](const DetectedPlane& p) { return p.id == plane_id; });
+  if (plane == planes.planes.end()) return std::nullopt;
+  return RoiSurface{{widest->first, false, widest->second}, &*plane};
+}
+
 // Steps 1-3 of boxFromSegments.
 std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
@@ -299,24 +339,34 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
                      cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
   std::vector<RoiSegment> object =
       segmentsUnderRoi(depth_mm, segment_labels, segments, roi, params);
-  if (object.empty()) {
-    return noObject("no segment lies mostly inside the ROI: draw it around the whole object");
-  }
   cv::Rect bounds = roi;
-  for (const auto& segment : segments) {
-    const auto it = std::find_if(object.begin(), object.end(),
-                                 [&](const RoiSegment& o) { return o.id == segment.id; });
-    if (it != object.end() && it->whole) bounds |= segment.box;
+  const DetectedPlane* support = nullptr;
+  const bool part_of_larger_segment = object.empty();
+  if (part_of_larger_segment) {
+    // The object is part of a larger segment: one a few depth steps proud of what it lies on
+    // (a book, a lid) is not parted from it. Its points are those of that segment inside the
+    // ROI that rise off the plane under them (step 3).
+    const auto surface = surfaceUnderRoi(depth_mm, segment_labels, planes, roi);
+    if (!surface) {
+      return noObject("no segment lies mostly inside the ROI: draw it around the whole object");
+    }
+    object.push_back(surface->segment);
+    support = surface->plane;
+  } else {
+    for (const auto& segment : segments) {
+      const auto it = std::find_if(object.begin(), object.end(),
+                                   [&](const RoiSegment& o) { return o.id == segment.id; });
+      if (it != object.end() && it->whole) bounds |= segment.box;
+    }
+    object = mainGroups(object, segment_labels, depth_mm, bounds, params);
+    // The support is what the object's own faces stand on: a clipped segment may be the table.
+    std::vector<std::uint16_t> ids;
+    for (const auto& segment : object)
+      if (segment.whole) ids.push_back(segment.id);
+    if (ids.empty())
+      for (const auto& segment : object) ids.push_back(segment.id);
+    support = supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
   }
-  object = mainGroups(object, segment_labels, depth_mm, bounds, params);
-  // The support is what the object's own faces stand on: a clipped segment may be the table.
-  std::vector<std::uint16_t> ids;
-  for (const auto& segment : object)
-    if (segment.whole) ids.push_back(segment.id);
-  if (ids.empty())
-    for (const auto& segment : object) ids.push_back(segment.id);
-  const DetectedPlane* support =
-      supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
   SupportedPoints read =
       objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
   if (read.all.points.empty()) return noObject("the ROI's segments have no depth reading");
@@ -329,6 +379,11 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
   const bool stands_out =
       support &&
       read.above.points.size() >= kMinAboveShare * static_cast<double>(read.all.points.size());
+  if (part_of_larger_segment && !stands_out) {
+    return noObject(
+        "no segment lies mostly inside the ROI, and nothing in it rises off the surface it "
+        "shows: draw it around the whole object");
+  }
   ObjectPixels found = stands_out ? std::move(read.above) : std::move(read.all);
   return FoundObject{std::move(found), support};
 }

@@ -2,9 +2,7 @@
 // requirement (issue 18): >= 0.95 of an object's visible points inside its box, and a volume of
 // at most 1.5 times the box of those points, with the object's image bounds as the ROI, on the
 // evaluation's test split (scenes never used to choose parameters) and on the labelled real
-// objects of mosd_test. The volume requirement is asserted (median over the objects). The
-// coverage requirement is not met on the synthetic test split yet: that test asserts a
-// regression record just under what the code reaches and prints the requirement beside it.
+// objects of mosd_test. The volume requirement is asserted as the median over the objects.
 
 #include <gtest/gtest.h>
 
@@ -23,9 +21,6 @@ namespace shapesense {
 namespace {
 
 constexpr double kRequiredCoverage = 0.95;
-// Regression record, not a requirement: the mean coverage the code reaches on the 60 test-split
-// frames below is 0.947 (docs/benchmarks.md has the 100-frame figures).
-constexpr double kCoverageRecordTestSplit = 0.94;
 constexpr double kMaxVolumeRatio = 1.5;
 constexpr double kMinObjectShare = 0.001;  // as shapesense-eval: 307 px of VGA
 
@@ -85,7 +80,7 @@ TEST(SegmentBox, HoldsTheVisiblePointsOfTestSplitObjectsTightly) {
   }
   printScore("test split", score);
   ASSERT_GE(score.objects, 60);
-  EXPECT_GE(score.meanCoverage(), kCoverageRecordTestSplit);
+  EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
 }
 
@@ -121,6 +116,35 @@ TEST(SegmentBox, AnObjectBelowThePlaneUnderItIsNotCutAway) {
     ++checked;
   }
   EXPECT_EQ(checked, 1) << "the scene no longer has the board where this test expects it";
+}
+
+// Validation scene 99 has a thin object lying on the table, too few depth steps proud of it for
+// the segmentation to part the two: no segment lies mostly inside the ROI drawn around it. Its
+// box is that of the table segment's points inside the ROI that rise off the table's plane, so
+// its rim, within the table's noise band, may fall outside: tolerance 0.9 of its points.
+TEST(SegmentBox, AThinObjectMergedIntoItsTableIsBoxed) {
+  constexpr double kMinThinObjectCoverage = 0.9;
+  const eval::EvalScene scene = eval::evalScene(eval::Split::kValidation, 99);
+  const auto rendered = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+  const FrameAnalysis a = analyse(rendered.frame);
+  const cv::Rect thin_roi(46, 206, 42, 29);
+  int checked = 0;
+  for (const auto& target : eval::syntheticBoxTargets(rendered, kMinObjectShare)) {
+    if (target.roi != thin_roi) continue;
+    ASSERT_TRUE(segmentsUnderRoi(rendered.frame.depth, a.segments.labels, a.segments.segments,
+                                 target.roi, SegmentBoxParams{})
+                    .empty())
+        << "the segmentation now parts the object from the table: pick another thin object";
+    eval::BoxModeScore score;
+    const auto result = segmentBox(rendered.frame, a, target.roi);
+    const auto* box = std::get_if<BoxEstimate>(&result);
+    ASSERT_NE(box, nullptr);
+    score.add(&box->corners, target.points);
+    EXPECT_GE(score.meanCoverage(), kMinThinObjectCoverage);
+    EXPECT_LE(score.volume_ratio.at(0), kMaxVolumeRatio);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 1) << "the scene no longer has the thin object where this test expects it";
 }
 
 // A plain scene: a table with boxes on it.
@@ -171,6 +195,7 @@ TEST(SegmentBox, AnRoiWithNoSegmentMostlyInsideIsRefusedWithAReason) {
   ASSERT_NE(failure, nullptr);
   EXPECT_EQ(failure->code, BoxEstimationError::kNoValidDepth);
   EXPECT_NE(failure->message.find("no segment lies mostly inside the ROI"), std::string::npos);
+  EXPECT_NE(failure->message.find("nothing in it rises off the surface"), std::string::npos);
 }
 
 TEST(SegmentBox, UnsoundRequestsFailAsEstimateBoxDoes) {

@@ -15,12 +15,17 @@
 //      and the part inside the ROI of every segment with at least `min_clipped_fraction` inside
 //      (an object the segmentation merged with a neighbour touching it); of those, the groups
 //      joined without a depth step (continuousNeighbours) that are not much smaller than the
-//      largest group: a patch of wall seen between two objects is not part of either;
+//      largest group: a patch of wall seen between two objects is not part of either. When no
+//      segment is covered, the object is part of a larger one (a book or a lid only a few depth
+//      steps proud of the table is not parted from it): the part inside the ROI of the segment
+//      holding most of the ROI's readings, standing on the plane region under most of that part;
 //   2. their support: the plane region they stand on, as the object boxes find it
 //      (supportPlaneBelow in object_boxes.h), unless more of their points lie below that plane
 //      than above it (an object beyond the table's far edge, seen over it: no support);
 //   3. their points, minus the points on the support (within the sensor's noise of its plane:
-//      a segment may have taken a strip of table along the object's foot);
+//      a segment may have taken a strip of table along the object's foot) when at least a tenth
+//      of them lie off it; for an object found inside a larger segment that is required (an
+//      ROI on bare table holds no object);
 //   4. the box: on a support, upright on it (its vertical axis along the plane's normal, its
 //      footprint the smallest rectangle around the points cast onto the plane, from the plane
 //      up to the highest point, reaching down to the plane when the object's foot is near it);
@@ -71,8 +76,9 @@ struct SegmentBoxParams {
 /// corners) of `depth_mm`, from `segment_labels` (CV_16UC1, 0 = none; `segments` are its
 /// statistics) and the frame's `planes` (see the file comment). The result's mode is
 /// BoxMode::kSegments; its statistics are of the points' Z (near_m / far_m: the box's nearest
-/// and farthest corner). Fails with kNoValidDepth when no segment lies mostly inside the ROI or
-/// its segments have no point off the support, and as estimateBox for an unsound request.
+/// and farthest corner). Fails with kNoValidDepth when no segment lies mostly inside the ROI and
+/// nothing in it rises off the surface it shows, or its segments have no depth reading, and as
+/// estimateBox for an unsound request.
 std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
