@@ -370,9 +370,12 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
   SupportedPoints read =
       objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
   if (read.all.points.empty()) return noObject("the ROI's segments have no depth reading");
-  // A plane most of the object lies below is not what it stands on (an object beyond the
-  // table's far edge, seen over it).
-  if (support && read.below > read.above.points.size()) support = nullptr;
+  // An object has only noise below the plane it stands on: a tenth of its points below say the
+  // plane is not its support (an object beyond the table's far edge, seen over it; a shelf or
+  // another object's top at half its height).
+  constexpr double kMaxBelowShare = 0.1;
+  if (support && read.below > kMaxBelowShare * static_cast<double>(read.all.points.size()))
+    support = nullptr;
   // Nearly all of it within the support's band: a board or a lid lying flat, only a few depth
   // steps proud of the table at that range.
   constexpr double kMinAboveShare = 0.1;

@@ -20,8 +20,9 @@
 //      steps proud of the table is not parted from it): the part inside the ROI of the segment
 //      holding most of the ROI's readings, standing on the plane region under most of that part;
 //   2. their support: the plane region they stand on, as the object boxes find it
-//      (supportPlaneBelow in object_boxes.h), unless more of their points lie below that plane
-//      than above it (an object beyond the table's far edge, seen over it: no support);
+//      (supportPlaneBelow in object_boxes.h), unless more than a tenth of their points lie
+//      below that plane, past its noise (an object beyond the table's far edge, seen over it,
+//      or a shelf board or a box top at the object's mid-height: no support);
 //   3. their points, minus the points on the support (within the sensor's noise of its plane:
 //      a segment may have taken a strip of table along the object's foot) when at least a tenth
 //      of them lie off it; for an object found inside a larger segment that is required (an
