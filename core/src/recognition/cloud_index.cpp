@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <nanoflann.hpp>
 
@@ -131,11 +132,50 @@ void PointGrid::withinRadius(const Eigen::Vector3f& query, float radius,
   candidates.within(query, radius * radius, indices);
 }
 
-int CloudIndex::nearest(const Eigen::Vector3f& query, float& squared_distance) const {
+namespace {
+
+// A nanoflann result set holding the nearest point closer than a bound: the search prunes
+// every branch farther than the best found so far, which starts at the bound.
+class NearestWithinBound {
+ public:
+  using DistanceType = float;
+  using IndexType = std::uint32_t;
+  using CountType = std::size_t;
+
+  explicit NearestWithinBound(float bound2) : best_(bound2) {}
+  CountType size() const { return found_ ? 1 : 0; }
+  bool full() const { return true; }
+  bool addPoint(float squared_distance, std::uint32_t index) {
+    if (squared_distance < best_) {
+      best_ = squared_distance;
+      index_ = index;
+      found_ = true;
+    }
+    return true;
+  }
+  float worstDist() const { return best_; }
+  bool found() const { return found_; }
+  std::uint32_t index() const { return index_; }
+
+ private:
+  float best_;
+  std::uint32_t index_ = 0;
+  bool found_ = false;
+};
+
+}  // namespace
+
+int CloudIndex::nearestWithin(const Eigen::Vector3f& query, float max_distance,
+                              float& squared_distance) const {
   if (points_.empty()) return -1;
-  std::uint32_t index = 0;
-  tree_->tree.knnSearch(query.data(), 1, &index, &squared_distance);
-  return static_cast<int>(index);
+  // Just above the bound's square, so that a point exactly at max_distance counts.
+  const float bound2 =
+      std::nextafter(max_distance * max_distance, std::numeric_limits<float>::infinity());
+  NearestWithinBound result(bound2);
+  tree_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+  if (!result.found()) return -1;
+  squared_distance = result.worstDist();
+  return static_cast<int>(result.index());
 }
 
 }  // namespace shapesense::detail

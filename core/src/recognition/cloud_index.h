@@ -131,8 +131,11 @@ class CloudIndex {
   CloudIndex(const CloudIndex&) = delete;
   CloudIndex& operator=(const CloudIndex&) = delete;
 
-  /// The nearest point's index and its squared distance; -1 for an empty set.
-  int nearest(const Eigen::Vector3f& query, float& squared_distance) const;
+  /// The nearest point at most `max_distance` from `query`: its index and squared distance;
+  /// -1 when there is none. The bound prunes the search: far fewer nodes are visited than for
+  /// the nearest point at any distance.
+  int nearestWithin(const Eigen::Vector3f& query, float max_distance,
+                    float& squared_distance) const;
 
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <memory>
 #include <random>
 
 #include <Eigen/Cholesky>
@@ -231,21 +233,102 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
   return pose;
 }
 
+// The scene points ICP may pair a model with while its pose stays near the one the patch was
+// made for, with a nearest-point index over them. ICP pairs within icp_max_distance_m only, so
+// a model point within the model's reach of the posed centre pairs with a scene point within
+// that reach plus the pairing distance; `slack` allows for ICP moving the pose. An index over
+// the whole scene cost more to build than every query of a frame's models.
+class ScenePatch {
+ public:
+  ScenePatch(const SceneSurface& scene, const Eigen::Vector3f& centre, float reach)
+      : scene_(scene), centre_(centre), reach_(reach) {
+    const float reach2 = reach * reach;
+    const std::vector<Eigen::Vector3f>& all = scene.surface().points;
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      if ((all[i] - centre).squaredNorm() > reach2) continue;
+      points_.push_back(all[i]);
+      scene_index_.push_back(static_cast<std::uint32_t>(i));
+    }
+    index_ = std::make_unique<detail::CloudIndex>(points_);
+  }
+  ScenePatch(const ScenePatch&) = delete;
+  ScenePatch& operator=(const ScenePatch&) = delete;
+
+  /// Whether the patch holds every scene point within `reach` of `centre`.
+  bool covers(const Eigen::Vector3f& centre, float reach) const {
+    return (centre - centre_).norm() + reach <= reach_;
+  }
+
+  /// The nearest point of the patch at most `max_distance` from `p`, and its normal; false
+  /// when there is none.
+  bool nearestWithin(const Eigen::Vector3f& p, float max_distance, Eigen::Vector3f& q,
+                     Eigen::Vector3f& normal) const {
+    float d2 = 0.0f;
+    const int j = index_->nearestWithin(p, max_distance, d2);
+    if (j < 0) return false;
+    const std::size_t i = scene_index_[static_cast<std::size_t>(j)];
+    q = scene_.surface().points[i];
+    normal = scene_.surface().normals[i];
+    return true;
+  }
+
+ private:
+  const SceneSurface& scene_;
+  Eigen::Vector3f centre_;
+  float reach_ = 0.0f;
+  std::vector<Eigen::Vector3f> points_;  ///< the index refers to it: never reallocated after
+  std::vector<std::uint32_t> scene_index_;
+  std::unique_ptr<detail::CloudIndex> index_;
+};
+
+// How far the model's points lie from its box's centre at most.
+float modelReach(const ObjectModel& model) {
+  float reach2 = 0.0f;
+  for (const Eigen::Vector3f& p : model.surface.points)
+    reach2 = std::max(reach2, (p - model.box.centre).squaredNorm());
+  return std::sqrt(reach2);
+}
+
+// The scene patches of one model's poses. The pose hypotheses of one object mostly lie at one
+// place (the object turned), so a patch made with room to spare serves those near it.
+class ScenePatches {
+ public:
+  ScenePatches(const ObjectModel& model, const SceneSurface& scene, const ObjectMatchParams& params)
+      : model_(model), scene_(scene), model_reach_(modelReach(model)) {
+    // ICP pairs over icp_max_distance_m and may move the pose as far again, twice.
+    needed_margin_ = 3.0f * params.icp_max_distance_m;
+    spare_ = params.icp_max_distance_m;
+  }
+
+  /// A patch for ICP from `pose` on, shared with earlier poses where one covers it.
+  std::shared_ptr<const ScenePatch> forPose(const Eigen::Isometry3f& pose) {
+    const Eigen::Vector3f centre = pose * model_.box.centre;
+    const float needed = model_reach_ + needed_margin_;
+    for (const auto& patch : patches_)
+      if (patch->covers(centre, needed)) return patch;
+    patches_.push_back(std::make_shared<const ScenePatch>(scene_, centre, needed + spare_));
+    return patches_.back();
+  }
+
+ private:
+  const ObjectModel& model_;
+  const SceneSurface& scene_;
+  float model_reach_ = 0.0f;
+  float needed_margin_ = 0.0f;
+  float spare_ = 0.0f;
+  std::vector<std::shared_ptr<const ScenePatch>> patches_;
+};
+
 // Step 3: point-to-plane ICP, each model point paired with the nearest scene point (which
 // holds a face from sliding past the scene's edges, as pairing along the line of sight does
 // not), on at most `max_points` of the model.
 Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& model,
-                             const SceneSurface& scene, int iterations, int max_points,
+                             const ScenePatch& patch, int iterations, int max_points,
                              const ObjectMatchParams& params) {
   return pointToPlaneIcp(
       start, model, iterations, max_points, params.icp_max_distance_m,
       [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
-        float d2 = 0.0f;
-        const int j = scene.nearestIndex().nearest(p, d2);
-        if (j < 0) return false;
-        q = scene.surface().points[static_cast<std::size_t>(j)];
-        normal = scene.surface().normals[static_cast<std::size_t>(j)];
-        return true;
+        return patch.nearestWithin(p, params.icp_max_distance_m, q, normal);
       });
 }
 
@@ -326,8 +409,7 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
-      features_(detectShapeFeatures(surface_, params.features)),
-      nearest_index_(std::make_unique<detail::CloudIndex>(surface_.points)) {}
+      features_(detectShapeFeatures(surface_, params.features)) {}
 
 SceneSurface::~SceneSurface() = default;
 
@@ -337,18 +419,24 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   // Every hypothesis is refined on a share of the model and checked; only the winner is
   // refined on all of it.
   std::optional<ObjectDetection> best;
+  ScenePatches patches(model, scene, params);
+  std::shared_ptr<const ScenePatch> best_patch;
   for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
     if (!worthRefining(hypothesis.scene_from_model, model, scene, params)) continue;
-    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, scene,
+    auto patch = patches.forPose(hypothesis.scene_from_model);
+    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, *patch,
                                               params.icp_iterations, params.icp_max_points, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection) continue;
     detection->feature_inliers = hypothesis.inliers;
-    if (!best || detection->confirmed_points > best->confirmed_points) best = detection;
+    if (!best || detection->confirmed_points > best->confirmed_points) {
+      best = detection;
+      best_patch = std::move(patch);
+    }
   }
   if (!best) return best;
-  const Eigen::Isometry3f final_pose =
-      refinePose(best->camera_from_model, model, scene, params.icp_final_iterations, 0, params);
+  const Eigen::Isometry3f final_pose = refinePose(best->camera_from_model, model, *best_patch,
+                                                  params.icp_final_iterations, 0, params);
   auto final_detection = verifyObjectPose(model, scene, final_pose, params);
   if (!final_detection) return best;
   final_detection->feature_inliers = best->feature_inliers;

@@ -28,7 +28,7 @@ std::vector<std::uint8_t> onObject(const SurfaceCloud& context, const SurfaceClo
   std::vector<std::uint8_t> out(context.size(), 0);
   float d2 = 0.0f;
   for (std::size_t i = 0; i < context.size(); ++i)
-    if (index.nearest(context.points[i], d2) >= 0 && d2 <= voxel * voxel) out[i] = 1;
+    if (index.nearestWithin(context.points[i], voxel, d2) >= 0) out[i] = 1;
   return out;
 }
 

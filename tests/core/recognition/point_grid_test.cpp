@@ -1,5 +1,6 @@
-// The cube grid's neighbourhoods (recognition/cloud_index.h) against a brute-force search, for
-// radii within one cube side and beyond it.
+// The cube grid's neighbourhoods and the k-d tree's bounded nearest point
+// (recognition/cloud_index.h) against a brute-force search, for radii within one cube side and
+// beyond it.
 
 #include <gtest/gtest.h>
 
@@ -94,6 +95,54 @@ TEST(PointGrid, EmptyCloud) {
   grid.withinRadius(Eigen::Vector3f(0, 0, 1), 0.02f, found);
   EXPECT_TRUE(found.empty());
   EXPECT_EQ(grid.cubeCount(), 0u);
+}
+
+// The nearest point within a bound, by brute force: -1 when none is.
+int bruteNearestWithin(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& query,
+                       float bound) {
+  int best = -1;
+  float best2 = bound * bound;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const float d2 = (points[i] - query).squaredNorm();
+    if (d2 < best2 || (best < 0 && d2 == best2)) {
+      best = static_cast<int>(i);
+      best2 = d2;
+    }
+  }
+  return best;
+}
+
+TEST(CloudIndex, TheNearestPointWithinABoundIsTheBruteForceOne) {
+  const std::vector<Eigen::Vector3f> points = testPoints();
+  const CloudIndex index(points);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> coordinate(-0.12f, 0.12f);
+  int found = 0, none = 0;
+  for (int q = 0; q < 500; ++q) {
+    const Eigen::Vector3f query(coordinate(rng), coordinate(rng), 1.05f + coordinate(rng));
+    for (float bound : {0.002f, 0.01f, 0.05f}) {
+      float d2 = -1.0f;
+      const int j = index.nearestWithin(query, bound, d2);
+      const int expected = bruteNearestWithin(points, query, bound);
+      ASSERT_EQ(j < 0, expected < 0) << "query " << q << " bound " << bound;
+      if (j < 0) {
+        ++none;
+        continue;
+      }
+      ++found;
+      EXPECT_FLOAT_EQ(d2, (points[static_cast<std::size_t>(expected)] - query).squaredNorm());
+      EXPECT_LE(d2, bound * bound);
+    }
+  }
+  EXPECT_GT(found, 100);  // both outcomes occur
+  EXPECT_GT(none, 100);
+}
+
+TEST(CloudIndex, AnEmptyCloudHasNoNearestPoint) {
+  const std::vector<Eigen::Vector3f> none;
+  const CloudIndex index(none);
+  float d2 = 0.0f;
+  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(0, 0, 1), 1.0f, d2), -1);
 }
 
 }  // namespace

@@ -30,11 +30,7 @@
 
 namespace shapesense {
 
-namespace detail {
-class CloudIndex;
-}
-
-/// One depth frame's surface, features and nearest-point index, made once for all the models.
+/// One depth frame's surface and features, made once for all the models.
 class SceneSurface {
  public:
   /// `params` must be the models' (surface and feature parameters), so that the descriptors
@@ -49,14 +45,12 @@ class SceneSurface {
   const std::vector<ShapeFeature>& features() const { return features_; }
   const cv::Mat& depth() const { return depth_mm_; }
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
-  const detail::CloudIndex& nearestIndex() const { return *nearest_index_; }
 
  private:
   cv::Mat depth_mm_;
   CameraIntrinsics intrinsics_;
   SurfaceCloud surface_;
   std::vector<ShapeFeature> features_;
-  std::unique_ptr<detail::CloudIndex> nearest_index_;
 };
 
 struct ObjectMatchParams {
