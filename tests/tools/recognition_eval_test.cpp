@@ -14,16 +14,15 @@ namespace shapesense::eval {
 namespace {
 
 TEST(RecognitionQuality, TestSplitRecallAndFalseDetections) {
-  const RecognitionScore score = scoreRecognition(Split::kTest, 0, 8);
-  std::printf("%s\n", formatRecognitionScore("[recognition, test split, 8 cases]", score).c_str());
-  ASSERT_GE(score.required, 60);
+  const RecognitionScore score = scoreRecognition(Split::kTest, 0, 20);
+  std::printf("%s\n", formatRecognitionScore("[recognition, test split, 20 cases]", score).c_str());
+  ASSERT_GE(score.required, 150);
   // Requirement (issue 22): recall >= 0.90 at <= 1 cm and 5 deg with >= 50% of the object
   // visible, and <= 0.1 false detections per frame for five taught objects: NOT met. The bounds
-  // below are a regression record, just under what the code reached when this test was written
-  // on these 8 cases (recall 0.444, 0.278 false per frame; on 20 test cases 0.519 and 0.156:
-  // docs/benchmarks.md).
-  EXPECT_GE(score.recall(), 0.42);
-  EXPECT_LE(score.falsePerFrameForFive(), 0.35);
+  // below are a regression record, just under what the code reached on these 20 cases (recall
+  // 0.523, 0.173 false per frame: docs/benchmarks.md).
+  EXPECT_GE(score.recall(), 0.50);
+  EXPECT_LE(score.falsePerFrameForFive(), 0.2);
   // Found poses are exact: the tolerance is not what limits recall.
   std::vector<double> translations = score.translation_errors_m;
   EXPECT_LE(quantile(translations, 0.9), 0.005);

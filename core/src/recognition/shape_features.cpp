@@ -106,24 +106,24 @@ std::vector<Candidate> suppressNonMaxima(std::vector<Candidate> candidates,
   return kept;
 }
 
-// Step 2: the local frame (columns x, y, z) from the distance-weighted covariance about the
-// interest point; signs chosen by where the points are, so they do not depend on the view.
+// Step 2: the local frame (columns x, y, z). z is the mean of the support's normals: across an
+// edge or a corner it stays between the faces' normals for any view that shows them, where the
+// covariance's smallest axis swings with how much of each face the view shows. x points from the
+// interest point towards the support's centroid, cast onto the local plane, its sign the side
+// holding most points.
 Eigen::Matrix3f localFrame(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
-                           const Eigen::Vector3f& centre, float radius,
-                           const Eigen::Vector3f& viewpoint) {
-  Eigen::Matrix3f covariance = Eigen::Matrix3f::Zero();
-  float weight_sum = 0.0f;
+                           const Eigen::Vector3f& centre, const Eigen::Vector3f& viewpoint) {
+  Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
+  Eigen::Vector3f offset_sum = Eigen::Vector3f::Zero();
   for (std::uint32_t j : support) {
-    const Eigen::Vector3f d = surface.points[j] - centre;
-    const float w = radius - d.norm();
-    covariance += w * d * d.transpose();
-    weight_sum += w;
+    normal_sum += surface.normals[j];
+    offset_sum += surface.points[j] - centre;
   }
-  covariance /= std::max(weight_sum, 1e-12f);
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver(covariance);
-  Eigen::Vector3f z = solver.eigenvectors().col(0);
-  Eigen::Vector3f x = solver.eigenvectors().col(2);
+  Eigen::Vector3f z = normal_sum.norm() > 1e-6f ? normal_sum.normalized()
+                                                : Eigen::Vector3f(viewpoint - centre).normalized();
   if (z.dot(viewpoint - centre) < 0.0f) z = -z;
+  Eigen::Vector3f x = offset_sum - offset_sum.dot(z) * z;
+  x = x.squaredNorm() > 1e-12f ? x.normalized() : z.unitOrthogonal();
   int positive = 0;
   for (std::uint32_t j : support)
     if ((surface.points[j] - centre).dot(x) >= 0.0f) ++positive;
@@ -226,7 +226,7 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
     ShapeFeature feature;
     feature.position = centre;
     feature.response = keypoint.response;
-    feature.frame = localFrame(surface, support, centre, params.support_radius_m, viewpoint);
+    feature.frame = localFrame(surface, support, centre, viewpoint);
     const float filled_share =
         heightImage(surface, support, centre, feature.frame, params.support_radius_m,
                     params.height_image_size, heights);

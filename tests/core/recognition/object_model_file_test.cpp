@@ -56,8 +56,11 @@ TEST(ObjectModelFile, RefusesMalformedFilesNamingTheProblem) {
   refuses("[]", "not a shapesense-object-model");
   refuses(R"({"format": "shapesense-bowl-model"})", "not a shapesense-object-model");
   std::string other_version = good;
-  other_version.replace(other_version.find("\"version\":1"), 11, "\"version\":7");
+  other_version.replace(other_version.find("\"version\":2"), 11, "\"version\":7");
   refuses(other_version, "unsupported version");
+  std::string first_version = good;
+  first_version.replace(first_version.find("\"version\":2"), 11, "\"version\":1");
+  refuses(first_version, "teach it again");
   std::string other_radius = good;
   const auto radius_at = other_radius.find("\"support_radius_m\":");
   other_radius.replace(radius_at, 19, "\"support_radius_m\":9,\"x\":");

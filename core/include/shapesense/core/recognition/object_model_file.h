@@ -2,9 +2,10 @@
 // The object model file: JSON, versioned, one file per taught object (`<name>.json` in the
 // daemon's object models folder).
 //
-// Format "shapesense-object-model", version 1:
+// Format "shapesense-object-model", version 2 (version 1 files, whose features used another
+// local frame, are refused with "teach it again"):
 // {
-//   "format": "shapesense-object-model", "version": 1,
+//   "format": "shapesense-object-model", "version": 2,
 //   "name": "mug",                                  // see isValidObjectModelName
 //   "descriptor": {"support_radius_m", "height_image_size", "cells", "voxel_m"},
 //                                                   // what the features were computed with; a
@@ -25,7 +26,7 @@
 
 namespace shapesense {
 
-inline constexpr int kObjectModelVersion = 1;
+inline constexpr int kObjectModelVersion = 2;
 /// Largest model file read (bytes).
 inline constexpr std::uintmax_t kMaxObjectModelFileBytes = 32u << 20;
 

@@ -8,10 +8,10 @@
 //   1. interest points: where the normals within `keypoint_radius_m` spread (edges, corners,
 //      curved surfaces; zero on a plane), kept when they are the strongest within
 //      `keypoint_spacing_m` (non-maximum suppression);
-//   2. a repeatable local frame at each: the eigenvectors of the distance-weighted covariance
-//      of the points within `support_radius_m` about the interest point; z is the smallest
-//      (the local plane's normal) turned to face the viewpoint, x the largest, its sign the side
-//      that holds most of the points, so a view from elsewhere gives the same frame;
+//   2. a repeatable local frame at each, from the points within `support_radius_m`: z (the
+//      local plane's normal) the mean of their normals, turned to face the viewpoint; x towards
+//      their centroid, cast onto the local plane, its sign the side that holds most of them;
+//      both hold for another view that shows the same surface around the point;
 //   3. the height image: those points in the local frame, their mean height over the plane in
 //      each cell of an `height_image_size`^2 grid over [-R, R]^2 (cells no point falls in take
 //      their filled neighbours' mean);
