@@ -1,6 +1,7 @@
 #include "cloud_index.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -48,17 +49,75 @@ constexpr std::int64_t kKeyStepX = std::int64_t{1} << 42;
 
 }  // namespace
 
+namespace {
+
+int bitsFor(int range) {
+  int bits = 0;
+  while (bits < 31 && (1 << bits) <= range) ++bits;
+  return bits;
+}
+
+// Stable LSD radix sort of `values` on bits [32, 32 + key_bits) of each, 8 bits a pass.
+void radixSortUpperBits(std::vector<std::uint64_t>& values, int key_bits) {
+  std::vector<std::uint64_t> buffer(values.size());
+  for (int shift = 32; shift < 32 + key_bits; shift += 8) {
+    std::array<std::size_t, 257> start{};
+    for (const std::uint64_t v : values) ++start[((v >> shift) & 0xFF) + 1];
+    for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+    for (const std::uint64_t v : values) buffer[start[(v >> shift) & 0xFF]++] = v;
+    values.swap(buffer);
+  }
+}
+
+}  // namespace
+
+std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, float size) {
+  std::vector<Eigen::Vector3i> cells(points.size());
+  Eigen::Vector3i low = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  Eigen::Vector3i high = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    cells[i] = cellOf(points[i], size);
+    low = low.cwiseMin(cells[i]);
+    high = high.cwiseMax(cells[i]);
+  }
+  std::vector<CellEntry> out(points.size());
+  if (points.empty()) return out;
+  const Eigen::Vector3i range = high - low;
+  const int bits_y = bitsFor(range.y()), bits_z = bitsFor(range.z());
+  const int key_bits = bitsFor(range.x()) + bits_y + bits_z;
+  if (key_bits > 32) {
+    for (std::size_t i = 0; i < points.size(); ++i)
+      out[i] = {cellKey(cells[i]), static_cast<std::uint32_t>(i)};
+    std::sort(out.begin(), out.end(), [](const CellEntry& a, const CellEntry& b) {
+      return a.key != b.key ? a.key < b.key : a.index < b.index;
+    });
+    return out;
+  }
+  // The offsets packed x, y, z from the highest bits down order the cells as their keys do.
+  std::vector<std::uint64_t> packed(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3i offset = cells[i] - low;
+    const std::uint64_t compact = (static_cast<std::uint64_t>(offset.x()) << (bits_y + bits_z)) |
+                                  (static_cast<std::uint64_t>(offset.y()) << bits_z) |
+                                  static_cast<std::uint64_t>(offset.z());
+    packed[i] = (compact << 32) | i;
+  }
+  radixSortUpperBits(packed, key_bits);
+  for (std::size_t k = 0; k < packed.size(); ++k) {
+    const auto index = static_cast<std::uint32_t>(packed[k] & 0xFFFFFFFFu);
+    out[k] = {cellKey(cells[index]), index};
+  }
+  return out;
+}
+
 PointGrid::PointGrid(const std::vector<Eigen::Vector3f>& points, float cube_side)
     : points_(points), side_(cube_side) {
-  std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    keyed[i] = {cellKey(cellOf(points[i], cube_side)), static_cast<std::uint32_t>(i)};
-  std::sort(keyed.begin(), keyed.end());
+  const std::vector<CellEntry> keyed = pointsByCell(points, cube_side);
   order_.resize(keyed.size());
   for (std::size_t k = 0; k < keyed.size(); ++k) {
-    order_[k] = keyed[k].second;
-    if (cubes_.empty() || cubes_.back().key != keyed[k].first)
-      cubes_.push_back({keyed[k].first, static_cast<std::uint32_t>(k), 0});
+    order_[k] = keyed[k].index;
+    if (cubes_.empty() || cubes_.back().key != keyed[k].key)
+      cubes_.push_back({keyed[k].key, static_cast<std::uint32_t>(k), 0});
     cubes_.back().end = static_cast<std::uint32_t>(k + 1);
   }
 }

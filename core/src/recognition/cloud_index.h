@@ -24,6 +24,17 @@ inline std::int64_t cellKey(const Eigen::Vector3i& cell) {
   return (bits(cell.x()) << 42) | (bits(cell.y()) << 21) | bits(cell.z());
 }
 
+/// A point's cell and index, for points ordered by cell.
+struct CellEntry {
+  std::int64_t key = 0;  ///< cellKey of the point's cell
+  std::uint32_t index = 0;
+};
+
+/// The cells of side `size` of `points`, ordered by key and, within a cell, by index: the order
+/// of a sort of (key, index) pairs, found by a radix sort on the cells' offsets from the
+/// smallest (clouds span far fewer cells than the key can address).
+std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, float size);
+
 /// Every how many-th element to keep so that at most `max_count` of `count` remain (1 = all;
 /// max_count <= 0 means no limit).
 inline std::size_t thinningStep(std::size_t count, int max_count) {

@@ -16,18 +16,17 @@ namespace {
 // be empty; then only the points are thinned.
 SurfaceCloud thinToVoxels(const std::vector<Eigen::Vector3f>& points,
                           const std::vector<Eigen::Vector3f>& normals, float voxel) {
-  std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    keyed[i] = {detail::cellKey(detail::cellOf(points[i], voxel)), static_cast<std::uint32_t>(i)};
-  std::sort(keyed.begin(), keyed.end());
+  const std::vector<detail::CellEntry> keyed = detail::pointsByCell(points, voxel);
   SurfaceCloud out;
+  out.points.reserve(keyed.size());
+  if (!normals.empty()) out.normals.reserve(keyed.size());
   for (std::size_t begin = 0; begin < keyed.size();) {
     std::size_t end = begin;
     Eigen::Vector3f point_sum = Eigen::Vector3f::Zero();
     Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
-    while (end < keyed.size() && keyed[end].first == keyed[begin].first) {
-      point_sum += points[keyed[end].second];
-      if (!normals.empty()) normal_sum += normals[keyed[end].second];
+    while (end < keyed.size() && keyed[end].key == keyed[begin].key) {
+      point_sum += points[keyed[end].index];
+      if (!normals.empty()) normal_sum += normals[keyed[end].index];
       ++end;
     }
     out.points.push_back(point_sum / static_cast<float>(end - begin));
@@ -85,6 +84,10 @@ SurfaceCloud surfaceCloudFromDepth(const cv::Mat& depth_mm, const CameraIntrinsi
   const cv::Mat normal_image = computeNormals(depth_mm, intrinsics, params.normals);
   const int stride = std::max(1, params.pixel_stride);
   std::vector<Eigen::Vector3f> points, normals;
+  const std::size_t read = static_cast<std::size_t>((depth_mm.rows + stride - 1) / stride) *
+                           static_cast<std::size_t>((depth_mm.cols + stride - 1) / stride);
+  points.reserve(read);
+  normals.reserve(read);
   for (int v = 0; v < depth_mm.rows; v += stride) {
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);
     const auto* normal = normal_image.ptr<cv::Vec3f>(v);

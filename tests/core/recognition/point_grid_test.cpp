@@ -88,6 +88,31 @@ TEST(PointGrid, QueriesAnywhereMatchBruteForce) {
   }
 }
 
+// pointsByCell against a sort of (key, index) pairs: for a table-top cloud (a radix sort on
+// the cells' offsets) and for one spread over 40 m (too many cells for that: a plain sort).
+TEST(PointGrid, PointsByCellIsTheOrderOfSortedKeyIndexPairs) {
+  std::mt19937 rng(3);
+  for (const float extent : {0.3f, 40.0f}) {
+    std::uniform_real_distribution<float> coordinate(-extent / 2, extent / 2);
+    std::vector<Eigen::Vector3f> points;
+    for (int i = 0; i < 20000; ++i)
+      points.emplace_back(coordinate(rng), coordinate(rng), 2.0f + coordinate(rng));
+    // Duplicated cells in reverse index order: their entries must come out by index.
+    for (int i = 0; i < 500; ++i) points.push_back(points[static_cast<std::size_t>(499 - i)]);
+    std::vector<std::pair<std::int64_t, std::uint32_t>> expected;
+    for (std::uint32_t i = 0; i < points.size(); ++i)
+      expected.emplace_back(cellKey(cellOf(points[i], 0.005f)), i);
+    std::sort(expected.begin(), expected.end());
+    const std::vector<CellEntry> found = pointsByCell(points, 0.005f);
+    ASSERT_EQ(found.size(), expected.size());
+    for (std::size_t k = 0; k < found.size(); ++k) {
+      ASSERT_EQ(found[k].key, expected[k].first) << "extent " << extent << " entry " << k;
+      ASSERT_EQ(found[k].index, expected[k].second) << "extent " << extent << " entry " << k;
+    }
+  }
+  EXPECT_TRUE(pointsByCell({}, 0.005f).empty());
+}
+
 TEST(PointGrid, EmptyCloud) {
   const std::vector<Eigen::Vector3f> none;
   const PointGrid grid(none, 0.015f);
