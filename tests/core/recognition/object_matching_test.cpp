@@ -11,35 +11,18 @@
 #include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/driver/ply_cloud.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/recognition_eval.h"
 
 namespace shapesense {
 namespace {
 
-struct PoseError {
-  double translation_m = 0.0;
-  double rotation_deg = 0.0;
-};
-
-double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
-}
-
-// Error of an estimated model-to-camera motion against the truth, at the model's centre. A
-// cylinder (tin, cup) looks the same turned about its axis, so for one only the axis counts.
-PoseError poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
-                    const Eigen::Vector3f& model_centre, const synthetic::TruthObject& object) {
-  PoseError e;
-  e.translation_m = ((estimated.cast<double>() * model_centre.cast<double>()) -
-                     truth * model_centre.cast<double>())
-                        .norm();
-  if (object.kind == "tin" || object.kind == "cup") {
-    const Eigen::Vector3d axis = object.rotation.col(2);
-    e.rotation_deg = angleDeg(estimated.linear().cast<double>() * axis, truth.linear() * axis);
-    return e;
-  }
-  const Eigen::Matrix3d r = estimated.linear().cast<double>() * truth.linear().transpose();
-  e.rotation_deg = std::acos(std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
-  return e;
+// Error of an estimated model-to-camera motion against the truth, at the model's centre, as
+// the recognition evaluation judges it (symmetric objects: the least over their symmetries).
+eval::PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
+                             const Eigen::Vector3f& model_centre,
+                             const synthetic::TruthObject& object) {
+  return eval::poseError(estimated, truth, model_centre.cast<double>(), object.rotation,
+                         eval::symmetryOfKind(object.kind));
 }
 
 cv::Mat objectMask(const synthetic::TruthFrame& truth, std::uint16_t object_id) {
@@ -117,7 +100,7 @@ TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
                     object.pixel_count, model.features.size());
         continue;
       }
-      const PoseError error =
+      const eval::PoseErrorDeg error =
           poseError(detection->camera_from_model, truth, model.box.centre, object);
       std::printf(
           "seed %lu %s (%zu px, %zu features): score %.2f inliers %d error %.1f mm %.2f deg\n",
@@ -127,10 +110,11 @@ TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
     }
   }
   std::printf("found %d of %d\n", found, tried);
-  // Requirement (issue 22): recall >= 0.90 at <= 1 cm and 5 deg. Regression record: 18 of 21
-  // found when these frames were first measured.
-  EXPECT_GE(found, 18);
+  // Requirement (issue 22): recall >= 0.90 at <= 1 cm and 5 deg (met on these later frames of
+  // the teaching scenes, where the camera moved a little; not on the test split's other views,
+  // RecognitionQuality).
   EXPECT_GE(tried, 20);
+  EXPECT_GE(found, 0.9 * tried);
 }
 
 // Models taught in some scenes, looked for in scenes of other seeds, whose boxes and tins have
@@ -209,7 +193,8 @@ TEST(ObjectMatching, FindsAnObjectModelledFromAPlyFile) {
   ASSERT_TRUE(detection.has_value());
   const Eigen::Isometry3d truth =
       later.truth.world_from_camera.inverse() * teach.truth.world_from_camera;
-  const PoseError error = poseError(detection->camera_from_model, truth, model.box.centre, *box);
+  const eval::PoseErrorDeg error =
+      poseError(detection->camera_from_model, truth, model.box.centre, *box);
   EXPECT_LE(error.translation_m, 0.01);
   EXPECT_LE(error.rotation_deg, 5.0);
 }

@@ -29,8 +29,8 @@ struct TeachingExample {
   std::string name;
   cv::Mat mask;            ///< the object's pixels in the teach frame
   Eigen::Vector3d centre;  ///< the truth centre, teach camera frame
-  Eigen::Vector3d axis;    ///< the truth axis 2, teach camera frame
-  bool axially_symmetric = false;
+  Eigen::Matrix3d axes;    ///< the truth axes (columns), teach camera frame
+  ObjectSymmetry symmetry = ObjectSymmetry::kNone;
 };
 
 struct TaughtObject {
@@ -62,9 +62,8 @@ std::vector<TeachingExample> markTeachableObjects(const RecognitionCase& c, int&
       ++refused;
       continue;
     }
-    out.push_back(TeachingExample{id, object.name, roi_object->mask, object.center,
-                                  object.rotation.col(2),
-                                  object.kind == "tin" || object.kind == "cup"});
+    out.push_back(TeachingExample{id, object.name, roi_object->mask, object.center, object.rotation,
+                                  symmetryOfKind(object.kind)});
   }
   return out;
 }
@@ -111,18 +110,38 @@ double RecognitionScore::falsePerFrameForFive() const {
   return static_cast<double>(false_detections) / views * 5.0 / models_per_case;
 }
 
+ObjectSymmetry symmetryOfKind(const std::string& kind) {
+  for (const char* revolved : {"tin", "cup", "lid", "bowl", "torus", "bin", "column"})
+    if (kind == revolved) return ObjectSymmetry::kAxial;
+  if (kind == "box" || kind == "book" || kind == "board") return ObjectSymmetry::kCuboid;
+  return ObjectSymmetry::kNone;
+}
+
 PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
-                       const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
-                       bool axially_symmetric) {
+                       const Eigen::Vector3d& centre, const Eigen::Matrix3d& axes,
+                       ObjectSymmetry symmetry) {
   const Eigen::Isometry3d e = estimated.cast<double>();
   PoseErrorDeg out;
+  // Every symmetry turns about the centre, so the error there does not depend on it.
   out.translation_m = (e * centre - truth * centre).norm();
-  if (axially_symmetric) {
+  if (symmetry == ObjectSymmetry::kAxial) {
+    const Eigen::Vector3d axis = axes.col(2);
     out.rotation_deg =
         angleDeg((e.linear() * axis).normalized().dot((truth.linear() * axis).normalized()));
-  } else {
-    const Eigen::Matrix3d r = e.linear() * truth.linear().transpose();
-    out.rotation_deg = angleDeg((r.trace() - 1.0) / 2.0);
+    return out;
+  }
+  // The half turns about the object's axes (2 a a^T - I about unit axis a), identity first.
+  std::vector<Eigen::Matrix3d> turns{Eigen::Matrix3d::Identity()};
+  if (symmetry == ObjectSymmetry::kCuboid) {
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d a = axes.col(k).normalized();
+      turns.push_back(2.0 * a * a.transpose() - Eigen::Matrix3d::Identity());
+    }
+  }
+  out.rotation_deg = 180.0;
+  for (const Eigen::Matrix3d& turn : turns) {
+    const Eigen::Matrix3d r = e.linear() * (truth.linear() * turn).transpose();
+    out.rotation_deg = std::min(out.rotation_deg, angleDeg((r.trace() - 1.0) / 2.0));
   }
   return out;
 }
@@ -166,8 +185,8 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
           if (!detection) continue;
           const ScoredDetection scored{
               detection->score, share,
-              poseError(detection->camera_from_model, truth, t.example->centre, t.example->axis,
-                        t.example->axially_symmetric)};
+              poseError(detection->camera_from_model, truth, t.example->centre, t.example->axes,
+                        t.example->symmetry)};
           score.detections.push_back(scored);
           countDetection(scored, tolerance, score);
         }

@@ -58,12 +58,22 @@ struct RecognitionScore {
   double falsePerFrameForFive() const;
 };
 
+/// The turns under which an object's shape is the same, so that depth alone cannot tell them
+/// apart: none; any turn about its axis (tins, cups, lids, bowls, tori: solids of revolution
+/// about their z axis); a half turn about any of its three axes (boxes, books and boards: plain
+/// cuboids).
+enum class ObjectSymmetry { kNone, kAxial, kCuboid };
+
+/// The symmetry of a synthetic object of kind `kind` (synthetic::TruthObject::kind).
+ObjectSymmetry symmetryOfKind(const std::string& kind);
+
 /// Pose error of `estimated` (camera from model, the model in the teach camera's frame)
-/// against `truth` (teachToView), at `centre` (model frame). Tins and cups look the same turned
-/// about their axis, so for them only the axis (`axis`, model frame) counts.
+/// against `truth` (teachToView), at `centre` (model frame), the least over the poses the
+/// object's `symmetry` makes look the same (as the BOP benchmark scores symmetric objects).
+/// `axes`: the object's axes (columns, model frame); for kAxial column 2 is its axis.
 PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
-                       const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
-                       bool axially_symmetric);
+                       const Eigen::Vector3d& centre, const Eigen::Matrix3d& axes,
+                       ObjectSymmetry symmetry);
 
 /// Scores cases [first, first + count) of a split with `other_views` views each: shapesense's
 /// own method (ShapesenseRecognizer with these parameters).
