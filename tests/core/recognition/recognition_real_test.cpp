@@ -1,0 +1,123 @@
+// Taught objects on real recordings (issue 22: "a model taught from one real frame finds the
+// same object in the other frames of that recording where it is visible"). No pose truth
+// exists for these frames, so the check is where the object is found: every object box the
+// detector chain finds in the first frame is taught through the operator's path (its ROI,
+// objectUnderRoi) and looked for in the later frames; a detection counts as the same object
+// when its box's centre projects into the taught ROI (the camera moves a few centimetres
+// between these frames). Skipped when shared/ is not there.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "shapesense/core/boxes/segment_box.h"
+#include "shapesense/core/pipeline/detector_chain.h"
+#include "shapesense/core/recognition/object_matching.h"
+#include "shapesense/driver/tum_recording.h"
+#include "test_paths.h"
+
+namespace shapesense {
+namespace {
+
+std::vector<Frame> loadFrames(const std::filesystem::path& dir) {
+  const TumIndex index = readTumIndex(dir);
+  std::vector<Frame> frames;
+  for (const auto& e : index.depth) {
+    const cv::Mat raw = cv::imread((dir / e.relative_path).string(), cv::IMREAD_UNCHANGED);
+    if (raw.empty()) continue;
+    Frame frame;
+    raw.convertTo(frame.depth, CV_16UC1, 1000.0 / index.camera.depth_scale);
+    frame.intrinsics = index.camera.intrinsics;
+    frame.sequence = frames.size();
+    frames.push_back(frame);
+  }
+  return frames;
+}
+
+// Where the centre of a detection's box projects into the frame.
+cv::Point projectedCentre(const OrientedBox& box, const CameraIntrinsics& intrinsics) {
+  const Eigen::Vector2d uv = intrinsics.project(box.centre.cast<double>());
+  return {static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))};
+}
+
+struct RecordingResult {
+  int taught = 0;
+  int found_same_place = 0;
+  int found_elsewhere = 0;
+  int searches = 0;
+};
+
+RecordingResult teachFirstFindLater(const std::string& recording) {
+  RecordingResult out;
+  const std::vector<Frame> frames = loadFrames(testing::realRecording(recording));
+  if (frames.size() < 2) return out;
+  const FrameResults first = makeDetectorChain(DetectorConfig{}).process(frames[0]);
+  std::vector<std::pair<cv::Rect, ObjectModel>> models;
+  for (const ObjectBox& box : first.object_boxes) {
+    const cv::Rect roi = box.roi;
+    const auto marked = objectUnderRoi(frames[0].depth, frames[0].intrinsics, roi.tl(),
+                                       roi.br() - cv::Point(1, 1), first.segmentation->labels,
+                                       first.segmentation->segments, first.planes->frame);
+    const auto* object = std::get_if<RoiObject>(&marked);
+    if (!object) continue;
+    try {
+      models.emplace_back(roi, teachObjectModel("object", frames[0].depth, frames[0].intrinsics,
+                                                object->mask));
+    } catch (const std::invalid_argument&) {
+      continue;  // too little shape to be taught
+    }
+  }
+  out.taught = static_cast<int>(models.size());
+  for (const auto& [roi, model] : models)
+    std::printf("%s: taught the object at (%d, %d, %d x %d): %zu features, %zu points\n",
+                recording.c_str(), roi.x, roi.y, roi.width, roi.height, model.features.size(),
+                model.surface.size());
+  for (std::size_t f = 1; f < frames.size(); ++f) {
+    const SceneSurface scene(frames[f].depth, frames[f].intrinsics);
+    for (const auto& [roi, model] : models) {
+      ++out.searches;
+      const auto detection = findObject(model, scene);
+      if (!detection) continue;
+      const cv::Point centre = projectedCentre(detection->box, frames[f].intrinsics);
+      const bool same_place = roi.contains(centre);
+      std::printf("%s: object taught at (%d, %d, %d x %d) found in frame %zu centred at (%d, %d), "
+                  "%s the ROI, score %.2f, box %.0f x %.0f x %.0f cm\n",
+                  recording.c_str(), roi.x, roi.y, roi.width, roi.height, f, centre.x, centre.y,
+                  same_place ? "inside" : "outside", detection->score, 100 * detection->box.size.x(),
+                  100 * detection->box.size.y(), 100 * detection->box.size.z());
+      (same_place ? out.found_same_place : out.found_elsewhere) += 1;
+    }
+  }
+  std::printf("%s: %d taught, %d searches, %d found where taught, %d found elsewhere\n",
+              recording.c_str(), out.taught, out.searches, out.found_same_place,
+              out.found_elsewhere);
+  return out;
+}
+
+// Requirement (issue 22): a taught object is found in every later frame where it is visible.
+// Without truth for where each object is visible that is not asserted here; what is: no
+// taught object is found away from where it was taught (a false detection), and, as a
+// regression record, the objects found again where they were taught (2 of 11 searches
+// when this test was written: docs/benchmarks.md).
+TEST(RecognitionReal, TaughtObjectsAreFoundOnlyWhereTheyWereTaught) {
+  if (!std::filesystem::exists(testing::realRecording("tum_fr2_desk")))
+    GTEST_SKIP() << "shared/data/real is not here";
+  RecordingResult all;
+  for (const char* recording : {"tum_fr2_desk", "pcl_desk_sequence", "pcl_room_sweep"}) {
+    const RecordingResult r = teachFirstFindLater(recording);
+    all.taught += r.taught;
+    all.searches += r.searches;
+    all.found_same_place += r.found_same_place;
+    all.found_elsewhere += r.found_elsewhere;
+  }
+  ASSERT_GE(all.taught, 3);
+  EXPECT_EQ(all.found_elsewhere, 0);
+  EXPECT_GE(all.found_same_place, 2);
+}
+
+}  // namespace
+}  // namespace shapesense
