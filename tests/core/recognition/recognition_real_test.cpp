@@ -65,8 +65,8 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
     const auto* object = std::get_if<RoiObject>(&marked);
     if (!object) continue;
     try {
-      models.emplace_back(roi, teachObjectModel("object", frames[0].depth, frames[0].intrinsics,
-                                                object->mask));
+      models.emplace_back(
+          roi, teachObjectModel("object", frames[0].depth, frames[0].intrinsics, object->mask));
     } catch (const std::invalid_argument&) {
       continue;  // too little shape to be taught
     }
@@ -84,11 +84,12 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
       if (!detection) continue;
       const cv::Point centre = projectedCentre(detection->box, frames[f].intrinsics);
       const bool same_place = roi.contains(centre);
-      std::printf("%s: object taught at (%d, %d, %d x %d) found in frame %zu centred at (%d, %d), "
-                  "%s the ROI, score %.2f, box %.0f x %.0f x %.0f cm\n",
-                  recording.c_str(), roi.x, roi.y, roi.width, roi.height, f, centre.x, centre.y,
-                  same_place ? "inside" : "outside", detection->score, 100 * detection->box.size.x(),
-                  100 * detection->box.size.y(), 100 * detection->box.size.z());
+      std::printf(
+          "%s: object taught at (%d, %d, %d x %d) found in frame %zu centred at (%d, %d), "
+          "%s the ROI, score %.2f, box %.0f x %.0f x %.0f cm\n",
+          recording.c_str(), roi.x, roi.y, roi.width, roi.height, f, centre.x, centre.y,
+          same_place ? "inside" : "outside", detection->score, 100 * detection->box.size.x(),
+          100 * detection->box.size.y(), 100 * detection->box.size.z());
       (same_place ? out.found_same_place : out.found_elsewhere) += 1;
     }
   }
