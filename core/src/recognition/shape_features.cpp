@@ -28,30 +28,34 @@ struct Candidate {
 std::vector<std::uint8_t> mayRespond(const SurfaceCloud& surface, const detail::PointGrid& grid,
                                      float min_response,
                                      const std::vector<std::uint8_t>& may_hold_keypoint) {
-  const auto angle = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
-    return std::acos(std::clamp(a.dot(b), -1.0f, 1.0f));
-  };
   std::vector<std::uint8_t> out = may_hold_keypoint;
   if (out.empty()) out.assign(surface.size(), 1);
+  // Half a percent inside the bound, for rounding.
+  const float narrow = 0.995f * std::asin(std::sqrt(std::clamp(0.5f * min_response, 0.0f, 1.0f)));
+  // Per cube: its normals' axis, and the cosine an axis must exceed to lie within the cone of
+  // the smallest response together with the cube's own spread (the largest angle of a normal
+  // from its axis, that of the smallest cosine); no axis can when the spread alone fills it.
   std::vector<Eigen::Vector3f> axis(grid.cubeCount(), Eigen::Vector3f::Zero());
-  std::vector<float> spread(grid.cubeCount(), 0.0f);  // largest angle of a normal from the axis
+  std::vector<float> min_cosine(grid.cubeCount(), 2.0f);
   for (std::size_t c = 0; c < grid.cubeCount(); ++c) {
     grid.forEachPointIn(c, [&](std::uint32_t i) { axis[c] += surface.normals[i]; });
     axis[c].normalize();
+    float least_cosine = 1.0f;
     grid.forEachPointIn(c, [&](std::uint32_t i) {
-      spread[c] = std::max(spread[c], angle(surface.normals[i], axis[c]));
+      least_cosine = std::min(least_cosine, surface.normals[i].dot(axis[c]));
     });
+    const float spread = std::acos(std::clamp(least_cosine, -1.0f, 1.0f));
+    if (spread < narrow) min_cosine[c] = std::cos(narrow - spread);
   }
-  // Half a percent inside the bound, for rounding.
-  const float narrow = 0.995f * std::asin(std::sqrt(std::clamp(0.5f * min_response, 0.0f, 1.0f)));
   grid.forEachCube([&](std::size_t c, const std::vector<std::uint32_t>& around) {
     Eigen::Vector3f common = Eigen::Vector3f::Zero();
     for (std::uint32_t a : around) common += axis[a];
     if (common.norm() < 1e-6f) return;
     common.normalize();
-    float widest = 0.0f;
-    for (std::uint32_t a : around) widest = std::max(widest, spread[a] + angle(axis[a], common));
-    if (widest < narrow) grid.forEachPointIn(c, [&](std::uint32_t i) { out[i] = 0; });
+    const bool fits = std::all_of(around.begin(), around.end(), [&](std::uint32_t a) {
+      return axis[a].dot(common) > min_cosine[a];
+    });
+    if (fits) grid.forEachPointIn(c, [&](std::uint32_t i) { out[i] = 0; });
   });
   return out;
 }
