@@ -249,20 +249,36 @@ RoiDepthStatistics pointStatistics(const cv::Mat& depth_mm, const cv::Rect& roi,
   return stats;
 }
 
+// Readings (pixels with depth, as the segment statistics count them) inside `roi` per label of
+// `labels` (CV_16UC1; index = label); with `within` given, only where it holds `within_label`.
+std::vector<int> readingsPerLabel(const cv::Mat& depth_mm, const cv::Mat& labels,
+                                  const cv::Rect& roi, const cv::Mat& within = {},
+                                  std::uint16_t within_label = 0) {
+  std::vector<int> count(65536, 0);
+  for (int v = roi.y; v < roi.y + roi.height; ++v) {
+    const auto* label = labels.ptr<std::uint16_t>(v);
+    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
+    const auto* where = within.empty() ? nullptr : within.ptr<std::uint16_t>(v);
+    for (int u = roi.x; u < roi.x + roi.width; ++u)
+      count[label[u]] += depth[u] != 0 && (!where || where[u] == within_label);
+  }
+  return count;
+}
+
+// The label other than 0 with the most readings (the lowest such label on a tie); 0 for none.
+std::uint16_t mostRead(const std::vector<int>& readings) {
+  std::size_t best = 0;
+  for (std::size_t label = 1; label < readings.size(); ++label)
+    if (readings[label] > 0 && (best == 0 || readings[label] > readings[best])) best = label;
+  return static_cast<std::uint16_t>(best);
+}
+
 }  // namespace
 
 std::vector<RoiSegment> segmentsUnderRoi(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
                                          const std::vector<SegmentStatistics>& segments,
                                          const cv::Rect& roi, const SegmentBoxParams& params) {
-  // Counted as the statistics count: pixels with depth.
-  std::vector<int> inside(65536, 0);
-  const cv::Mat roi_labels = segment_labels(roi);
-  const cv::Mat roi_depth = depth_mm(roi);
-  for (int v = 0; v < roi_labels.rows; ++v) {
-    const auto* label = roi_labels.ptr<std::uint16_t>(v);
-    const auto* depth = roi_depth.ptr<std::uint16_t>(v);
-    for (int u = 0; u < roi_labels.cols; ++u) inside[label[u]] += depth[u] != 0;
-  }
+  const std::vector<int> inside = readingsPerLabel(depth_mm, segment_labels, roi);
   std::vector<RoiSegment> covered;
   for (const auto& segment : segments) {
     if (segment.id == 0 || segment.pixels <= 0) continue;
@@ -293,34 +309,15 @@ struct RoiSurface {
 
 std::optional<RoiSurface> surfaceUnderRoi(const cv::Mat& depth_mm, const cv::Mat& segment_labels,
                                           const PlaneDetection& planes, const cv::Rect& roi) {
-  std::map<std::uint16_t, int> segment_pixels;
-  for (int v = roi.y; v < roi.y + roi.height; ++v) {
-    const auto* label = segment_labels.ptr<std::uint16_t>(v);
-    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    for (int u = roi.x; u < roi.x + roi.width; ++u)
-      if (depth[u] != 0 && label[u] != 0) ++segment_pixels[label[u]];
-  }
-  if (segment_pixels.empty()) return std::nullopt;
-  const auto widest =
-      std::max_element(segment_pixels.begin(), segment_pixels.end(),
-                       [](const auto& a, const auto& b) { return a.second < b.second; });
-  std::map<std::uint16_t, int> plane_pixels;
-  for (int v = roi.y; v < roi.y + roi.height; ++v) {
-    const auto* label = segment_labels.ptr<std::uint16_t>(v);
-    const auto* plane = planes.labels.ptr<std::uint16_t>(v);
-    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    for (int u = roi.x; u < roi.x + roi.width; ++u)
-      if (depth[u] != 0 && label[u] == widest->first && plane[u] != 0) ++plane_pixels[plane[u]];
-  }
-  if (plane_pixels.empty()) return std::nullopt;
+  const std::vector<int> segment_readings = readingsPerLabel(depth_mm, segment_labels, roi);
+  const std::uint16_t widest = mostRead(segment_readings);
+  if (widest == 0) return std::nullopt;
   const std::uint16_t plane_id =
-      std::max_element(plane_pixels.begin(), plane_pixels.end(), [](const auto& a, const auto& b) {
-        return a.second < b.second;
-      })->first;
+      mostRead(readingsPerLabel(depth_mm, planes.labels, roi, segment_labels, widest));
   const auto plane = std::find_if(planes.planes.begin(), planes.planes.end(),
                                   [&](const DetectedPlane& p) { return p.id == plane_id; });
-  if (plane == planes.planes.end()) return std::nullopt;
-  return RoiSurface{{widest->first, false, widest->second}, &*plane};
+  if (plane_id == 0 || plane == planes.planes.end()) return std::nullopt;
+  return RoiSurface{{widest, false, segment_readings[widest]}, &*plane};
 }
 
 // Steps 1-3 of boxFromSegments.

@@ -294,29 +294,28 @@ float modelReach(const ObjectModel& model) {
 class ScenePatches {
  public:
   ScenePatches(const ObjectModel& model, const SceneSurface& scene, const ObjectMatchParams& params)
-      : model_(model), scene_(scene), model_reach_(modelReach(model)) {
-    // ICP pairs over icp_max_distance_m and may move the pose as far again, twice.
-    needed_margin_ = 3.0f * params.icp_max_distance_m;
-    spare_ = params.icp_max_distance_m;
-  }
+      : model_(model),
+        scene_(scene),
+        // ICP pairs over icp_max_distance_m and may move the pose as far again, twice.
+        needed_reach_(modelReach(model) + 3.0f * params.icp_max_distance_m),
+        spare_(params.icp_max_distance_m) {}
 
-  /// A patch for ICP from `pose` on, shared with earlier poses where one covers it.
-  std::shared_ptr<const ScenePatch> forPose(const Eigen::Isometry3f& pose) {
+  /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
+  /// long as this.
+  const ScenePatch& forPose(const Eigen::Isometry3f& pose) {
     const Eigen::Vector3f centre = pose * model_.box.centre;
-    const float needed = model_reach_ + needed_margin_;
     for (const auto& patch : patches_)
-      if (patch->covers(centre, needed)) return patch;
-    patches_.push_back(std::make_shared<const ScenePatch>(scene_, centre, needed + spare_));
-    return patches_.back();
+      if (patch->covers(centre, needed_reach_)) return *patch;
+    patches_.push_back(std::make_unique<ScenePatch>(scene_, centre, needed_reach_ + spare_));
+    return *patches_.back();
   }
 
  private:
   const ObjectModel& model_;
   const SceneSurface& scene_;
-  float model_reach_ = 0.0f;
-  float needed_margin_ = 0.0f;
-  float spare_ = 0.0f;
-  std::vector<std::shared_ptr<const ScenePatch>> patches_;
+  const float needed_reach_;
+  const float spare_;
+  std::vector<std::unique_ptr<ScenePatch>> patches_;
 };
 
 // Step 3: point-to-plane ICP, each model point paired with the nearest scene point (which
@@ -420,18 +419,18 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   // refined on all of it.
   std::optional<ObjectDetection> best;
   ScenePatches patches(model, scene, params);
-  std::shared_ptr<const ScenePatch> best_patch;
+  const ScenePatch* best_patch = nullptr;
   for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
     if (!worthRefining(hypothesis.scene_from_model, model, scene, params)) continue;
-    auto patch = patches.forPose(hypothesis.scene_from_model);
-    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, *patch,
+    const ScenePatch& patch = patches.forPose(hypothesis.scene_from_model);
+    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
                                               params.icp_iterations, params.icp_max_points, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection) continue;
     detection->feature_inliers = hypothesis.inliers;
     if (!best || detection->confirmed_points > best->confirmed_points) {
       best = detection;
-      best_patch = std::move(patch);
+      best_patch = &patch;
     }
   }
   if (!best) return best;

@@ -5,38 +5,22 @@
 // objectUnderRoi) and looked for in the later frames; a detection counts as the same object
 // when its box's centre projects into the taught ROI (the camera moves a few centimetres
 // between these frames). Skipped when shared/ is not there.
-#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
+#include "recording_fixture.h"
 #include "shapesense/core/boxes/segment_box.h"
 #include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/core/recognition/object_matching.h"
-#include "shapesense/driver/tum_recording.h"
 #include "test_paths.h"
 
 namespace shapesense {
 namespace {
-
-std::vector<Frame> loadFrames(const std::filesystem::path& dir) {
-  const TumIndex index = readTumIndex(dir);
-  std::vector<Frame> frames;
-  for (const auto& e : index.depth) {
-    const cv::Mat raw = cv::imread((dir / e.relative_path).string(), cv::IMREAD_UNCHANGED);
-    if (raw.empty()) continue;
-    Frame frame;
-    raw.convertTo(frame.depth, CV_16UC1, 1000.0 / index.camera.depth_scale);
-    frame.intrinsics = index.camera.intrinsics;
-    frame.sequence = frames.size();
-    frames.push_back(frame);
-  }
-  return frames;
-}
 
 // Where the centre of a detection's box projects into the frame.
 cv::Point projectedCentre(const OrientedBox& box, const CameraIntrinsics& intrinsics) {
@@ -53,7 +37,7 @@ struct RecordingResult {
 
 RecordingResult teachFirstFindLater(const std::string& recording) {
   RecordingResult out;
-  const std::vector<Frame> frames = loadFrames(testing::realRecording(recording));
+  const std::vector<Frame> frames = testing::replayAll(testing::realRecording(recording));
   if (frames.size() < 2) return out;
   const FrameResults first = makeDetectorChain(DetectorConfig{}).process(frames[0]);
   std::vector<std::pair<cv::Rect, ObjectModel>> models;
