@@ -83,7 +83,7 @@ struct ObjectMatchParams {
   /// steps) of its predicted depth (m). Defaults 1 cm and 3 steps.
   float confirm_distance_m = 0.01f;
   float confirm_steps = 3.0f;
-  /// Smallest share of confirmed points for a detection. Default 0.85.
+  /// Smallest share of confirmed points for a detection. Default 0.95.
   float min_score = 0.95f;
   /// Fewest model points the depth must confirm, as a share of the model's points: a pose that
   /// shows only part of the object (the rest hidden behind other surfaces, or facing away) is
