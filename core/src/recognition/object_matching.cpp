@@ -4,7 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
-#include <random>
+#include <numbers>
+#include <unordered_map>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -16,9 +17,19 @@ namespace shapesense {
 namespace {
 
 struct Match {
-  int model = 0;  ///< index into the model's features
-  int scene = 0;  ///< index into the scene's features
+  int model = 0;           ///< index into the model's features
+  int scene = 0;           ///< index into the scene's features
+  int model_keypoint = 0;  ///< the model's interest point it was described at
 };
+
+// The interest point of each feature: the features of one point follow each other with the
+// same position (one per local frame, shape_features.h).
+std::vector<int> keypointOfFeature(const std::vector<ShapeFeature>& features) {
+  std::vector<int> out(features.size(), 0);
+  for (std::size_t i = 1; i < features.size(); ++i)
+    out[i] = out[i - 1] + (features[i].position == features[i - 1].position ? 0 : 1);
+  return out;
+}
 
 cv::Mat descriptorMatrix(const std::vector<ShapeFeature>& features) {
   cv::Mat out(static_cast<int>(features.size()), kShapeDescriptorSize, CV_32F);
@@ -36,9 +47,11 @@ std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface
   cv::BFMatcher(cv::NORM_L2)
       .knnMatch(descriptorMatrix(model.features), descriptorMatrix(scene.features()), knn,
                 params.matches_per_feature);
+  const std::vector<int> keypoint = keypointOfFeature(model.features);
   std::vector<Match> out;
   for (const auto& row : knn)
-    for (const cv::DMatch& m : row) out.push_back({m.queryIdx, m.trainIdx});
+    for (const cv::DMatch& m : row)
+      out.push_back({m.queryIdx, m.trainIdx, keypoint[static_cast<std::size_t>(m.queryIdx)]});
   return out;
 }
 
@@ -55,54 +68,27 @@ Eigen::Isometry3f rigidFromPairs(const Eigen::Matrix3Xf& model, const Eigen::Mat
   return Eigen::Isometry3f(transform.cast<float>());
 }
 
-// The matches that agree with a pose, one per model feature (the closest).
+// The matches that agree with a pose, one per model interest point (the closest).
 std::vector<Match> agreeingMatches(const Eigen::Isometry3f& pose, const std::vector<Match>& matches,
                                    const ObjectModel& model, const SceneSurface& scene,
                                    float inlier_distance) {
-  std::vector<float> best(model.features.size(), inlier_distance * inlier_distance);
-  std::vector<int> chosen(model.features.size(), -1);
+  const std::size_t keypoints = matches.empty() ? 0 : matches.back().model_keypoint + 1u;
+  std::vector<float> best(keypoints, inlier_distance * inlier_distance);
+  std::vector<int> chosen(keypoints, -1);
   for (std::size_t i = 0; i < matches.size(); ++i) {
     const Match& m = matches[i];
     const float d2 = (pose * model.features[static_cast<std::size_t>(m.model)].position -
                       scene.features()[static_cast<std::size_t>(m.scene)].position)
                          .squaredNorm();
-    if (d2 < best[static_cast<std::size_t>(m.model)]) {
-      best[static_cast<std::size_t>(m.model)] = d2;
-      chosen[static_cast<std::size_t>(m.model)] = static_cast<int>(i);
+    const auto k = static_cast<std::size_t>(m.model_keypoint);
+    if (d2 < best[k]) {
+      best[k] = d2;
+      chosen[k] = static_cast<int>(i);
     }
   }
   std::vector<Match> out;
   for (int c : chosen)
     if (c >= 0) out.push_back(matches[static_cast<std::size_t>(c)]);
-  return out;
-}
-
-// Pairs of matches that a rigid motion could carry together: their model points and their
-// scene points lie equally far apart (and far enough apart to fix a rotation), and they share
-// neither feature. RANSAC draws its samples from these pairs only.
-std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
-                                                        const ObjectModel& model,
-                                                        const SceneSurface& scene,
-                                                        const ObjectMatchParams& params) {
-  const float min_spacing2 = params.min_sample_spacing_m * params.min_sample_spacing_m;
-  std::vector<std::vector<std::uint32_t>> out(matches.size());
-  for (std::size_t a = 0; a < matches.size(); ++a) {
-    const Eigen::Vector3f& ma = model.features[static_cast<std::size_t>(matches[a].model)].position;
-    const Eigen::Vector3f& sa =
-        scene.features()[static_cast<std::size_t>(matches[a].scene)].position;
-    for (std::size_t b = a + 1; b < matches.size(); ++b) {
-      if (matches[a].model == matches[b].model || matches[a].scene == matches[b].scene) continue;
-      const float dm2 =
-          (model.features[static_cast<std::size_t>(matches[b].model)].position - ma).squaredNorm();
-      if (dm2 < min_spacing2) continue;
-      const float ds =
-          (scene.features()[static_cast<std::size_t>(matches[b].scene)].position - sa).norm();
-      if (std::abs(std::sqrt(dm2) - ds) > params.pair_tolerance_m) continue;
-      out[a].push_back(static_cast<std::uint32_t>(b));
-      out[b].push_back(static_cast<std::uint32_t>(a));
-    }
-  }
-  for (auto& partners : out) std::sort(partners.begin(), partners.end());
   return out;
 }
 
@@ -152,34 +138,115 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
   return Hypothesis{rigidFromPairs(all_model, all_scene), h.inliers};
 }
 
-// Step 2: a triangle of compatible matches gives a pose. The distinct poses the most model
-// features agree with are kept, best first: the most agreed-on pose is often a box turned
-// half round (its corners look alike), which only the depth check tells from the right one.
-std::vector<Hypothesis> ransacPoses(const std::vector<Match>& matches, const ObjectModel& model,
-                                    const SceneSurface& scene, const ObjectMatchParams& params) {
-  const std::vector<std::vector<std::uint32_t>> partners =
-      compatiblePairs(matches, model, scene, params);
-  std::vector<std::uint32_t> starts;
-  for (std::size_t i = 0; i < matches.size(); ++i)
-    if (partners[i].size() >= 2) starts.push_back(static_cast<std::uint32_t>(i));
-  if (starts.empty()) return {};
-  std::mt19937_64 rng(params.seed);
-  const auto pick = [&rng](std::size_t n) {
-    return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng);
+// The pose one match gives: the rotation that carries the model feature's local frame onto the
+// scene feature's, and the translation that carries its position onto the scene's.
+Eigen::Isometry3f poseOfMatch(const Match& m, const ObjectModel& model, const SceneSurface& scene) {
+  const ShapeFeature& from = model.features[static_cast<std::size_t>(m.model)];
+  const ShapeFeature& to = scene.features()[static_cast<std::size_t>(m.scene)];
+  Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
+  pose.linear() = to.frame * from.frame.transpose();
+  pose.translation() = to.position - pose.linear() * from.position;
+  return pose;
+}
+
+// Pairs of matches that a rigid motion could carry together: they turn the model alike, their
+// model points and their scene points lie equally far apart (and far enough apart to fix a
+// rotation), and they share neither feature. Two such matches put the model's centre near each
+// other: each match's turn is off the true one by less than the turns may disagree, which moves
+// the centre by at most 2 sin(angle / 2) times the model's reach; only matches in neighbouring
+// cubes of that side are compared.
+std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
+                                                        const std::vector<Eigen::Isometry3f>& poses,
+                                                        const ObjectModel& model,
+                                                        const SceneSurface& scene,
+                                                        const ObjectMatchParams& params) {
+  const float min_spacing2 = params.min_sample_spacing_m * params.min_sample_spacing_m;
+  const float max_angle = params.max_frame_disagreement_deg * std::numbers::pi_v<float> / 180.0f;
+  const float min_trace = 1.0f + 2.0f * std::cos(max_angle);
+  const auto modelPoint = [&](std::uint32_t i) -> const Eigen::Vector3f& {
+    return model.features[static_cast<std::size_t>(matches[i].model)].position;
   };
-  const std::size_t capacity = static_cast<std::size_t>(std::max(1, params.pose_hypotheses));
+  const auto scenePoint = [&](std::uint32_t i) -> const Eigen::Vector3f& {
+    return scene.features()[static_cast<std::size_t>(matches[i].scene)].position;
+  };
+  float reach2 = 0.0f;
+  for (const ShapeFeature& f : model.features)
+    reach2 = std::max(reach2, (f.position - model.box.centre).squaredNorm());
+  const float cube =
+      params.pair_tolerance_m + 2.0f * std::sin(0.5f * max_angle) * std::sqrt(reach2);
+  std::vector<Eigen::Vector3i> cell_of(matches.size());
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> by_cube;
+  for (std::uint32_t i = 0; i < matches.size(); ++i) {
+    cell_of[i] = detail::cellOf(poses[i] * model.box.centre, cube);
+    by_cube[detail::cellKey(cell_of[i])].push_back(i);
+  }
+  std::vector<std::vector<std::uint32_t>> out(matches.size());
+  for (std::uint32_t a = 0; a < matches.size(); ++a) {
+    const Eigen::Vector3i& cell = cell_of[a];
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = by_cube.find(detail::cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
+          if (it == by_cube.end()) continue;
+          for (std::uint32_t b : it->second) {
+            if (b <= a || matches[a].model_keypoint == matches[b].model_keypoint ||
+                matches[a].scene == matches[b].scene)
+              continue;
+            const float dm2 = (modelPoint(b) - modelPoint(a)).squaredNorm();
+            if (dm2 < min_spacing2) continue;
+            const float ds = (scenePoint(b) - scenePoint(a)).norm();
+            if (std::abs(std::sqrt(dm2) - ds) > params.pair_tolerance_m) continue;
+            if ((poses[a].linear().transpose() * poses[b].linear()).trace() < min_trace) continue;
+            out[a].push_back(b);
+            out[b].push_back(a);
+          }
+        }
+  }
+  return out;
+}
+
+// Step 2: each match gives a whole pose (shape_features.h's frames repeat across views). The
+// matches with the most compatible partners anchor poses in turn: the anchor's own pose picks
+// the partners it agrees with, a pose is fitted to them, and the matches that agree with that
+// score it. The distinct poses the most model features agree with are kept, best first: the
+// most agreed-on pose is often a box turned half round (its corners look alike), which only
+// the depth check tells from the right one.
+std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const ObjectModel& model,
+                                      const SceneSurface& scene, const ObjectMatchParams& params) {
+  std::vector<Eigen::Isometry3f> poses(matches.size());
+  for (std::size_t i = 0; i < matches.size(); ++i) poses[i] = poseOfMatch(matches[i], model, scene);
+  const std::vector<std::vector<std::uint32_t>> partners =
+      compatiblePairs(matches, poses, model, scene, params);
+  std::vector<std::uint32_t> anchors;
+  for (std::uint32_t i = 0; i < matches.size(); ++i)
+    if (static_cast<int>(partners[i].size()) + 1 >= params.min_inliers) anchors.push_back(i);
+  std::stable_sort(anchors.begin(), anchors.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return partners[a].size() > partners[b].size();
+  });
+  if (anchors.size() > static_cast<std::size_t>(params.anchors))
+    anchors.resize(static_cast<std::size_t>(params.anchors));
+  const std::size_t capacity = static_cast<std::size_t>(std::max(1, params.pose_candidates));
   std::vector<Hypothesis> kept;
-  Eigen::Matrix3Xf model_points(3, 3), scene_points(3, 3);
-  for (int iteration = 0; iteration < params.ransac_iterations; ++iteration) {
-    const std::uint32_t a = starts[pick(starts.size())];
-    const std::uint32_t b = partners[a][pick(partners[a].size())];
-    const std::uint32_t c = partners[a][pick(partners[a].size())];
-    if (c == b || !std::binary_search(partners[b].begin(), partners[b].end(), c)) continue;
-    const std::array<std::uint32_t, 3> sample{a, b, c};
-    for (int i = 0; i < 3; ++i) {
-      const Match& m = matches[sample[static_cast<std::size_t>(i)]];
-      model_points.col(i) = model.features[static_cast<std::size_t>(m.model)].position;
-      scene_points.col(i) = scene.features()[static_cast<std::size_t>(m.scene)].position;
+  const float near2 = 4.0f * params.inlier_distance_m * params.inlier_distance_m;
+  std::vector<std::uint32_t> support;
+  for (std::uint32_t a : anchors) {
+    support.assign(1, a);
+    for (std::uint32_t b : partners[a]) {
+      const Match& mb = matches[b];
+      if ((poses[a] * model.features[static_cast<std::size_t>(mb.model)].position -
+           scene.features()[static_cast<std::size_t>(mb.scene)].position)
+              .squaredNorm() < near2)
+        support.push_back(b);
+    }
+    if (support.size() < 3) continue;
+    Eigen::Matrix3Xf model_points(3, static_cast<Eigen::Index>(support.size()));
+    Eigen::Matrix3Xf scene_points(3, static_cast<Eigen::Index>(support.size()));
+    for (std::size_t i = 0; i < support.size(); ++i) {
+      const Match& m = matches[support[i]];
+      model_points.col(static_cast<Eigen::Index>(i)) =
+          model.features[static_cast<std::size_t>(m.model)].position;
+      scene_points.col(static_cast<Eigen::Index>(i)) =
+          scene.features()[static_cast<std::size_t>(m.scene)].position;
     }
     const Eigen::Isometry3f pose = rigidFromPairs(model_points, scene_points);
     const int inliers = static_cast<int>(
@@ -378,20 +445,34 @@ Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& mod
     const float tolerance = confirmTolerance(p.z(), params);
     if (measured == 0.0f || measured < p.z() - tolerance) continue;  // unseen, or hidden
     ++out.outline_seen;
-    if (measured <= p.z() + tolerance) ++out.outline_continued;
+    if (std::abs(measured - p.z()) <= std::min(tolerance, params.outline_continuation_m))
+      ++out.outline_continued;
   }
   return out;
 }
 
-// A pose from step 2 goes to ICP only if the depth already confirms, within ICP's reach, half
-// the model points the final check needs: most wrong poses stop here, before their ICP.
-bool worthRefining(const Eigen::Isometry3f& pose, const ObjectModel& model,
-                   const SceneSurface& scene, const ObjectMatchParams& params) {
+// The poses from step 2 that go to ICP: the `pose_hypotheses` the depth confirms most within
+// ICP's reach, each confirming at least half the model points the final check needs (most wrong
+// poses stop here, before their ICP). Feature agreement alone often ranks a wrong pose first:
+// many of a box's features look alike.
+std::vector<Hypothesis> worthRefining(std::vector<Hypothesis> hypotheses, const ObjectModel& model,
+                                      const SceneSurface& scene, const ObjectMatchParams& params) {
   ObjectMatchParams within_reach = params;
   within_reach.confirm_distance_m = std::max(params.confirm_distance_m, params.icp_max_distance_m);
-  const Verification check = verifyInDepth(pose, model, scene, within_reach);
-  return check.confirmed >=
-         0.5f * params.min_confirmed_share * static_cast<float>(model.surface.size());
+  const float needed = 0.5f * params.min_confirmed_share * static_cast<float>(model.surface.size());
+  std::vector<std::pair<int, Hypothesis>> ranked;
+  for (const Hypothesis& h : hypotheses) {
+    const int confirmed = verifyInDepth(h.scene_from_model, model, scene, within_reach).confirmed;
+    if (static_cast<float>(confirmed) >= needed) ranked.emplace_back(confirmed, h);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<Hypothesis> out;
+  for (const auto& [confirmed, h] : ranked) {
+    if (static_cast<int>(out.size()) >= params.pose_hypotheses) break;
+    out.push_back(h);
+  }
+  return out;
 }
 
 OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
@@ -420,8 +501,8 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   std::optional<ObjectDetection> best;
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
-  for (const Hypothesis& hypothesis : ransacPoses(matches, model, scene, params)) {
-    if (!worthRefining(hypothesis.scene_from_model, model, scene, params)) continue;
+  for (const Hypothesis& hypothesis :
+       worthRefining(anchoredPoses(matches, model, scene, params), model, scene, params)) {
     const ScenePatch& patch = patches.forPose(hypothesis.scene_from_model);
     const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
                                               params.icp_iterations, params.icp_max_points, params);

@@ -64,7 +64,7 @@ std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
                                            const CameraIntrinsics& intrinsics,
                                            const cv::Mat& object_mask,
                                            const ObjectModelParams& params) {
-  const int offset = params.outline_probe_offset_px;
+  const int min_offset_px = params.outline_probe_offset_px;
   const KinectNoiseModel noise{};
   std::vector<Eigen::Vector3f> probes;
   const std::array<cv::Point, 4> kDirections{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
@@ -73,11 +73,14 @@ std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
       const std::uint16_t reading = depth_mm.at<std::uint16_t>(v, u);
       if (!object_mask.at<std::uint8_t>(v, u) || reading == 0) continue;
       for (const cv::Point& d : kDirections) {
+        const double z = 1e-3 * reading;
+        const int offset = std::max(
+            min_offset_px,
+            static_cast<int>(std::ceil(params.outline_probe_offset_m * intrinsics.fx / z)));
         const cv::Point next(u + d.x, v + d.y);
         const cv::Point out(u + offset * d.x, v + offset * d.y);
         if (out.x < 0 || out.y < 0 || out.x >= depth_mm.cols || out.y >= depth_mm.rows) continue;
         if (object_mask.at<std::uint8_t>(next) || object_mask.at<std::uint8_t>(out)) continue;
-        const double z = 1e-3 * reading;
         const std::uint16_t beyond = depth_mm.at<std::uint16_t>(out);
         const double gap = std::max(0.02, 4.0 * noise.depthStep(z));
         if (beyond == 0 || 1e-3 * beyond < z + gap) continue;  // unknown, or near surface

@@ -76,10 +76,11 @@ void checkDescriptorParams(const json& d, const ObjectModelParams& params) {
 ObjectModel parseObjectModelJson(const json& j, const ObjectModelParams& params) {
   if (!j.is_object() || j.value("format", "") != "shapesense-object-model")
     throw std::runtime_error("not a shapesense-object-model");
-  if (j.at("version") == 1) {
-    throw std::runtime_error(
-        "version 1: its features were described in another local frame than this build's: "
-        "teach it again");
+  if (j.at("version").is_number_integer() && j.at("version").get<int>() >= 1 &&
+      j.at("version").get<int>() < kObjectModelVersion) {
+    throw std::runtime_error("version " + j.at("version").dump() +
+                             ": its features were described in other local frames than this "
+                             "build's: teach it again");
   }
   if (j.at("version") != kObjectModelVersion)
     throw std::runtime_error("unsupported version " + j.at("version").dump());

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 #include <unordered_map>
 
@@ -110,28 +111,114 @@ std::vector<Candidate> suppressNonMaxima(std::vector<Candidate> candidates,
   return kept;
 }
 
-// Step 2: the local frame (columns x, y, z). z is the mean of the support's normals: across an
-// edge or a corner it stays between the faces' normals for any view that shows them, where the
-// covariance's smallest axis swings with how much of each face the view shows. x points from the
-// interest point towards the support's centroid, cast onto the local plane, its sign the side
-// holding most points.
-Eigen::Matrix3f localFrame(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
-                           const Eigen::Vector3f& centre, const Eigen::Vector3f& viewpoint) {
+// Step 2a: the local plane's normal, the mean of the support's normals: across an edge or a
+// corner it stays between the faces' normals for any view that shows them, where the
+// covariance's smallest axis swings with how much of each face the view shows.
+Eigen::Vector3f localNormal(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
+                            const Eigen::Vector3f& centre, const Eigen::Vector3f& viewpoint) {
   Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
-  Eigen::Vector3f offset_sum = Eigen::Vector3f::Zero();
-  for (std::uint32_t j : support) {
-    normal_sum += surface.normals[j];
-    offset_sum += surface.points[j] - centre;
-  }
+  for (std::uint32_t j : support) normal_sum += surface.normals[j];
   Eigen::Vector3f z = normal_sum.norm() > 1e-6f ? normal_sum.normalized()
                                                 : Eigen::Vector3f(viewpoint - centre).normalized();
   if (z.dot(viewpoint - centre) < 0.0f) z = -z;
+  return z;
+}
+
+// Step 2b: the directions in the local plane that the support's normals lean towards most (the
+// downhill directions of its height image). A histogram of the normals' parts in the plane,
+// each weighted by its length, smoothed round the circle; every peak of at least
+// `peak_ratio` of the highest is a direction (an edge gives its two faces', a corner its three).
+// They are set by the surface's own slopes, so they hold for any view that shows them.
+std::vector<Eigen::Vector3f> leaningDirections(const SurfaceCloud& surface,
+                                               const std::vector<std::uint32_t>& support,
+                                               const Eigen::Vector3f& z,
+                                               const ShapeFeatureParams& params) {
+  constexpr int kBins = 36;
+  constexpr float kMinLean = 0.05f;  // about 3 deg: flatter normals tell no direction
+  const Eigen::Vector3f u = z.unitOrthogonal();
+  const Eigen::Vector3f v = z.cross(u);
+  std::array<float, kBins> histogram{};
+  const float bins_per_rad = kBins / (2.0f * std::numbers::pi_v<float>);
+  for (std::uint32_t j : support) {
+    const Eigen::Vector3f& n = surface.normals[j];
+    const float a = n.dot(u), b = n.dot(v);
+    const float lean = std::hypot(a, b);
+    if (lean < kMinLean) continue;
+    float position = std::atan2(b, a) * bins_per_rad;
+    if (position < 0.0f) position += kBins;
+    const int bin = static_cast<int>(position) % kBins;
+    const float frac = position - std::floor(position);
+    histogram[static_cast<std::size_t>(bin)] += lean * (1.0f - frac);
+    histogram[static_cast<std::size_t>((bin + 1) % kBins)] += lean * frac;
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    std::array<float, kBins> smoothed{};
+    for (int i = 0; i < kBins; ++i)
+      smoothed[static_cast<std::size_t>(i)] =
+          0.25f * histogram[static_cast<std::size_t>((i + kBins - 1) % kBins)] +
+          0.5f * histogram[static_cast<std::size_t>(i)] +
+          0.25f * histogram[static_cast<std::size_t>((i + 1) % kBins)];
+    histogram = smoothed;
+  }
+  const float highest = *std::max_element(histogram.begin(), histogram.end());
+  std::vector<std::pair<float, Eigen::Vector3f>> peaks;
+  if (highest <= 0.0f) return {};
+  for (int i = 0; i < kBins; ++i) {
+    const float left = histogram[static_cast<std::size_t>((i + kBins - 1) % kBins)];
+    const float here = histogram[static_cast<std::size_t>(i)];
+    const float right = histogram[static_cast<std::size_t>((i + 1) % kBins)];
+    if (here < params.orientation_peak_ratio * highest || here <= left || here < right) continue;
+    // The parabola through the three bins puts the peak between them.
+    const float curvature = left - 2.0f * here + right;
+    const float offset = curvature < 0.0f ? 0.5f * (left - right) / curvature : 0.0f;
+    const float angle = (static_cast<float>(i) + offset) / bins_per_rad;
+    peaks.emplace_back(here, std::cos(angle) * u + std::sin(angle) * v);
+  }
+  // The bins' edges lie where z.unitOrthogonal() puts them, which another view of the same
+  // surface does not repeat: each peak moves to the mean of the normals' parts within
+  // kWindowRad of it, which depends on the surface alone.
+  constexpr float kWindowRad = 0.4f;  // 23 deg
+  const float min_cosine = std::cos(kWindowRad);
+  for (auto& [height, direction] : peaks) {
+    for (int step = 0; step < 2; ++step) {
+      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+      for (std::uint32_t j : support) {
+        const Eigen::Vector3f& n = surface.normals[j];
+        const Eigen::Vector3f in_plane = n - n.dot(z) * z;
+        const float lean = in_plane.norm();
+        if (lean >= kMinLean && in_plane.dot(direction) >= min_cosine * lean) sum += in_plane;
+      }
+      if (sum.squaredNorm() > 1e-12f) direction = sum.normalized();
+    }
+  }
+  std::sort(peaks.begin(), peaks.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (params.max_orientations > 0 &&
+      peaks.size() > static_cast<std::size_t>(params.max_orientations))
+    peaks.resize(static_cast<std::size_t>(params.max_orientations));
+  std::vector<Eigen::Vector3f> out;
+  for (const auto& peak : peaks) out.push_back(peak.second);
+  return out;
+}
+
+// Where the normals lean nowhere (a flat patch with an edge of the cloud in it): x points
+// towards the support's centroid, cast onto the local plane, its sign the side holding most
+// points.
+Eigen::Vector3f centroidDirection(const SurfaceCloud& surface,
+                                  const std::vector<std::uint32_t>& support,
+                                  const Eigen::Vector3f& centre, const Eigen::Vector3f& z) {
+  Eigen::Vector3f offset_sum = Eigen::Vector3f::Zero();
+  for (std::uint32_t j : support) offset_sum += surface.points[j] - centre;
   Eigen::Vector3f x = offset_sum - offset_sum.dot(z) * z;
   x = x.squaredNorm() > 1e-12f ? x.normalized() : z.unitOrthogonal();
   int positive = 0;
   for (std::uint32_t j : support)
     if ((surface.points[j] - centre).dot(x) >= 0.0f) ++positive;
   if (2 * positive < static_cast<int>(support.size())) x = -x;
+  return x;
+}
+
+Eigen::Matrix3f frameOf(const Eigen::Vector3f& x, const Eigen::Vector3f& z) {
   Eigen::Matrix3f frame;
   frame.col(0) = x;
   frame.col(1) = z.cross(x);
@@ -227,16 +314,21 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
     const Eigen::Vector3f& centre = surface.points[keypoint.point];
     grid.withinRadius(centre, params.support_radius_m, support);
     if (support.size() < 8) continue;
-    ShapeFeature feature;
-    feature.position = centre;
-    feature.response = keypoint.response;
-    feature.frame = localFrame(surface, support, centre, viewpoint);
-    const float filled_share =
-        heightImage(surface, support, centre, feature.frame, params.support_radius_m,
-                    params.height_image_size, heights);
-    if (filled_share < params.min_filled_share) continue;
-    feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
-    out.push_back(feature);
+    const Eigen::Vector3f z = localNormal(surface, support, centre, viewpoint);
+    std::vector<Eigen::Vector3f> directions = leaningDirections(surface, support, z, params);
+    if (directions.empty()) directions.push_back(centroidDirection(surface, support, centre, z));
+    for (const Eigen::Vector3f& x : directions) {
+      ShapeFeature feature;
+      feature.position = centre;
+      feature.response = keypoint.response;
+      feature.frame = frameOf(x, z);
+      const float filled_share =
+          heightImage(surface, support, centre, feature.frame, params.support_radius_m,
+                      params.height_image_size, heights);
+      if (filled_share < params.min_filled_share) break;
+      feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
+      out.push_back(feature);
+    }
     if (params.max_features > 0 && static_cast<int>(out.size()) >= params.max_features) break;
   }
   return out;

@@ -54,19 +54,20 @@ TEST(ShapeFeatures, MoveWithTheSurface) {
       detectShapeFeatures(moved, feature_params, motion * Eigen::Vector3f::Zero());
   ASSERT_GT(features.size(), 100u);
   // The same points, moved rigidly: the same interest points, local frames and descriptors
-  // (up to float rounding), so each feature has its twin.
+  // (up to float rounding), so each feature has its twin among those at its point. Not every
+  // one: the histogram whose peaks give a point's frames has its bins where the cloud's
+  // coordinates put them, so a second peak near orientation_peak_ratio may come or go.
   int twins = 0;
   for (const auto& f : features) {
-    for (const auto& g : moved_features) {
-      if ((motion * f.position - g.position).norm() > 1e-4f) continue;
+    const bool twinned = std::any_of(moved_features.begin(), moved_features.end(), [&](auto& g) {
       const Eigen::Matrix3f frame_difference = (motion.linear() * f.frame).transpose() * g.frame;
-      if ((frame_difference - Eigen::Matrix3f::Identity()).norm() < 1e-2f &&
-          descriptorDistance2(f, g) < 1e-4f)
-        ++twins;
-      break;
-    }
+      return (motion * f.position - g.position).norm() < 1e-4f &&
+             (frame_difference - Eigen::Matrix3f::Identity()).norm() < 1e-2f &&
+             descriptorDistance2(f, g) < 1e-4f;
+    });
+    twins += twinned ? 1 : 0;
   }
-  EXPECT_GE(twins, static_cast<int>(0.95 * static_cast<double>(features.size())))
+  EXPECT_GE(twins, static_cast<int>(0.9 * static_cast<double>(features.size())))
       << features.size() << " features, " << moved_features.size() << " after the motion";
 }
 

@@ -55,12 +55,15 @@ TEST(ObjectModelFile, RefusesMalformedFilesNamingTheProblem) {
   refuses("{", "parse");
   refuses("[]", "not a shapesense-object-model");
   refuses(R"({"format": "shapesense-bowl-model"})", "not a shapesense-object-model");
-  std::string other_version = good;
-  other_version.replace(other_version.find("\"version\":2"), 11, "\"version\":7");
-  refuses(other_version, "unsupported version");
-  std::string first_version = good;
-  first_version.replace(first_version.find("\"version\":2"), 11, "\"version\":1");
-  refuses(first_version, "teach it again");
+  const auto withVersion = [&good](int version) {
+    std::string text = good;
+    text.replace(text.find("\"version\":" + std::to_string(kObjectModelVersion)), 11,
+                 "\"version\":" + std::to_string(version));
+    return text;
+  };
+  refuses(withVersion(7), "unsupported version");
+  for (int earlier = 1; earlier < kObjectModelVersion; ++earlier)
+    refuses(withVersion(earlier), "teach it again");
   std::string other_radius = good;
   const auto radius_at = other_radius.find("\"support_radius_m\":");
   other_radius.replace(radius_at, 19, "\"support_radius_m\":9,\"x\":");

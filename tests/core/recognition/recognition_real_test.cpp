@@ -3,8 +3,9 @@
 // exists for these frames, so the check is where the object is found: every object box the
 // detector chain finds in the first frame is taught through the operator's path (its ROI,
 // objectUnderRoi) and looked for in the later frames; a detection counts as the same object
-// when its box's centre projects into the taught ROI (the camera moves a few centimetres
-// between these frames). Skipped when shared/ is not there.
+// when its pose, which is the camera's motion since the first frame if the object is the same,
+// aligns the rest of the (static) scene as well (the camera moves a few centimetres between
+// the desk frames and pans across the room in the sweep). Skipped when shared/ is not there.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -27,6 +28,41 @@ cv::Point projectedCentre(const OrientedBox& box, const CameraIntrinsics& intrin
   const Eigen::Vector2d uv = intrinsics.project(box.centre.cast<double>());
   return {static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))};
 }
+
+// The share of `from`'s readings (every 4th pixel each way) that `to` confirms when the
+// camera's motion between them is `to_from_from`: a reading carried into `to` is confirmed
+// when `to` reads within max(3 cm, 3%) of its depth there, contradicted when it reads farther
+// (sees through it); nearer readings hide it and count neither way. The recordings hold
+// static scenes, so the right motion confirms most of the scene and a wrong one little.
+double sceneAgreement(const Frame& from, const Frame& to, const Eigen::Isometry3f& to_from_from) {
+  int confirmed = 0, contradicted = 0;
+  for (int v = 0; v < from.depth.rows; v += 4)
+    for (int u = 0; u < from.depth.cols; u += 4) {
+      const std::uint16_t reading = from.depth.at<std::uint16_t>(v, u);
+      if (reading == 0) continue;
+      const Eigen::Vector3d p =
+          to_from_from.cast<double>() * from.intrinsics.backproject(u, v, 1e-3 * reading);
+      if (p.z() <= 0.0) continue;
+      const Eigen::Vector2d uv = to.intrinsics.project(p);
+      const int x = static_cast<int>(std::lround(uv.x()));
+      const int y = static_cast<int>(std::lround(uv.y()));
+      if (x < 0 || y < 0 || x >= to.depth.cols || y >= to.depth.rows) continue;
+      const double measured = 1e-3 * to.depth.at<std::uint16_t>(y, x);
+      if (measured == 0.0) continue;
+      const double tolerance = std::max(0.03, 0.03 * p.z());
+      if (std::abs(measured - p.z()) <= tolerance) {
+        ++confirmed;
+      } else if (measured > p.z()) {
+        ++contradicted;
+      }
+    }
+  return confirmed + contradicted > 0 ? static_cast<double>(confirmed) / (confirmed + contradicted)
+                                      : 0.0;
+}
+
+// The least share of the scene a pose must align to count as the taught object found where it
+// is (a wrong place aligns little of the room; measured agreements are printed).
+constexpr double kMinSceneAgreement = 0.6;
 
 struct RecordingResult {
   int taught = 0;
@@ -67,13 +103,17 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
       const auto detection = findObject(model, scene);
       if (!detection) continue;
       const cv::Point centre = projectedCentre(detection->box, frames[f].intrinsics);
-      const bool same_place = roi.contains(centre);
+      // The model's frame is the first frame's camera frame: the pose is the camera's motion.
+      const double agreement = sceneAgreement(frames[0], frames[f], detection->camera_from_model);
+      const bool same_place = agreement >= kMinSceneAgreement;
       std::printf(
           "%s: object taught at (%d, %d, %d x %d) found in frame %zu centred at (%d, %d), "
-          "%s the ROI, score %.2f, box %.0f x %.0f x %.0f cm\n",
+          "score %.2f, box %.0f x %.0f x %.0f cm; as the camera's motion its pose aligns "
+          "%.2f of the scene: %s\n",
           recording.c_str(), roi.x, roi.y, roi.width, roi.height, f, centre.x, centre.y,
-          same_place ? "inside" : "outside", detection->score, 100 * detection->box.size.x(),
-          100 * detection->box.size.y(), 100 * detection->box.size.z());
+          detection->score, 100 * detection->box.size.x(), 100 * detection->box.size.y(),
+          100 * detection->box.size.z(), agreement,
+          same_place ? "the taught object" : "somewhere else");
       (same_place ? out.found_same_place : out.found_elsewhere) += 1;
     }
   }
@@ -85,9 +125,9 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
 
 // Requirement (issue 22): a taught object is found in every later frame where it is visible.
 // Without truth for where each object is visible that is not asserted here; what is: no
-// taught object is found away from where it was taught (a false detection), and, as a
-// regression record, the objects found again where they were taught (2 of 11 searches
-// when this test was written: docs/benchmarks.md).
+// taught object is found away from where it is (a false detection), and, as a regression
+// record, the objects found again where they are (3 of 12 searches when last measured:
+// docs/benchmarks.md).
 TEST(RecognitionReal, TaughtObjectsAreFoundOnlyWhereTheyWereTaught) {
   if (!std::filesystem::exists(testing::realRecording("tum_fr2_desk")))
     GTEST_SKIP() << "shared/data/real is not here";
@@ -101,7 +141,7 @@ TEST(RecognitionReal, TaughtObjectsAreFoundOnlyWhereTheyWereTaught) {
   }
   ASSERT_GE(all.taught, 3);
   EXPECT_EQ(all.found_elsewhere, 0);
-  EXPECT_GE(all.found_same_place, 2);
+  EXPECT_GE(all.found_same_place, 3);
 }
 
 }  // namespace

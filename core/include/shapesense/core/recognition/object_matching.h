@@ -3,9 +3,12 @@
 //
 // Steps (findObject):
 //   1. candidate matches: each model feature's nearest scene features by descriptor;
-//   2. poses from them by RANSAC over 3-point samples whose pairwise distances agree in the
-//      model and the scene (a rigid motion keeps them), scored by the matches they carry; the
-//      few best distinct ones go on;
+//   2. poses from them: each match gives a whole pose (the rotation carrying the model
+//      feature's local frame onto the scene feature's); matches compatible with many others
+//      (they turn the model alike and keep its distances, as a rigid motion does) anchor
+//      poses fitted to the partners that agree with them, scored by the matches they carry;
+//      the distinct poses with most, ranked by how much of the model the depth confirms near
+//      them, go on;
 //   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface;
 //   4. verification in the depth: of the model's points that face the camera in that pose and
 //      fall in the image, the share the depth confirms (a reading at the predicted depth, within
@@ -54,23 +57,30 @@ class SceneSurface {
 };
 
 struct ObjectMatchParams {
-  /// Scene features matched to each model feature (nearest descriptors first). Default 5.
-  int matches_per_feature = 5;
-  /// RANSAC samples drawn. Default 3000.
-  int ransac_iterations = 3000;
+  /// Scene features matched to each model feature (nearest descriptors first). Default 20.
+  int matches_per_feature = 20;
+  /// Matches that anchor a pose, those with the most compatible partners first. Default 300.
+  int anchors = 300;
   /// A match agrees with a pose when the posed model feature lies this close to its scene
   /// feature (m). Default 1.5 cm.
   float inlier_distance_m = 0.015f;
-  /// A sample's pairwise distances may differ this much between model and scene (m).
-  /// Default 1 cm.
+  /// Two compatible matches: the distance between their model points and between their scene
+  /// points differ by at most this (m). Default 1 cm.
   float pair_tolerance_m = 0.01f;
-  /// A sample's points lie at least this far apart (m): near points give a poor rotation.
+  /// ...the rotations they give (each carrying the model feature's local frame onto the scene
+  /// feature's) differ by at most this angle (deg). Default 20.
+  float max_frame_disagreement_deg = 20.0f;
+  /// ...and their points lie at least this far apart (m): near points fix no rotation together.
   /// Default 2 cm.
   float min_sample_spacing_m = 0.02f;
-  /// Fewest agreeing matches (distinct model features) for a pose to be refined. Default 7.
+  /// Fewest agreeing matches (distinct model interest points) for a pose to be refined.
+  /// Default 7.
   int min_inliers = 7;
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
-  /// matches that are refined and checked; the one the depth confirms most wins. Default 5.
+  /// matches that are checked in the depth; of those, the `pose_hypotheses` the depth confirms
+  /// most (before ICP, within its reach) are refined and checked again; the one the depth
+  /// confirms most wins. Defaults 30 and 5.
+  int pose_candidates = 30;
   int pose_hypotheses = 5;
   /// Point-to-plane ICP with nearest-point pairs: iterations for each pose from step 2 on at
   /// most `icp_max_points` of the model (evenly spread), then iterations on all of it for the
@@ -95,10 +105,13 @@ struct ObjectMatchParams {
   /// told from a part of something larger. Default 0.3.
   float min_seen_outline = 0.3f;
   /// ...and at most this share of those seen may show surface at the object's depth: more
-  /// means the match is part of a larger thing. Default 0.15.
-  float max_continued_outline = 0.15f;
-  /// Seed of RANSAC's random draws (deterministic results). Default 1.
-  std::uint64_t seed = 1;
+  /// means the match is part of a larger thing. Default 0.02.
+  float max_continued_outline = 0.02f;
+  /// A probe shows surface at the object's depth when the reading there is within this of the
+  /// probe's depth (m). Less than the probes' distance from the outline
+  /// (ObjectModelParams::outline_probe_offset_m): another view that sees the object's own side,
+  /// which runs back from the outline, reads it that far behind the probe or more. Default 1 cm.
+  float outline_continuation_m = 0.01f;
   /// Sensor noise model for confirm_steps.
   KinectNoiseModel noise{};
 };

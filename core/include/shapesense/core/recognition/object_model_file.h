@@ -26,7 +26,7 @@
 
 namespace shapesense {
 
-inline constexpr int kObjectModelVersion = 2;
+inline constexpr int kObjectModelVersion = 3;
 /// Largest model file read (bytes).
 inline constexpr std::uintmax_t kMaxObjectModelFileBytes = 32u << 20;
 

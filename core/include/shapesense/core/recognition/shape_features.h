@@ -50,6 +50,12 @@ struct ShapeFeatureParams {
   /// Smallest share of the height image's cells that hold a point; fewer means the point sits
   /// on a silhouette with most of its neighbourhood unseen. Default 0.35.
   float min_filled_share = 0.35f;
+  /// A local frame's x axis is each direction the support's normals lean towards with at
+  /// least this share of the strongest direction's weight (see detectShapeFeatures). Default 0.8.
+  float orientation_peak_ratio = 0.8f;
+  /// At most this many frames (features) per interest point, the strongest first. 0 = no
+  /// limit. Default 3 (the faces of a corner).
+  int max_orientations = 3;
   /// At most this many features, the strongest responses first. 0 = no limit. Default 0.
   int max_features = 0;
 };
