@@ -16,8 +16,13 @@
 namespace shapesense {
 namespace {
 
+// A model feature matched to a scene feature, with what the steps after read of both.
 struct Match {
-  int model = 0;           ///< index into the model's features
+  Eigen::Vector3f model_point;  ///< the model feature's position
+  Eigen::Vector3f scene_point;  ///< the scene feature's position
+  /// The rotation carrying the model feature's local frame onto the scene feature's: with the
+  /// two points, the whole pose the match gives.
+  Eigen::Matrix3f turn;
   int scene = 0;           ///< index into the scene's features
   int model_keypoint = 0;  ///< the model's interest point it was described at
 };
@@ -50,8 +55,12 @@ std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface
   const std::vector<int> keypoint = keypointOfFeature(model.features);
   std::vector<Match> out;
   for (const auto& row : knn)
-    for (const cv::DMatch& m : row)
-      out.push_back({m.queryIdx, m.trainIdx, keypoint[static_cast<std::size_t>(m.queryIdx)]});
+    for (const cv::DMatch& m : row) {
+      const ShapeFeature& from = model.features[static_cast<std::size_t>(m.queryIdx)];
+      const ShapeFeature& to = scene.features()[static_cast<std::size_t>(m.trainIdx)];
+      out.push_back({from.position, to.position, to.frame * from.frame.transpose(), m.trainIdx,
+                     keypoint[static_cast<std::size_t>(m.queryIdx)]});
+    }
   return out;
 }
 
@@ -60,35 +69,40 @@ struct Hypothesis {
   int inliers = 0;
 };
 
-// In double: the float version trips GCC 12's array-bounds warning inside Eigen, and the
-// solve is cheap either way.
-Eigen::Isometry3f rigidFromPairs(const Eigen::Matrix3Xf& model, const Eigen::Matrix3Xf& scene) {
-  const Eigen::Matrix4d transform =
-      Eigen::umeyama(model.cast<double>().eval(), scene.cast<double>().eval(), false);
+// The rigid motion that best carries the model points of `matches[i]` (i in `chosen`) onto their
+// scene points. In double: the float version trips GCC 12's array-bounds warning inside Eigen,
+// and the solve is cheap either way.
+Eigen::Isometry3f fittedPose(const std::vector<Match>& matches,
+                             const std::vector<std::uint32_t>& chosen) {
+  Eigen::Matrix3Xd model_points(3, static_cast<Eigen::Index>(chosen.size()));
+  Eigen::Matrix3Xd scene_points(3, static_cast<Eigen::Index>(chosen.size()));
+  for (std::size_t i = 0; i < chosen.size(); ++i) {
+    model_points.col(static_cast<Eigen::Index>(i)) = matches[chosen[i]].model_point.cast<double>();
+    scene_points.col(static_cast<Eigen::Index>(i)) = matches[chosen[i]].scene_point.cast<double>();
+  }
+  const Eigen::Matrix4d transform = Eigen::umeyama(model_points, scene_points, false);
   return Eigen::Isometry3f(transform.cast<float>());
 }
 
 // The matches that agree with a pose, one per model interest point (the closest).
-std::vector<Match> agreeingMatches(const Eigen::Isometry3f& pose, const std::vector<Match>& matches,
-                                   const ObjectModel& model, const SceneSurface& scene,
-                                   float inlier_distance) {
+std::vector<std::uint32_t> agreeingMatches(const Eigen::Isometry3f& pose,
+                                           const std::vector<Match>& matches,
+                                           float inlier_distance) {
   const std::size_t keypoints = matches.empty() ? 0 : matches.back().model_keypoint + 1u;
   std::vector<float> best(keypoints, inlier_distance * inlier_distance);
   std::vector<int> chosen(keypoints, -1);
   for (std::size_t i = 0; i < matches.size(); ++i) {
     const Match& m = matches[i];
-    const float d2 = (pose * model.features[static_cast<std::size_t>(m.model)].position -
-                      scene.features()[static_cast<std::size_t>(m.scene)].position)
-                         .squaredNorm();
+    const float d2 = (pose * m.model_point - m.scene_point).squaredNorm();
     const auto k = static_cast<std::size_t>(m.model_keypoint);
     if (d2 < best[k]) {
       best[k] = d2;
       chosen[k] = static_cast<int>(i);
     }
   }
-  std::vector<Match> out;
+  std::vector<std::uint32_t> out;
   for (int c : chosen)
-    if (c >= 0) out.push_back(matches[static_cast<std::size_t>(c)]);
+    if (c >= 0) out.push_back(static_cast<std::uint32_t>(c));
   return out;
 }
 
@@ -123,30 +137,10 @@ void keepHypothesis(std::vector<Hypothesis>& kept, const Hypothesis& candidate,
 
 // The pose fitted to every match that agrees with `h`.
 Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matches,
-                           const ObjectModel& model, const SceneSurface& scene,
                            const ObjectMatchParams& params) {
-  const std::vector<Match> agreeing =
-      agreeingMatches(h.scene_from_model, matches, model, scene, params.inlier_distance_m);
-  Eigen::Matrix3Xf all_model(3, static_cast<Eigen::Index>(agreeing.size()));
-  Eigen::Matrix3Xf all_scene(3, static_cast<Eigen::Index>(agreeing.size()));
-  for (std::size_t i = 0; i < agreeing.size(); ++i) {
-    all_model.col(static_cast<Eigen::Index>(i)) =
-        model.features[static_cast<std::size_t>(agreeing[i].model)].position;
-    all_scene.col(static_cast<Eigen::Index>(i)) =
-        scene.features()[static_cast<std::size_t>(agreeing[i].scene)].position;
-  }
-  return Hypothesis{rigidFromPairs(all_model, all_scene), h.inliers};
-}
-
-// The pose one match gives: the rotation that carries the model feature's local frame onto the
-// scene feature's, and the translation that carries its position onto the scene's.
-Eigen::Isometry3f poseOfMatch(const Match& m, const ObjectModel& model, const SceneSurface& scene) {
-  const ShapeFeature& from = model.features[static_cast<std::size_t>(m.model)];
-  const ShapeFeature& to = scene.features()[static_cast<std::size_t>(m.scene)];
-  Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
-  pose.linear() = to.frame * from.frame.transpose();
-  pose.translation() = to.position - pose.linear() * from.position;
-  return pose;
+  return Hypothesis{
+      fittedPose(matches, agreeingMatches(h.scene_from_model, matches, params.inlier_distance_m)),
+      h.inliers};
 }
 
 // Pairs of matches that a rigid motion could carry together: they turn the model alike, their
@@ -156,52 +150,55 @@ Eigen::Isometry3f poseOfMatch(const Match& m, const ObjectModel& model, const Sc
 // the centre by at most 2 sin(angle / 2) times the model's reach; only matches in neighbouring
 // cubes of that side are compared.
 std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
-                                                        const std::vector<Eigen::Isometry3f>& poses,
                                                         const ObjectModel& model,
-                                                        const SceneSurface& scene,
                                                         const ObjectMatchParams& params) {
   const float min_spacing2 = params.min_sample_spacing_m * params.min_sample_spacing_m;
   const float max_angle = params.max_frame_disagreement_deg * std::numbers::pi_v<float> / 180.0f;
   const float min_trace = 1.0f + 2.0f * std::cos(max_angle);
-  const auto modelPoint = [&](std::uint32_t i) -> const Eigen::Vector3f& {
-    return model.features[static_cast<std::size_t>(matches[i].model)].position;
-  };
-  const auto scenePoint = [&](std::uint32_t i) -> const Eigen::Vector3f& {
-    return scene.features()[static_cast<std::size_t>(matches[i].scene)].position;
-  };
   float reach2 = 0.0f;
   for (const ShapeFeature& f : model.features)
     reach2 = std::max(reach2, (f.position - model.box.centre).squaredNorm());
   const float cube =
       params.pair_tolerance_m + 2.0f * std::sin(0.5f * max_angle) * std::sqrt(reach2);
-  std::vector<Eigen::Vector3i> cell_of(matches.size());
-  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> by_cube;
+  std::unordered_map<std::int64_t, std::pair<Eigen::Vector3i, std::vector<std::uint32_t>>> by_cube;
   for (std::uint32_t i = 0; i < matches.size(); ++i) {
-    cell_of[i] = detail::cellOf(poses[i] * model.box.centre, cube);
-    by_cube[detail::cellKey(cell_of[i])].push_back(i);
+    const Match& m = matches[i];
+    const Eigen::Vector3i cell =
+        detail::cellOf(m.turn * (model.box.centre - m.model_point) + m.scene_point, cube);
+    auto& [at, members] = by_cube[detail::cellKey(cell)];
+    at = cell;
+    members.push_back(i);
   }
   std::vector<std::vector<std::uint32_t>> out(matches.size());
-  for (std::uint32_t a = 0; a < matches.size(); ++a) {
-    const Eigen::Vector3i& cell = cell_of[a];
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
+  const auto compare = [&](std::uint32_t a, std::uint32_t b) {
+    const Match& ma = matches[a];
+    const Match& mb = matches[b];
+    if (ma.model_keypoint == mb.model_keypoint || ma.scene == mb.scene) return;
+    const float dm2 = (mb.model_point - ma.model_point).squaredNorm();
+    if (dm2 < min_spacing2) return;
+    const float ds = (mb.scene_point - ma.scene_point).norm();
+    if (std::abs(std::sqrt(dm2) - ds) > params.pair_tolerance_m) return;
+    // trace(A^T B): 1 + 2 cos of the turn between them.
+    if (ma.turn.cwiseProduct(mb.turn).sum() < min_trace) return;
+    out[a].push_back(b);
+    out[b].push_back(a);
+  };
+  // Each pair of neighbouring cubes once: a cube with itself, and with the 13 of its 26
+  // neighbours that come after it in (z, y, x) order.
+  for (const auto& [key, cube_members] : by_cube) {
+    const auto& [cell, members] = cube_members;
+    for (std::size_t i = 0; i < members.size(); ++i)
+      for (std::size_t j = i + 1; j < members.size(); ++j) compare(members[i], members[j]);
+    for (int dz = 0; dz <= 1; ++dz)
+      for (int dy = dz == 0 ? 0 : -1; dy <= 1; ++dy)
+        for (int dx = (dz == 0 && dy == 0) ? 1 : -1; dx <= 1; ++dx) {
           const auto it = by_cube.find(detail::cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
           if (it == by_cube.end()) continue;
-          for (std::uint32_t b : it->second) {
-            if (b <= a || matches[a].model_keypoint == matches[b].model_keypoint ||
-                matches[a].scene == matches[b].scene)
-              continue;
-            const float dm2 = (modelPoint(b) - modelPoint(a)).squaredNorm();
-            if (dm2 < min_spacing2) continue;
-            const float ds = (scenePoint(b) - scenePoint(a)).norm();
-            if (std::abs(std::sqrt(dm2) - ds) > params.pair_tolerance_m) continue;
-            if ((poses[a].linear().transpose() * poses[b].linear()).trace() < min_trace) continue;
-            out[a].push_back(b);
-            out[b].push_back(a);
-          }
+          for (std::uint32_t a : members)
+            for (std::uint32_t b : it->second.second) compare(a, b);
         }
   }
+  for (auto& partners : out) std::sort(partners.begin(), partners.end());
   return out;
 }
 
@@ -212,11 +209,8 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
 // most agreed-on pose is often a box turned half round (its corners look alike), which only
 // the depth check tells from the right one.
 std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const ObjectModel& model,
-                                      const SceneSurface& scene, const ObjectMatchParams& params) {
-  std::vector<Eigen::Isometry3f> poses(matches.size());
-  for (std::size_t i = 0; i < matches.size(); ++i) poses[i] = poseOfMatch(matches[i], model, scene);
-  const std::vector<std::vector<std::uint32_t>> partners =
-      compatiblePairs(matches, poses, model, scene, params);
+                                      const ObjectMatchParams& params) {
+  const std::vector<std::vector<std::uint32_t>> partners = compatiblePairs(matches, model, params);
   std::vector<std::uint32_t> anchors;
   for (std::uint32_t i = 0; i < matches.size(); ++i)
     if (static_cast<int>(partners[i].size()) + 1 >= params.min_inliers) anchors.push_back(i);
@@ -230,31 +224,22 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
   const float near2 = 4.0f * params.inlier_distance_m * params.inlier_distance_m;
   std::vector<std::uint32_t> support;
   for (std::uint32_t a : anchors) {
+    const Match& ma = matches[a];
     support.assign(1, a);
     for (std::uint32_t b : partners[a]) {
       const Match& mb = matches[b];
-      if ((poses[a] * model.features[static_cast<std::size_t>(mb.model)].position -
-           scene.features()[static_cast<std::size_t>(mb.scene)].position)
+      if ((ma.turn * (mb.model_point - ma.model_point) + ma.scene_point - mb.scene_point)
               .squaredNorm() < near2)
         support.push_back(b);
     }
     if (support.size() < 3) continue;
-    Eigen::Matrix3Xf model_points(3, static_cast<Eigen::Index>(support.size()));
-    Eigen::Matrix3Xf scene_points(3, static_cast<Eigen::Index>(support.size()));
-    for (std::size_t i = 0; i < support.size(); ++i) {
-      const Match& m = matches[support[i]];
-      model_points.col(static_cast<Eigen::Index>(i)) =
-          model.features[static_cast<std::size_t>(m.model)].position;
-      scene_points.col(static_cast<Eigen::Index>(i)) =
-          scene.features()[static_cast<std::size_t>(m.scene)].position;
-    }
-    const Eigen::Isometry3f pose = rigidFromPairs(model_points, scene_points);
-    const int inliers = static_cast<int>(
-        agreeingMatches(pose, matches, model, scene, params.inlier_distance_m).size());
+    const Eigen::Isometry3f pose = fittedPose(matches, support);
+    const int inliers =
+        static_cast<int>(agreeingMatches(pose, matches, params.inlier_distance_m).size());
     if (inliers >= params.min_inliers)
       keepHypothesis(kept, Hypothesis{pose, inliers}, capacity, model.box.centre);
   }
-  for (Hypothesis& h : kept) h = refitOnAgreeing(h, matches, model, scene, params);
+  for (Hypothesis& h : kept) h = refitOnAgreeing(h, matches, params);
   return kept;
 }
 
@@ -502,7 +487,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
   for (const Hypothesis& hypothesis :
-       worthRefining(anchoredPoses(matches, model, scene, params), model, scene, params)) {
+       worthRefining(anchoredPoses(matches, model, params), model, scene, params)) {
     const ScenePatch& patch = patches.forPose(hypothesis.scene_from_model);
     const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
                                               params.icp_iterations, params.icp_max_points, params);
