@@ -20,12 +20,13 @@ TEST(RecognitionQuality, TestSplitRecallAndFalseDetections) {
   // Requirement (issue 22): recall >= 0.90 at <= 1 cm and 5 deg with >= 50% of the object
   // visible, and <= 0.1 false detections per frame for five taught objects: NOT met. The bounds
   // below are a regression record, just under what the code reached on these 20 cases (recall
-  // 0.677, 0.235 false per frame: docs/benchmarks.md).
-  EXPECT_GE(score.recall(), 0.65);
+  // 0.714, 0.235 false per frame: docs/benchmarks.md).
+  EXPECT_GE(score.recall(), 0.70);
   EXPECT_LE(score.falsePerFrameForFive(), 0.25);
-  // Found poses are exact: the tolerance is not what limits recall.
+  // Found poses are well inside the tolerance, so it is not what limits recall (the 90th
+  // percentile of their translation errors 5.5 mm when last measured, against 1 cm).
   std::vector<double> translations = score.translation_errors_m;
-  EXPECT_LE(quantile(translations, 0.9), 0.005);
+  EXPECT_LE(quantile(translations, 0.9), 0.006);
 }
 
 // An object whose axes are turned 30 deg about the camera's y axis, centred 1 m ahead, moved

@@ -94,6 +94,19 @@ std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
   return kept;
 }
 
+// The probes farther than `clearance` from every point of `surfaces`. A probe beside the
+// object's foot hangs just over the surface it stands on, and another view reads that surface
+// at the probe's depth.
+std::vector<Eigen::Vector3f> clearOfSurfaces(std::vector<Eigen::Vector3f> probes,
+                                             const SurfaceCloud& surfaces, float clearance) {
+  const detail::CloudIndex index(surfaces.points);
+  float d2 = 0.0f;
+  std::erase_if(probes, [&](const Eigen::Vector3f& probe) {
+    return index.nearestWithin(probe, clearance, d2) >= 0;
+  });
+  return probes;
+}
+
 }  // namespace
 
 ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
@@ -124,7 +137,8 @@ ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
       detectShapeFeatures(context, params.features, Eigen::Vector3f::Zero(),
                           onObject(context, object, params.surface.voxel_m));
   ObjectModel model = finishModel(std::move(name), object, std::move(features), params);
-  model.outline_probes = outlineProbes(depth_mm, intrinsics, object_mask, params);
+  model.outline_probes = clearOfSurfaces(outlineProbes(depth_mm, intrinsics, object_mask, params),
+                                         context, params.outline_probe_clearance_m);
   return model;
 }
 

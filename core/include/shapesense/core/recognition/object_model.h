@@ -39,6 +39,10 @@ struct ObjectModelParams {
   /// back from the outline, would read as surface at the object's depth. Defaults 3 px, 1.5 cm.
   int outline_probe_offset_px = 3;
   float outline_probe_offset_m = 0.015f;
+  /// Probes within this distance of a surface the taught view shows are left out (m): beside
+  /// the object's foot a probe hangs just over what it stands on, which another view reads at
+  /// the probe's depth. Default 1 cm.
+  float outline_probe_clearance_m = 0.01f;
   /// At most this many outline probes (every k-th). Default 400.
   int max_outline_probes = 400;
 };
