@@ -129,75 +129,102 @@ Eigen::Vector3f localNormal(const SurfaceCloud& surface, const std::vector<std::
 // each weighted by its length, smoothed round the circle; every peak of at least
 // `peak_ratio` of the highest is a direction (an edge gives its two faces', a corner its three).
 // They are set by the surface's own slopes, so they hold for any view that shows them.
+constexpr int kLeanBins = 36;
+using LeanHistogram = std::array<float, kLeanBins>;
+
+// The normals' parts in the local plane, as (u, v) coordinates, of those that lean at all
+// (flatter normals tell no direction).
+std::vector<Eigen::Vector2f> normalLeans(const SurfaceCloud& surface,
+                                         const std::vector<std::uint32_t>& support,
+                                         const Eigen::Vector3f& u, const Eigen::Vector3f& v) {
+  constexpr float kMinLean = 0.05f;  // about 3 deg
+  std::vector<Eigen::Vector2f> out;
+  out.reserve(support.size());
+  for (std::uint32_t j : support) {
+    const Eigen::Vector2f lean(surface.normals[j].dot(u), surface.normals[j].dot(v));
+    if (lean.squaredNorm() >= kMinLean * kMinLean) out.push_back(lean);
+  }
+  return out;
+}
+
+float binsPerRadian() { return kLeanBins / (2.0f * std::numbers::pi_v<float>); }
+
+LeanHistogram leanHistogram(const std::vector<Eigen::Vector2f>& leans) {
+  LeanHistogram histogram{};
+  for (const Eigen::Vector2f& lean : leans) {
+    float position = std::atan2(lean.y(), lean.x()) * binsPerRadian();
+    if (position < 0.0f) position += kLeanBins;
+    const int bin = static_cast<int>(position) % kLeanBins;
+    const float frac = position - std::floor(position);
+    const float weight = lean.norm();
+    histogram[static_cast<std::size_t>(bin)] += weight * (1.0f - frac);
+    histogram[static_cast<std::size_t>((bin + 1) % kLeanBins)] += weight * frac;
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    LeanHistogram smoothed{};
+    for (int i = 0; i < kLeanBins; ++i)
+      smoothed[static_cast<std::size_t>(i)] =
+          0.25f * histogram[static_cast<std::size_t>((i + kLeanBins - 1) % kLeanBins)] +
+          0.5f * histogram[static_cast<std::size_t>(i)] +
+          0.25f * histogram[static_cast<std::size_t>((i + 1) % kLeanBins)];
+    histogram = smoothed;
+  }
+  return histogram;
+}
+
+// The histogram's peaks of at least `ratio` of the highest, as (height, unit direction), the
+// parabola through each peak's bin and its neighbours placing it between them.
+std::vector<std::pair<float, Eigen::Vector2f>> histogramPeaks(const LeanHistogram& histogram,
+                                                              float ratio) {
+  const float highest = *std::max_element(histogram.begin(), histogram.end());
+  std::vector<std::pair<float, Eigen::Vector2f>> peaks;
+  if (highest <= 0.0f) return peaks;
+  for (int i = 0; i < kLeanBins; ++i) {
+    const float left = histogram[static_cast<std::size_t>((i + kLeanBins - 1) % kLeanBins)];
+    const float here = histogram[static_cast<std::size_t>(i)];
+    const float right = histogram[static_cast<std::size_t>((i + 1) % kLeanBins)];
+    if (here < ratio * highest || here <= left || here < right) continue;
+    const float curvature = left - 2.0f * here + right;
+    const float offset = curvature < 0.0f ? 0.5f * (left - right) / curvature : 0.0f;
+    const float angle = (static_cast<float>(i) + offset) / binsPerRadian();
+    peaks.emplace_back(here, Eigen::Vector2f(std::cos(angle), std::sin(angle)));
+  }
+  return peaks;
+}
+
+// The bins' edges lie where z.unitOrthogonal() puts them, which another view of the same
+// surface does not repeat: a peak moves to the mean of the leans within 23 deg of it, which
+// depends on the surface alone.
+Eigen::Vector2f refinedDirection(Eigen::Vector2f direction,
+                                 const std::vector<Eigen::Vector2f>& leans) {
+  const float min_cosine = std::cos(0.4f);
+  for (int step = 0; step < 2; ++step) {
+    Eigen::Vector2f sum = Eigen::Vector2f::Zero();
+    for (const Eigen::Vector2f& lean : leans)
+      if (lean.dot(direction) >= min_cosine * lean.norm()) sum += lean;
+    if (sum.squaredNorm() > 1e-12f) direction = sum.normalized();
+  }
+  return direction;
+}
+
 std::vector<Eigen::Vector3f> leaningDirections(const SurfaceCloud& surface,
                                                const std::vector<std::uint32_t>& support,
                                                const Eigen::Vector3f& z,
                                                const ShapeFeatureParams& params) {
-  constexpr int kBins = 36;
-  constexpr float kMinLean = 0.05f;  // about 3 deg: flatter normals tell no direction
   const Eigen::Vector3f u = z.unitOrthogonal();
   const Eigen::Vector3f v = z.cross(u);
-  std::array<float, kBins> histogram{};
-  const float bins_per_rad = kBins / (2.0f * std::numbers::pi_v<float>);
-  for (std::uint32_t j : support) {
-    const Eigen::Vector3f& n = surface.normals[j];
-    const float a = n.dot(u), b = n.dot(v);
-    const float lean = std::hypot(a, b);
-    if (lean < kMinLean) continue;
-    float position = std::atan2(b, a) * bins_per_rad;
-    if (position < 0.0f) position += kBins;
-    const int bin = static_cast<int>(position) % kBins;
-    const float frac = position - std::floor(position);
-    histogram[static_cast<std::size_t>(bin)] += lean * (1.0f - frac);
-    histogram[static_cast<std::size_t>((bin + 1) % kBins)] += lean * frac;
-  }
-  for (int pass = 0; pass < 2; ++pass) {
-    std::array<float, kBins> smoothed{};
-    for (int i = 0; i < kBins; ++i)
-      smoothed[static_cast<std::size_t>(i)] =
-          0.25f * histogram[static_cast<std::size_t>((i + kBins - 1) % kBins)] +
-          0.5f * histogram[static_cast<std::size_t>(i)] +
-          0.25f * histogram[static_cast<std::size_t>((i + 1) % kBins)];
-    histogram = smoothed;
-  }
-  const float highest = *std::max_element(histogram.begin(), histogram.end());
-  std::vector<std::pair<float, Eigen::Vector3f>> peaks;
-  if (highest <= 0.0f) return {};
-  for (int i = 0; i < kBins; ++i) {
-    const float left = histogram[static_cast<std::size_t>((i + kBins - 1) % kBins)];
-    const float here = histogram[static_cast<std::size_t>(i)];
-    const float right = histogram[static_cast<std::size_t>((i + 1) % kBins)];
-    if (here < params.orientation_peak_ratio * highest || here <= left || here < right) continue;
-    // The parabola through the three bins puts the peak between them.
-    const float curvature = left - 2.0f * here + right;
-    const float offset = curvature < 0.0f ? 0.5f * (left - right) / curvature : 0.0f;
-    const float angle = (static_cast<float>(i) + offset) / bins_per_rad;
-    peaks.emplace_back(here, std::cos(angle) * u + std::sin(angle) * v);
-  }
-  // The bins' edges lie where z.unitOrthogonal() puts them, which another view of the same
-  // surface does not repeat: each peak moves to the mean of the normals' parts within
-  // kWindowRad of it, which depends on the surface alone.
-  constexpr float kWindowRad = 0.4f;  // 23 deg
-  const float min_cosine = std::cos(kWindowRad);
-  for (auto& [height, direction] : peaks) {
-    for (int step = 0; step < 2; ++step) {
-      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-      for (std::uint32_t j : support) {
-        const Eigen::Vector3f& n = surface.normals[j];
-        const Eigen::Vector3f in_plane = n - n.dot(z) * z;
-        const float lean = in_plane.norm();
-        if (lean >= kMinLean && in_plane.dot(direction) >= min_cosine * lean) sum += in_plane;
-      }
-      if (sum.squaredNorm() > 1e-12f) direction = sum.normalized();
-    }
-  }
-  std::sort(peaks.begin(), peaks.end(),
-            [](const auto& a, const auto& b) { return a.first > b.first; });
+  const std::vector<Eigen::Vector2f> leans = normalLeans(surface, support, u, v);
+  auto peaks = histogramPeaks(leanHistogram(leans), params.orientation_peak_ratio);
+  std::stable_sort(peaks.begin(), peaks.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
   if (params.max_orientations > 0 &&
       peaks.size() > static_cast<std::size_t>(params.max_orientations))
     peaks.resize(static_cast<std::size_t>(params.max_orientations));
   std::vector<Eigen::Vector3f> out;
-  for (const auto& peak : peaks) out.push_back(peak.second);
+  for (const auto& [height, direction] : peaks) {
+    const Eigen::Vector2f refined = refinedDirection(direction, leans);
+    out.push_back(refined.x() * u + refined.y() * v);
+  }
   return out;
 }
 
