@@ -84,7 +84,8 @@ Eigen::Isometry3f fittedPose(const std::vector<Match>& matches,
   return Eigen::Isometry3f(transform.cast<float>());
 }
 
-// The matches that agree with a pose, one per model interest point (the closest).
+// The matches that agree with a pose, one per model interest point (the closest). `matches`
+// come in the model's feature order (candidateMatches), so the last holds the last point.
 std::vector<std::uint32_t> agreeingMatches(const Eigen::Isometry3f& pose,
                                            const std::vector<Match>& matches,
                                            float inlier_distance) {
