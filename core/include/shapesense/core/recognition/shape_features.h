@@ -8,10 +8,13 @@
 //   1. interest points: where the normals within `keypoint_radius_m` spread (edges, corners,
 //      curved surfaces; zero on a plane), kept when they are the strongest within
 //      `keypoint_spacing_m` (non-maximum suppression);
-//   2. a repeatable local frame at each, from the points within `support_radius_m`: z (the
-//      local plane's normal) the mean of their normals, turned to face the viewpoint; x towards
-//      their centroid, cast onto the local plane, its sign the side that holds most of them;
-//      both hold for another view that shows the same surface around the point;
+//   2. repeatable local frames at each, from the points within `support_radius_m`: z (the
+//      local plane's normal) the mean of their normals, turned to face the viewpoint; x each
+//      direction in the local plane their normals lean towards most (the peaks of a histogram
+//      of the normals' parts in the plane: an edge gives two, a corner three), or, where they
+//      lean nowhere, towards their centroid; both hold for another view that shows the same
+//      surface around the point. One feature per frame: the features of one interest point
+//      follow each other in the output, with the same position;
 //   3. the height image: those points in the local frame, their mean height over the plane in
 //      each cell of an `height_image_size`^2 grid over [-R, R]^2 (cells no point falls in take
 //      their filled neighbours' mean);
