@@ -147,9 +147,9 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
 // Pairs of matches that a rigid motion could carry together: they turn the model alike, their
 // model points and their scene points lie equally far apart (and far enough apart to fix a
 // rotation), and they share neither feature. Two such matches put the model's centre near each
-// other: each match's turn is off the true one by less than the turns may disagree, which moves
-// the centre by at most 2 sin(angle / 2) times the model's reach; only matches in neighbouring
-// cubes of that side are compared.
+// other: their turns differ by at most max_frame_disagreement_deg, which parts the centres they
+// give by about 2 sin(angle / 2) times the model's reach, plus the pair tolerance; only matches
+// in neighbouring cubes of that side are compared.
 std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
                                                         const ObjectModel& model,
                                                         const ObjectMatchParams& params) {
