@@ -156,6 +156,7 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
   const float min_spacing2 = params.min_sample_spacing_m * params.min_sample_spacing_m;
   const float max_angle = params.max_frame_disagreement_deg * std::numbers::pi_v<float> / 180.0f;
   const float min_trace = 1.0f + 2.0f * std::cos(max_angle);
+  // The reach of the features (the matched points), not of the surface (modelReach).
   float reach2 = 0.0f;
   for (const ShapeFeature& f : model.features)
     reach2 = std::max(reach2, (f.position - model.box.centre).squaredNorm());
@@ -408,9 +409,9 @@ float readingAt(const Eigen::Vector3f& p, const SceneSurface& scene) {
 }
 
 // Step 4.
-Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& model,
-                           const SceneSurface& scene, const ObjectMatchParams& params) {
-  Verification out;
+// The model's surface points that the depth confirms and contradicts at `pose` (into `out`).
+void checkSurface(const Eigen::Isometry3f& pose, const ObjectModel& model,
+                  const SceneSurface& scene, const ObjectMatchParams& params, Verification& out) {
   for (std::size_t i = 0; i < model.surface.size(); ++i) {
     const Eigen::Vector3f p = pose * model.surface.points[i];
     const Eigen::Vector3f n = pose.linear() * model.surface.normals[i];
@@ -425,6 +426,11 @@ Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& mod
       ++out.contradicted;
     }
   }
+}
+
+// The outline probes that the depth sees, and those of them at the object's depth (into `out`).
+void checkOutline(const Eigen::Isometry3f& pose, const ObjectModel& model,
+                  const SceneSurface& scene, const ObjectMatchParams& params, Verification& out) {
   for (const Eigen::Vector3f& probe : model.outline_probes) {
     const Eigen::Vector3f p = pose * probe;
     const float measured = readingAt(p, scene);
@@ -434,6 +440,13 @@ Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& mod
     if (std::abs(measured - p.z()) <= std::min(tolerance, params.outline_continuation_m))
       ++out.outline_continued;
   }
+}
+
+Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& model,
+                           const SceneSurface& scene, const ObjectMatchParams& params) {
+  Verification out;
+  checkSurface(pose, model, scene, params, out);
+  checkOutline(pose, model, scene, params, out);
   return out;
 }
 
@@ -448,7 +461,9 @@ std::vector<Hypothesis> worthRefining(std::vector<Hypothesis> hypotheses, const 
   const float needed = 0.5f * params.min_confirmed_share * static_cast<float>(model.surface.size());
   std::vector<std::pair<int, Hypothesis>> ranked;
   for (const Hypothesis& h : hypotheses) {
-    const int confirmed = verifyInDepth(h.scene_from_model, model, scene, within_reach).confirmed;
+    Verification check;
+    checkSurface(h.scene_from_model, model, scene, within_reach, check);
+    const int confirmed = check.confirmed;
     if (static_cast<float>(confirmed) >= needed) ranked.emplace_back(confirmed, h);
   }
   std::stable_sort(ranked.begin(), ranked.end(),
