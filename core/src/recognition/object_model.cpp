@@ -1,5 +1,6 @@
 #include "shapesense/core/recognition/object_model.h"
 
+#include <optional>
 #include <stdexcept>
 
 #include <Eigen/Eigenvalues>
@@ -9,6 +10,13 @@
 
 namespace shapesense {
 namespace {
+
+// The steepest face (depth change over lateral distance) that is extended past the outline,
+// tan 63 deg: steeper, the face is seen nearly edge-on and its extension is ill-defined.
+constexpr double kMaxFaceSlope = 2.0;
+// A surface in front of a probe touches the object when it lies within this many probe
+// offsets of the outline (plus the sensor's noise): one seen at a glancing angle reads farther.
+constexpr double kTouchingReach = 4.0;
 
 SurfaceCloud everyKth(const SurfaceCloud& cloud, int max_points) {
   const std::size_t step = detail::thinningStep(cloud.size(), max_points);
@@ -57,35 +65,120 @@ void requireSurface(const SurfaceCloud& object) {
   }
 }
 
-// Beyond each outline pixel, `offset` pixels out: where the taught view read something
-// clearly farther than the object (background; not the table it stands on, an occluder, or a
-// shadow that may hide either), the point at the object's depth there.
+// For every pixel off the object, its distance from the object's pixels with depth and the
+// nearest of them.
+struct NearestObjectPixels {
+  cv::Mat distance;              ///< CV_32F, pixels; 0 on the object
+  cv::Mat label;                 ///< CV_32S, distanceTransform's label of the nearest object pixel
+  std::vector<cv::Point> pixel;  ///< the object pixel of each label
+
+  explicit NearestObjectPixels(const cv::Mat& object_with_depth)
+      : pixel(object_with_depth.total() + 1) {
+    cv::distanceTransform(object_with_depth == 0, distance, label, cv::DIST_L2, cv::DIST_MASK_5,
+                          cv::DIST_LABEL_PIXEL);
+    // Each object pixel carries a label of its own.
+    for (int v = 0; v < object_with_depth.rows; ++v)
+      for (int u = 0; u < object_with_depth.cols; ++u)
+        if (object_with_depth.at<std::uint8_t>(v, u))
+          pixel[static_cast<std::size_t>(label.at<int>(v, u))] = cv::Point(u, v);
+  }
+  cv::Point nearestTo(cv::Point p) const {
+    return pixel[static_cast<std::size_t>(label.at<int>(p))];
+  }
+};
+
+// The depth of the object's face extended from `edge` out to `outside`: inverse depth is linear
+// in the image along a plane; fitted to the object pixels 2-10 px inward from the edge (past
+// its flying pixels) and extrapolated. 0 when too few of them have depth.
+double extendedFaceDepth(const cv::Mat& depth_mm, const cv::Mat& object_with_depth,
+                         cv::Point outside, cv::Point edge) {
+  const Eigen::Vector2d from(outside.x, outside.y);
+  const Eigen::Vector2d to_edge = Eigen::Vector2d(edge.x, edge.y) - from;
+  const Eigen::Vector2d inward = to_edge.normalized();
+  double n = 0, sum_s = 0, sum_w = 0, sum_ss = 0, sum_sw = 0;
+  for (int k = 2; k <= 10; ++k) {
+    const double s = to_edge.norm() + k;
+    const Eigen::Vector2d at = from + s * inward;
+    const cv::Point pixel(static_cast<int>(std::lround(at.x())),
+                          static_cast<int>(std::lround(at.y())));
+    if (pixel.x < 0 || pixel.y < 0 || pixel.x >= depth_mm.cols || pixel.y >= depth_mm.rows) break;
+    if (!object_with_depth.at<std::uint8_t>(pixel)) continue;
+    const double w = 1e3 / depth_mm.at<std::uint16_t>(pixel);
+    n += 1;
+    sum_s += s;
+    sum_w += w;
+    sum_ss += s * s;
+    sum_sw += s * w;
+  }
+  constexpr double kMinSamples = 5;
+  const double denominator = n * sum_ss - sum_s * sum_s;
+  if (n < kMinSamples || denominator <= 0.0) return 0.0;
+  const double slope = (n * sum_sw - sum_s * sum_w) / denominator;
+  const double w_outside = (sum_w - slope * sum_s) / n;
+  return w_outside > 0.0 ? 1.0 / w_outside : 0.0;
+}
+
+// How far apart two readings near depth z must be to tell two surfaces apart for sure (m).
+double clearGap(double z) { return std::max(0.02, 4.0 * KinectNoiseModel{}.depthStep(z)); }
+
+// Beyond the outline of a face: the point on the face's extension, kept where the taught view
+// shows that the face does not go on there. What it shows instead is background behind the
+// probe, or something in front that touches the object at the outline (what it stands on or
+// leans against); not an occluder, behind which the face may go on.
+std::optional<Eigen::Vector3f> faceProbe(cv::Point outside, cv::Point edge, double edge_z,
+                                         double probe_z, double beyond_z,
+                                         const CameraIntrinsics& intrinsics,
+                                         const ObjectModelParams& params) {
+  if (std::abs(beyond_z - probe_z) < clearGap(probe_z)) return std::nullopt;
+  if (beyond_z < probe_z) {
+    const Eigen::Vector3d in_front = intrinsics.backproject(outside.x, outside.y, beyond_z);
+    const Eigen::Vector3d at_edge = intrinsics.backproject(edge.x, edge.y, edge_z);
+    const double touching =
+        kTouchingReach * params.outline_probe_offset_m + 2.0 * KinectNoiseModel{}.depthStep(edge_z);
+    if ((in_front - at_edge).norm() > touching) return std::nullopt;
+  }
+  return intrinsics.backproject(outside.x, outside.y, probe_z).cast<float>();
+}
+
+// Beyond a silhouette (a face seen edge-on, as a curved object's sides are): the point at the
+// outline's depth, kept where the taught view saw background behind it.
+std::optional<Eigen::Vector3f> silhouetteProbe(cv::Point outside, double edge_z, double beyond_z,
+                                               const CameraIntrinsics& intrinsics) {
+  if (beyond_z < edge_z + clearGap(edge_z)) return std::nullopt;
+  return intrinsics.backproject(outside.x, outside.y, edge_z).cast<float>();
+}
+
+// Points where the taught view shows that the object ends, one from each pixel with a reading
+// whose distance from the object's pixels is the probe offset at the depth of the nearest one
+// (so that a probe clears the outline by that much in every direction, slanted outlines too).
 std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
                                            const CameraIntrinsics& intrinsics,
                                            const cv::Mat& object_mask,
                                            const ObjectModelParams& params) {
-  const int min_offset_px = params.outline_probe_offset_px;
-  const KinectNoiseModel noise{};
+  const cv::Mat object_with_depth = object_mask & (depth_mm > 0);
+  if (cv::countNonZero(object_with_depth) == 0) return {};
+  const NearestObjectPixels nearest(object_with_depth);
   std::vector<Eigen::Vector3f> probes;
-  const std::array<cv::Point, 4> kDirections{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
-  for (int v = 0; v < object_mask.rows; ++v)
-    for (int u = 0; u < object_mask.cols; ++u) {
-      const std::uint16_t reading = depth_mm.at<std::uint16_t>(v, u);
-      if (!object_mask.at<std::uint8_t>(v, u) || reading == 0) continue;
-      for (const cv::Point& d : kDirections) {
-        const double z = 1e-3 * reading;
-        const int offset = std::max(
-            min_offset_px,
-            static_cast<int>(std::ceil(params.outline_probe_offset_m * intrinsics.fx / z)));
-        const cv::Point next(u + d.x, v + d.y);
-        const cv::Point out(u + offset * d.x, v + offset * d.y);
-        if (out.x < 0 || out.y < 0 || out.x >= depth_mm.cols || out.y >= depth_mm.rows) continue;
-        if (object_mask.at<std::uint8_t>(next) || object_mask.at<std::uint8_t>(out)) continue;
-        const std::uint16_t beyond = depth_mm.at<std::uint16_t>(out);
-        const double gap = std::max(0.02, 4.0 * noise.depthStep(z));
-        if (beyond == 0 || 1e-3 * beyond < z + gap) continue;  // unknown, or near surface
-        probes.push_back(intrinsics.backproject(out.x, out.y, z).cast<float>());
-      }
+  for (int v = 0; v < depth_mm.rows; ++v)
+    for (int u = 0; u < depth_mm.cols; ++u) {
+      const cv::Point outside(u, v);
+      const float from_object = nearest.distance.at<float>(outside);
+      const std::uint16_t beyond = depth_mm.at<std::uint16_t>(outside);
+      if (from_object == 0.0f || beyond == 0) continue;
+      const cv::Point edge = nearest.nearestTo(outside);
+      const double edge_z = 1e-3 * depth_mm.at<std::uint16_t>(edge);
+      const double offset = std::max<double>(
+          params.outline_probe_offset_px, params.outline_probe_offset_m * intrinsics.fx / edge_z);
+      if (from_object < offset || from_object >= offset + 1.0) continue;
+      const double probe_z = extendedFaceDepth(depth_mm, object_with_depth, outside, edge);
+      const bool face_extends =
+          probe_z > 0.0 &&
+          std::abs(probe_z - edge_z) <= kMaxFaceSlope * from_object * edge_z / intrinsics.fx;
+      const std::optional<Eigen::Vector3f> probe =
+          face_extends
+              ? faceProbe(outside, edge, edge_z, probe_z, 1e-3 * beyond, intrinsics, params)
+              : silhouetteProbe(outside, edge_z, 1e-3 * beyond, intrinsics);
+      if (probe) probes.push_back(*probe);
     }
   const std::size_t step = detail::thinningStep(probes.size(), params.max_outline_probes);
   if (step == 1) return probes;

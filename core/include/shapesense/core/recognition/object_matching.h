@@ -14,8 +14,8 @@
 //      fall in the image, the share the depth confirms (a reading at the predicted depth, within
 //      the sensor's noise) among those it confirms or contradicts (a reading behind where the
 //      object would be); readings in front are occluders and count neither way. And the
-//      outline: where the taught view saw background just beyond the object, the scene must not
-//      show surface at the object's depth (the object ends there).
+//      outline: just beyond it, where the taught view shows that the object ends (object_model.h,
+//      outline probes), the scene must not show surface at the probe's depth.
 // The scene's surface and features are computed once per frame (SceneSurface) and shared by
 // every model looked for.
 
@@ -104,11 +104,11 @@ struct ObjectMatchParams {
   /// reading not in front of them): an object whose outline is hidden or out of view cannot be
   /// told from a part of something larger. Default 0.3.
   float min_seen_outline = 0.3f;
-  /// ...and at most this share of those seen may show surface at the object's depth: more
-  /// means the match is part of a larger thing. Default 0.02.
-  float max_continued_outline = 0.02f;
-  /// A probe shows surface at the object's depth when the reading there is within this of the
-  /// probe's depth (m). Less than the probes' distance from the outline
+  /// ...and at most this share of those seen may show surface at the probe's depth: more
+  /// means the match is part of a larger thing. Default 0.04 (chosen on the validation split).
+  float max_continued_outline = 0.04f;
+  /// A probe shows surface at its depth when the reading there is within this of the probe's
+  /// depth (m). Less than the probes' distance from the outline
   /// (ObjectModelParams::outline_probe_offset_m): another view that sees the object's own side,
   /// which runs back from the outline, reads it that far behind the probe or more. Default 1 cm.
   float outline_continuation_m = 0.01f;

@@ -36,9 +36,11 @@ struct ObjectModelParams {
   int min_features = 6;
   /// Outline probes lie this many pixels beyond the outline (past its flying pixels), and at
   /// least this far (m): nearer, another view's glimpse of the object's own side, which runs
-  /// back from the outline, would read as surface at the object's depth. Defaults 3 px, 1.5 cm.
+  /// back from the outline, would read as surface at the probe's depth; farther, the model
+  /// fits a larger object's corner with room to spare. Defaults 3 px, 1.25 cm (chosen on the
+  /// validation split, docs/benchmarks.md).
   int outline_probe_offset_px = 3;
-  float outline_probe_offset_m = 0.015f;
+  float outline_probe_offset_m = 0.0125f;
   /// Probes within this distance of a surface the taught view shows are left out (m): beside
   /// the object's foot a probe hangs just over what it stands on, which another view reads at
   /// the probe's depth. Default 1 cm.
@@ -52,10 +54,12 @@ struct ObjectModel {
   SurfaceCloud surface;                ///< the object alone, model frame
   std::vector<ShapeFeature> features;  ///< interest points on the object, model frame
   OrientedBox box;                     ///< around `surface`, along its principal axes
-  /// Points just beyond the object's outline where the taught view saw background: if a
-  /// scene shows surface there, at the object's depth, what matched is part of something
-  /// larger (a corner of a bigger box fits a small box's corner). Empty for models from a
-  /// point cloud.
+  /// Points just beyond the object's outline where the taught view shows that the object
+  /// ends: on a face's extension past its edge where the view sees no such surface there
+  /// (background behind, or what the object stands on in front), and beside a silhouette
+  /// where it sees background. If a scene shows surface there, at the probe's depth, what
+  /// matched is part of something larger (a corner of a bigger box fits a small box's
+  /// corner). Empty for models from a point cloud.
   std::vector<Eigen::Vector3f> outline_probes;
 };
 
