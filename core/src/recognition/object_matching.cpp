@@ -476,6 +476,14 @@ std::vector<Hypothesis> worthRefining(std::vector<Hypothesis> hypotheses, const 
   return out;
 }
 
+// Whether a verified pose has the evidence its feature support asks for (strong_inliers).
+bool enoughEvidence(const ObjectDetection& detection, const Hypothesis& hypothesis,
+                    const ObjectModel& model, const ObjectMatchParams& params) {
+  return hypothesis.inliers >= params.strong_inliers ||
+         static_cast<float>(detection.confirmed_points) >=
+             params.weak_pose_confirmed_share * static_cast<float>(model.surface.size());
+}
+
 OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
   OrientedBox out = box;
   out.centre = pose * box.centre;
@@ -508,7 +516,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
     const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
                                               params.icp_iterations, params.icp_max_points, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
-    if (!detection) continue;
+    if (!detection || !enoughEvidence(*detection, hypothesis, model, params)) continue;
     detection->feature_inliers = hypothesis.inliers;
     if (!best || detection->confirmed_points > best->confirmed_points) {
       best = detection;

@@ -126,7 +126,7 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
 // Requirement (issue 22): a taught object is found in every later frame where it is visible.
 // Without truth for where each object is visible that is not asserted here; what is: no
 // taught object is found away from where it is (a false detection), and, as a regression
-// record, the objects found again where they are (5 of 12 searches when last measured:
+// record, the objects found again where they are (6 of 12 searches when last measured:
 // docs/benchmarks.md).
 TEST(RecognitionReal, TaughtObjectsAreFoundOnlyWhereTheyWereTaught) {
   if (!std::filesystem::exists(testing::realRecording("tum_fr2_desk")))
@@ -141,7 +141,7 @@ TEST(RecognitionReal, TaughtObjectsAreFoundOnlyWhereTheyWereTaught) {
   }
   ASSERT_GE(all.taught, 3);
   EXPECT_EQ(all.found_elsewhere, 0);
-  EXPECT_GE(all.found_same_place, 5);
+  EXPECT_GE(all.found_same_place, 6);
 }
 
 }  // namespace

@@ -74,8 +74,14 @@ struct ObjectMatchParams {
   /// Default 2 cm.
   float min_sample_spacing_m = 0.02f;
   /// Fewest agreeing matches (distinct model interest points) for a pose to be refined.
-  /// Default 7.
-  int min_inliers = 7;
+  /// Default 4.
+  int min_inliers = 4;
+  /// A pose that fewer than `strong_inliers` matches agree with is weak evidence from the
+  /// features alone (a few corner matches fit many boxes): it stands only where the depth
+  /// confirms at least `weak_pose_confirmed_share` of the model's points. Defaults 7 and 0.9
+  /// (chosen on the validation split, docs/benchmarks.md).
+  int strong_inliers = 7;
+  float weak_pose_confirmed_share = 0.9f;
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
   /// matches that are checked in the depth; of those, the `pose_hypotheses` the depth confirms
   /// most (before ICP, within its reach) are refined and checked again; the one the depth
