@@ -15,7 +15,8 @@
 //      the sensor's noise) among those it confirms or contradicts (a reading behind where the
 //      object would be); readings in front are occluders and count neither way. And the
 //      outline: just beyond it, where the taught view shows that the object ends (object_model.h,
-//      outline probes), the scene must not show surface at the probe's depth.
+//      outline probes), the scene must not show surface at the probe's depth. A pose that few
+//      matches agree with must be confirmed on most of the model (strong_inliers).
 // The scene's surface and features are computed once per frame (SceneSurface) and shared by
 // every model looked for.
 
