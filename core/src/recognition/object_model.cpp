@@ -6,6 +6,8 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
+#include "shapesense/core/geometry/depth_step.h"
+
 #include "cloud_index.h"
 
 namespace shapesense {
@@ -14,6 +16,9 @@ namespace {
 // The steepest face (depth change over lateral distance) that is extended past the outline,
 // tan 63 deg: steeper, the face is seen nearly edge-on and its extension is ill-defined.
 constexpr double kMaxFaceSlope = 2.0;
+// Readings this far apart lie on surfaces told apart for sure: a probe's depth and what the
+// taught view reads there (at least 4 sensor steps and 2 cm).
+const DepthStepRule kSurfacesApart{.noise_steps = 4.0, .range_fraction = 0.0, .floor_m = 0.02};
 // A surface in front of a probe touches the object when it lies within this many probe
 // offsets of the outline (plus the sensor's noise): one seen at a glancing angle reads farther.
 constexpr double kTouchingReach = 4.0;
@@ -118,9 +123,6 @@ double extendedFaceDepth(const cv::Mat& depth_mm, const cv::Mat& object_with_dep
   return w_outside > 0.0 ? 1.0 / w_outside : 0.0;
 }
 
-// How far apart two readings near depth z must be to tell two surfaces apart for sure (m).
-double clearGap(double z) { return std::max(0.02, 4.0 * KinectNoiseModel{}.depthStep(z)); }
-
 // Beyond the outline of a face: the point on the face's extension, kept where the taught view
 // shows that the face does not go on there. What it shows instead is background behind the
 // probe, or something in front that touches the object at the outline (what it stands on or
@@ -129,7 +131,7 @@ std::optional<Eigen::Vector3f> faceProbe(cv::Point outside, cv::Point edge, doub
                                          double probe_z, double beyond_z,
                                          const CameraIntrinsics& intrinsics,
                                          const ObjectModelParams& params) {
-  if (std::abs(beyond_z - probe_z) < clearGap(probe_z)) return std::nullopt;
+  if (std::abs(beyond_z - probe_z) < kSurfacesApart.threshold(probe_z)) return std::nullopt;
   if (beyond_z < probe_z) {
     const Eigen::Vector3d in_front = intrinsics.backproject(outside.x, outside.y, beyond_z);
     const Eigen::Vector3d at_edge = intrinsics.backproject(edge.x, edge.y, edge_z);
@@ -144,7 +146,7 @@ std::optional<Eigen::Vector3f> faceProbe(cv::Point outside, cv::Point edge, doub
 // outline's depth, kept where the taught view saw background behind it.
 std::optional<Eigen::Vector3f> silhouetteProbe(cv::Point outside, double edge_z, double beyond_z,
                                                const CameraIntrinsics& intrinsics) {
-  if (beyond_z < edge_z + clearGap(edge_z)) return std::nullopt;
+  if (beyond_z < edge_z + kSurfacesApart.threshold(edge_z)) return std::nullopt;
   return intrinsics.backproject(outside.x, outside.y, edge_z).cast<float>();
 }
 

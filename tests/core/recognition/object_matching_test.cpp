@@ -163,8 +163,6 @@ TEST(ObjectMatchingQuality, FindsNoTaughtObjectInScenesWithoutIt) {
   EXPECT_LE(detections, 2);
 }
 
-// A model from a point cloud file: the object's points written as PLY (without normals, as a
-// scanner might give them), read back, and found in a later frame.
 // Distance from `p` to the solid box `object` (0 inside).
 double distanceToBox(const Eigen::Vector3f& p, const synthetic::TruthObject& object) {
   const Eigen::Vector3d local = object.rotation.transpose() * (p.cast<double>() - object.center);
@@ -205,6 +203,8 @@ TEST(ObjectModel, OutlineProbesLieClearOfTheWholeObject) {
   EXPECT_GE(low, 0.5 * params.outline_probe_offset_m);
 }
 
+// A model from a point cloud file: the object's points written as PLY (without normals, as a
+// scanner might give them), read back, and found in a later frame.
 TEST(ObjectMatching, FindsAnObjectModelledFromAPlyFile) {
   synthetic::SceneParams params;
   params.seed = 25;
