@@ -57,14 +57,21 @@ int bitsFor(int range) {
   return bits;
 }
 
-// Stable LSD radix sort of `values` on bits [32, 32 + key_bits) of each, 8 bits a pass.
+// Stable LSD radix sort of `values` on bits [32, 32 + key_bits) of each, in as few passes of
+// at most 11 bits as cover them (2048 counters stay in the first-level cache).
 void radixSortUpperBits(std::vector<std::uint64_t>& values, int key_bits) {
+  const int passes = (key_bits + 10) / 11;
+  if (passes == 0) return;
+  const int digit_bits = (key_bits + passes - 1) / passes;
+  const std::uint64_t digit_mask = (std::uint64_t{1} << digit_bits) - 1;
   std::vector<std::uint64_t> buffer(values.size());
-  for (int shift = 32; shift < 32 + key_bits; shift += 8) {
-    std::array<std::size_t, 257> start{};
-    for (const std::uint64_t v : values) ++start[((v >> shift) & 0xFF) + 1];
+  std::vector<std::size_t> start((std::size_t{1} << digit_bits) + 1);
+  for (int pass = 0; pass < passes; ++pass) {
+    const int shift = 32 + pass * digit_bits;
+    std::fill(start.begin(), start.end(), 0);
+    for (const std::uint64_t v : values) ++start[((v >> shift) & digit_mask) + 1];
     for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
-    for (const std::uint64_t v : values) buffer[start[(v >> shift) & 0xFF]++] = v;
+    for (const std::uint64_t v : values) buffer[start[(v >> shift) & digit_mask]++] = v;
     values.swap(buffer);
   }
 }
@@ -72,14 +79,16 @@ void radixSortUpperBits(std::vector<std::uint64_t>& values, int key_bits) {
 }  // namespace
 
 std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, float size) {
-  std::vector<Eigen::Vector3i> cells(points.size());
-  Eigen::Vector3i low = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
-  Eigen::Vector3i high = Eigen::Vector3i::Constant(std::numeric_limits<int>::min());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    cells[i] = cellOf(points[i], size);
-    low = low.cwiseMin(cells[i]);
-    high = high.cwiseMax(cells[i]);
+  // The cells' bounds are the cells of the points' bounds (a cell's index grows with each
+  // coordinate): each point's cell is computed once, when it is packed.
+  Eigen::Vector3f lowest = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f highest = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+  for (const Eigen::Vector3f& p : points) {
+    lowest = lowest.cwiseMin(p);
+    highest = highest.cwiseMax(p);
   }
+  const Eigen::Vector3i low = cellOf(lowest, size);
+  const Eigen::Vector3i high = cellOf(highest, size);
   std::vector<CellEntry> out(points.size());
   if (points.empty()) return out;
   const Eigen::Vector3i range = high - low;
@@ -87,7 +96,7 @@ std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, 
   const int key_bits = bitsFor(range.x()) + bits_y + bits_z;
   if (key_bits > 32) {
     for (std::size_t i = 0; i < points.size(); ++i)
-      out[i] = {cellKey(cells[i]), static_cast<std::uint32_t>(i)};
+      out[i] = {cellKey(cellOf(points[i], size)), static_cast<std::uint32_t>(i)};
     std::sort(out.begin(), out.end(), [](const CellEntry& a, const CellEntry& b) {
       return a.key != b.key ? a.key < b.key : a.index < b.index;
     });
@@ -96,16 +105,24 @@ std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, 
   // The offsets packed x, y, z from the highest bits down order the cells as their keys do.
   std::vector<std::uint64_t> packed(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3i offset = cells[i] - low;
+    const Eigen::Vector3i offset = cellOf(points[i], size) - low;
     const std::uint64_t compact = (static_cast<std::uint64_t>(offset.x()) << (bits_y + bits_z)) |
                                   (static_cast<std::uint64_t>(offset.y()) << bits_z) |
                                   static_cast<std::uint64_t>(offset.z());
     packed[i] = (compact << 32) | i;
   }
   radixSortUpperBits(packed, key_bits);
+  // The cell back from the packed offsets: in sorted order, reading the points again would be a
+  // read from anywhere in memory per point.
+  const std::uint64_t mask_y = (std::uint64_t{1} << bits_y) - 1;
+  const std::uint64_t mask_z = (std::uint64_t{1} << bits_z) - 1;
   for (std::size_t k = 0; k < packed.size(); ++k) {
-    const auto index = static_cast<std::uint32_t>(packed[k] & 0xFFFFFFFFu);
-    out[k] = {cellKey(cells[index]), index};
+    const std::uint64_t compact = packed[k] >> 32;
+    const Eigen::Vector3i cell =
+        low + Eigen::Vector3i(static_cast<int>(compact >> (bits_y + bits_z)),
+                              static_cast<int>((compact >> bits_z) & mask_y),
+                              static_cast<int>(compact & mask_z));
+    out[k] = {cellKey(cell), static_cast<std::uint32_t>(packed[k] & 0xFFFFFFFFu)};
   }
   return out;
 }

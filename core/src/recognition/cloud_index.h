@@ -11,9 +11,15 @@
 
 namespace shapesense::detail {
 
+/// floor(x) as an int, for |x| < 2^31; without SSE4.1, std::floor is a library call.
+inline int floorToInt(float x) {
+  const int truncated = static_cast<int>(x);
+  return truncated - (x < static_cast<float>(truncated) ? 1 : 0);
+}
+
 /// The integer cell of side `size` holding `p`.
 inline Eigen::Vector3i cellOf(const Eigen::Vector3f& p, float size) {
-  return (p / size).array().floor().cast<int>();
+  return {floorToInt(p.x() / size), floorToInt(p.y() / size), floorToInt(p.z() / size)};
 }
 
 /// A cell as one hashable, sortable key: 21 bits a coordinate (+-1 M cells, +-5 km at 5 mm).

@@ -1,8 +1,10 @@
 #include "shapesense/core/recognition/object_matching.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <unordered_map>
@@ -92,9 +94,16 @@ std::vector<std::uint32_t> agreeingMatches(const Eigen::Isometry3f& pose,
   const std::size_t keypoints = matches.empty() ? 0 : matches.back().model_keypoint + 1u;
   std::vector<float> best(keypoints, inlier_distance * inlier_distance);
   std::vector<int> chosen(keypoints, -1);
+  // The matches of one interest point follow each other: it is posed once for all of them.
+  Eigen::Vector3f posed = Eigen::Vector3f::Zero();
+  int posed_keypoint = -1;
   for (std::size_t i = 0; i < matches.size(); ++i) {
     const Match& m = matches[i];
-    const float d2 = (pose * m.model_point - m.scene_point).squaredNorm();
+    if (m.model_keypoint != posed_keypoint) {
+      posed = pose * m.model_point;
+      posed_keypoint = m.model_keypoint;
+    }
+    const float d2 = (posed - m.scene_point).squaredNorm();
     const auto k = static_cast<std::size_t>(m.model_keypoint);
     if (d2 < best[k]) {
       best[k] = d2;
@@ -144,12 +153,33 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
       h.inliers};
 }
 
+// Where a turn sends the model's x and y axes (its first two columns), each coordinate binned
+// on a grid of `side`. Two turns within angle t of each other send every axis to within the
+// chord 2 sin(t / 2) of each other, so with `side` at least that chord their bins differ by at
+// most one in every coordinate.
+using TurnBins = std::array<std::int16_t, 6>;
+
+TurnBins turnBins(const Eigen::Matrix3f& turn, float side) {
+  TurnBins out{};
+  for (int k = 0; k < 6; ++k)
+    out[static_cast<std::size_t>(k)] =
+        static_cast<std::int16_t>(std::floor((turn(k % 3, k / 3) + 1.0f) / side));
+  return out;
+}
+
+bool neighbouringBins(const TurnBins& a, const TurnBins& b) {
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (std::abs(a[k] - b[k]) > 1) return false;
+  return true;
+}
+
 // Pairs of matches that a rigid motion could carry together: they turn the model alike, their
 // model points and their scene points lie equally far apart (and far enough apart to fix a
 // rotation), and they share neither feature. Two such matches put the model's centre near each
 // other: their turns differ by at most max_frame_disagreement_deg, which parts the centres they
-// give by about 2 sin(angle / 2) times the model's reach, plus the pair tolerance; only matches
-// in neighbouring cubes of that side are compared.
+// give by about 2 sin(angle / 2) times the model's reach, plus the pair tolerance. So only
+// matches in neighbouring cubes of that side, and within those in neighbouring turn bins, are
+// compared.
 std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>& matches,
                                                         const ObjectModel& model,
                                                         const ObjectMatchParams& params) {
@@ -160,16 +190,30 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
   float reach2 = 0.0f;
   for (const ShapeFeature& f : model.features)
     reach2 = std::max(reach2, (f.position - model.box.centre).squaredNorm());
-  const float cube =
-      params.pair_tolerance_m + 2.0f * std::sin(0.5f * max_angle) * std::sqrt(reach2);
-  std::unordered_map<std::int64_t, std::pair<Eigen::Vector3i, std::vector<std::uint32_t>>> by_cube;
+  const float chord = 2.0f * std::sin(0.5f * std::min(max_angle, std::numbers::pi_v<float>));
+  const float cube = params.pair_tolerance_m + chord * std::sqrt(reach2);
+  // A little over the chord, for rounding; at most 1000 bins a coordinate.
+  const float turn_side = std::max(1.01f * chord, 0.002f);
+  struct Group {
+    TurnBins bins;
+    std::vector<std::uint32_t> members;
+  };
+  struct Cube {
+    Eigen::Vector3i cell;
+    std::vector<Group> groups;
+  };
+  std::unordered_map<std::int64_t, Cube> by_cube;
   for (std::uint32_t i = 0; i < matches.size(); ++i) {
     const Match& m = matches[i];
     const Eigen::Vector3i cell =
         detail::cellOf(m.turn * (model.box.centre - m.model_point) + m.scene_point, cube);
-    auto& [at, members] = by_cube[detail::cellKey(cell)];
-    at = cell;
-    members.push_back(i);
+    Cube& c = by_cube[detail::cellKey(cell)];
+    c.cell = cell;
+    const TurnBins bins = turnBins(m.turn, turn_side);
+    auto group = std::find_if(c.groups.begin(), c.groups.end(),
+                              [&](const Group& g) { return g.bins == bins; });
+    if (group == c.groups.end()) group = c.groups.insert(c.groups.end(), Group{bins, {}});
+    group->members.push_back(i);
   }
   std::vector<std::vector<std::uint32_t>> out(matches.size());
   const auto compare = [&](std::uint32_t a, std::uint32_t b) {
@@ -185,19 +229,27 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
     out[a].push_back(b);
     out[b].push_back(a);
   };
+  const auto compareGroups = [&](const Group& g, const Group& h) {
+    if (!neighbouringBins(g.bins, h.bins)) return;
+    for (std::uint32_t a : g.members)
+      for (std::uint32_t b : h.members) compare(a, b);
+  };
   // Each pair of neighbouring cubes once: a cube with itself, and with the 13 of its 26
   // neighbours that come after it in (z, y, x) order.
-  for (const auto& [key, cube_members] : by_cube) {
-    const auto& [cell, members] = cube_members;
-    for (std::size_t i = 0; i < members.size(); ++i)
-      for (std::size_t j = i + 1; j < members.size(); ++j) compare(members[i], members[j]);
+  for (const auto& [key, c] : by_cube) {
+    for (std::size_t g = 0; g < c.groups.size(); ++g) {
+      const std::vector<std::uint32_t>& members = c.groups[g].members;
+      for (std::size_t i = 0; i < members.size(); ++i)
+        for (std::size_t j = i + 1; j < members.size(); ++j) compare(members[i], members[j]);
+      for (std::size_t h = g + 1; h < c.groups.size(); ++h) compareGroups(c.groups[g], c.groups[h]);
+    }
     for (int dz = 0; dz <= 1; ++dz)
       for (int dy = dz == 0 ? 0 : -1; dy <= 1; ++dy)
         for (int dx = (dz == 0 && dy == 0) ? 1 : -1; dx <= 1; ++dx) {
-          const auto it = by_cube.find(detail::cellKey(cell + Eigen::Vector3i(dx, dy, dz)));
+          const auto it = by_cube.find(detail::cellKey(c.cell + Eigen::Vector3i(dx, dy, dz)));
           if (it == by_cube.end()) continue;
-          for (std::uint32_t a : members)
-            for (std::uint32_t b : it->second.second) compare(a, b);
+          for (const Group& g : c.groups)
+            for (const Group& h : it->second.groups) compareGroups(g, h);
         }
   }
   for (auto& partners : out) std::sort(partners.begin(), partners.end());
@@ -287,31 +339,41 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
   return pose;
 }
 
+// An axis-aligned box in the camera frame.
+struct Bounds {
+  Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f high = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+
+  bool contains(const Eigen::Vector3f& p) const {
+    return (low.array() <= p.array()).all() && (p.array() <= high.array()).all();
+  }
+  bool contains(const Bounds& other) const { return contains(other.low) && contains(other.high); }
+  Bounds grown(float margin) const {
+    return {low - Eigen::Vector3f::Constant(margin), high + Eigen::Vector3f::Constant(margin)};
+  }
+};
+
 // The scene points ICP may pair a model with while its pose stays near the one the patch was
-// made for, with a nearest-point index over them. ICP pairs within icp_max_distance_m only, so
-// a model point within the model's reach of the posed centre pairs with a scene point within
-// that reach plus the pairing distance; `slack` allows for ICP moving the pose. An index over
-// the whole scene cost more to build than every query of a frame's models.
+// made for, with a nearest-point index over them: those within the bounds of the posed
+// model's points, grown by what ICP can reach (ScenePatches). An index over the whole scene
+// cost more to build than every query of a frame's models.
 class ScenePatch {
  public:
-  ScenePatch(const SceneSurface& scene, const Eigen::Vector3f& centre, float reach)
-      : scene_(scene), centre_(centre), reach_(reach) {
-    const float reach2 = reach * reach;
+  ScenePatch(const SceneSurface& scene, const Bounds& bounds) : scene_(scene), bounds_(bounds) {
     const std::vector<Eigen::Vector3f>& all = scene.surface().points;
     for (std::size_t i = 0; i < all.size(); ++i) {
-      if ((all[i] - centre).squaredNorm() > reach2) continue;
+      if (!bounds.contains(all[i])) continue;
       points_.push_back(all[i]);
       scene_index_.push_back(static_cast<std::uint32_t>(i));
     }
+
     index_ = std::make_unique<detail::CloudIndex>(points_);
   }
   ScenePatch(const ScenePatch&) = delete;
   ScenePatch& operator=(const ScenePatch&) = delete;
 
-  /// Whether the patch holds every scene point within `reach` of `centre`.
-  bool covers(const Eigen::Vector3f& centre, float reach) const {
-    return (centre - centre_).norm() + reach <= reach_;
-  }
+  /// Whether the patch holds every scene point within `bounds`.
+  bool covers(const Bounds& bounds) const { return bounds_.contains(bounds); }
 
   /// The nearest point of the patch at most `max_distance` from `p`, and its normal; false
   /// when there is none.
@@ -328,20 +390,11 @@ class ScenePatch {
 
  private:
   const SceneSurface& scene_;
-  Eigen::Vector3f centre_;
-  float reach_ = 0.0f;
+  Bounds bounds_;
   std::vector<Eigen::Vector3f> points_;  ///< the index refers to it: never reallocated after
   std::vector<std::uint32_t> scene_index_;
   std::unique_ptr<detail::CloudIndex> index_;
 };
-
-// How far the model's points lie from its box's centre at most.
-float modelReach(const ObjectModel& model) {
-  float reach2 = 0.0f;
-  for (const Eigen::Vector3f& p : model.surface.points)
-    reach2 = std::max(reach2, (p - model.box.centre).squaredNorm());
-  return std::sqrt(reach2);
-}
 
 // The scene patches of one model's poses. The pose hypotheses of one object mostly lie at one
 // place (the object turned), so a patch made with room to spare serves those near it.
@@ -351,23 +404,29 @@ class ScenePatches {
       : model_(model),
         scene_(scene),
         // ICP pairs over icp_max_distance_m and may move the pose as far again, twice.
-        needed_reach_(modelReach(model) + 3.0f * params.icp_max_distance_m),
+        reach_(3.0f * params.icp_max_distance_m),
         spare_(params.icp_max_distance_m) {}
 
   /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
   /// long as this.
   const ScenePatch& forPose(const Eigen::Isometry3f& pose) {
-    const Eigen::Vector3f centre = pose * model_.box.centre;
+    Bounds posed;
+    for (const Eigen::Vector3f& p : model_.surface.points) {
+      const Eigen::Vector3f q = pose * p;
+      posed.low = posed.low.cwiseMin(q);
+      posed.high = posed.high.cwiseMax(q);
+    }
+    const Bounds needed = posed.grown(reach_);
     for (const auto& patch : patches_)
-      if (patch->covers(centre, needed_reach_)) return *patch;
-    patches_.push_back(std::make_unique<ScenePatch>(scene_, centre, needed_reach_ + spare_));
+      if (patch->covers(needed)) return *patch;
+    patches_.push_back(std::make_unique<ScenePatch>(scene_, needed.grown(spare_)));
     return *patches_.back();
   }
 
  private:
   const ObjectModel& model_;
   const SceneSurface& scene_;
-  const float needed_reach_;
+  const float reach_;
   const float spare_;
   std::vector<std::unique_ptr<ScenePatch>> patches_;
 };

@@ -154,8 +154,9 @@ LeanHistogram leanHistogram(const std::vector<Eigen::Vector2f>& leans) {
   for (const Eigen::Vector2f& lean : leans) {
     float position = std::atan2(lean.y(), lean.x()) * binsPerRadian();
     if (position < 0.0f) position += kLeanBins;
-    const int bin = static_cast<int>(position) % kLeanBins;
-    const float frac = position - std::floor(position);
+    const int whole = static_cast<int>(position);  // position >= 0: its floor
+    const int bin = whole % kLeanBins;
+    const float frac = position - static_cast<float>(whole);
     const float weight = lean.norm();
     histogram[static_cast<std::size_t>(bin)] += weight * (1.0f - frac);
     histogram[static_cast<std::size_t>((bin + 1) % kLeanBins)] += weight * frac;
@@ -254,55 +255,69 @@ Eigen::Matrix3f frameOf(const Eigen::Vector3f& x, const Eigen::Vector3f& z) {
 }
 
 // Step 3: mean height over the local plane per cell; empty cells take their filled
-// neighbours' mean, ring by ring. Returns the share of cells that held a point.
+// neighbours' mean, ring by ring. Returns the share of cells that held a point. `heights` is
+// (re)made size x size; `scratch` only saves allocations across calls.
+struct HeightImageScratch {
+  std::vector<float> sums;
+  std::vector<int> counts;
+  std::vector<std::uint8_t> filled, next_filled;
+};
+
 float heightImage(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
                   const Eigen::Vector3f& centre, const Eigen::Matrix3f& frame, float radius,
-                  int size, cv::Mat& heights) {
-  cv::Mat sums = cv::Mat::zeros(size, size, CV_32F);
-  cv::Mat counts = cv::Mat::zeros(size, size, CV_32S);
+                  int size, cv::Mat& heights, HeightImageScratch& scratch) {
+  const auto cells = static_cast<std::size_t>(size * size);
+  scratch.sums.assign(cells, 0.0f);
+  scratch.counts.assign(cells, 0);
   const float cell = 2.0f * radius / static_cast<float>(size);
+  const Eigen::Matrix3f to_local = frame.transpose();
   for (std::uint32_t j : support) {
-    const Eigen::Vector3f local = frame.transpose() * (surface.points[j] - centre);
-    const int cx = static_cast<int>(std::floor((local.x() + radius) / cell));
-    const int cy = static_cast<int>(std::floor((local.y() + radius) / cell));
+    const Eigen::Vector3f local = to_local * (surface.points[j] - centre);
+    const int cx = detail::floorToInt((local.x() + radius) / cell);
+    const int cy = detail::floorToInt((local.y() + radius) / cell);
     if (cx < 0 || cy < 0 || cx >= size || cy >= size) continue;
-    sums.at<float>(cy, cx) += local.z();
-    counts.at<int>(cy, cx) += 1;
+    const auto at = static_cast<std::size_t>(cy * size + cx);
+    scratch.sums[at] += local.z();
+    scratch.counts[at] += 1;
   }
   heights.create(size, size, CV_32F);
-  cv::Mat filled(size, size, CV_8U);
-  int filled_cells = 0;
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x) {
-      const int n = counts.at<int>(y, x);
-      filled.at<std::uint8_t>(y, x) = n > 0;
-      heights.at<float>(y, x) = n > 0 ? sums.at<float>(y, x) / static_cast<float>(n) : 0.0f;
-      filled_cells += n > 0;
-    }
-  if (filled_cells == 0) return 0.0f;
+  CV_Assert(heights.isContinuous());
+  float* const height = heights.ptr<float>();
+  std::vector<std::uint8_t>& filled = scratch.filled;
+  filled.resize(cells);
+  int held_cells = 0;
+  for (std::size_t at = 0; at < cells; ++at) {
+    const int n = scratch.counts[at];
+    filled[at] = n > 0;
+    height[at] = n > 0 ? scratch.sums[at] / static_cast<float>(n) : 0.0f;
+    held_cells += n > 0;
+  }
+  if (held_cells == 0) return 0.0f;
+  // A cell filled in a pass is read only from the next one on.
+  int filled_cells = held_cells;
   for (int pass = 0; pass < size && filled_cells < size * size; ++pass) {
-    cv::Mat next_filled = filled.clone();
+    scratch.next_filled = filled;
     for (int y = 0; y < size; ++y)
       for (int x = 0; x < size; ++x) {
-        if (filled.at<std::uint8_t>(y, x)) continue;
+        if (filled[static_cast<std::size_t>(y * size + x)]) continue;
         float sum = 0.0f;
         int n = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int yy = y + dy, xx = x + dx;
-            if (yy < 0 || xx < 0 || yy >= size || xx >= size || !filled.at<std::uint8_t>(yy, xx))
-              continue;
-            sum += heights.at<float>(yy, xx);
+        for (int yy = std::max(0, y - 1); yy <= std::min(size - 1, y + 1); ++yy)
+          for (int xx = std::max(0, x - 1); xx <= std::min(size - 1, x + 1); ++xx) {
+            const auto at = static_cast<std::size_t>(yy * size + xx);
+            if (!filled[at]) continue;
+            sum += height[at];
             ++n;
           }
         if (n == 0) continue;
-        heights.at<float>(y, x) = sum / static_cast<float>(n);
-        next_filled.at<std::uint8_t>(y, x) = 1;
+        const auto at = static_cast<std::size_t>(y * size + x);
+        height[at] = sum / static_cast<float>(n);
+        scratch.next_filled[at] = 1;
         ++filled_cells;
       }
-    filled = next_filled;
+    filled.swap(scratch.next_filled);
   }
-  return static_cast<float>(cv::countNonZero(counts)) / static_cast<float>(size * size);
+  return static_cast<float>(held_cells) / static_cast<float>(size * size);
 }
 
 // Step 4: average pooling to the descriptor's grid, in units of the support radius.
@@ -337,21 +352,36 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
   std::vector<ShapeFeature> out;
   std::vector<std::uint32_t> support;
   cv::Mat heights;
+  HeightImageScratch scratch;
+  SurfaceCloud neighbourhood;
+  std::vector<std::uint32_t> in_order;
   for (const Candidate& keypoint : keypoints) {
     const Eigen::Vector3f& centre = surface.points[keypoint.point];
     grid.withinRadius(centre, params.support_radius_m, support);
+
     if (support.size() < 8) continue;
-    const Eigen::Vector3f z = localNormal(surface, support, centre, viewpoint);
-    std::vector<Eigen::Vector3f> directions = leaningDirections(surface, support, z, params);
-    if (directions.empty()) directions.push_back(centroidDirection(surface, support, centre, z));
+    // The support's points side by side: each step below reads all of them, some steps more
+    // than once, and the cloud's order scatters them.
+    neighbourhood.points.resize(support.size());
+    neighbourhood.normals.resize(support.size());
+    for (std::size_t k = 0; k < support.size(); ++k) {
+      neighbourhood.points[k] = surface.points[support[k]];
+      neighbourhood.normals[k] = surface.normals[support[k]];
+    }
+    in_order.resize(support.size());
+    std::iota(in_order.begin(), in_order.end(), 0u);
+    const Eigen::Vector3f z = localNormal(neighbourhood, in_order, centre, viewpoint);
+    std::vector<Eigen::Vector3f> directions = leaningDirections(neighbourhood, in_order, z, params);
+    if (directions.empty())
+      directions.push_back(centroidDirection(neighbourhood, in_order, centre, z));
     for (const Eigen::Vector3f& x : directions) {
       ShapeFeature feature;
       feature.position = centre;
       feature.response = keypoint.response;
       feature.frame = frameOf(x, z);
       const float filled_share =
-          heightImage(surface, support, centre, feature.frame, params.support_radius_m,
-                      params.height_image_size, heights);
+          heightImage(neighbourhood, in_order, centre, feature.frame, params.support_radius_m,
+                      params.height_image_size, heights, scratch);
       if (filled_share < params.min_filled_share) break;
       feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
       out.push_back(feature);
