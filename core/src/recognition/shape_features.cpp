@@ -353,34 +353,21 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
   std::vector<std::uint32_t> support;
   cv::Mat heights;
   HeightImageScratch scratch;
-  SurfaceCloud neighbourhood;
-  std::vector<std::uint32_t> in_order;
   for (const Candidate& keypoint : keypoints) {
     const Eigen::Vector3f& centre = surface.points[keypoint.point];
     grid.withinRadius(centre, params.support_radius_m, support);
 
     if (support.size() < 8) continue;
-    // The support's points side by side: each step below reads all of them, some steps more
-    // than once, and the cloud's order scatters them.
-    neighbourhood.points.resize(support.size());
-    neighbourhood.normals.resize(support.size());
-    for (std::size_t k = 0; k < support.size(); ++k) {
-      neighbourhood.points[k] = surface.points[support[k]];
-      neighbourhood.normals[k] = surface.normals[support[k]];
-    }
-    in_order.resize(support.size());
-    std::iota(in_order.begin(), in_order.end(), 0u);
-    const Eigen::Vector3f z = localNormal(neighbourhood, in_order, centre, viewpoint);
-    std::vector<Eigen::Vector3f> directions = leaningDirections(neighbourhood, in_order, z, params);
-    if (directions.empty())
-      directions.push_back(centroidDirection(neighbourhood, in_order, centre, z));
+    const Eigen::Vector3f z = localNormal(surface, support, centre, viewpoint);
+    std::vector<Eigen::Vector3f> directions = leaningDirections(surface, support, z, params);
+    if (directions.empty()) directions.push_back(centroidDirection(surface, support, centre, z));
     for (const Eigen::Vector3f& x : directions) {
       ShapeFeature feature;
       feature.position = centre;
       feature.response = keypoint.response;
       feature.frame = frameOf(x, z);
       const float filled_share =
-          heightImage(neighbourhood, in_order, centre, feature.frame, params.support_radius_m,
+          heightImage(surface, support, centre, feature.frame, params.support_radius_m,
                       params.height_image_size, heights, scratch);
       if (filled_share < params.min_filled_share) break;
       feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
