@@ -7,6 +7,8 @@
 
 #include <nanoflann.hpp>
 
+#include "neighbour_kernels.h"
+
 namespace shapesense::detail {
 namespace {
 
@@ -131,8 +133,15 @@ PointGrid::PointGrid(const std::vector<Eigen::Vector3f>& points, float cube_side
     : points_(points), side_(cube_side) {
   const std::vector<CellEntry> keyed = pointsByCell(points, cube_side);
   order_.resize(keyed.size());
+  x_.resize(keyed.size());
+  y_.resize(keyed.size());
+  z_.resize(keyed.size());
   for (std::size_t k = 0; k < keyed.size(); ++k) {
     order_[k] = keyed[k].index;
+    const Eigen::Vector3f& p = points[keyed[k].index];
+    x_[k] = p.x();
+    y_[k] = p.y();
+    z_[k] = p.z();
     if (cubes_.empty() || cubes_.back().key != keyed[k].key)
       cubes_.push_back({keyed[k].key, static_cast<std::uint32_t>(k), 0});
     cubes_.back().end = static_cast<std::uint32_t>(k + 1);
@@ -164,30 +173,29 @@ void PointGrid::Walk::cubesAround(std::size_t cube, std::vector<std::uint32_t>& 
 }
 
 void PointGrid::gather(Candidates& candidates) const {
-  candidates.index.clear();
-  candidates.x.clear();
-  candidates.y.clear();
-  candidates.z.clear();
-  for (std::uint32_t c : candidates.cubes)
-    for (std::uint32_t k = cubes_[c].begin; k < cubes_[c].end; ++k) {
-      const Eigen::Vector3f& p = points_[order_[k]];
-      candidates.index.push_back(order_[k]);
-      candidates.x.push_back(p.x());
-      candidates.y.push_back(p.y());
-      candidates.z.push_back(p.z());
-    }
+  std::size_t total = 0;
+  for (std::uint32_t c : candidates.cubes) total += cubes_[c].end - cubes_[c].begin;
+  candidates.index.resize(total);
+  candidates.x.resize(total);
+  candidates.y.resize(total);
+  candidates.z.resize(total);
+  std::size_t at = 0;
+  for (std::uint32_t c : candidates.cubes) {
+    const std::uint32_t begin = cubes_[c].begin, end = cubes_[c].end;
+    std::copy(order_.begin() + begin, order_.begin() + end, candidates.index.begin() + at);
+    std::copy(x_.begin() + begin, x_.begin() + end, candidates.x.begin() + at);
+    std::copy(y_.begin() + begin, y_.begin() + end, candidates.y.begin() + at);
+    std::copy(z_.begin() + begin, z_.begin() + end, candidates.z.begin() + at);
+    at += end - begin;
+  }
 }
 
 void PointGrid::Candidates::within(const Eigen::Vector3f& centre, float radius2,
                                    std::vector<std::uint32_t>& neighbours) const {
-  // Written without a branch: which candidates fall inside is unpredictable.
-  neighbours.resize(index.size());
-  std::size_t count = 0;
-  for (std::size_t k = 0; k < index.size(); ++k) {
-    const float dx = x[k] - centre.x(), dy = y[k] - centre.y(), dz = z[k] - centre.z();
-    neighbours[count] = index[k];
-    count += dx * dx + dy * dy + dz * dz <= radius2;
-  }
+  neighbours.resize(index.size() + kIndicesWithinSlack);
+  const std::size_t count =
+      indicesWithin({x.data(), y.data(), z.data(), index.data(), index.size()}, centre.x(),
+                    centre.y(), centre.z(), radius2, neighbours.data());
   neighbours.resize(count);
 }
 

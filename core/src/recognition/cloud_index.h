@@ -138,6 +138,7 @@ class PointGrid {
   const std::vector<Eigen::Vector3f>& points_;
   float side_ = 0.0f;
   std::vector<std::uint32_t> order_;  ///< point indices sorted by cube key
+  std::vector<float> x_, y_, z_;      ///< the points' coordinates in that order
   std::vector<Cube> cubes_;           ///< sorted by key
 };
 
