@@ -509,30 +509,34 @@ Verification verifyInDepth(const Eigen::Isometry3f& pose, const ObjectModel& mod
   return out;
 }
 
-// The poses from step 2 that go to ICP: the `pose_hypotheses` the depth confirms most within
-// ICP's reach, each confirming at least half the model points the final check needs (most wrong
-// poses stop here, before their ICP). Feature agreement alone often ranks a wrong pose first:
-// many of a box's features look alike.
-std::vector<Hypothesis> worthRefining(std::vector<Hypothesis> hypotheses, const ObjectModel& model,
-                                      const SceneSurface& scene, const ObjectMatchParams& params) {
+struct RankedHypothesis {
+  Hypothesis hypothesis;
+  int confirmed_within_reach = 0;  ///< model points the depth confirms within ICP's reach
+};
+
+// The poses from step 2 that go to ICP, most confirmed first: the `pose_hypotheses` the depth
+// confirms most within ICP's reach, each confirming at least half the model points the final
+// check needs (most wrong poses stop here, before their ICP). Feature agreement alone often
+// ranks a wrong pose first: many of a box's features look alike.
+
+std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
+                                            const ObjectModel& model, const SceneSurface& scene,
+                                            const ObjectMatchParams& params) {
   ObjectMatchParams within_reach = params;
   within_reach.confirm_distance_m = std::max(params.confirm_distance_m, params.icp_max_distance_m);
   const float needed = 0.5f * params.min_confirmed_share * static_cast<float>(model.surface.size());
-  std::vector<std::pair<int, Hypothesis>> ranked;
+  std::vector<RankedHypothesis> ranked;
   for (const Hypothesis& h : hypotheses) {
     Verification check;
     checkSurface(h.scene_from_model, model, scene, within_reach, check);
-    const int confirmed = check.confirmed;
-    if (static_cast<float>(confirmed) >= needed) ranked.emplace_back(confirmed, h);
+    if (static_cast<float>(check.confirmed) >= needed) ranked.push_back({h, check.confirmed});
   }
-  std::stable_sort(ranked.begin(), ranked.end(),
-                   [](const auto& a, const auto& b) { return a.first > b.first; });
-  std::vector<Hypothesis> out;
-  for (const auto& [confirmed, h] : ranked) {
-    if (static_cast<int>(out.size()) >= params.pose_hypotheses) break;
-    out.push_back(h);
-  }
-  return out;
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
+    return a.confirmed_within_reach > b.confirmed_within_reach;
+  });
+  if (ranked.size() > static_cast<std::size_t>(std::max(0, params.pose_hypotheses)))
+    ranked.resize(static_cast<std::size_t>(std::max(0, params.pose_hypotheses)));
+  return ranked;
 }
 
 // Whether a verified pose has the evidence its feature support asks for (strong_inliers).
@@ -569,8 +573,12 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   std::optional<ObjectDetection> best;
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
-  for (const Hypothesis& hypothesis :
+  for (const auto& [hypothesis, confirmed_within_reach] :
        worthRefining(anchoredPoses(matches, model, params), model, scene, params)) {
+    // Hypotheses come most confirmed first, counted within ICP's reach: refined and checked at
+    // the final tolerance, a pose rarely confirms more than that, so one that a verified pose
+    // already matches cannot win.
+    if (best && best->confirmed_points >= confirmed_within_reach) break;
     const ScenePatch& patch = patches.forPose(hypothesis.scene_from_model);
     const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
                                               params.icp_iterations, params.icp_max_points, params);

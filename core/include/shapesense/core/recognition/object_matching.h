@@ -9,7 +9,9 @@
 //      poses fitted to the partners that agree with them, scored by the matches they carry;
 //      the distinct poses with most, ranked by how much of the model the depth confirms near
 //      them, go on;
-//   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface;
+//   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface,
+//      most confirmed first, until a verified pose (step 4) confirms as many model points as
+//      the next one does before refinement;
 //   4. verification in the depth: of the model's points that face the camera in that pose and
 //      fall in the image, the share the depth confirms (a reading at the predicted depth, within
 //      the sensor's noise) among those it confirms or contradicts (a reading behind where the
@@ -85,7 +87,8 @@ struct ObjectMatchParams {
   float weak_pose_confirmed_share = 0.9f;
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
   /// matches that are checked in the depth; of those, the `pose_hypotheses` the depth confirms
-  /// most (before ICP, within its reach) are refined and checked again; the one the depth
+  /// most (before ICP, within its reach) are refined and checked again, in that order, until
+  /// a verified pose confirms as many points as the next one did before ICP; the one the depth
   /// confirms most wins. Defaults 30 and 5.
   int pose_candidates = 30;
   int pose_hypotheses = 5;
