@@ -254,18 +254,23 @@ Eigen::Matrix3f frameOf(const Eigen::Vector3f& x, const Eigen::Vector3f& z) {
   return frame;
 }
 
-// Step 3: mean height over the local plane per cell; empty cells take their filled
-// neighbours' mean, ring by ring. Returns the share of cells that held a point. `heights` is
-// (re)made size x size; `scratch` only saves allocations across calls.
+// Step 3, the height image, in two parts (the second only for a support that fills enough of
+// the image). The cells' sums and the fill's state, kept across calls to save allocations.
 struct HeightImageScratch {
   std::vector<float> sums;
   std::vector<int> counts;
+  // The fill's state on a grid with a border of one empty cell, so that every cell has eight
+  // neighbours: filled flags (as of the pass before) and heights.
   std::vector<std::uint8_t> filled, next_filled;
+  std::vector<float> padded;
+  std::vector<int> empty;  ///< padded indices of the cells not filled yet, in raster order
 };
 
-float heightImage(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
-                  const Eigen::Vector3f& centre, const Eigen::Matrix3f& frame, float radius,
-                  int size, cv::Mat& heights, HeightImageScratch& scratch) {
+// Step 3a: the points' mean height over the local plane per cell (into `scratch`); returns
+// the share of cells that held a point.
+float rasterise(const SurfaceCloud& surface, const std::vector<std::uint32_t>& support,
+                const Eigen::Vector3f& centre, const Eigen::Matrix3f& frame, float radius, int size,
+                HeightImageScratch& scratch) {
   const auto cells = static_cast<std::size_t>(size * size);
   scratch.sums.assign(cells, 0.0f);
   scratch.counts.assign(cells, 0);
@@ -280,44 +285,61 @@ float heightImage(const SurfaceCloud& surface, const std::vector<std::uint32_t>&
     scratch.sums[at] += local.z();
     scratch.counts[at] += 1;
   }
-  heights.create(size, size, CV_32F);
-  CV_Assert(heights.isContinuous());
-  float* const height = heights.ptr<float>();
-  std::vector<std::uint8_t>& filled = scratch.filled;
-  filled.resize(cells);
-  int held_cells = 0;
-  for (std::size_t at = 0; at < cells; ++at) {
-    const int n = scratch.counts[at];
-    filled[at] = n > 0;
-    height[at] = n > 0 ? scratch.sums[at] / static_cast<float>(n) : 0.0f;
-    held_cells += n > 0;
-  }
-  if (held_cells == 0) return 0.0f;
-  // A cell filled in a pass is read only from the next one on.
-  int filled_cells = held_cells;
-  for (int pass = 0; pass < size && filled_cells < size * size; ++pass) {
-    scratch.next_filled = filled;
-    for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x) {
-        if (filled[static_cast<std::size_t>(y * size + x)]) continue;
-        float sum = 0.0f;
-        int n = 0;
-        for (int yy = std::max(0, y - 1); yy <= std::min(size - 1, y + 1); ++yy)
-          for (int xx = std::max(0, x - 1); xx <= std::min(size - 1, x + 1); ++xx) {
-            const auto at = static_cast<std::size_t>(yy * size + xx);
-            if (!filled[at]) continue;
-            sum += height[at];
-            ++n;
-          }
-        if (n == 0) continue;
-        const auto at = static_cast<std::size_t>(y * size + x);
-        height[at] = sum / static_cast<float>(n);
-        scratch.next_filled[at] = 1;
-        ++filled_cells;
+  int held = 0;
+  for (std::size_t at = 0; at < cells; ++at) held += scratch.counts[at] > 0;
+  return static_cast<float>(held) / static_cast<float>(cells);
+}
+
+// Step 3b: empty cells take their filled neighbours' mean, ring by ring, into `heights`.
+void fillHeightImage(int size, HeightImageScratch& scratch, cv::Mat& heights) {
+  const int stride = size + 2;
+  const auto padded_cells = static_cast<std::size_t>(stride * stride);
+  scratch.filled.assign(padded_cells, 0);
+  scratch.padded.assign(padded_cells, 0.0f);
+  scratch.empty.clear();
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const auto at = static_cast<std::size_t>(y * size + x);
+      const int padded_at = (y + 1) * stride + x + 1;
+      const int n = scratch.counts[at];
+      if (n > 0) {
+        scratch.filled[static_cast<std::size_t>(padded_at)] = 1;
+        scratch.padded[static_cast<std::size_t>(padded_at)] =
+            scratch.sums[at] / static_cast<float>(n);
+      } else {
+        scratch.empty.push_back(padded_at);
       }
-    filled.swap(scratch.next_filled);
+    }
+  const int neighbours[8] = {-stride - 1, -stride,    -stride + 1, -1,
+                             1,           stride - 1, stride,      stride + 1};
+  // A cell filled in a pass is read only from the next one on.
+  for (int pass = 0; pass < size && !scratch.empty.empty() &&
+                     scratch.empty.size() < static_cast<std::size_t>(size * size);
+       ++pass) {
+    scratch.next_filled = scratch.filled;
+    std::size_t still_empty = 0;
+    for (const int at : scratch.empty) {
+      float sum = 0.0f;
+      int n = 0;
+      for (int k = 0; k < 8; ++k) {
+        const auto nb = static_cast<std::size_t>(at + neighbours[k]);
+        if (!scratch.filled[nb]) continue;
+        sum += scratch.padded[nb];
+        ++n;
+      }
+      if (n == 0) {
+        scratch.empty[still_empty++] = at;
+        continue;
+      }
+      scratch.padded[static_cast<std::size_t>(at)] = sum / static_cast<float>(n);
+      scratch.next_filled[static_cast<std::size_t>(at)] = 1;
+    }
+    scratch.empty.resize(still_empty);
+    scratch.filled.swap(scratch.next_filled);
   }
-  return static_cast<float>(held_cells) / static_cast<float>(size * size);
+  heights.create(size, size, CV_32F);
+  for (int y = 0; y < size; ++y)
+    std::copy_n(scratch.padded.begin() + (y + 1) * stride + 1, size, heights.ptr<float>(y));
 }
 
 // Step 4: average pooling to the descriptor's grid, in units of the support radius.
@@ -367,9 +389,10 @@ std::vector<ShapeFeature> detectShapeFeatures(const SurfaceCloud& surface,
       feature.response = keypoint.response;
       feature.frame = frameOf(x, z);
       const float filled_share =
-          heightImage(surface, support, centre, feature.frame, params.support_radius_m,
-                      params.height_image_size, heights, scratch);
+          rasterise(surface, support, centre, feature.frame, params.support_radius_m,
+                    params.height_image_size, scratch);
       if (filled_share < params.min_filled_share) break;
+      fillHeightImage(params.height_image_size, scratch, heights);
       feature.descriptor = pooledDescriptor(heights, params.support_radius_m);
       out.push_back(feature);
     }
