@@ -474,5 +474,3 @@ BENCHMARK(BM_BowlTestSet_WbDetectorNoTop)->Unit(benchmark::kMillisecond)->Iterat
 #endif
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -171,5 +171,3 @@ BENCHMARK(BM_EstimateBoxLoopback)
 
 }  // namespace
 }  // namespace shapesense
-
-BENCHMARK_MAIN();

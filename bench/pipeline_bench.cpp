@@ -65,5 +65,3 @@ BENCHMARK(BM_PipelineSynthetic)->Arg(120)->Unit(benchmark::kMillisecond)->UseRea
 
 }  // namespace
 }  // namespace shapesense
-
-BENCHMARK_MAIN();

@@ -133,5 +133,3 @@ BENCHMARK(BM_OpenCvRgbdPlanes)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace shapesense
-
-BENCHMARK_MAIN();

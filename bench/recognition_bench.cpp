@@ -102,5 +102,3 @@ BENCHMARK(BM_RecognitionPerFrame)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace shapesense
-
-BENCHMARK_MAIN();

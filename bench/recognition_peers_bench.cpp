@@ -25,6 +25,7 @@
 
 #include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/eval/recognition_eval.h"
+#include "shapesense/server/frame_memory.h"
 
 #ifdef SHAPESENSE_BENCH_OPENCV_PPF
 #include "recognition_peer_ppf.h"
@@ -78,6 +79,7 @@ void printCurve(const std::string& label, const eval::RecognitionScore& score) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  shapesense::keepFrameBuffersAllocated();  // the daemon's memory policy, for every method
   CLI::App app{"Taught-object recognition beside OpenCV PPF and PCL SHOT on the same cases"};
   std::string split_name = "validation";
   int first = 0, cases = 10, views = 3;

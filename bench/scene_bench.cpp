@@ -113,5 +113,3 @@ BENCHMARK(BM_ScenePreview)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark:
 
 }  // namespace
 }  // namespace shapesense
-
-BENCHMARK_MAIN();

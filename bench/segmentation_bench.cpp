@@ -39,6 +39,7 @@
 #include "shapesense/core/segmentation/segmentation.h"
 #include "shapesense/core/segmentation/segmentation_scoring.h"
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/server/frame_memory.h"
 
 namespace shapesense {
 namespace {
@@ -289,6 +290,7 @@ BENCHMARK(BM_PclOmpsSegment)->ArgNames({"mosd"})->Arg(0)->Arg(1)->Unit(benchmark
 // One thread for OpenCV too (its box filters and peers would otherwise use the pool), so every
 // figure is single-threaded work.
 int main(int argc, char** argv) {
+  shapesense::keepFrameBuffersAllocated();  // the daemon's memory policy
   cv::setNumThreads(1);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

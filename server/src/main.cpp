@@ -20,6 +20,7 @@
 #include "shapesense/driver/fakenect_dump.h"
 #include "shapesense/driver/open_source.h"
 #include "shapesense/server/daemon.h"
+#include "shapesense/server/frame_memory.h"
 
 namespace {
 
@@ -383,5 +384,7 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::from_str(command_line.log_level));
   const std::optional<DaemonOptions> options = toDaemonOptions(command_line);
   if (!options) return 2;
+  if (!shapesense::keepFrameBuffersAllocated())
+    spdlog::warn("the C library refused to keep frame buffers allocated between frames");
   return serve(*options);
 }
