@@ -11,9 +11,9 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
-#include <opencv2/features2d.hpp>
 
 #include "cloud_index.h"
+#include "descriptor_kernels.h"
 
 namespace shapesense {
 namespace {
@@ -38,31 +38,55 @@ std::vector<int> keypointOfFeature(const std::vector<ShapeFeature>& features) {
   return out;
 }
 
-cv::Mat descriptorMatrix(const std::vector<ShapeFeature>& features) {
-  cv::Mat out(static_cast<int>(features.size()), kShapeDescriptorSize, CV_32F);
-  for (int i = 0; i < out.rows; ++i)
-    std::copy(features[static_cast<std::size_t>(i)].descriptor.begin(),
-              features[static_cast<std::size_t>(i)].descriptor.end(), out.ptr<float>(i));
-  return out;
+// The `k` nearest of `distances` (squared) into `out`, nearest first, equal ones in index
+// order; `kept` holds their distances.
+void nearestIndices(const float* distances, std::size_t count, int k, std::vector<int>& out,
+                    std::vector<float>& kept) {
+  out.clear();
+  kept.clear();
+  const auto wanted = static_cast<std::size_t>(std::max(0, k));
+  if (wanted == 0) return;
+  for (std::size_t j = 0; j < count; ++j) {
+    const float d = distances[j];
+    if (out.size() == wanted && !(d < kept.back())) continue;
+    if (out.size() < wanted) {
+      out.push_back(0);
+      kept.push_back(0.0f);
+    }
+    std::size_t at = out.size() - 1;
+    for (; at > 0 && kept[at - 1] > d; --at) {
+      kept[at] = kept[at - 1];
+      out[at] = out[at - 1];
+    }
+    kept[at] = d;
+    out[at] = static_cast<int>(j);
+  }
 }
 
 // Step 1.
 std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface& scene,
                                     const ObjectMatchParams& params) {
-  if (model.features.empty() || scene.features().empty()) return {};
-  std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_L2)
-      .knnMatch(descriptorMatrix(model.features), descriptorMatrix(scene.features()), knn,
-                params.matches_per_feature);
+  const std::vector<ShapeFeature>& found = scene.features();
+  if (model.features.empty() || found.empty()) return {};
   const std::vector<int> keypoint = keypointOfFeature(model.features);
+  std::vector<const float*> queries(model.features.size());
+  for (std::size_t i = 0; i < queries.size(); ++i) queries[i] = model.features[i].descriptor.data();
+  std::vector<float> distances(queries.size() * found.size());
+  detail::squaredDistancesToAll(queries.data(), queries.size(), scene.descriptorColumns().data(),
+                                found.size(), distances.data());
+  std::vector<int> nearest;
+  std::vector<float> nearest_distances;
   std::vector<Match> out;
-  for (const auto& row : knn)
-    for (const cv::DMatch& m : row) {
-      const ShapeFeature& from = model.features[static_cast<std::size_t>(m.queryIdx)];
-      const ShapeFeature& to = scene.features()[static_cast<std::size_t>(m.trainIdx)];
-      out.push_back({from.position, to.position, to.frame * from.frame.transpose(), m.trainIdx,
-                     keypoint[static_cast<std::size_t>(m.queryIdx)]});
+  for (std::size_t i = 0; i < model.features.size(); ++i) {
+    const ShapeFeature& from = model.features[i];
+    nearestIndices(distances.data() + i * found.size(), found.size(), params.matches_per_feature,
+                   nearest, nearest_distances);
+    for (const int j : nearest) {
+      const ShapeFeature& to = found[static_cast<std::size_t>(j)];
+      out.push_back(
+          {from.position, to.position, to.frame * from.frame.transpose(), j, keypoint[i]});
     }
+  }
   return out;
 }
 
@@ -567,7 +591,12 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
-      features_(detectShapeFeatures(surface_, params.features)) {}
+      features_(detectShapeFeatures(surface_, params.features)),
+      descriptor_columns_(features_.size() * kShapeDescriptorSize) {
+  for (std::size_t i = 0; i < features_.size(); ++i)
+    for (std::size_t d = 0; d < kShapeDescriptorSize; ++d)
+      descriptor_columns_[d * features_.size() + i] = features_[i].descriptor[d];
+}
 
 SceneSurface::~SceneSurface() = default;
 

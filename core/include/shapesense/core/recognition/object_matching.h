@@ -49,6 +49,9 @@ class SceneSurface {
 
   const SurfaceCloud& surface() const { return surface_; }
   const std::vector<ShapeFeature>& features() const { return features_; }
+  /// The features' descriptors dimension-major: value d of feature i at
+  /// [d * features().size() + i] (the layout descriptor matching reads).
+  const std::vector<float>& descriptorColumns() const { return descriptor_columns_; }
   const cv::Mat& depth() const { return depth_mm_; }
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
 
@@ -57,6 +60,7 @@ class SceneSurface {
   CameraIntrinsics intrinsics_;
   SurfaceCloud surface_;
   std::vector<ShapeFeature> features_;
+  std::vector<float> descriptor_columns_;
 };
 
 struct ObjectMatchParams {
