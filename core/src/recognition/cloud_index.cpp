@@ -81,6 +81,8 @@ void radixSortUpperBits(std::vector<std::uint64_t>& values, int key_bits) {
 }  // namespace
 
 std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, float size) {
+  std::vector<CellEntry> out(points.size());
+  if (points.empty()) return out;
   // The cells' bounds are the cells of the points' bounds (a cell's index grows with each
   // coordinate): each point's cell is computed once, when it is packed.
   Eigen::Vector3f lowest = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
@@ -91,8 +93,6 @@ std::vector<CellEntry> pointsByCell(const std::vector<Eigen::Vector3f>& points, 
   }
   const Eigen::Vector3i low = cellOf(lowest, size);
   const Eigen::Vector3i high = cellOf(highest, size);
-  std::vector<CellEntry> out(points.size());
-  if (points.empty()) return out;
   const Eigen::Vector3i range = high - low;
   const int bits_y = bitsFor(range.y()), bits_z = bitsFor(range.z());
   const int key_bits = bitsFor(range.x()) + bits_y + bits_z;

@@ -248,9 +248,9 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
     const float dm2 = (mb.model_point - ma.model_point).squaredNorm();
     if (dm2 < min_spacing2) return;
     const float ds2 = (mb.scene_point - ma.scene_point).squaredNorm();
-    // Most pairs differ by far more than the tolerance: |dm - ds| (dm + ds) = |dm2 - ds2| and
-    // dm + ds <= sqrt(2 (dm2 + ds2)) reject them without a square root (with 2% to spare for
-    // rounding); the exact test follows.
+    // Most compared pairs fail this test. Since |dm - ds| (dm + ds) = |dm2 - ds2| and
+    // dm + ds <= sqrt(2 (dm2 + ds2)), those whose squares differ by enough go without a square
+    // root (2% to spare for rounding); the exact test follows.
     const float gap2 = (dm2 - ds2) * (dm2 - ds2);
     if (gap2 > 2.04f * tolerance2 * (dm2 + ds2)) return;
     if (std::abs(std::sqrt(dm2) - std::sqrt(ds2)) > params.pair_tolerance_m) return;
@@ -396,7 +396,6 @@ class ScenePatch {
       points_.push_back(all[i]);
       scene_index_.push_back(static_cast<std::uint32_t>(i));
     }
-
     index_ = std::make_unique<detail::CloudIndex>(points_);
   }
   ScenePatch(const ScenePatch&) = delete;
@@ -548,7 +547,6 @@ struct RankedHypothesis {
 // confirms most within ICP's reach, each confirming at least half the model points the final
 // check needs (most wrong poses stop here, before their ICP). Feature agreement alone often
 // ranks a wrong pose first: many of a box's features look alike.
-
 std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
                                             const ObjectModel& model, const SceneSurface& scene,
                                             const ObjectMatchParams& params) {
