@@ -211,7 +211,7 @@ std::vector<std::vector<std::uint32_t>> compatiblePairs(const std::vector<Match>
   const float tolerance2 = params.pair_tolerance_m * params.pair_tolerance_m;
   const float max_angle = params.max_frame_disagreement_deg * std::numbers::pi_v<float> / 180.0f;
   const float min_trace = 1.0f + 2.0f * std::cos(max_angle);
-  // The reach of the features (the matched points), not of the surface (modelReach).
+  // The reach of the features (the matched points), not of the model's surface.
   float reach2 = 0.0f;
   for (const ShapeFeature& f : model.features)
     reach2 = std::max(reach2, (f.position - model.box.centre).squaredNorm());
