@@ -12,8 +12,7 @@ namespace shapesense::detail {
 
 /// For each of `query_count` queries q: out[q * count + i] = sum over d of
 /// (queries[q][d] - columns[d * count + i])^2, d from 0 up, for i < count: `columns` holds
-/// `count` descriptors transposed (dimension-major). Queries are taken four at a time, so that
-/// each load of the columns serves four.
+/// `count` descriptors transposed (dimension-major).
 void squaredDistancesToAll(const float* const* queries, std::size_t query_count,
                            const float* columns, std::size_t count, float* out);
 

@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <numbers>
 #include <unordered_map>
@@ -39,7 +38,9 @@ std::vector<int> keypointOfFeature(const std::vector<ShapeFeature>& features) {
 }
 
 // The `k` nearest of `distances` (squared) into `out`, nearest first, equal ones in index
-// order; `kept` holds their distances.
+// order; `kept` holds their distances. By insertion: after the first k, nearly every distance
+// is rejected by one comparison, which measured faster than std::partial_sort and
+// std::nth_element over the indices (45 against 46 and 50 ms for five models).
 void nearestIndices(const float* distances, std::size_t count, int k, std::vector<int>& out,
                     std::vector<float>& kept) {
   out.clear();
@@ -187,7 +188,7 @@ TurnBins turnBins(const Eigen::Matrix3f& turn, float side) {
   TurnBins out{};
   for (int k = 0; k < 6; ++k)
     out[static_cast<std::size_t>(k)] =
-        static_cast<std::int16_t>(std::floor((turn(k % 3, k / 3) + 1.0f) / side));
+        static_cast<std::int16_t>(detail::floorToInt((turn(k % 3, k / 3) + 1.0f) / side));
   return out;
 }
 
@@ -369,19 +370,10 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
   return pose;
 }
 
-// An axis-aligned box in the camera frame.
-struct Bounds {
-  Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
-  Eigen::Vector3f high = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
-
-  bool contains(const Eigen::Vector3f& p) const {
-    return (low.array() <= p.array()).all() && (p.array() <= high.array()).all();
-  }
-  bool contains(const Bounds& other) const { return contains(other.low) && contains(other.high); }
-  Bounds grown(float margin) const {
-    return {low - Eigen::Vector3f::Constant(margin), high + Eigen::Vector3f::Constant(margin)};
-  }
-};
+Eigen::AlignedBox3f grown(const Eigen::AlignedBox3f& box, float margin) {
+  return {box.min() - Eigen::Vector3f::Constant(margin),
+          box.max() + Eigen::Vector3f::Constant(margin)};
+}
 
 // The scene points ICP may pair a model with while its pose stays near the one the patch was
 // made for, with a nearest-point index over them: those within the bounds of the posed
@@ -389,7 +381,8 @@ struct Bounds {
 // cost more to build than every query of a frame's models.
 class ScenePatch {
  public:
-  ScenePatch(const SceneSurface& scene, const Bounds& bounds) : scene_(scene), bounds_(bounds) {
+  ScenePatch(const SceneSurface& scene, const Eigen::AlignedBox3f& bounds)
+      : scene_(scene), bounds_(bounds) {
     const std::vector<Eigen::Vector3f>& all = scene.surface().points;
     for (std::size_t i = 0; i < all.size(); ++i) {
       if (!bounds.contains(all[i])) continue;
@@ -402,7 +395,7 @@ class ScenePatch {
   ScenePatch& operator=(const ScenePatch&) = delete;
 
   /// Whether the patch holds every scene point within `bounds`.
-  bool covers(const Bounds& bounds) const { return bounds_.contains(bounds); }
+  bool covers(const Eigen::AlignedBox3f& bounds) const { return bounds_.contains(bounds); }
 
   /// The nearest point of the patch at most `max_distance` from `p`, and its normal; false
   /// when there is none.
@@ -419,7 +412,7 @@ class ScenePatch {
 
  private:
   const SceneSurface& scene_;
-  Bounds bounds_;
+  Eigen::AlignedBox3f bounds_;
   std::vector<Eigen::Vector3f> points_;  ///< the index refers to it: never reallocated after
   std::vector<std::uint32_t> scene_index_;
   std::unique_ptr<detail::CloudIndex> index_;
@@ -439,16 +432,12 @@ class ScenePatches {
   /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
   /// long as this.
   const ScenePatch& forPose(const Eigen::Isometry3f& pose) {
-    Bounds posed;
-    for (const Eigen::Vector3f& p : model_.surface.points) {
-      const Eigen::Vector3f q = pose * p;
-      posed.low = posed.low.cwiseMin(q);
-      posed.high = posed.high.cwiseMax(q);
-    }
-    const Bounds needed = posed.grown(reach_);
+    Eigen::AlignedBox3f posed;  // empty
+    for (const Eigen::Vector3f& p : model_.surface.points) posed.extend(pose * p);
+    const Eigen::AlignedBox3f needed = grown(posed, reach_);
     for (const auto& patch : patches_)
       if (patch->covers(needed)) return *patch;
-    patches_.push_back(std::make_unique<ScenePatch>(scene_, needed.grown(spare_)));
+    patches_.push_back(std::make_unique<ScenePatch>(scene_, grown(needed, spare_)));
     return *patches_.back();
   }
 
