@@ -16,7 +16,7 @@ Daemon::Daemon(const DaemonOptions& options)
   checkTransportOptions(options.listen, options.security);
   // gRPC starts its threads from threads at grpc_nice, so they inherit that lower priority
   // (grpc_init's timer threads with the first credentials, the server's when it starts); the
-  // pipeline's threads start from this one, at the daemon's own priority.
+  // pipeline's threads start from this one and set their own priority.
   RpcServerOptions server_options;
   runAtNice(options.limits.grpc_nice, [&] {
     if (options.security.tokens()) {
@@ -41,7 +41,7 @@ Daemon::Daemon(const DaemonOptions& options)
   }
   DetectorChain chain = makeDetectorChain(options.detectors);
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
-                                         std::move(chain), cache_, hub_, &tap_);
+                                         std::move(chain), cache_, hub_, &tap_, options.pipeline);
   ServiceContext context{.cache = cache_, .hub = hub_};
   context.frame_tap = &tap_;
   context.pipeline_status = [pipeline = pipeline_.get()] { return pipeline->status(); };

@@ -258,6 +258,12 @@ void addHealthAndLimitOptions(CLI::App& app, CommandLine& c) {
                  "call, so a flood of calls takes time from them before the detectors")
       ->check(CLI::Range(0, 19))
       ->capture_default_str();
+  app.add_option("--pipeline-nice", options.pipeline.thread_nice,
+                 "Nice value of the capture and detector threads (-20-0); below 0 they come "
+                 "before clients on the same machine, where the system allows it (root, "
+                 "CAP_SYS_NICE or the unit's LimitNICE=)")
+      ->check(CLI::Range(-20, 0))
+      ->capture_default_str();
   app.add_option("--max-calls", limits.max_calls,
                  "Calls (other than Watch and Record) answered at once, queued ones included; "
                  "more are answered RESOURCE_EXHAUSTED")

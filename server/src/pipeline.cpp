@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "shapesense/core/geometry/timestamp.h"
+#include "shapesense/server/thread_priority.h"
 
 namespace shapesense {
 
@@ -23,13 +24,14 @@ const char* toString(SourceState state) {
 }
 
 Pipeline::Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
-                   SummaryHub& hub, FrameTap* tap)
+                   SummaryHub& hub, FrameTap* tap, PipelineOptions options)
     : source_(std::move(source)),
       source_name_(source_->describe()),
       chain_(std::move(chain)),
       cache_(cache),
       hub_(hub),
-      tap_(tap) {}
+      tap_(tap),
+      options_(options) {}
 
 Pipeline::~Pipeline() { stop(); }
 
@@ -49,6 +51,18 @@ void Pipeline::stop() {
   if (detect_thread_.joinable()) detect_thread_.join();
 }
 
+void Pipeline::prepareThisThread(const char* name) {
+  nameThisThread(name);
+  if (options_.thread_nice == 0 || setThisThreadNice(options_.thread_nice)) return;
+  std::call_once(priority_refused_, [&] {
+    spdlog::warn(
+        "the system refused nice {} for the capture and detector threads (it needs root, "
+        "CAP_SYS_NICE or LimitNICE=); they run at nice {}, and a busy machine may make them "
+        "skip frames",
+        options_.thread_nice, thisThreadNice());
+  });
+}
+
 void Pipeline::setState(SourceState state, std::string message) {
   std::lock_guard lock(mutex_);
   state_ = state;
@@ -56,6 +70,7 @@ void Pipeline::setState(SourceState state, std::string message) {
 }
 
 void Pipeline::captureLoop(std::stop_token stop) {
+  prepareThisThread("ss-capture");
   while (!stop.stop_requested()) {
     SourceEvent event;
     try {
@@ -117,6 +132,7 @@ void Pipeline::captureLoop(std::stop_token stop) {
 }
 
 void Pipeline::detectLoop(std::stop_token stop) {
+  prepareThisThread("ss-detect");
   while (true) {
     std::shared_ptr<const Frame> frame;
     {

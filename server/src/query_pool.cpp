@@ -48,6 +48,7 @@ void QueryPool::stop() {
 }
 
 void QueryPool::run(int nice) {
+  nameThisThread("ss-query");
   if (nice > 0 && !setThisThreadNice(nice)) {
     spdlog::debug("query worker: cannot set nice {}", nice);
   }

@@ -1,8 +1,10 @@
 #include "shapesense/server/thread_priority.h"
 
+#include <pthread.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <exception>
 #include <thread>
 
@@ -11,6 +13,14 @@ namespace shapesense {
 bool setThisThreadNice(int nice) {
   // PRIO_PROCESS with a thread id addresses that one thread on Linux.
   return setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), nice) == 0;
+}
+
+int thisThreadNice() { return getpriority(PRIO_PROCESS, static_cast<id_t>(gettid())); }
+
+void nameThisThread(const char* name) {
+  char kept[16] = {};
+  std::strncpy(kept, name, sizeof kept - 1);
+  pthread_setname_np(pthread_self(), kept);
 }
 
 void runAtNice(int nice, const std::function<void()>& work) {

@@ -1,5 +1,6 @@
-// The detector thread's priority against gRPC's: runAtNice, and the daemon starting gRPC's
-// threads at --grpc-nice while its pipeline runs at the process's own priority.
+// The pipeline's priority against gRPC's and the queries': runAtNice, and the daemon starting
+// gRPC's threads at --grpc-nice, its query workers at --query-nice and its pipeline threads at
+// --pipeline-nice (where the system allows it).
 
 #include "shapesense/server/thread_priority.h"
 
@@ -57,37 +58,79 @@ TEST(RunAtNice, RethrowsWhatTheWorkThrew) {
   EXPECT_THROW(runAtNice(3, [] { throw std::runtime_error("no"); }), std::runtime_error);
 }
 
-TEST(Daemon, GrpcThreadsRunAtGrpcNiceAndThePipelineAtTheDaemonsOwn) {
-  const auto before = threadsOfThisProcess();
-  for (const auto& [tid, thread] : before) {
-    if (thread.first.rfind("grpc", 0) == 0 || thread.first == "timer_manager") {
-      GTEST_SKIP() << "gRPC already runs in this process; ctest runs this test alone";
-    }
-  }
-  const int own = niceOf(gettid());
-  ASSERT_LT(own, 7);
+/// Whether this process may raise a thread's priority to `nice` (root, CAP_SYS_NICE or
+/// RLIMIT_NICE).
+bool mayRaiseTo(int nice) {
+  bool allowed = false;
+  std::thread probe([&] { allowed = setThisThreadNice(nice); });
+  probe.join();
+  return allowed;
+}
+
+DaemonOptions smallDaemon(const char* name) {
   DaemonOptions options;
-  options.source = "tum:" + testing::makeSmallRecording("thread_priority", 5).string();
+  options.source = "tum:" + testing::makeSmallRecording(name, 5).string();
   options.loop = true;
   options.listen = "127.0.0.1:0";
-  options.limits.grpc_nice = 7;
   options.detectors.bowls = false;
+  return options;
+}
+
+bool grpcAlreadyRuns(const std::map<pid_t, std::pair<std::string, int>>& threads) {
+  for (const auto& [tid, thread] : threads) {
+    if (thread.first.rfind("grpc", 0) == 0 || thread.first == "timer_manager") return true;
+  }
+  return false;
+}
+
+TEST(Daemon, GrpcThreadsRunAtGrpcNiceQueriesAtQueryNiceAndThePipelineAtPipelineNice) {
+  const auto before = threadsOfThisProcess();
+  if (grpcAlreadyRuns(before)) GTEST_SKIP() << "gRPC already runs in this process";
+  const int own = niceOf(gettid());
+  ASSERT_LT(own, 7);
+  DaemonOptions options = smallDaemon("thread_priority");
+  options.limits.grpc_nice = 7;
+  options.limits.queries.nice = 9;
+  options.pipeline.thread_nice = mayRaiseTo(-3) ? -3 : own;
   Daemon daemon(options);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  int grpc_threads = 0, at_own = 0;
+  int grpc_threads = 0, pipeline_threads = 0, query_workers = 0;
   for (const auto& [tid, thread] : threadsOfThisProcess()) {
     if (before.count(tid)) continue;
     const auto& [name, nice] = thread;
-    const bool query_worker = nice == options.limits.queries.nice;
-    if (nice == own) {
-      ++at_own;  // the pipeline's capture and detector threads
-    } else if (!query_worker) {
+    if (name == "ss-capture" || name == "ss-detect") {
+      EXPECT_EQ(nice, options.pipeline.thread_nice) << name;
+      ++pipeline_threads;
+    } else if (name == "ss-query") {
+      EXPECT_EQ(nice, 9) << name;
+      ++query_workers;
+    } else {
       EXPECT_EQ(nice, 7) << name;
+      ++grpc_threads;
     }
-    grpc_threads += nice == 7;
   }
   EXPECT_GE(grpc_threads, 3) << "gRPC's timer, executor and server threads";
-  EXPECT_GE(at_own, 2) << "the capture and detector threads";
+  EXPECT_GE(pipeline_threads, 2) << "the capture and detector threads (and those they start)";
+  EXPECT_GE(query_workers, 1);
+}
+
+TEST(Daemon, APipelinePriorityTheSystemRefusesLeavesThePipelineRunning) {
+  if (mayRaiseTo(-20)) GTEST_SKIP() << "this process may raise priorities (root or CAP_SYS_NICE)";
+  const auto before = threadsOfThisProcess();
+  const int own = niceOf(gettid());
+  DaemonOptions options = smallDaemon("thread_priority_refused");
+  options.pipeline.thread_nice = -20;
+  Daemon daemon(options);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  int pipeline_threads = 0;
+  for (const auto& [tid, thread] : threadsOfThisProcess()) {
+    if (before.count(tid)) continue;
+    if (thread.first != "ss-capture" && thread.first != "ss-detect") continue;
+    EXPECT_EQ(thread.second, own) << thread.first;
+    ++pipeline_threads;
+  }
+  EXPECT_GE(pipeline_threads, 2);
+  EXPECT_TRUE(daemon.health().healthy);
 }
 
 }  // namespace

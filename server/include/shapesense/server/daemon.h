@@ -45,6 +45,9 @@ struct DaemonOptions {
   /// health() says the pipeline hangs.
   std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);
   DetectorConfig detectors;
+  /// The capture and detector threads' priority (pipeline.h). At -10 they come before every
+  /// process of default priority on the machine, clients included, where the system allows it.
+  PipelineOptions pipeline{.thread_nice = -10};
   /// Query workers, call and stream limits, message size, keepalive (rpc_server.h).
   ServerLimits limits;
 };

@@ -54,10 +54,18 @@ struct PipelineProgress {
   std::optional<std::chrono::steady_clock::time_point> detecting_since;
 };
 
+struct PipelineOptions {
+  /// Nice value of the capture and detector threads (named ss-capture and ss-detect). Below the
+  /// process's own it needs root, CAP_SYS_NICE or an RLIMIT_NICE that allows it; when the
+  /// system refuses, the threads keep the process's priority and the daemon says so once. 0 =
+  /// leave them at the process's priority.
+  int thread_nice = 0;
+};
+
 class Pipeline {
  public:
   Pipeline(std::unique_ptr<FrameSource> source, DetectorChain chain, FrameCache& cache,
-           SummaryHub& hub, FrameTap* tap = nullptr);
+           SummaryHub& hub, FrameTap* tap = nullptr, PipelineOptions options = {});
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
@@ -76,6 +84,8 @@ class Pipeline {
  private:
   void captureLoop(std::stop_token stop);
   void detectLoop(std::stop_token stop);
+  /// Names the calling pipeline thread and gives it the configured priority.
+  void prepareThisThread(const char* name);
   void setState(SourceState state, std::string message = {});
   void noteSourceEvent();
   /// The state as status() reports it: a live sensor that is not connected is reconnecting.
@@ -87,6 +97,8 @@ class Pipeline {
   FrameCache& cache_;
   SummaryHub& hub_;
   FrameTap* tap_;  // may be null
+  const PipelineOptions options_;
+  std::once_flag priority_refused_;
   LatencyTracker latency_;
 
   mutable std::mutex mutex_;  // guards the fields below
