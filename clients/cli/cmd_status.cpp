@@ -1,13 +1,18 @@
 #include <cstdio>
 #include <iostream>
+#include <span>
 
 #include "commands.h"
+#include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/timestamp.h"
 
 namespace shapesense::cli {
 
 void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
-  auto* cmd = app.add_subcommand("status", "Source, counters, cached range and stage latencies");
+  auto* cmd = app.add_subcommand(
+      "status",
+      "Source, counters, cached range, stage latencies and how long the daemon took to answer "
+      "calls");
   auto json = std::make_shared<bool>(false);
   cmd->add_flag("--json", *json, "Print JSON");
   cmd->callback([&global, json] {
@@ -50,6 +55,21 @@ void addStatusCommand(CLI::App& app, const GlobalOptions& global) {
         std::printf("%-14s %8llu %9.2f %9.2f %9.2f\n", s.stage().c_str(),
                     static_cast<unsigned long long>(s.runs()), s.last_ms(), s.median_ms(),
                     s.p95_ms());
+      }
+    }
+    if (status.calls_size() > 0) {
+      std::printf("%-18s %9s %9s %7s %10s %10s\n", "calls since start", "answered", "refused",
+                  "failed", "p50 ms <=", "p99 ms <=");
+      for (const auto& c : status.calls()) {
+        const auto p = [&c](double q) {
+          return bucketQuantile(
+              std::span(c.bucket_upper_ms().data(), c.bucket_upper_ms().size()),
+              std::span(c.answered_by_bucket().data(), c.answered_by_bucket().size()), q);
+        };
+        std::printf("%-18s %9llu %9llu %7llu %10g %10g\n", c.method().c_str(),
+                    static_cast<unsigned long long>(c.answered()),
+                    static_cast<unsigned long long>(c.refused()),
+                    static_cast<unsigned long long>(c.failed()), p(0.5), p(0.99));
       }
     }
   });

@@ -37,25 +37,33 @@ const char* codeName(grpc::StatusCode code) {
 
 class CallLogInterceptor final : public grpc::experimental::Interceptor {
  public:
-  CallLogInterceptor(grpc::experimental::ServerRpcInfo* info, const AccessTokens* tokens)
-      : info_(info), tokens_(tokens), start_(std::chrono::steady_clock::now()) {}
+  CallLogInterceptor(grpc::experimental::ServerRpcInfo* info, const AccessTokens* tokens,
+                     CallLatencies* latencies)
+      : info_(info),
+        tokens_(tokens),
+        latencies_(latencies),
+        start_(std::chrono::steady_clock::now()) {}
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
-      log(methods->GetSendStatus());
+      const grpc::Status status = methods->GetSendStatus();
+      const double ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
+              .count();
+      const std::string method = info_->method() ? info_->method() : "?";
+      if (latencies_ && info_->type() == grpc::experimental::ServerRpcInfo::Type::UNARY) {
+        latencies_->record(method, status.error_code(), ms);
+      }
+      log(method, status, ms);
     }
     methods->Proceed();
   }
 
  private:
-  void log(const grpc::Status& status) const {
-    const std::string method = info_->method() ? info_->method() : "?";
+  void log(const std::string& method, const grpc::Status& status, double ms) const {
     const auto level =
         method == "/shapesense.v1.ShapeSense/Record" ? spdlog::level::info : spdlog::level::debug;
     if (!spdlog::should_log(level)) return;
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
-            .count();
     grpc::ServerContextBase* context = info_->server_context();
     if (status.ok()) {
       spdlog::log(level, "rpc {} from {}{}: OK in {:.1f} ms", method, context->peer(),
@@ -78,6 +86,7 @@ class CallLogInterceptor final : public grpc::experimental::Interceptor {
 
   grpc::experimental::ServerRpcInfo* info_;
   const AccessTokens* tokens_;
+  CallLatencies* latencies_;
   std::chrono::steady_clock::time_point start_;
 };
 
@@ -85,7 +94,7 @@ class CallLogInterceptor final : public grpc::experimental::Interceptor {
 
 grpc::experimental::Interceptor* CallLogFactory::CreateServerInterceptor(
     grpc::experimental::ServerRpcInfo* info) {
-  return new CallLogInterceptor(info, tokens_.get());
+  return new CallLogInterceptor(info, tokens_.get(), latencies_.get());
 }
 
 }  // namespace shapesense

@@ -66,6 +66,8 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
   ShapeSenseService(ServiceContext context, QueryPool& queries, std::size_t max_calls)
       : context_(std::move(context)), queries_(queries), max_calls_(max_calls) {}
 
+  const ServiceContext& context() const { return context_; }
+
   grpc::ServerUnaryReactor* GetStatus(grpc::CallbackServerContext* call,
                                       const v1::GetStatusRequest* request,
                                       v1::GetStatusResponse* response) override {
@@ -246,7 +248,8 @@ RpcServer::RpcServer(const std::string& listen_address, ServiceContext context,
       &port_);
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<RequestParseStatusFactory>());
-  interceptors.push_back(std::make_unique<CallLogFactory>(options.tokens));
+  interceptors.push_back(
+      std::make_unique<CallLogFactory>(options.tokens, service_->context().call_latencies));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.RegisterService(service_.get());
   server_ = builder.BuildAndStart();

@@ -106,6 +106,13 @@ class PythonClientTest(unittest.TestCase):
         self.assertTrue(status.source_connected)
         self.assertIn("planes", " ".join(status.detectors))
         self.assertTrue(all(s.stage and s.runs >= 0 for s in status.stages))
+        # The first status call is counted once answered: the second one reports it.
+        calls = {c.method: c for c in self.client.status().calls}
+        self.assertIn("GetStatus", calls)
+        self.assertGreaterEqual(calls["GetStatus"].answered, 1)
+        self.assertEqual(len(calls["GetStatus"].answered_by_bucket),
+                         len(calls["GetStatus"].bucket_upper_ms) + 1)
+        self.assertEqual(sum(calls["GetStatus"].answered_by_bucket), calls["GetStatus"].answered)
 
     def test_frames_are_in_order(self):
         frames = self.client.frames()

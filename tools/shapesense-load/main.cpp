@@ -6,8 +6,10 @@
 // --slow-read-ms, for --seconds. At the end it prints requests per second, latency
 // percentiles per method (answered calls), refusals and other errors by status code, the
 // daemon's skipped frames over the run, what the slow subscribers saw (dropped_before, and how
-// many frames behind the newest each summary was when read), and the daemon's resident memory
-// at start and end (with --daemon-pid).
+// many frames behind the newest each summary was when read), the daemon's resident memory
+// at start and end (with --daemon-pid), and the daemon's own latencies for the run (GetStatus
+// calls): on one machine the tool's threads compete with the daemon's, and the latencies this
+// tool sees include its own wait for a core.
 //
 //   build/tools/shapesense-load --server 127.0.0.1:50551 --clients 64 --slow-watchers 16
 //       --seconds 600 --daemon-pid "$(pidof shapesensed)"   (one command line)
@@ -20,6 +22,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -88,13 +91,56 @@ double residentMiB(int pid) {
   return -1;
 }
 
-std::uint64_t skippedFrames(v1::ShapeSense::Stub& stub) {
+v1::GetStatusResponse daemonStatus(v1::ShapeSense::Stub& stub) {
   grpc::ClientContext context;
   context.set_deadline(deadlineAt(Clock::now() + std::chrono::seconds(10)));
   v1::GetStatusResponse status;
   const auto result = stub.GetStatus(&context, v1::GetStatusRequest(), &status);
   if (!result.ok()) throw shapesense::cli::RpcError(result);
-  return status.frames_skipped();
+  return status;
+}
+
+/// The daemon's own account of the run: its call latencies at the end minus those at the start.
+std::map<std::string, v1::CallLatency> callsDuringRun(const v1::GetStatusResponse& start,
+                                                      const v1::GetStatusResponse& end) {
+  std::map<std::string, v1::CallLatency> run;
+  for (const auto& call : end.calls()) run[call.method()] = call;
+  for (const auto& call : start.calls()) {
+    auto found = run.find(call.method());
+    if (found == run.end()) continue;
+    v1::CallLatency& diff = found->second;
+    diff.set_answered(diff.answered() - call.answered());
+    diff.set_refused(diff.refused() - call.refused());
+    diff.set_failed(diff.failed() - call.failed());
+    for (int i = 0; i < diff.answered_by_bucket_size() && i < call.answered_by_bucket_size(); ++i)
+      diff.set_answered_by_bucket(i, diff.answered_by_bucket(i) - call.answered_by_bucket(i));
+  }
+  return run;
+}
+
+void reportDaemonSide(const std::map<std::string, v1::CallLatency>& calls) {
+  std::printf(
+      "daemon side (arrival to answer, without the network and this tool's own scheduling; "
+      "bucket upper bounds):\n");
+  for (const auto& [method, call] : calls) {
+    const std::span bounds(call.bucket_upper_ms().data(), call.bucket_upper_ms().size());
+    const std::span counts(call.answered_by_bucket().data(), call.answered_by_bucket().size());
+    if (call.answered() + call.refused() + call.failed() == 0) continue;
+    std::uint64_t within_10 = 0;
+    for (std::size_t i = 0; i < counts.size() && i < bounds.size() && bounds[i] <= 10; ++i)
+      within_10 += counts[i];
+    std::printf(
+        "  %-12s answered %llu (%.2f%% within 10 ms), refused %llu, failed %llu, p50 <= %g, "
+        "p99 <= %g ms\n",
+        method.c_str(), static_cast<unsigned long long>(call.answered()),
+        call.answered()
+            ? 100.0 * static_cast<double>(within_10) / static_cast<double>(call.answered())
+            : 0.0,
+        static_cast<unsigned long long>(call.refused()),
+        static_cast<unsigned long long>(call.failed()),
+        shapesense::bucketQuantile(bounds, counts, 0.5),
+        shapesense::bucketQuantile(bounds, counts, 0.99));
+  }
 }
 
 /// One query, chosen by `turn` (8 of 10 EstimateBox, then GetBowls, GetPlanes at the newest
@@ -283,7 +329,7 @@ int main(int argc, char** argv) {
   try {
     const auto channel = shapesense::cli::makeChannel(global);
     const auto stub = v1::ShapeSense::NewStub(channel);
-    const std::uint64_t skipped_start = skippedFrames(*stub);
+    const v1::GetStatusResponse status_start = daemonStatus(*stub);
     const double rss_start = residentMiB(o.daemon_pid);
     const auto start = Clock::now();
     const auto end = start + std::chrono::duration_cast<Clock::duration>(
@@ -301,8 +347,11 @@ int main(int argc, char** argv) {
                            o.backoff_ms, std::cref(newest), std::ref(clients[i]));
     for (auto& t : threads) t.join();
     const std::chrono::duration<double> took = Clock::now() - start;
-    report(clients, watchers, took.count(), skippedFrames(*stub) - skipped_start, rss_start,
+    const v1::GetStatusResponse status_end = daemonStatus(*stub);
+    report(clients, watchers, took.count(),
+           status_end.frames_skipped() - status_start.frames_skipped(), rss_start,
            residentMiB(o.daemon_pid));
+    reportDaemonSide(callsDuringRun(status_start, status_end));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "shapesense-load: %s\n", e.what());
     return 1;

@@ -15,7 +15,7 @@ from proto/shapesense/v1/shapesense.proto); the reference for every field is tha
 from .client import DEFAULT_ADDRESS, Client, SceneState, box_mode, read_token
 from .errors import ShapeSenseError
 from .times import format_ns, parse_time
-from .types import (Bowl, Box, CacheRange, DepthStats, DetectedBox, Frame, FrameInfo,
+from .types import (Bowl, Box, CacheRange, CallLatency, DepthStats, DetectedBox, Frame, FrameInfo,
                     FrameSummary, Intrinsics, ObjectDetection, ObjectModelInfo, OrientedBox,
                     PixelBox, Plane, RecordProgress, ResultList, RoiDepthStats, SceneObject,
                     ScenePlane, SceneUpdate, Segment, Segments, StageLatency, StageTiming,
@@ -23,7 +23,7 @@ from .types import (Bowl, Box, CacheRange, DepthStats, DetectedBox, Frame, Frame
 
 __all__ = [
     "DEFAULT_ADDRESS", "Client", "SceneState", "ShapeSenseError", "box_mode", "read_token",
-    "format_ns", "parse_time", "Bowl", "Box", "CacheRange", "DepthStats", "DetectedBox", "Frame",
+    "format_ns", "parse_time", "Bowl", "Box", "CacheRange", "CallLatency", "DepthStats", "DetectedBox", "Frame",
     "FrameInfo", "FrameSummary", "Intrinsics", "ObjectDetection", "ObjectModelInfo",
     "OrientedBox", "PixelBox", "Plane", "RecordProgress", "ResultList", "RoiDepthStats",
     "SceneObject", "ScenePlane", "SceneUpdate", "Segment", "Segments", "StageLatency",

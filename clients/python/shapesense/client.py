@@ -177,17 +177,21 @@ class Client:
     # -- status and frames -----------------------------------------------------------------
 
     def status(self) -> t.Status:
-        """Source, its state, counters, cached time range and per-stage latency."""
+        """Source, its state, counters, cached time range, per-stage latency and the daemon's
+        own call latencies by method."""
         m = self._call(self._stub.GetStatus, pb.GetStatusRequest())
         stages = [t.StageLatency(s.stage, s.runs, s.last_ms, s.median_ms, s.p95_ms)
                   for s in m.stages]
         state = pb.GetStatusResponse.SourceState.Name(m.source_state)
+        calls = [t.CallLatency(c.method, c.answered, c.refused, c.failed,
+                               list(c.bucket_upper_ms), list(c.answered_by_bucket))
+                 for c in m.calls]
         return t.Status(m.version, m.source, state, m.source_message, m.frames_received,
                         m.frames_processed, m.frames_skipped, m.source_errors,
                         t.cache_range(m.cache), stages, m.uptime_s, list(m.detectors),
                         m.source_live, m.source_connected, m.source_reconnects,
                         m.source_dropped_frames, m.frames_out_of_order, m.source_disconnects,
-                        m.session_id)
+                        m.session_id, calls)
 
     def frames(self, from_ns: int = 0, to_ns: int = 0, limit: int = 0) -> List[t.FrameInfo]:
         """The cached frames captured in [from_ns, to_ns] (0: open end), oldest first; with

@@ -94,6 +94,20 @@ class StageLatency:
 
 
 @dataclass
+class CallLatency:
+    """How long the daemon took to answer one method's calls since it started, from arrival to
+    answer (the network and the client not included). ``answered_by_bucket[i]`` counts answered
+    calls up to ``bucket_upper_ms[i]``; its last entry counts those above the last bound."""
+
+    method: str
+    answered: int
+    refused: int
+    failed: int
+    bucket_upper_ms: List[float]
+    answered_by_bucket: List[int]
+
+
+@dataclass
 class Status:
     """What ``shapesense status`` shows: source, its state, counters, cache, stage latency.
 
@@ -120,6 +134,7 @@ class Status:
     frames_out_of_order: int
     source_disconnects: int
     session_id: str
+    calls: List[CallLatency]
 
 
 @dataclass

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 namespace shapesense {
 
@@ -65,6 +66,23 @@ std::pair<double, double> trimmedRange(std::span<const double> values, double tr
     if (bin_of[i] == high.bin) high_bin.push_back(values[i]);
   }
   return {select(low_bin, low.rank), select(high_bin, high.rank)};
+}
+
+double bucketQuantile(std::span<const double> upper_bounds, std::span<const std::uint64_t> counts,
+                      double q) {
+  std::uint64_t total = 0;
+  for (const std::uint64_t n : counts) total += n;
+  if (total == 0) return 0;
+  const std::uint64_t wanted = std::max<std::uint64_t>(
+      1, static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(total))));
+  std::uint64_t seen = 0;
+  for (std::size_t i = 0; i < counts.size(); ++i) {
+    seen += counts[i];
+    if (seen >= wanted) {
+      return i < upper_bounds.size() ? upper_bounds[i] : std::numeric_limits<double>::infinity();
+    }
+  }
+  return std::numeric_limits<double>::infinity();
 }
 
 }  // namespace shapesense

@@ -1,5 +1,3 @@
-#include <opencv2/imgcodecs.hpp>
-
 #include "shapesense/server/handlers.h"
 #include "shapesense/server/proto_convert.h"
 
@@ -26,9 +24,8 @@ grpc::Status handleGetPlanes(const ServiceContext& context, const v1::GetPlanesR
   const auto& planes = accumulated ? result.accumulated : result.frame.planes;
   for (const auto& plane : planes) toProto(plane, !request.skip_polygons(), response->add_planes());
   if (!accumulated && !request.skip_labels()) {
-    std::vector<unsigned char> png;
-    cv::imencode(".png", result.frame.labels, png, {cv::IMWRITE_PNG_COMPRESSION, 1});
-    response->set_labels_png(png.data(), png.size());
+    response->set_labels_png(*context.pngs->get(entry.frame->sequence, entry.frame->timestamp_ns,
+                                                FrameImage::kPlaneLabels, result.frame.labels));
   }
   return grpc::Status::OK;
 }

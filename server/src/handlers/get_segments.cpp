@@ -1,7 +1,5 @@
 #include <chrono>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "shapesense/core/pipeline/stages.h"
 #include "shapesense/server/handlers.h"
 #include "shapesense/server/proto_convert.h"
@@ -43,9 +41,10 @@ grpc::Status handleGetSegments(const ServiceContext& context, const v1::GetSegme
   response->set_frame_timestamp_ns(entry.frame->timestamp_ns);
   response->set_method(std::string(formatSegmentationMethod(result->method)));
   if (!request.skip_labels()) {
-    std::vector<unsigned char> png;
-    cv::imencode(".png", result->labels, png, {cv::IMWRITE_PNG_COMPRESSION, 1});
-    response->set_labels_png(png.data(), png.size());
+    response->set_labels_png(
+        result == &computed ? encodePng(result->labels)
+                            : *context.pngs->get(entry.frame->sequence, entry.frame->timestamp_ns,
+                                                 FrameImage::kSegmentLabels, result->labels));
   }
   for (const auto& segment : result->segments) toProto(segment, response->add_segments());
   return grpc::Status::OK;

@@ -33,6 +33,15 @@ grpc::Status handleGetStatus(const ServiceContext& context, const v1::GetStatusR
   response->set_source_reconnects(status.health.reconnects);
   response->set_source_disconnects(status.health.disconnects);
   response->set_source_dropped_frames(status.health.dropped_frames);
+  for (const MethodLatency& method : context.call_latencies->snapshot()) {
+    auto* out = response->add_calls();
+    out->set_method(method.method);
+    out->set_answered(method.answered);
+    out->set_refused(method.refused);
+    out->set_failed(method.failed);
+    for (const double bound : MethodLatency::kBucketUpperMs) out->add_bucket_upper_ms(bound);
+    for (const std::uint64_t n : method.answered_by_bucket) out->add_answered_by_bucket(n);
+  }
   return grpc::Status::OK;
 }
 

@@ -1,9 +1,12 @@
-// Quantiles and trimmed ranges (core/geometry/order_statistics.h) against a full sort.
+// Quantiles and trimmed ranges (core/geometry/order_statistics.h) against a full sort, and
+// quantiles of bucket counts.
 
 #include "shapesense/core/geometry/order_statistics.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -49,6 +52,23 @@ TEST(Quantile, IsTheValueAtItsRank) {
   EXPECT_EQ(quantile(values, 0.5), 3.0);
   EXPECT_EQ(quantile(values, 1.0), 5.0);
   EXPECT_EQ(quantile(values, 0.74), 3.0);  // rank floor(0.74 * 4) = 2
+}
+
+TEST(BucketQuantile, IsTheUpperBoundOfTheBucketWhereTheShareIsReached) {
+  const std::vector<double> bounds{1, 2, 5};
+  // 10 values up to 1, 80 in (1, 2], 9 in (2, 5], 1 above 5.
+  const std::vector<std::uint64_t> counts{10, 80, 9, 1};
+  EXPECT_EQ(bucketQuantile(bounds, counts, 0.0), 1.0);
+  EXPECT_EQ(bucketQuantile(bounds, counts, 0.10), 1.0);
+  EXPECT_EQ(bucketQuantile(bounds, counts, 0.11), 2.0);
+  EXPECT_EQ(bucketQuantile(bounds, counts, 0.90), 2.0);
+  EXPECT_EQ(bucketQuantile(bounds, counts, 0.99), 5.0);
+  EXPECT_EQ(bucketQuantile(bounds, counts, 1.0), std::numeric_limits<double>::infinity());
+}
+
+TEST(BucketQuantile, NothingCountedIsZero) {
+  const std::vector<double> bounds{1, 2};
+  EXPECT_EQ(bucketQuantile(bounds, std::vector<std::uint64_t>{0, 0, 0}, 0.5), 0.0);
 }
 
 }  // namespace

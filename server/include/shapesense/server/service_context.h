@@ -10,10 +10,12 @@
 
 #include <grpcpp/support/status.h>
 
+#include "shapesense/server/call_latencies.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/frame_tap.h"
 #include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
+#include "shapesense/server/png_cache.h"
 #include "shapesense/server/recording_root.h"
 #include "shapesense/server/scene_surface_cache.h"
 #include "shapesense/server/stream_quota.h"
@@ -47,6 +49,10 @@ struct ServiceContext {
   ObjectModelStore* object_models = nullptr;
   /// The last searched frame's surface; shared by the copies of this context.
   std::shared_ptr<SceneSurfaceCache> scene_surfaces = std::make_shared<SceneSurfaceCache>();
+  /// PNGs of the frames' images and labels; shared by the copies of this context.
+  std::shared_ptr<PngCache> pngs = std::make_shared<PngCache>();
+  /// How long unary calls took, by method (the RpcServer's call log fills it); for GetStatus.
+  std::shared_ptr<CallLatencies> call_latencies = std::make_shared<CallLatencies>();
 
   std::string session_id = newSessionId();
   bool shuttingDown() const { return shutting_down && shutting_down->load(); }

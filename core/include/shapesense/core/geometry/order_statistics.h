@@ -1,7 +1,9 @@
 #pragma once
 // Quantiles of a set of values, the one implementation core/ uses: the bowl check's percentiles
-// over a few hundred values and a box's trimmed extents over up to a whole frame of points.
+// over a few hundred values and a box's trimmed extents over up to a whole frame of points; and
+// of values known only as counts per bucket (the daemon's call latencies).
 
+#include <cstdint>
 #include <span>
 #include <utility>
 #include <vector>
@@ -16,5 +18,12 @@ double quantile(std::vector<double>& values, double q);
 /// and a selection within the histogram bins that hold those ranks, so a frame-sized set costs
 /// about as much as reading it twice. n > 0.
 std::pair<double, double> trimmedRange(std::span<const double> values, double trim);
+
+/// The upper bound of the bucket in which the share `q` (0..1) of the counted values is reached:
+/// an upper estimate of their q-quantile. counts[i] counts values up to upper_bounds[i]; one more
+/// count than bounds takes the values above the last bound, and +inf stands for them. 0 when
+/// nothing is counted.
+double bucketQuantile(std::span<const double> upper_bounds, std::span<const std::uint64_t> counts,
+                      double q);
 
 }  // namespace shapesense
