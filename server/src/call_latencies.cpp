@@ -6,8 +6,9 @@ namespace shapesense {
 
 void CallLatencies::record(const std::string& method, grpc::StatusCode code, double ms) {
   const auto slash = method.rfind('/');
-  const std::string_view name =
-      slash == std::string::npos ? std::string_view(method) : std::string_view(method).substr(slash + 1);
+  const std::string_view name = slash == std::string::npos
+                                    ? std::string_view(method)
+                                    : std::string_view(method).substr(slash + 1);
   std::lock_guard lock(mutex_);
   auto found = methods_.find(name);
   if (found == methods_.end()) {

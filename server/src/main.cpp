@@ -258,6 +258,11 @@ void addHealthAndLimitOptions(CLI::App& app, CommandLine& c) {
                  "call, so a flood of calls takes time from them before the detectors")
       ->check(CLI::Range(0, 19))
       ->capture_default_str();
+  app.add_option("--busy-pushback-ms", limits.busy_pushback_ms,
+                 "Calls refused RESOURCE_EXHAUSTED tell the client to wait this long before "
+                 "calling again (gRPC's grpc-retry-pushback-ms; 0 = say nothing)")
+      ->check(CLI::Range(0, 60000))
+      ->capture_default_str();
   app.add_option("--pipeline-nice", options.pipeline.thread_nice,
                  "Nice value of the capture and detector threads (-20-0); below 0 they come "
                  "before clients on the same machine, where the system allows it (root, "

@@ -29,9 +29,9 @@ std::shared_ptr<const std::string> PngCache::get(std::uint64_t sequence, std::in
   // the same new image at once may both encode it, and the second copy replaces nothing useful.
   auto png = std::make_shared<const std::string>(encodePng(image));
   std::lock_guard lock(mutex_);
-  Entry& slot = *std::min_element(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) {
-    return a.last_used < b.last_used;
-  });
+  Entry& slot =
+      *std::min_element(entries_.begin(), entries_.end(),
+                        [](const Entry& a, const Entry& b) { return a.last_used < b.last_used; });
   slot = Entry{sequence, timestamp_ns, kind, png, ++uses_};
   return png;
 }

@@ -63,8 +63,12 @@ class RecordReactor final : public grpc::ServerWriteReactor<v1::RecordProgress> 
 /// the heavy ones on the QueryPool, each unary call counted against ServerLimits::max_calls.
 class ShapeSenseService final : public v1::ShapeSense::CallbackService {
  public:
-  ShapeSenseService(ServiceContext context, QueryPool& queries, std::size_t max_calls)
-      : context_(std::move(context)), queries_(queries), max_calls_(max_calls) {}
+  ShapeSenseService(ServiceContext context, QueryPool& queries, std::size_t max_calls,
+                    int busy_pushback_ms)
+      : context_(std::move(context)),
+        queries_(queries),
+        max_calls_(max_calls),
+        busy_pushback_ms_(busy_pushback_ms) {}
 
   const ServiceContext& context() const { return context_; }
 
@@ -142,10 +146,11 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
   }
 
  private:
-  /// Admits one more unary call, or says why not.
-  bool admit(grpc::ServerUnaryReactor* reactor) {
+  /// Admits one more unary call, or refuses it.
+  bool admit(grpc::CallbackServerContext* call, grpc::ServerUnaryReactor* reactor) {
     if (in_flight_.fetch_add(1) < max_calls_) return true;
     in_flight_.fetch_sub(1);
+    advisePushback(call);
     reactor->Finish({grpc::StatusCode::RESOURCE_EXHAUSTED,
                      "the daemon is answering " + std::to_string(max_calls_) +
                          " calls already (shapesensed --max-calls); retry later"});
@@ -155,12 +160,24 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
     in_flight_.fetch_sub(1);
     reactor->Finish(status);
   }
+  /// Finishes an admitted call the daemon is too busy for, telling the client when to call again.
+  void refuseBusy(grpc::CallbackServerContext* call, grpc::ServerUnaryReactor* reactor,
+                  const std::string& why) {
+    advisePushback(call);
+    finish(reactor, {grpc::StatusCode::RESOURCE_EXHAUSTED, why});
+  }
+  /// gRPC's retry pushback (gRFC A6): clients whose retry policy or own code honours it come
+  /// back after that long, instead of turning a flood into refusals that take the answers' CPU.
+  void advisePushback(grpc::CallbackServerContext* call) const {
+    if (busy_pushback_ms_ > 0)
+      call->AddTrailingMetadata(kRetryPushbackKey, std::to_string(busy_pushback_ms_));
+  }
 
   /// A cheap call (a copy of counters or of the cache's index): answered on this gRPC thread.
   template <class Handler>
   grpc::ServerUnaryReactor* here(grpc::CallbackServerContext* call, Handler handler) {
     auto* reactor = call->DefaultReactor();
-    if (admit(reactor)) finish(reactor, handler());
+    if (admit(call, reactor)) finish(reactor, handler());
     return reactor;
   }
 
@@ -168,13 +185,13 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
   template <class Handler>
   grpc::ServerUnaryReactor* onPool(grpc::CallbackServerContext* call, Handler handler) {
     auto* reactor = call->DefaultReactor();
-    if (!admit(reactor)) return reactor;
+    if (!admit(call, reactor)) return reactor;
     const bool queued = queries_.trySubmit([this, call, reactor, handler](bool run) {
       if (!run) {
-        finish(reactor, {grpc::StatusCode::RESOURCE_EXHAUSTED,
-                         "the daemon's query workers are busy: this call waited " +
-                             std::to_string(queries_.maxWait().count()) +
-                             " ms for one (shapesensed --query-max-wait-ms); retry later"});
+        refuseBusy(call, reactor,
+                   "the daemon's query workers are busy: this call waited " +
+                       std::to_string(queries_.maxWait().count()) +
+                       " ms for one (shapesensed --query-max-wait-ms); retry later");
       } else if (call->IsCancelled()) {
         // A client that gave up while the call waited does not get the work done for nothing.
         finish(reactor, {grpc::StatusCode::CANCELLED, "cancelled while queued"});
@@ -183,11 +200,10 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
       }
     });
     if (!queued) {
-      finish(reactor,
-             {grpc::StatusCode::RESOURCE_EXHAUSTED,
-              "the daemon's query workers are busy and " + std::to_string(queries_.capacity()) +
-                  " queries wait already (shapesensed --query-workers, --query-queue); retry "
-                  "later"});
+      refuseBusy(call, reactor,
+                 "the daemon's query workers are busy and " + std::to_string(queries_.capacity()) +
+                     " queries wait already (shapesensed --query-workers, --query-queue); retry "
+                     "later");
     }
     return reactor;
   }
@@ -195,6 +211,7 @@ class ShapeSenseService final : public v1::ShapeSense::CallbackService {
   ServiceContext context_;
   QueryPool& queries_;
   const std::size_t max_calls_;
+  const int busy_pushback_ms_;
   std::atomic<std::size_t> in_flight_{0};
 };
 
@@ -228,7 +245,8 @@ RpcServer::RpcServer(const std::string& listen_address, ServiceContext context,
   watch_streams_ =
       std::make_unique<StreamQuota>(limits.max_watch_per_client, limits.max_watch_streams);
   context.watch_streams = watch_streams_.get();
-  service_ = std::make_unique<ShapeSenseService>(std::move(context), *queries_, limits.max_calls);
+  service_ = std::make_unique<ShapeSenseService>(std::move(context), *queries_, limits.max_calls,
+                                                 limits.busy_pushback_ms);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
   builder.SetMaxReceiveMessageSize(limits.max_receive_message_bytes);

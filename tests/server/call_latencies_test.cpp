@@ -24,8 +24,8 @@ TEST(CallLatencies, CountsAnsweredCallsByBucketAndRefusedAndFailedOnes) {
   latencies.record("/shapesense.v1.ShapeSense/EstimateBox", grpc::StatusCode::OK, 0.1);
   latencies.record("/shapesense.v1.ShapeSense/EstimateBox", grpc::StatusCode::OK, 4.0);
   latencies.record("/shapesense.v1.ShapeSense/EstimateBox", grpc::StatusCode::OK, 1000.0);
-  latencies.record("/shapesense.v1.ShapeSense/EstimateBox",
-                   grpc::StatusCode::RESOURCE_EXHAUSTED, 6.0);
+  latencies.record("/shapesense.v1.ShapeSense/EstimateBox", grpc::StatusCode::RESOURCE_EXHAUSTED,
+                   6.0);
   latencies.record("EstimateBox", grpc::StatusCode::INVALID_ARGUMENT, 0.2);
   latencies.record("/shapesense.v1.ShapeSense/GetPlanes", grpc::StatusCode::OK, 7.5);
   const auto methods = latencies.snapshot();

@@ -61,6 +61,13 @@ v1::EstimateBoxRequest boxRequest() {
   return request;
 }
 
+/// The retry pushback the daemon sent with a call's status, or "" when it sent none.
+std::string pushbackOf(const grpc::ClientContext& context) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  const auto found = trailers.find(kRetryPushbackKey);
+  return found == trailers.end() ? "" : std::string(found->second.data(), found->second.size());
+}
+
 /// An EstimateBox started now, answered whenever the server answers it.
 struct PendingCall {
   grpc::ClientContext context;
@@ -122,8 +129,11 @@ TEST(QueryLimits, FullQueueAnswersResourceExhaustedAtOnceAndCheapCallsStillWork)
 
   v1::EstimateBoxResponse response;
   const auto start = std::chrono::steady_clock::now();
-  const grpc::Status refused = srv.stub().EstimateBox(clientContext().get(), request, &response);
+  const auto refused_context = clientContext();
+  const grpc::Status refused = srv.stub().EstimateBox(refused_context.get(), request, &response);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(pushbackOf(*refused_context), std::to_string(ServerLimits{}.busy_pushback_ms))
+      << "a busy refusal says when to call again";
   EXPECT_NE(refused.error_message().find("--query-queue"), std::string::npos)
       << refused.error_message();
   EXPECT_LT(std::chrono::steady_clock::now() - start, 2s) << "refused, but not at once";
@@ -171,10 +181,13 @@ TEST(QueryLimits, ACallThatWaitedTooLongIsRefusedNotRunLate) {
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_NE(status.error_message().find("--query-max-wait-ms"), std::string::npos)
       << status.error_message();
+  EXPECT_EQ(pushbackOf(late.context), std::to_string(ServerLimits{}.busy_pushback_ms));
 }
 
 TEST(QueryLimits, MaxCallsCountsQueuedCalls) {
-  TestServer srv(16, {}, {}, oneWorker(/*queue=*/8, /*max_calls=*/2));
+  ServerLimits limits = oneWorker(/*queue=*/8, /*max_calls=*/2);
+  limits.busy_pushback_ms = 40;
+  TestServer srv(16, {}, {}, limits);
   srv.addMany(2);
   const auto request = boxRequest();
   PoolBlocker blocker(srv.server().queryPool());
@@ -182,10 +195,12 @@ TEST(QueryLimits, MaxCallsCountsQueuedCalls) {
   PendingCall second(srv.stub(), request);
   ASSERT_EQ(second.status.wait_for(200ms), std::future_status::timeout);
   v1::GetStatusResponse status;
-  const grpc::Status refused = srv.stub().GetStatus(clientContext().get(), {}, &status);
+  const auto refused_context = clientContext();
+  const grpc::Status refused = srv.stub().GetStatus(refused_context.get(), {}, &status);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_NE(refused.error_message().find("--max-calls"), std::string::npos)
       << refused.error_message();
+  EXPECT_EQ(pushbackOf(*refused_context), "40");
   blocker.release();
   EXPECT_TRUE(first.status.get().ok());
   EXPECT_TRUE(second.status.get().ok());
@@ -203,6 +218,22 @@ TEST(QueryLimits, OversizedRequestIsRefused) {
   v1::GetSegmentsResponse response;
   EXPECT_EQ(srv.stub().GetSegments(clientContext().get(), request, &response).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED);
+}
+
+TEST(QueryLimits, NoPushbackWhenTurnedOffAndNoneOnAnswers) {
+  ServerLimits limits = oneWorker(/*queue=*/0);
+  limits.busy_pushback_ms = 0;
+  TestServer srv(16, {}, {}, limits);
+  srv.addMany(2);
+  const auto answered_context = clientContext();
+  v1::EstimateBoxResponse response;
+  ASSERT_TRUE(srv.stub().EstimateBox(answered_context.get(), boxRequest(), &response).ok());
+  EXPECT_EQ(pushbackOf(*answered_context), "");
+  PoolBlocker blocker(srv.server().queryPool());
+  const auto refused_context = clientContext();
+  EXPECT_EQ(srv.stub().EstimateBox(refused_context.get(), boxRequest(), &response).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(pushbackOf(*refused_context), "");
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 // shapesense-load: load and soak test of a running daemon. N clients send mixed queries
 // (EstimateBox 80% for the newest frame, GetBowls 10% and GetPlanes 10% for the newest frame
 // the detectors processed, which a Watch stream of the tool's own tracks) as fast as they are
-// answered; a client refused with RESOURCE_EXHAUSTED waits --backoff-ms before its next call,
-// as a well-behaved client would. M slow subscribers read Watch one summary per
+// answered; a client refused with RESOURCE_EXHAUSTED waits as long as the daemon's retry
+// pushback says (grpc-retry-pushback-ms), or --backoff-ms when it says nothing or with
+// --ignore-pushback, as a well-behaved client would. M slow subscribers read Watch one summary per
 // --slow-read-ms, for --seconds. At the end it prints requests per second, latency
 // percentiles per method (answered calls), refusals and other errors by status code, the
 // daemon's skipped frames over the run, what the slow subscribers saw (dropped_before, and how
@@ -18,12 +19,15 @@
 // network: every request loop is bounded by --seconds.
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -52,6 +56,7 @@ struct LoadOptions {
   int slow_read_ms = 1000;
   int daemon_pid = 0;
   int backoff_ms = 5;
+  bool ignore_pushback = false;
 };
 
 /// The newest frame the detectors processed, as the tool's own Watch stream last saw it.
@@ -65,6 +70,9 @@ struct ClientStats {
   std::map<std::string, std::vector<double>> latency_ms;  ///< by method, successful calls
   std::map<grpc::StatusCode, std::uint64_t> errors;
   std::map<std::string, std::vector<double>> error_ms;  ///< by status code name
+  /// From a query's first attempt to its answer, the refusals and waits before it included:
+  /// what the client's user waits for.
+  std::vector<double> to_answer_ms;
 };
 
 struct WatcherStats {
@@ -145,9 +153,8 @@ void reportDaemonSide(const std::map<std::string, v1::CallLatency>& calls) {
 
 /// One query, chosen by `turn` (8 of 10 EstimateBox, then GetBowls, GetPlanes at the newest
 /// processed frame: the newest frame itself is usually still in the detectors).
-std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, unsigned turn,
-                                           const Newest& newest) {
-  grpc::ClientContext context;
+std::pair<std::string, grpc::Status> query(v1::ShapeSense::Stub& stub, grpc::ClientContext& context,
+                                           unsigned turn, const Newest& newest) {
   context.set_deadline(deadlineAt(Clock::now() + std::chrono::seconds(10)));
   switch (turn % 10) {
     case 7: {
@@ -182,21 +189,47 @@ std::shared_ptr<grpc::Channel> ownChannel(const shapesense::cli::GlobalOptions& 
   return shapesense::cli::makeChannel(global, args);
 }
 
+/// How long the daemon asked a refused client to wait (gRPC's retry pushback), or `fallback_ms`
+/// when it did not say.
+int pushbackMs(const grpc::ClientContext& context, int fallback_ms) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  const auto found = trailers.find("grpc-retry-pushback-ms");
+  if (found == trailers.end()) return fallback_ms;
+  int ms = fallback_ms;
+  const std::string_view text(found->second.data(), found->second.size());
+  std::from_chars(text.data(), text.data() + text.size(), ms);
+  return std::clamp(ms, 0, 60'000);
+}
+
 void runClient(const shapesense::cli::GlobalOptions& global, Clock::time_point end, unsigned seed,
-               int backoff_ms, const Newest& newest, ClientStats& stats) {
+               int backoff_ms, bool ignore_pushback, const Newest& newest, ClientStats& stats) {
   const auto stub = v1::ShapeSense::NewStub(ownChannel(global));
-  for (unsigned turn = seed; Clock::now() < end; ++turn) {
+  std::optional<Clock::time_point> first_attempt;
+  for (unsigned turn = seed; Clock::now() < end;) {
+    grpc::ClientContext context;
     const auto start = Clock::now();
-    const auto [method, status] = query(*stub, turn, newest);
-    const std::chrono::duration<double, std::milli> took = Clock::now() - start;
+    if (!first_attempt) first_attempt = start;
+    const auto [method, status] = query(*stub, context, turn, newest);
+    const auto now = Clock::now();
+    const std::chrono::duration<double, std::milli> took = now - start;
     if (status.ok()) {
       stats.latency_ms[method].push_back(took.count());
+      stats.to_answer_ms.push_back(
+          std::chrono::duration<double, std::milli>(now - *first_attempt).count());
+      first_attempt.reset();
+      ++turn;  // a refused query is asked again, not replaced by the next one
       continue;
+    }
+    if (status.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      first_attempt.reset();
+      ++turn;
     }
     ++stats.errors[status.error_code()];
     stats.error_ms[shapesense::cli::statusCodeName(status.error_code())].push_back(took.count());
-    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED && backoff_ms > 0)
-      std::this_thread::sleep_for(std::chrono::milliseconds(backoff_ms));
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      const int wait_ms = ignore_pushback ? backoff_ms : pushbackMs(context, backoff_ms);
+      if (wait_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+    }
   }
 }
 
@@ -250,7 +283,9 @@ void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& 
   std::map<std::string, std::vector<double>> latency;
   std::map<grpc::StatusCode, std::uint64_t> errors;
   std::map<std::string, std::vector<double>> error_ms;
+  std::vector<double> to_answer;
   for (auto& c : clients) {
+    to_answer.insert(to_answer.end(), c.to_answer_ms.begin(), c.to_answer_ms.end());
     for (auto& [method, values] : c.latency_ms)
       latency[method].insert(latency[method].end(), values.begin(), values.end());
     for (const auto& [code, n] : c.errors) errors[code] += n;
@@ -269,6 +304,8 @@ void report(std::vector<ClientStats>& clients, const std::vector<WatcherStats>& 
   for (auto& [method, values] : latency)
     std::printf("  %-12s n %zu  p50 %.2f  p99 %.2f\n", method.c_str(), values.size(),
                 percentile(values, 0.5), percentile(values, 0.99));
+  std::printf("time to an answer, refusals and waits included: p50 %.2f  p99 %.2f ms\n",
+              percentile(to_answer, 0.5), percentile(to_answer, 0.99));
   const auto exhausted = errors.find(grpc::StatusCode::RESOURCE_EXHAUSTED);
   const std::uint64_t refused = exhausted == errors.end() ? 0 : exhausted->second;
   std::printf("refused (RESOURCE_EXHAUSTED): %llu = %.1f%% of calls\n",
@@ -322,9 +359,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 60000));
   app.add_option("--daemon-pid", o.daemon_pid, "the daemon's pid, for its resident memory");
   app.add_option("--backoff-ms", o.backoff_ms,
-                 "pause of a client after a RESOURCE_EXHAUSTED answer (0 = retry at once)")
+                 "pause of a client after a RESOURCE_EXHAUSTED answer without the daemon's retry "
+                 "pushback (0 = retry at once)")
       ->check(CLI::Range(0, 60000))
       ->capture_default_str();
+  app.add_flag("--ignore-pushback", o.ignore_pushback,
+               "pause --backoff-ms after a refusal even when the daemon says how long to wait, "
+               "as clients that do not read gRPC's retry pushback do");
   CLI11_PARSE(app, argc, argv);
   try {
     const auto channel = shapesense::cli::makeChannel(global);
@@ -344,7 +385,8 @@ int main(int argc, char** argv) {
                            std::cref(newest), std::ref(watchers[i]));
     for (std::size_t i = 0; i < clients.size(); ++i)
       threads.emplace_back(runClient, std::cref(global), end, static_cast<unsigned>(i),
-                           o.backoff_ms, std::cref(newest), std::ref(clients[i]));
+                           o.backoff_ms, o.ignore_pushback, std::cref(newest),
+                           std::ref(clients[i]));
     for (auto& t : threads) t.join();
     const std::chrono::duration<double> took = Clock::now() - start;
     const v1::GetStatusResponse status_end = daemonStatus(*stub);

@@ -20,10 +20,10 @@ struct MethodLatency {
   /// Upper bounds of the buckets in ms; the last bucket (one more count) takes the rest.
   static constexpr std::array<double, 14> kBucketUpperMs = {0.25, 0.5, 1,  2,  3,  5,   7.5,
                                                             10,   15,  20, 30, 50, 100, 250};
-  std::string method;                 ///< "EstimateBox", ...
-  std::uint64_t answered = 0;         ///< calls that ended OK
-  std::uint64_t refused = 0;          ///< RESOURCE_EXHAUSTED: the daemon was busy
-  std::uint64_t failed = 0;           ///< any other status
+  std::string method;          ///< "EstimateBox", ...
+  std::uint64_t answered = 0;  ///< calls that ended OK
+  std::uint64_t refused = 0;   ///< RESOURCE_EXHAUSTED: the daemon was busy
+  std::uint64_t failed = 0;    ///< any other status
   std::vector<std::uint64_t> answered_by_bucket =
       std::vector<std::uint64_t>(kBucketUpperMs.size() + 1);  ///< answered calls' latencies
 };

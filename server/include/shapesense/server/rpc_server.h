@@ -21,12 +21,19 @@ class ShapeSenseService;
 class AccessTokens;
 
 /// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
+/// The trailing metadata key of gRPC's retry pushback (gRFC A6), in milliseconds.
+inline constexpr const char* kRetryPushbackKey = "grpc-retry-pushback-ms";
+
 struct ServerLimits {
   /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes, GetScene,
   /// TeachObject, FindObjects.
   QueryPoolOptions queries;
   /// Unary calls admitted at once (running, or queued for a worker); more: RESOURCE_EXHAUSTED.
   std::size_t max_calls = 128;
+  /// Sent with every call refused because the daemon is busy (RESOURCE_EXHAUSTED) as gRPC's
+  /// retry pushback, trailing metadata kRetryPushbackKey: how many ms the client should wait
+  /// before calling again. 0 = none.
+  int busy_pushback_ms = 100;
   /// Watch streams of one client (the peer's address without its port) and of all clients.
   std::size_t max_watch_per_client = 32;
   std::size_t max_watch_streams = 128;
