@@ -22,7 +22,7 @@ struct MethodLatency {
                                                             10,   15,  20, 30, 50, 100, 250};
   std::string method;          ///< "EstimateBox", ...
   std::uint64_t answered = 0;  ///< calls that ended OK
-  std::uint64_t refused = 0;   ///< RESOURCE_EXHAUSTED: the daemon was busy
+  std::uint64_t refused = 0;   ///< RESOURCE_EXHAUSTED: busy, or a limit reached
   std::uint64_t failed = 0;    ///< any other status
   std::vector<std::uint64_t> answered_by_bucket =
       std::vector<std::uint64_t>(kBucketUpperMs.size() + 1);  ///< answered calls' latencies
