@@ -221,7 +221,7 @@ TEST(QueryLimits, OversizedRequestIsRefused) {
 }
 
 TEST(QueryLimits, NoPushbackWhenTurnedOffAndNoneOnAnswers) {
-  ServerLimits limits = oneWorker(/*queue=*/0);
+  ServerLimits limits = oneWorker(/*queue=*/1);
   limits.busy_pushback_ms = 0;
   TestServer srv(16, {}, {}, limits);
   srv.addMany(2);
@@ -230,10 +230,14 @@ TEST(QueryLimits, NoPushbackWhenTurnedOffAndNoneOnAnswers) {
   ASSERT_TRUE(srv.stub().EstimateBox(answered_context.get(), boxRequest(), &response).ok());
   EXPECT_EQ(pushbackOf(*answered_context), "");
   PoolBlocker blocker(srv.server().queryPool());
+  PendingCall queued(srv.stub(), boxRequest());  // takes the one queue slot
+  ASSERT_EQ(queued.status.wait_for(200ms), std::future_status::timeout);
   const auto refused_context = clientContext();
   EXPECT_EQ(srv.stub().EstimateBox(refused_context.get(), boxRequest(), &response).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_EQ(pushbackOf(*refused_context), "");
+  blocker.release();
+  EXPECT_TRUE(queued.status.get().ok());
 }
 
 }  // namespace
