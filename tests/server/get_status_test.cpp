@@ -1,6 +1,7 @@
 // GetStatus through a real in-process gRPC server.
 
 #include <atomic>
+#include <map>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -188,6 +189,35 @@ TEST(GetStatus, RecordingsAreNotLiveAndAlwaysConnected) {
   EXPECT_TRUE(response.source_connected());
   EXPECT_EQ(response.source_reconnects(), 0u);
   EXPECT_EQ(response.source_dropped_frames(), 0u);
+}
+
+TEST(GetStatus, ReportsTheCallsTheDaemonAnsweredAndFailedByMethod) {
+  TestServer srv;
+  srv.addMany(3);
+  v1::EstimateBoxRequest box;  // no ROI: INVALID_ARGUMENT
+  v1::EstimateBoxResponse box_response;
+  EXPECT_EQ(srv.stub().EstimateBox(clientContext().get(), box, &box_response).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  v1::ListFramesResponse frames;
+  ASSERT_TRUE(srv.stub().ListFrames(clientContext().get(), {}, &frames).ok());
+  ASSERT_TRUE(srv.stub().ListFrames(clientContext().get(), {}, &frames).ok());
+  v1::GetStatusResponse status;
+  ASSERT_TRUE(srv.stub().GetStatus(clientContext().get(), {}, &status).ok());
+  std::map<std::string, v1::CallLatency> calls;
+  for (const auto& call : status.calls()) calls[call.method()] = call;
+  ASSERT_EQ(calls.count("EstimateBox"), 1u);
+  EXPECT_EQ(calls["EstimateBox"].answered(), 0u);
+  EXPECT_EQ(calls["EstimateBox"].failed(), 1u);
+  ASSERT_EQ(calls.count("ListFrames"), 1u);
+  const v1::CallLatency& listed = calls["ListFrames"];
+  EXPECT_EQ(listed.answered(), 2u);
+  EXPECT_EQ(listed.refused(), 0u);
+  ASSERT_EQ(listed.bucket_upper_ms_size() + 1, listed.answered_by_bucket_size());
+  std::uint64_t counted = 0;
+  for (const auto n : listed.answered_by_bucket()) counted += n;
+  EXPECT_EQ(counted, 2u);
+  // The GetStatus call itself is counted once its answer is sent, so not in its own answer.
+  EXPECT_EQ(calls.count("GetStatus"), 0u);
 }
 
 }  // namespace
