@@ -1,22 +1,32 @@
-// shapesense-plane-diag: why the Hough plane detector misses truth planes, on the 30 synthetic
-// frames of bench/planes_bench.cpp (frame 0 of the scenes with seeds 1..30). For each missed
-// truth plane it prints its name and size and the found regions that overlap it (fraction of
-// the truth region, fraction of the found region on planar truth), which tells split (several
-// partial overlaps), merged (one found region much larger than the truth) and missed (no
-// overlap) apart; then the correct-detection fraction.
+// shapesense-plane-diag: why the Hough plane detector misses truth planes, on frames of the
+// evaluation's scene splits (tools/eval scene_splits.h). For each missed truth plane it prints its
+// name, size, range and obliquity, and the found regions that overlap it (fraction of the truth
+// region, fraction of the found region, and the truth plane the found region mostly covers),
+// then a count of the misses by cause: mostly unlabelled, taken by a plane of another surface,
+// or found only in part. With --spurious it lists the reported planes that lie on no one truth
+// plane and the surfaces they cover; with --dump-frame the truth and found labels of one frame
+// are written as images into --out. Detector parameters can be changed for experiments.
 //
-//   shapesense-plane-diag [--tolerance-factor F] [--min-tolerance-steps S] [--seeds N]
+//   shapesense-plane-diag [--split validation] [--frames N] [--max-share S] [--quiet]
+//                         [--spurious] [--dump-frame I --out DIR] [--leftover-agreement DEG ...]
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <map>
-#include <optional>
+#include <string>
 #include <utility>
 
+#include <opencv2/imgcodecs.hpp>
+
+#include "shapesense/core/geometry/units.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/eval/plane_eval.h"
+#include "shapesense/eval/scene_splits.h"
 
 using namespace shapesense;
 
@@ -33,78 +43,189 @@ Overlaps overlapsOf(const cv::Mat& planar_truth, const cv::Mat& labels) {
   for (int v = 0; v < planar_truth.rows; ++v)
     for (int u = 0; u < planar_truth.cols; ++u) {
       const int tl = planar_truth.at<std::uint16_t>(v, u), fl = labels.at<std::uint16_t>(v, u);
+      if (fl) ++o.found_size[fl];
       if (!tl) continue;
       ++o.truth_size[tl];
-      if (fl) ++o.found_size[fl];
       ++o.overlap[{tl, fl}];
     }
   return o;
 }
 
-// The found regions covering >= 5% of truth plane `id`, and what each of them mostly covers.
-void printOverlapsOf(int id, const Overlaps& o, const PlaneDetection& out) {
+// Mean range and the angle between the mean line of sight and the plane's normal, over the
+// truth plane's pixels.
+std::pair<double, double> rangeAndObliquity(const synthetic::TruthFrame& truth, int id,
+                                            const CameraIntrinsics& K, const Eigen::Vector3d& n) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  long count = 0;
+  for (int v = 0; v < truth.surface_labels.rows; ++v)
+    for (int u = 0; u < truth.surface_labels.cols; ++u) {
+      if (truth.surface_labels.at<std::uint16_t>(v, u) != id) continue;
+      const double z = truth.ideal_depth.at<float>(v, u);
+      sum += Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z);
+      ++count;
+    }
+  const Eigen::Vector3d mean = sum / std::max(1L, count);
+  const double cosine = std::abs(mean.normalized().dot(n));
+  return {mean.norm(), std::acos(std::min(1.0, cosine)) / degToRad(1.0)};
+}
+
+enum Cause { kUnlabelled, kTakenByOther, kPartial, kCauses };
+const char* const kCauseNames[] = {"mostly unlabelled", "taken by another surface's plane",
+                                   "found in part"};
+
+// Prints the found regions covering >= 5% of truth plane `id` and returns the miss's cause.
+Cause explainMiss(int id, const Overlaps& o, const PlaneDetection& out, bool quiet) {
   const long size = o.truth_size.at(id);
+  long unlabelled = 0, best_px = 0;
+  int best_main = 0;
   for (const auto& [key, px] : o.overlap) {
-    if (key.first != id || px < 0.05 * size) continue;
+    if (key.first != id) continue;
     if (key.second == 0) {
-      std::printf(" [unlabelled %.2f]", double(px) / size);
+      unlabelled = px;
+      if (!quiet && px >= 0.05 * size) std::printf(" [unlabelled %.2f]", double(px) / size);
       continue;
     }
     int main_truth = 0;
     long main_px = 0;
     for (const auto& [k2, px2] : o.overlap)
       if (k2.second == key.second && px2 > main_px) main_px = px2, main_truth = k2.first;
+    if (px > best_px) best_px = px, best_main = main_truth;
+    if (quiet || px < 0.05 * size) continue;
     const DetectedPlane& fp = out.planes[key.second - 1];
-    std::printf(
-        " [found %d (group %d, n %.2f %.2f %.2f, d %.3f): %.2f of truth, %.2f of found, mostly "
-        "%d]",
-        key.second, fp.group, fp.normal.x(), fp.normal.y(), fp.normal.z(), fp.d, double(px) / size,
-        double(px) / o.found_size.at(key.second), main_truth == id ? 0 : main_truth);
+    std::printf(" [found %d (rms %.1f mm, %zu px): %.2f of truth, %.2f of found, mostly %d]",
+                key.second, 1000 * fp.rms_m, fp.inliers, double(px) / size,
+                double(px) / o.found_size.at(key.second), main_truth == id ? 0 : main_truth);
+  }
+  if (unlabelled >= best_px) return kUnlabelled;
+  return best_main == id ? kPartial : kTakenByOther;
+}
+
+// Label images as colours (0 black), for looking at.
+cv::Mat colourLabels(const cv::Mat& labels) {
+  cv::Mat c(labels.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  for (int v = 0; v < labels.rows; ++v)
+    for (int u = 0; u < labels.cols; ++u) {
+      const int k = labels.at<std::uint16_t>(v, u);
+      if (k)
+        c.at<cv::Vec3b>(v, u) = cv::Vec3b(k * 97 % 200 + 55, k * 57 % 200 + 55, k * 151 % 200 + 55);
+    }
+  return c;
+}
+
+void dumpLabels(const std::string& dir, const cv::Mat& truth, const cv::Mat& found) {
+  cv::imwrite(dir + "/planes_truth.png", colourLabels(truth));
+  cv::imwrite(dir + "/planes_found.png", colourLabels(found));
+  std::printf("wrote %s/planes_truth.png and planes_found.png\n", dir.c_str());
+}
+
+// Reported planes not matched to a truth plane and with under 80% of their pixels on one planar
+// truth surface (the evaluation's spurious planes, ignoring split and merged relations), with
+// the surfaces that hold at least 2% of each.
+void printSpurious(int frame, const synthetic::TruthFrame& truth, const PlaneDetection& out,
+                   const eval::PlaneScore& score) {
+  const auto surface = [&](int id) -> const synthetic::TruthSurface& {
+    return truth.surfaces[id - 1];  // ordered by id, from 1
+  };
+  std::map<int, std::map<int, long>> on;  // found plane -> truth surface -> pixels
+  std::map<int, long> all;
+  for (int v = 0; v < out.labels.rows; ++v)
+    for (int u = 0; u < out.labels.cols; ++u) {
+      const int found = out.labels.at<std::uint16_t>(v, u);
+      if (!found) continue;
+      ++all[found];
+      ++on[found][truth.surface_labels.at<std::uint16_t>(v, u)];
+    }
+  std::map<int, bool> matched;
+  for (const auto& [truth_id, found_id] : score.matches) matched[found_id] = true;
+  for (const auto& [found, pixels] : all) {
+    if (matched[found]) continue;
+    long on_one_plane = 0;
+    for (const auto& [t, px] : on[found])
+      if (t && surface(t).kind == synthetic::SurfaceKind::kPlane)
+        on_one_plane = std::max(on_one_plane, px);
+    if (on_one_plane >= 0.8 * pixels) continue;
+    const DetectedPlane& plane = out.planes[found - 1];
+    std::printf("frame %3d SPURIOUS %d (%ld px, rms %.1f mm, d %.2f m):", frame, found, pixels,
+                1000 * plane.rms_m, plane.d);
+    for (const auto& [t, px] : on[found]) {
+      if (px < 0.02 * pixels) continue;
+      const bool curved = t && surface(t).kind != synthetic::SurfaceKind::kPlane;
+      std::printf(" %s%s %.2f", t ? surface(t).name.c_str() : "none", curved ? "(curved)" : "",
+                  double(px) / pixels);
+    }
+    std::printf("\n");
   }
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Missed truth planes of the Hough plane detector on synthetic frames"};
-  std::optional<double> tolerance_factor, min_tolerance_steps;
-  int seeds = 30;
-  app.add_option("--tolerance-factor", tolerance_factor,
-                 "PlaneLabelingParams::adaptive_tolerance_factor");
-  app.add_option("--min-tolerance-steps", min_tolerance_steps,
-                 "PlaneLabelingParams::min_tolerance_steps");
-  app.add_option("--seeds", seeds, "scenes with seeds 1..N")->check(CLI::PositiveNumber);
+  CLI::App app{"Missed truth planes of the Hough plane detector on the evaluation's scenes"};
+  std::string split_name = "validation";
+  int frames = 100;
+  double max_share = 1.0;
+  bool quiet = false;
+  app.add_option("--split", split_name, "train, validation or test");
+  app.add_option("--frames", frames, "frames of the split")->check(CLI::PositiveNumber);
+  app.add_option("--max-share", max_share, "only truth planes below this share of the image");
+  app.add_flag("--quiet", quiet, "only the counts");
+  bool show_spurious = false;
+  int dump_frame = -1;
+  std::string out_dir = ".";
+  app.add_flag("--spurious", show_spurious, "list the spurious planes");
+  app.add_option("--dump-frame", dump_frame, "write the label images of this frame");
+  app.add_option("--out", out_dir, "folder for --dump-frame's images")
+      ->check(CLI::ExistingDirectory);
+  HoughPlaneParams params;  // HoughPlaneParams' documentation says what each one does
+  app.add_option("--leftover-agreement", params.leftover_normal_agreement_deg);
+  app.add_option("--leftover-fraction", params.leftover_min_inlier_fraction);
+  app.add_option("--vote-spread", params.vote_max_normal_spread_deg);
+  app.add_option("--min-plane-samples", params.min_plane_samples);
+  app.add_option("--max-curvature", params.labeling.max_plane_curvature_per_m);
+  app.add_option("--noise-steps", params.labeling.tolerance.noise_steps);
+  app.add_option("--adaptive-factor", params.labeling.adaptive_tolerance_factor);
+  app.add_option("--min-tolerance-steps", params.labeling.min_tolerance_steps);
   CLI11_PARSE(app, argc, argv);
+  const auto split = eval::parseSplit(split_name);
+  if (!split) {
+    std::fprintf(stderr, "unknown split %s\n", split_name.c_str());
+    return 2;
+  }
 
-  HoughPlaneParams params;
-  if (tolerance_factor) params.labeling.adaptive_tolerance_factor = *tolerance_factor;
-  if (min_tolerance_steps) params.labeling.min_tolerance_steps = *min_tolerance_steps;
   HoughPlaneDetector det(params);
-  eval::PlaneScore total;
-  for (std::uint64_t seed = 1; seed <= static_cast<std::uint64_t>(seeds); ++seed) {
-    synthetic::SceneParams sp;
-    sp.seed = seed;
-    const auto f = synthetic::SyntheticScene(sp).render(0, 0);
-    const auto out = det.detect(f.frame.depth, f.frame.intrinsics, f.frame.rgb);
+  eval::PlaneScore total, plain, clutter;
+  std::array<int, kCauses> causes{};
+  for (int i = 0; i < frames; ++i) {
+    const eval::EvalScene scene = eval::evalScene(*split, i);
+    const auto f = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+    const auto out = det.detect(f.frame.depth, f.frame.intrinsics);
     const auto score = eval::scorePlanes(out.labels, out.planes, f.truth);
     total.add(score);
+    (scene.curved_clutter ? clutter : plain).add(score);
     const cv::Mat truth = eval::planarTruth(f.truth);
+    if (i == dump_frame) dumpLabels(out_dir, truth, out.labels);
     const Overlaps o = overlapsOf(truth, out.labels);
     std::map<int, bool> correct;
     for (const auto& [tid, fid] : score.matches) correct[tid] = true;
-    const double min_px = 0.005 * truth.total();
+    if (show_spurious) printSpurious(i, f.truth, out, score);
     for (const auto& ts : f.truth.surfaces) {
       const auto size = o.truth_size.find(ts.id);
-      if (ts.kind != synthetic::SurfaceKind::kPlane || size == o.truth_size.end() ||
-          size->second < min_px || correct[ts.id])
-        continue;
-      std::printf("seed %2llu MISS %-18s %5.2f%% of image:", static_cast<unsigned long long>(seed),
-                  ts.name.c_str(), 100.0 * size->second / truth.total());
-      printOverlapsOf(ts.id, o, out);
-      std::printf("\n");
+      if (ts.kind != synthetic::SurfaceKind::kPlane || size == o.truth_size.end()) continue;
+      const double share = double(size->second) / truth.total();
+      if (share < eval::kPlaneSizeBinEdges[0] || share >= max_share || correct[ts.id]) continue;
+      const auto [range, obliquity] =
+          rangeAndObliquity(f.truth, ts.id, f.frame.intrinsics, ts.plane.head<3>());
+      if (!quiet)
+        std::printf("frame %3d MISS %-18s %5.2f%% %.2f m %4.0f deg:", i, ts.name.c_str(),
+                    100.0 * share, range, obliquity);
+      ++causes[explainMiss(ts.id, o, out, quiet)];
+      if (!quiet) std::printf("\n");
     }
   }
   std::printf("correct %.3f (%d/%d)\n", total.correctFraction(), total.correct,
               total.truth_regions);
+  std::printf("spurious per frame: plain %.2f, curved clutter %.2f (%d on curved)\n",
+              plain.spuriousPerFrame(), clutter.spuriousPerFrame(), clutter.spurious_on_curved);
+  for (int c = 0; c < kCauses; ++c) std::printf("missed, %s: %d\n", kCauseNames[c], causes[c]);
   return 0;
 }

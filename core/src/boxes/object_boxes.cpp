@@ -75,11 +75,16 @@ struct ObjectSearch {
     for (const auto& segment : segments) segment_by_id[segment.id] = &segment;
   }
 
+  // Whether `point` lies at least params.min_height_m on the camera's side of `plane`.
+  bool risesAbove(const Eigen::Vector3d& point, const DetectedPlane& plane) const {
+    return plane.normal.dot(point) + plane.d >= params.min_height_m;
+  }
+
   // Whether a segment can be part of an object above `support`: not too big, in front of the
   // plane, and not mostly the plane itself.
   bool partOfObjectAbove(const SegmentStatistics& segment, const DetectedPlane& support) const {
     if (segment.pixels > params.max_image_fraction * image_pixels) return false;
-    if (support.normal.dot(segment.centroid) + support.d < params.min_height_m) return false;
+    if (!risesAbove(segment.centroid, support)) return false;
     int on_support = 0;
     const cv::Rect r = segment.box;
     for (int v = r.y; v < r.y + r.height; ++v) {
@@ -122,10 +127,40 @@ std::vector<int> ownPlaneOverlap(const ObjectSearch& s, const SegmentRegion& reg
   return own_overlap;
 }
 
+// The mean 3D point of the region's segments.
+Eigen::Vector3d centroidOf(const ObjectSearch& s, const SegmentRegion& region) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double weight = 0.0;
+  for (const std::uint16_t id : region.ids) {
+    const auto it = s.segment_by_id.find(id);
+    if (it == s.segment_by_id.end()) continue;
+    sum += it->second->pixels * it->second->centroid;
+    weight += it->second->pixels;
+  }
+  return weight > 0.0 ? Eigen::Vector3d(sum / weight) : sum;
+}
+
+// Drops the votes of planes the region does not rise above (by params.min_height_m), and their
+// columns: such a plane is a face of something in front of the region's foot (another box
+// standing before it), which hides what the region stands on.
+void dropPlanesNotBelow(const ObjectSearch& s, const SegmentRegion& region,
+                        std::map<std::uint16_t, int>& support_votes, int& columns) {
+  const Eigen::Vector3d centroid = centroidOf(s, region);
+  for (auto it = support_votes.begin(); it != support_votes.end();) {
+    const auto plane = s.plane_by_id.find(it->first);
+    if (plane == s.plane_by_id.end() || s.risesAbove(centroid, *plane->second)) {
+      ++it;
+      continue;
+    }
+    columns -= it->second;
+    it = support_votes.erase(it);
+  }
+}
+
 // The plane the segments' columns reach first below their lowest pixel (within
 // support_search_px), looking through the planes the segments themselves lie on (a box face is
-// a plane too, and its region may reach past the segment's edge); nullptr when too few reach
-// one.
+// a plane too, and its region may reach past the segment's edge) and leaving out planes the
+// segments do not rise above; nullptr when too few reach one.
 const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentRegion& region) {
   const ObjectBoxParams& params = s.params;
   const std::vector<int> own_overlap = ownPlaneOverlap(s, region);
@@ -156,6 +191,7 @@ const DetectedPlane* supportBelow(const ObjectSearch& s, const SegmentRegion& re
       }
     }
   }
+  dropPlanesNotBelow(s, region, support_votes, columns);
   if (columns == 0 || support_votes.empty()) return nullptr;
   const auto best =
       std::max_element(support_votes.begin(), support_votes.end(),

@@ -9,29 +9,78 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Geometry>
 
 #include "planes/hough_detector_steps.h"
+#include "shapesense/core/geometry/moment_sums.h"
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
 namespace {
 
+// How many of the inliers have a normal of their own, and how many of those agree with the
+// plane normal n within the angle of tan_agree. An inlier's normal is the slope of the
+// least-squares height field h(a, b) over the plane's axes, fitted to the inliers within kHalf
+// samples of it. The sample grid's normals are useless here: their windows reach across the
+// creases that bound a thin face, so every sample of a strip a few samples wide is blurred
+// towards its neighbours. Normals from the inliers alone follow the surface the inliers lie on:
+// a true face agrees with its plane, while a band cut from a curved surface, or a plane through
+// the corner of a small box (a few samples of each face within the tolerance), keeps its
+// members' own orientations.
+void countInlierNormalsAgreeing(const std::vector<int>& inliers, const PlaneSampleGrid& grid,
+                                const Eigen::Vector3d& n, double tan_agree,
+                                std::vector<std::uint8_t>& member,
+                                std::vector<Eigen::Vector3f>& local, int& with_normal,
+                                int& agreeing) {
+  constexpr int kHalf = 2;  // a 5 x 5 sample window
+  constexpr int kMinNeighbours = 6;
+  const int R = grid.points.rows, C = grid.points.cols;
+  const auto* pts = grid.points.ptr<cv::Vec3f>(0);
+  const Eigen::Vector3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+  member.resize(static_cast<std::size_t>(R) * C, 0);  // all 0 between calls
+  local.resize(member.size());
+  // Plane coordinates relative to the first inlier, so that the sums stay well conditioned.
+  const cv::Vec3f& origin = pts[inliers.front()];
+  for (int i : inliers) {
+    member[i] = 1;
+    const Eigen::Vector3d p(pts[i][0] - origin[0], pts[i][1] - origin[1], pts[i][2] - origin[2]);
+    local[i] = Eigen::Vector3d(p.dot(e1), p.dot(e2), p.dot(n)).cast<float>();
+  }
+  const double tan2 = tan_agree * tan_agree;
+  with_normal = agreeing = 0;
+  for (int i : inliers) {
+    const int r = i / C, c = i % C;
+    MomentSums window(Eigen::Vector3d::Zero());  // offsets in the plane's own coordinates
+    for (int rr = std::max(0, r - kHalf); rr <= std::min(R - 1, r + kHalf); ++rr)
+      for (int cc = std::max(0, c - kHalf); cc <= std::min(C - 1, c + kHalf); ++cc) {
+        const int j = rr * C + cc;
+        if (member[j]) window.addOffset(local[j].x(), local[j].y(), local[j].z());
+      }
+    if (window.count() < kMinNeighbours) continue;
+    const std::optional<Eigen::Vector2d> slopes = window.heightSlopes();
+    if (!slopes) continue;
+    ++with_normal;
+    agreeing += slopes->squaredNorm() <= tan2;
+  }
+  for (int i : inliers) member[i] = 0;
+}
+
 // Sequential RANSAC on a leftover component that is not one plane: the two visible faces of a
 // small box or a table leg (joined at their convex edge), or a face joined to a curved surface
 // by depth continuity. Extracts planes while the best hypothesis has enough inliers; a plane is
-// kept only if the inliers that have a normal mostly agree with it (a band of a bowl lies
-// within the tolerance of some plane but its normals fan out). Deterministic (fixed LCG).
+// kept only if its inliers mostly agree with it, each by the tilt of the inliers around it (a
+// band of a bowl lies within the tolerance of some plane but its normals fan out; see
+// countInlierNormalsAgreeing). Deterministic (fixed LCG).
 void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
                             const HoughPlaneParams& P, std::vector<PlaneHypothesis>& planes,
                             cv::Mat& sample_labels) {
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
-  const auto* nrm = grid.normals.ptr<cv::Vec3f>(0);
   int* lab = sample_labels.ptr<int>(0);
   const PlaneTolerance& tol = P.labeling.tolerance;
-  const double cos_agree = std::cos(degToRad(P.leftover_normal_agreement_deg));
+  const double tan_agree = std::tan(degToRad(P.leftover_normal_agreement_deg));
   std::uint32_t rng = 0x9E3779B9u ^ static_cast<std::uint32_t>(rest.size());
   auto next = [&rng](std::size_t n) {
     rng = rng * 1664525u + 1013904223u;
@@ -44,6 +93,8 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
   std::vector<double> rest_tol(rest.size()), outlier_tol;
   for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
+  std::vector<std::uint8_t> member;
+  std::vector<Eigen::Vector3f> local;
   std::vector<double> sub_x, sub_y, sub_z, sub_tol;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples;
        ++extracted) {
@@ -98,21 +149,19 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
     inliers.clear();
     outliers.clear();
     outlier_tol.clear();
-    int with_normal = 0, agreeing = 0;
     for (std::size_t k = 0; k < rest.size(); ++k) {
       const int i = rest[k];
       if (dist(best_n, best_d, i) > rest_tol[k]) {
         outliers.push_back(i);
         outlier_tol.push_back(rest_tol[k]);
-        continue;
+      } else {
+        inliers.push_back(i);
       }
-      inliers.push_back(i);
-      const cv::Vec3f& n = nrm[i];
-      if (!(n[2] == n[2])) continue;
-      ++with_normal;
-      agreeing += best_n.x() * n[0] + best_n.y() * n[1] + best_n.z() * n[2] >= cos_agree;
     }
     if (static_cast<int>(inliers.size()) < P.min_plane_samples) return;
+    int with_normal = 0, agreeing = 0;
+    countInlierNormalsAgreeing(inliers, grid, best_n, tan_agree, member, local, with_normal,
+                               agreeing);
     if (with_normal >= 6 && agreeing < P.leftover_min_inlier_fraction * with_normal) return;
     const int id = static_cast<int>(planes.size());
     for (int i : inliers) lab[i] = id;

@@ -64,6 +64,37 @@ TEST(ObjectBoxes, ObjectsOnTheTableGetBoxesAndStructureDoesNot) {
   EXPECT_GE(static_cast<double>(boxes_matched) / std::max(1, boxes_total), 0.65);
 }
 
+// An object whose foot is hidden, in most columns, by a box standing in front of it: that box's
+// front face is the first plane below the object there, but the object is behind that plane, not
+// on it. The table, reached below the object's other columns, is its support.
+TEST(ObjectBoxes, AFaceInFrontOfTheFootIsNotTheSupport) {
+  CameraIntrinsics k;
+  k.fx = k.fy = 100.0;
+  k.cx = k.cy = 50.0;
+  k.width = k.height = 100;
+  const cv::Rect object(20, 20, 60, 30), occluder(20, 50, 40, 20);
+  cv::Mat depth(100, 100, CV_16UC1, cv::Scalar(1500));
+  depth(occluder).setTo(1200);
+  cv::Mat segment_labels(100, 100, CV_16UC1, cv::Scalar(3));  // 3: the table and the rest
+  segment_labels(object).setTo(1);
+  segment_labels(occluder).setTo(2);
+  PlaneDetection planes;
+  planes.labels = cv::Mat::zeros(100, 100, CV_16UC1);
+  planes.labels(cv::Rect(0, 50, 100, 50)).setTo(2);  // the table below the object
+  planes.labels(occluder).setTo(1);
+  planes.planes.resize(2);
+  planes.planes[0].id = 1;  // the occluder's front face, z = 1.2 m
+  planes.planes[0].normal = {0.0, 0.0, -1.0};
+  planes.planes[0].d = 1.2;
+  planes.planes[1].id = 2;  // the table, 0.3 m below the camera
+  planes.planes[1].normal = {0.0, -1.0, 0.0};
+  planes.planes[1].d = 0.3;
+  const auto segments = computeSegmentStatistics(segment_labels, depth, k);
+  const DetectedPlane* support = supportPlaneBelow(depth, segment_labels, segments, planes, {1});
+  ASSERT_NE(support, nullptr);
+  EXPECT_EQ(support->id, 2);
+}
+
 TEST(ObjectBoxes, NoPlanesMeansNoBoxes) {
   synthetic::SceneParams params;
   params.render_colour = false;

@@ -6,8 +6,10 @@
 // "Stands on a plane" is decided in the image, for a camera that is roughly upright (a robot
 // head): below the segment's lowest pixel in a column, within `support_search_px`, lies a pixel
 // of some plane region; the plane most columns reach is the support, and it must be reached by
-// at least `min_support_fraction` of the segment's columns. The segment's centroid must lie on
-// the camera's side of the support plane, and the segment must not be mostly that plane itself.
+// at least `min_support_fraction` of the segment's columns. A plane the segment's centroid does
+// not rise above by `min_height_m` is something in front of its foot (the face of another box),
+// not a support: its columns are left out of the count. The segment must not be mostly the
+// support plane itself.
 // Walls are not objects: segments larger than `max_image_fraction` or whose box exceeds
 // `max_size_m` are left out.
 

@@ -3,6 +3,7 @@
 // PlaneMoments once per run.
 
 #include <cassert>
+#include <optional>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -39,6 +40,18 @@ class MomentSums {
     ss_[3] += b * b, ss_[4] += b * c, ss_[5] += c * c;
   }
   double count() const { return n_; }
+  /// The least-squares slopes (g_a, g_b) of c = g_a a + g_b b + const over the offsets (a, b, c):
+  /// the tilt of a surface given as heights c over the (a, b) plane, which needs no eigenvectors.
+  /// nullopt when the points' (a, b) lie on a line or are fewer than three.
+  std::optional<Eigen::Vector2d> heightSlopes() const {
+    if (n_ < 3.0) return std::nullopt;
+    const double caa = ss_[0] - s_[0] * s_[0] / n_, cab = ss_[1] - s_[0] * s_[1] / n_;
+    const double cbb = ss_[3] - s_[1] * s_[1] / n_;
+    const double cac = ss_[2] - s_[0] * s_[2] / n_, cbc = ss_[4] - s_[1] * s_[2] / n_;
+    const double det = caa * cbb - cab * cab;
+    if (!(det > 1e-12 * (caa + cbb) * (caa + cbb))) return std::nullopt;
+    return Eigen::Vector2d((cbb * cac - cab * cbc) / det, (caa * cbc - cab * cac) / det);
+  }
   /// Adds these sums to `moments`, whose reference must be this one's.
   void addTo(PlaneMoments& moments) const {
     moments.addSums(n_, Eigen::Vector3d(s_[0], s_[1], s_[2]), upperSquares());

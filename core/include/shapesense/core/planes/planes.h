@@ -168,9 +168,12 @@ struct HoughPlaneParams {
   /// Components that are not one plane are split by sequential RANSAC with this many
   /// hypotheses per extracted plane (0 = off). Default 64.
   int leftover_ransac_hypotheses = 64;
-  /// ...keeping a RANSAC plane only when leftover_min_inlier_fraction of its inliers that have a
-  /// normal agree with it within this angle. Default 30 deg.
-  double leftover_normal_agreement_deg = 30.0;
+  /// ...keeping a RANSAC plane only when leftover_min_inlier_fraction of its inliers agree with
+  /// it within this angle, each inlier's normal fitted to the inliers within 2 samples of it
+  /// (the sample grid's normals are blurred across the creases of a thin face; the inliers' own
+  /// normals still fan out on a band of a curved surface or across the faces of a small box
+  /// corner). Default 15 deg.
+  double leftover_normal_agreement_deg = 15.0;
 
   /// NormalParams suited to a grid subsampled by `step` (windows and gaps in grid cells).
   static NormalParams defaultSampleNormalParams(int step);
