@@ -8,8 +8,8 @@ namespace shapesense {
 namespace {
 
 TEST(MomentSums, MomentsEqualThoseOfTheSameAdds) {
-  const cv::Vec3f points[] = {{0.1f, 0.2f, 1.0f}, {0.3f, -0.1f, 1.2f}, {-0.2f, 0.0f, 0.9f},
-                              {0.0f, 0.4f, 1.1f}};
+  const cv::Vec3f points[] = {
+      {0.1f, 0.2f, 1.0f}, {0.3f, -0.1f, 1.2f}, {-0.2f, 0.0f, 0.9f}, {0.0f, 0.4f, 1.1f}};
   PlaneMoments direct;
   MomentSums sums(Eigen::Vector3d(0.1, 0.2, 1.0));  // the first point, as add() takes it
   for (const cv::Vec3f& p : points) {
