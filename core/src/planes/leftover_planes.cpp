@@ -21,6 +21,14 @@
 namespace shapesense {
 namespace {
 
+// Per-sample buffers of countInlierNormalsAgreeing, sized to the grid once per frame: whether
+// a sample is an inlier of the plane being tested (all 0 between calls), and its coordinates in
+// that plane's own axes.
+struct AgreementScratch {
+  std::vector<std::uint8_t> member;
+  std::vector<Eigen::Vector3f> local;
+};
+
 // How many of the inliers have a normal of their own, and how many of those agree with the
 // plane normal n within the angle of tan_agree. An inlier's normal is the slope of the
 // least-squares height field h(a, b) over the plane's axes, fitted to the inliers within kHalf
@@ -32,15 +40,15 @@ namespace {
 // members' own orientations.
 void countInlierNormalsAgreeing(const std::vector<int>& inliers, const PlaneSampleGrid& grid,
                                 const Eigen::Vector3d& n, double tan_agree,
-                                std::vector<std::uint8_t>& member,
-                                std::vector<Eigen::Vector3f>& local, int& with_normal,
-                                int& agreeing) {
+                                AgreementScratch& scratch, int& with_normal, int& agreeing) {
   constexpr int kHalf = 2;  // a 5 x 5 sample window
   constexpr int kMinNeighbours = 6;
   const int R = grid.points.rows, C = grid.points.cols;
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   const Eigen::Vector3d e1 = n.unitOrthogonal(), e2 = n.cross(e1);
-  member.resize(static_cast<std::size_t>(R) * C, 0);  // all 0 between calls
+  std::vector<std::uint8_t>& member = scratch.member;
+  std::vector<Eigen::Vector3f>& local = scratch.local;
+  member.resize(static_cast<std::size_t>(R) * C, 0);  // no-ops after the frame's first call
   local.resize(member.size());
   // Plane coordinates relative to the first inlier, so that the sums stay well conditioned.
   const cv::Vec3f& origin = pts[inliers.front()];
@@ -75,8 +83,8 @@ void countInlierNormalsAgreeing(const std::vector<int>& inliers, const PlaneSamp
 // band of a bowl lies within the tolerance of some plane but its normals fan out; see
 // countInlierNormalsAgreeing). Deterministic (fixed LCG).
 void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
-                            const HoughPlaneParams& P, std::vector<PlaneHypothesis>& planes,
-                            cv::Mat& sample_labels) {
+                            const HoughPlaneParams& P, AgreementScratch& scratch,
+                            std::vector<PlaneHypothesis>& planes, cv::Mat& sample_labels) {
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   int* lab = sample_labels.ptr<int>(0);
   const PlaneTolerance& tol = P.labeling.tolerance;
@@ -93,8 +101,6 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
   std::vector<double> rest_tol(rest.size()), outlier_tol;
   for (std::size_t k = 0; k < rest.size(); ++k) rest_tol[k] = tol.at(pts[rest[k]][2]);
   std::vector<int> inliers, outliers;
-  std::vector<std::uint8_t> member;
-  std::vector<Eigen::Vector3f> local;
   std::vector<double> sub_x, sub_y, sub_z, sub_tol;
   for (int extracted = 0; extracted < 4 && static_cast<int>(rest.size()) >= P.min_plane_samples;
        ++extracted) {
@@ -160,8 +166,7 @@ void splitLeftoverComponent(std::vector<int> rest, const PlaneSampleGrid& grid,
     }
     if (static_cast<int>(inliers.size()) < P.min_plane_samples) return;
     int with_normal = 0, agreeing = 0;
-    countInlierNormalsAgreeing(inliers, grid, best_n, tan_agree, member, local, with_normal,
-                               agreeing);
+    countInlierNormalsAgreeing(inliers, grid, best_n, tan_agree, scratch, with_normal, agreeing);
     if (with_normal >= 6 && agreeing < P.leftover_min_inlier_fraction * with_normal) return;
     const int id = static_cast<int>(planes.size());
     for (int i : inliers) lab[i] = id;
@@ -228,7 +233,8 @@ PlaneFit trimmedComponentFit(const std::vector<int>& members, const std::vector<
 // A component becomes a plane when one plane fits most of it; otherwise it is split by RANSAC.
 void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
                   const HoughPlaneParams& P, std::vector<double>& member_tol,
-                  std::vector<PlaneHypothesis>& planes, cv::Mat& sample_labels) {
+                  AgreementScratch& scratch, std::vector<PlaneHypothesis>& planes,
+                  cv::Mat& sample_labels) {
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
   member_tol.resize(members.size());  // tested by every trimming pass
   for (std::size_t k = 0; k < members.size(); ++k)
@@ -239,7 +245,7 @@ void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
       static_cast<double>(inliers) <
           P.leftover_min_inlier_fraction * static_cast<double>(members.size())) {
     if (P.leftover_ransac_hypotheses > 0)
-      splitLeftoverComponent(members, grid, P, planes, sample_labels);
+      splitLeftoverComponent(members, grid, P, scratch, planes, sample_labels);
     return;
   }
   const int id = static_cast<int>(planes.size());
@@ -263,6 +269,7 @@ void HoughPlaneDetector::Impl::fitLeftoverComponents(const HoughPlaneParams& P,
   comp.assign(N, -1);
   std::vector<int> stack, members;
   std::vector<double> member_tol;
+  AgreementScratch scratch;
   // The possible seeds (unassigned, valid) first, in a branch-free pass: a sample labelled
   // by an earlier component below was one of its members, which the comp test skips.
   seeds.resize(N);
@@ -276,7 +283,7 @@ void HoughPlaneDetector::Impl::fitLeftoverComponents(const HoughPlaneParams& P,
     if (comp[seed] >= 0) continue;
     floodComponent(seed, grid, lab, continuous, comp, stack, members);
     if (static_cast<int>(members.size()) < P.min_plane_samples) continue;
-    fitComponent(members, grid, P, member_tol, planes, sample_labels);
+    fitComponent(members, grid, P, member_tol, scratch, planes, sample_labels);
   }
 }
 

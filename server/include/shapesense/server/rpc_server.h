@@ -20,9 +20,10 @@ namespace shapesense {
 class ShapeSenseService;
 class AccessTokens;
 
-/// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
 /// The trailing metadata key of gRPC's retry pushback (gRFC A6), in milliseconds.
 inline constexpr const char* kRetryPushbackKey = "grpc-retry-pushback-ms";
+
+/// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
 
 struct ServerLimits {
   /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes, GetScene,
