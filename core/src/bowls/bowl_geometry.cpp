@@ -330,7 +330,7 @@ std::vector<Eigen::Vector3d> readingsOnSupport(const BoxReadings& readings,
 
 /// Measures the profile into `result.geometry` and judges it.
 void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& box_readings,
-                  const SupportPlane& support, const BowlGeometryParams& params,
+                  const SupportPlane& support, double range_m, const BowlGeometryParams& params,
                   BowlGeometryResult& result) {
   std::vector<double> heights = profile.heights;
   const double bottom = quantile(heights, 0.02);
@@ -346,7 +346,9 @@ void judgeProfile(const Profile& profile, const std::vector<Eigen::Vector3d>& bo
       dishDepth(profile, box_readings, support, bottom, top, band, geometry.rim_diameter_m, params);
   const double rim = std::max(1e-6, geometry.rim_diameter_m);
   const bool wider_at_rim = foot > 0 && geometry.rim_to_foot_width >= params.min_rim_to_foot_width;
-  if (geometry.rim_diameter_m < params.min_rim_diameter_m)
+  if (top < params.min_top_steps * params.noise.depthStep(range_m))
+    result.rejection = BowlGeometryRejection::kTooCoarse;
+  else if (geometry.rim_diameter_m < params.min_rim_diameter_m)
     result.rejection = BowlGeometryRejection::kRimTooSmall;
   else if (geometry.rim_diameter_m > params.max_rim_diameter_m)
     result.rejection = BowlGeometryRejection::kRimTooLarge;
@@ -365,6 +367,8 @@ std::string toString(BowlGeometryRejection reason) {
       return "no supporting plane under the box";
     case BowlGeometryRejection::kNoObject:
       return "nothing stands on the support at the box's centre";
+    case BowlGeometryRejection::kTooCoarse:
+      return "too far for the sensor's depth steps to show its shape";
     case BowlGeometryRejection::kRimTooSmall:
       return "rim narrower than a bowl's (or seen in part)";
     case BowlGeometryRejection::kRimTooLarge:
@@ -380,6 +384,7 @@ std::string toString(BowlGeometryRejection reason) {
 bool isInconclusive(BowlGeometryRejection reason) {
   return reason == BowlGeometryRejection::kNoSupport ||
          reason == BowlGeometryRejection::kNoObject ||
+         reason == BowlGeometryRejection::kTooCoarse ||
          reason == BowlGeometryRejection::kRimTooSmall;
 }
 
@@ -411,8 +416,8 @@ BowlGeometryResult measureBowlGeometry(const cv::Mat& depth_mm, const CameraIntr
     result.rejection = BowlGeometryRejection::kNoObject;
     return result;
   }
-  judgeProfile(profileOf(points, *support), readingsOnSupport(readings, params), *support, params,
-               result);
+  judgeProfile(profileOf(points, *support), readingsOnSupport(readings, params), *support,
+               object_point->z(), params, result);
   return result;
 }
 

@@ -68,6 +68,10 @@ struct BowlGeometryParams {
   /// the support's own noise out, little enough to keep most of a small bowl far away.
   double clearance_steps = 2.0;
   double min_clearance_m = 0.01;
+  /// An object whose top stands fewer than this many depth steps of the sensor above its
+  /// support at its range is too coarsely seen to be judged (a bowl 5 cm tall at 3.5 m spans
+  /// under two steps): inconclusive. Default 3 (a 5 cm bowl is measured up to ~2.4 m).
+  double min_top_steps = 3.0;
   KinectNoiseModel noise{};  ///< the sensor's depth steps. Default Kinect v1.
   /// Two neighbouring pixels are one surface when their depths differ by at most this many
   /// depth steps (and at least max_step_floor_m). Defaults 4 steps, 1 cm.
@@ -106,6 +110,7 @@ struct BowlGeometry {
 enum class BowlGeometryRejection {
   kNoSupport,      ///< no detected plane under the box
   kNoObject,       ///< nothing stands on the support at the box's centre
+  kTooCoarse,      ///< the object spans fewer than min_top_steps depth steps at its range
   kRimTooSmall,    ///< rim band narrower than min_rim_diameter_m (or only part of it seen)
   kRimTooLarge,    ///< rim band wider than max_rim_diameter_m
   kHeight,         ///< height out of proportion to the rim
@@ -116,7 +121,8 @@ enum class BowlGeometryRejection {
 std::string toString(BowlGeometryRejection reason);
 
 /// Whether the depth only failed to show the bowl (no support in view, nothing measurable
-/// standing at the box's centre, a rim seen in part) rather than showing something else.
+/// standing at the box's centre, an object too far for the sensor's depth steps, a rim seen in
+/// part) rather than showing something else.
 bool isInconclusive(BowlGeometryRejection reason);
 
 /// What measureBowlGeometry found.
