@@ -20,13 +20,15 @@ TEST(RecognitionQuality, TestSplitRecallAndFalseDetections) {
   // Requirement (issue 22): recall >= 0.90 at <= 1 cm and 5 deg with >= 50% of the object
   // visible, and <= 0.1 false detections per frame for five taught objects: NOT met. The bounds
   // below are a regression record, just under what the code reached on these 20 cases (recall
-  // 0.709, 0.232 false per frame: docs/benchmarks.md). The taught pixels come from the plane
+  // 0.714, 0.256 false per frame: docs/benchmarks.md). The taught pixels come from the plane
   // and segment stages, and recognition is sensitive to them: a one-pixel erosion of every
   // teaching mask costs a tenth of the recall on validation cases 0-79. The false bound moved
-  // from 0.22 with the planes' tighter inlier band (one false detection more here, 0.214 before),
-  // which gained three points of correct planes and of correct segments on validation.
+  // from 0.22 with the plane stage's tighter inlier band and stricter vote (two false
+  // detections more here, 0.214 before; on validation cases 0-39 the same change gave 0.132 ->
+  // 0.144 false and 297 -> 300 found), which gained correct planes and segments and cut the
+  // spurious planes by a quarter on validation.
   EXPECT_GE(score.recall(), 0.70);
-  EXPECT_LE(score.falsePerFrameForFive(), 0.24);
+  EXPECT_LE(score.falsePerFrameForFive(), 0.27);
   // Found poses are well inside the tolerance, so it is not what limits recall (the 90th
   // percentile of their translation errors 5.5 mm when last measured, against 1 cm).
   std::vector<double> translations = score.translation_errors_m;
