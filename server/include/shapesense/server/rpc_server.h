@@ -24,7 +24,6 @@ class AccessTokens;
 inline constexpr const char* kRetryPushbackKey = "grpc-retry-pushback-ms";
 
 /// What the server takes on at once (shapesensed --query-workers etc.; README lists them).
-
 struct ServerLimits {
   /// EstimateBox, GetFrame, GetSegments, GetPlanes, GetBowls, GetDetectedBoxes, GetScene,
   /// TeachObject, FindObjects.
