@@ -40,15 +40,20 @@ void printScene(const v1::SceneUpdate& scene) {
     if (thing.frames_missed() > 0) std::printf(", missed %u", thing.frames_missed());
     std::printf("\n");
   }
+  for (const auto& taught : scene.taught_objects()) {
+    std::printf("  taught %-20s centre %6.3f %6.3f %6.3f m  score %.3f\n", taught.name().c_str(),
+                taught.box().centre().x(), taught.box().centre().y(), taught.box().centre().z(),
+                taught.score());
+  }
 }
 
 void printUpdateLine(const v1::SceneUpdate& update) {
-  std::printf("%s  seq %-6llu %s  planes %d (-%d)  things %d (-%d)  %zu bytes",
-              formatNsAsSeconds(update.info().timestamp_ns()).c_str(),
-              static_cast<unsigned long long>(update.info().sequence()),
-              update.full() ? "full " : "delta", update.planes_size(),
-              update.removed_plane_ids_size(), update.objects_size(),
-              update.removed_object_ids_size(), update.ByteSizeLong());
+  std::printf(
+      "%s  seq %-6llu %s  planes %d (-%d)  things %d (-%d)  taught %d  %zu bytes",
+      formatNsAsSeconds(update.info().timestamp_ns()).c_str(),
+      static_cast<unsigned long long>(update.info().sequence()), update.full() ? "full " : "delta",
+      update.planes_size(), update.removed_plane_ids_size(), update.objects_size(),
+      update.removed_object_ids_size(), update.taught_objects_size(), update.ByteSizeLong());
   if (update.dropped_before() > 0) {
     std::printf("  (%llu dropped)", static_cast<unsigned long long>(update.dropped_before()));
   }

@@ -31,6 +31,8 @@ void addWatchCommand(CLI::App& app, const GlobalOptions& global) {
                     100 * d.valid_fraction(), d.min_m(), d.max_m(), d.median_m());
         std::printf("  %u planes  %u segments  %u bowls", summary.planes(), summary.segments(),
                     summary.bowls());
+        if (summary.taught_objects() > 0)
+          std::printf("  %u taught objects", summary.taught_objects());
         for (const auto& t : summary.timings())
           std::printf("  %s %.2f ms", t.stage().c_str(), t.ms());
         if (summary.dropped_before() > 0) {

@@ -39,7 +39,20 @@ Daemon::Daemon(const DaemonOptions& options)
     object_models_ =
         std::make_unique<ObjectModelStore>(options.object_models, options.object_models_max);
   }
-  DetectorChain chain = makeDetectorChain(options.detectors);
+  DetectorConfig detectors = options.detectors;
+  if (options.find_taught_objects) {
+    if (!object_models_) {
+      throw std::invalid_argument(
+          "the taught-object stage needs an object models folder (--object-models)");
+    }
+    detectors.taught_model_params = object_models_->params();
+    detectors.taught_models = [store = object_models_.get()] {
+      std::vector<std::shared_ptr<const ObjectModel>> models;
+      for (auto& stored : store->list()) models.push_back(std::move(stored.model));
+      return models;
+    };
+  }
+  DetectorChain chain = makeDetectorChain(detectors);
   pipeline_ = std::make_unique<Pipeline>(openSource(options.source, options.pacing, options.loop),
                                          std::move(chain), cache_, hub_, &tap_, options.pipeline);
   ServiceContext context{.cache = cache_, .hub = hub_};

@@ -115,6 +115,7 @@ struct CommandLine {
       shapesense::formatSegmentationMethod(shapesense::kDefaultSegmentationMethod)};
   std::string planes = "hough";
   std::string bowls = "on";
+  std::string taught_objects = "off";
   std::vector<double> bowl_rim_cm = {
       100 * options.detectors.bowl_geometry_params.min_rim_diameter_m,
       100 * options.detectors.bowl_geometry_params.max_rim_diameter_m};
@@ -192,6 +193,11 @@ void addObjectModelOptions(CLI::App& app, CommandLine& c) {
                  "Most taught objects the folder may hold; TeachObject answers "
                  "RESOURCE_EXHAUSTED beyond")
       ->check(CLI::Range(std::size_t{1}, std::size_t{1000}))
+      ->capture_default_str();
+  app.add_option("--taught-objects", c.taught_objects,
+                 "Look for the taught objects on every frame and follow them from frame to frame "
+                 "(WatchScene and GetScene carry them): on or off")
+      ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
 }
 
@@ -339,6 +345,7 @@ std::optional<DaemonOptions> toDaemonOptions(CommandLine c) {
     return std::nullopt;
   }
   options.object_models = c.object_models;
+  options.find_taught_objects = c.taught_objects == "on";
   return options;
 }
 

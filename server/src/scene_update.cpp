@@ -195,10 +195,10 @@ grpc::Status lookupSceneFrame(const FrameCache& cache, std::int64_t at_ns, Cache
 grpc::Status fillScene(const CachedFrame& entry, const std::string& session_id,
                        v1::SceneUpdate& update) {
   const FrameResults& results = *entry.results;
-  if (!results.planes && !results.things) {
+  if (!results.planes && !results.things && !results.taught_objects) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
-            "the scene needs the plane stage or the bowl or object-box stages; start shapesensed "
-            "with --planes hough"};
+            "the scene needs the plane stage, the bowl or object-box stages or the taught-object "
+            "stage; start shapesensed with --planes hough"};
   }
   update.Clear();
   update.set_session_id(session_id);
@@ -210,6 +210,10 @@ grpc::Status fillScene(const CachedFrame& entry, const std::string& session_id,
   }
   if (results.things) {
     for (const auto& thing : *results.things) toSceneObject(thing, update.add_objects());
+  }
+  if (results.taught_objects) {
+    for (const auto& detection : *results.taught_objects)
+      toProto(detection, entry.frame->intrinsics, update.add_taught_objects());
   }
   for (const auto& [stage, ms] : results.timings_ms) {
     auto* timing = update.add_timings();

@@ -96,6 +96,10 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
   if (config.track_things && (has_object_boxes || config.bowls)) {
     chain.add(std::make_unique<ThingTrackingStage>(config.tracker_params));
   }
+  if (config.taught_models) {
+    chain.add(std::make_unique<TaughtObjectStage>(config.taught_models, config.taught_model_params,
+                                                  config.taught_tracker_params));
+  }
   return chain;
 }
 

@@ -152,4 +152,14 @@ std::vector<ThingObservation> thingObservations(const FrameResults& results) {
 void ThingTrackingStage::run(const Frame&, FrameResults& results) {
   results.things = tracker_.update(thingObservations(results));
 }
+
+void TaughtObjectStage::run(const Frame& frame, FrameResults& results) {
+  const auto models = models_();
+  if (models.empty()) {
+    results.taught_objects.emplace();
+    return;
+  }
+  const SceneSurface scene(frame.depth, frame.intrinsics, describe_);
+  results.taught_objects = tracker_.update(scene, models);
+}
 }  // namespace shapesense

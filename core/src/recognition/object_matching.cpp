@@ -578,11 +578,26 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
-      features_(detectShapeFeatures(surface_, params.features)),
-      descriptor_columns_(features_.size() * kShapeDescriptorSize) {
-  for (std::size_t i = 0; i < features_.size(); ++i)
-    for (std::size_t d = 0; d < kShapeDescriptorSize; ++d)
-      descriptor_columns_[d * features_.size() + i] = features_[i].descriptor[d];
+      feature_params_(params.features) {}
+
+const std::vector<ShapeFeature>& SceneSurface::features() const {
+  describe();
+  return features_;
+}
+
+const std::vector<float>& SceneSurface::descriptorColumns() const {
+  describe();
+  return descriptor_columns_;
+}
+
+void SceneSurface::describe() const {
+  std::call_once(described_, [this] {
+    features_ = detectShapeFeatures(surface_, feature_params_);
+    descriptor_columns_.resize(features_.size() * kShapeDescriptorSize);
+    for (std::size_t i = 0; i < features_.size(); ++i)
+      for (std::size_t d = 0; d < kShapeDescriptorSize; ++d)
+        descriptor_columns_[d * features_.size() + i] = features_[i].descriptor[d];
+  });
 }
 
 SceneSurface::~SceneSurface() = default;
@@ -619,6 +634,17 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   if (!final_detection) return best;
   final_detection->feature_inliers = best->feature_inliers;
   return final_detection;
+}
+
+std::optional<ObjectDetection> followObject(const ObjectModel& model, const SceneSurface& scene,
+                                            const Eigen::Isometry3f& prior,
+                                            const ObjectMatchParams& params) {
+  ScenePatches patches(model, scene, params);
+  const ScenePatch& patch = patches.forPose(prior);
+  Eigen::Isometry3f pose =
+      refinePose(prior, model, patch, params.icp_iterations, params.icp_max_points, params);
+  pose = refinePose(pose, model, patch, params.icp_final_iterations, 0, params);
+  return verifyObjectPose(model, scene, pose, params);
 }
 
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

@@ -23,6 +23,9 @@ void toSummary(const Subscription::Item& item, v1::FrameSummary& summary) {
       summary.set_segments(static_cast<std::uint32_t>(results->segmentation->segments.size()));
     }
     if (results->bowls) summary.set_bowls(static_cast<std::uint32_t>(results->bowls->size()));
+    if (results->taught_objects) {
+      summary.set_taught_objects(static_cast<std::uint32_t>(results->taught_objects->size()));
+    }
     for (const auto& [stage, ms] : results->timings_ms) {
       auto* timing = summary.add_timings();
       timing->set_stage(stage);

@@ -41,6 +41,10 @@ struct DaemonOptions {
   /// there) and the most models it may hold. Empty: the daemon keeps no taught objects.
   std::filesystem::path object_models;
   std::size_t object_models_max = ObjectModelStore::kDefaultMaxModels;
+  /// Runs the taught-object stage on every frame (TaughtObjectStage: the folder's objects
+  /// followed from frame to frame); needs `object_models`. Off by default: a search costs
+  /// tens of milliseconds of the detector thread's frame.
+  bool find_taught_objects = false;
   /// How long the source may deliver nothing, or the detectors take on one frame, before
   /// health() says the pipeline hangs.
   std::chrono::steady_clock::duration stall_limit = std::chrono::seconds(10);

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include "shapesense/core/boxes/box_estimation.h"
+#include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/server/frame_cache.h"
 #include "shapesense/server/object_model_store.h"
 #include "shapesense/server/pipeline.h"
@@ -23,5 +24,8 @@ void toProto(const SegmentStatistics& segment, v1::Segment* out);
 void toProto(const DetectedPlane& plane, bool with_polygon, v1::Plane* out);
 void toProto(const DetectedBowl& bowl, v1::Bowl* out);
 void toProto(const StoredObjectModel& stored, v1::ObjectModelInfo* out);
+/// A taught object's detection; the image box projects its 3D box with `intrinsics`.
+void toProto(const ObjectDetection& detection, const CameraIntrinsics& intrinsics,
+             v1::ObjectDetection* out);
 
 }  // namespace shapesense

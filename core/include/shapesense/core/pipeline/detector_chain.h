@@ -17,6 +17,7 @@
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/core/tracking/taught_object_tracker.h"
 #include "shapesense/core/tracking/thing_tracker.h"
 
 namespace shapesense {
@@ -83,6 +84,13 @@ struct DetectorConfig {
   /// either stage does. Default on.
   bool track_things = true;
   ThingTrackerParams tracker_params;
+  /// The taught-object stage (TaughtObjectStage) runs when this is set: the models to look
+  /// for, asked on every frame. Default unset: off (the daemon sets it with
+  /// --taught-objects on).
+  TaughtModelSource taught_models;
+  /// The parameters the taught models were made with. Default: defaults.
+  ObjectModelParams taught_model_params;
+  TaughtObjectTrackerParams taught_tracker_params;
 };
 
 /// "hough" / "ransac" <-> PlaneDetectorKind.

@@ -13,6 +13,7 @@
 #include "shapesense/core/boxes/box_estimation.h"
 #include "shapesense/core/boxes/object_boxes.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/core/segmentation/segment_statistics.h"
 #include "shapesense/core/segmentation/segmentation.h"
 #include "shapesense/core/tracking/thing_tracker.h"
@@ -60,6 +61,9 @@ struct FrameResults {
   /// The object boxes and bowls tracked over the frames up to this one (confirmed tracks only,
   /// ordered by id); nullopt when the tracking stage is off.
   std::optional<std::vector<TrackedThing>> things;
+  /// The taught objects found in this frame (TaughtObjectStage), in the models' order;
+  /// nullopt when the stage is off.
+  std::optional<std::vector<ObjectDetection>> taught_objects;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };

@@ -14,6 +14,7 @@
 #include "shapesense/core/planes/plane_accumulator.h"
 #include "shapesense/core/planes/plane_ransac.h"
 #include "shapesense/core/planes/planes.h"
+#include "shapesense/core/tracking/taught_object_tracker.h"
 #include "shapesense/core/tracking/thing_tracker.h"
 
 namespace shapesense {
@@ -101,6 +102,25 @@ class ThingTrackingStage : public DetectorStage {
 
  private:
   ThingTracker tracker_;
+};
+
+/// Finds the taught objects on every frame and follows them from frame to frame
+/// (TaughtObjectTracker). The models are asked for on every frame, so an object taught while
+/// the pipeline runs is looked for from the next frame. Needs only the depth. Holds the
+/// objects' last poses, so one instance must see the frames in order.
+class TaughtObjectStage : public DetectorStage {
+ public:
+  /// `describe`: the parameters the models were taught with (the frame is described alike).
+  TaughtObjectStage(TaughtModelSource models, ObjectModelParams describe,
+                    TaughtObjectTrackerParams params)
+      : models_(std::move(models)), describe_(describe), tracker_(params) {}
+  std::string name() const override { return "taught_objects"; }
+  void run(const Frame& frame, FrameResults& results) override;
+
+ private:
+  TaughtModelSource models_;
+  ObjectModelParams describe_;
+  TaughtObjectTracker tracker_;
 };
 
 /// The things of one frame's results as tracker observations: every bowl with a 3D box, and

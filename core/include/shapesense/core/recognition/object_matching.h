@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,7 +37,9 @@
 
 namespace shapesense {
 
-/// One depth frame's surface and features, made once for all the models.
+/// One depth frame's surface and features, made once for all the models. The features are
+/// described on first use (the first findObject): following an object from a known pose
+/// (followObject) needs only the surface. Safe to share between threads.
 class SceneSurface {
  public:
   /// `params` must be the models' (surface and feature parameters), so that the descriptors
@@ -48,19 +51,23 @@ class SceneSurface {
   SceneSurface& operator=(const SceneSurface&) = delete;
 
   const SurfaceCloud& surface() const { return surface_; }
-  const std::vector<ShapeFeature>& features() const { return features_; }
+  const std::vector<ShapeFeature>& features() const;
   /// The features' descriptors dimension-major: value d of feature i at
   /// [d * features().size() + i] (the layout descriptor matching reads).
-  const std::vector<float>& descriptorColumns() const { return descriptor_columns_; }
+  const std::vector<float>& descriptorColumns() const;
   const cv::Mat& depth() const { return depth_mm_; }
   const CameraIntrinsics& intrinsics() const { return intrinsics_; }
 
  private:
+  void describe() const;
+
   cv::Mat depth_mm_;
   CameraIntrinsics intrinsics_;
   SurfaceCloud surface_;
-  std::vector<ShapeFeature> features_;
-  std::vector<float> descriptor_columns_;
+  ShapeFeatureParams feature_params_;
+  mutable std::once_flag described_;
+  mutable std::vector<ShapeFeature> features_;
+  mutable std::vector<float> descriptor_columns_;
 };
 
 struct ObjectMatchParams {
@@ -143,6 +150,15 @@ struct ObjectDetection {
 /// most; or none.
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
                                           const ObjectMatchParams& params = {});
+
+/// Follows an object from where it was a moment ago (`prior`: the previous frame's
+/// detection): steps 3 and 4 from `prior`, without features. Far cheaper than findObject while
+/// the object moves less between frames than ICP reaches (a few centimetres at the object);
+/// none when the depth does not confirm the refined pose (the object moved farther, left or
+/// was hidden): findObject then searches the frame. feature_inliers is left 0.
+std::optional<ObjectDetection> followObject(const ObjectModel& model, const SceneSurface& scene,
+                                            const Eigen::Isometry3f& prior,
+                                            const ObjectMatchParams& params = {});
 
 /// Step 4 alone: `model` at `camera_from_model` as a detection if the depth confirms it (a pose
 /// from elsewhere: the last frame's, another method's). feature_inliers is left 0.

@@ -1,0 +1,68 @@
+#pragma once
+// Taught objects (object_model.h) over a frame sequence: each object found in the previous
+// frame is followed from its pose there (followObject: ICP and the depth check, no features),
+// and only the objects not followed are searched for (findObject), a few per frame, in turn. A
+// frame where every object is followed costs the frame's surface and one ICP per object; a
+// frame with a search also costs the frame's features and the search. Searching in turn bounds that
+// cost when many taught objects are out of view: an object that comes into view is found within
+// (objects not followed) / searches_per_frame frames.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "shapesense/core/recognition/object_matching.h"
+#include "shapesense/core/recognition/object_model.h"
+
+namespace shapesense {
+
+/// Where the taught objects come from, asked once per frame (the daemon's model folder, to
+/// which objects are taught while it runs).
+using TaughtModelSource = std::function<std::vector<std::shared_ptr<const ObjectModel>>()>;
+
+struct TaughtObjectTrackerParams {
+  /// Search and check parameters for both following and searching.
+  ObjectMatchParams match;
+  /// Objects not followed from the previous frame that are searched for in one frame, those
+  /// searched for longest ago first; 0 = every one, every frame. Default 1: with five objects
+  /// out of view a frame costs one search, and each is looked for every fifth frame.
+  int searches_per_frame = 1;
+};
+
+class TaughtObjectTracker {
+ public:
+  explicit TaughtObjectTracker(TaughtObjectTrackerParams params = {});
+
+  /// The objects of `models` found in `scene`, in the order of `models`. Objects are known by
+  /// name: a model replaced under its name (another object) is searched for afresh, and
+  /// objects no longer in `models` are forgotten.
+  std::vector<ObjectDetection> update(
+      const SceneSurface& scene, const std::vector<std::shared_ptr<const ObjectModel>>& models);
+
+  /// Searches (findObject) made by the last update(); for tests and benchmarks.
+  int lastSearches() const { return last_searches_; }
+
+ private:
+  struct Followed {
+    std::shared_ptr<const ObjectModel> model;
+    std::optional<Eigen::Isometry3f> pose;  ///< where it was found in the previous frame
+    std::uint64_t last_searched = 0;        ///< the update() it was last searched in; 0 = never
+  };
+
+  /// The names of the objects to search for this frame: those not followed, longest unsearched
+  /// first, at most searches_per_frame.
+  std::vector<std::string> dueForSearch() const;
+
+  TaughtObjectTrackerParams params_;
+  std::map<std::string, Followed> objects_;
+  std::uint64_t frame_ = 0;
+  int last_searches_ = 0;
+};
+
+}  // namespace shapesense

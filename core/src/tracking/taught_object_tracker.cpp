@@ -1,0 +1,68 @@
+#include "shapesense/core/tracking/taught_object_tracker.h"
+
+#include <algorithm>
+#include <set>
+
+namespace shapesense {
+
+TaughtObjectTracker::TaughtObjectTracker(TaughtObjectTrackerParams params) : params_(params) {}
+
+std::vector<ObjectDetection> TaughtObjectTracker::update(
+    const SceneSurface& scene, const std::vector<std::shared_ptr<const ObjectModel>>& models) {
+  ++frame_;
+  last_searches_ = 0;
+  std::set<std::string> present;
+  for (const auto& model : models) {
+    if (!model) continue;
+    present.insert(model->name);
+    Followed& object = objects_[model->name];
+    if (object.model != model) object = Followed{.model = model};
+  }
+  std::erase_if(objects_, [&](const auto& entry) { return !present.contains(entry.first); });
+
+  std::map<std::string, ObjectDetection> found;
+  for (auto& [name, object] : objects_) {
+    if (!object.pose) continue;
+    auto detection = followObject(*object.model, scene, *object.pose, params_.match);
+    object.pose.reset();
+    if (!detection) continue;
+    object.pose = detection->camera_from_model;
+    found.emplace(name, std::move(*detection));
+  }
+  for (const std::string& name : dueForSearch()) {
+    Followed& object = objects_.at(name);
+    object.last_searched = frame_;
+    ++last_searches_;
+    auto detection = findObject(*object.model, scene, params_.match);
+    if (!detection) continue;
+    object.pose = detection->camera_from_model;
+    found.emplace(name, std::move(*detection));
+  }
+
+  std::vector<ObjectDetection> out;
+  for (const auto& model : models) {
+    if (!model) continue;
+    const auto it = found.find(model->name);
+    if (it == found.end()) continue;
+    out.push_back(it->second);
+    found.erase(it);  // a name listed twice is reported once
+  }
+  return out;
+}
+
+std::vector<std::string> TaughtObjectTracker::dueForSearch() const {
+  std::vector<std::pair<std::uint64_t, std::string>> waiting;
+  for (const auto& [name, object] : objects_) {
+    if (object.pose) continue;  // followed into this frame
+    waiting.emplace_back(object.last_searched, name);
+  }
+  std::sort(waiting.begin(), waiting.end());
+  if (params_.searches_per_frame > 0 &&
+      waiting.size() > static_cast<std::size_t>(params_.searches_per_frame))
+    waiting.resize(static_cast<std::size_t>(params_.searches_per_frame));
+  std::vector<std::string> names;
+  for (auto& entry : waiting) names.push_back(std::move(entry.second));
+  return names;
+}
+
+}  // namespace shapesense
