@@ -136,19 +136,20 @@ void BM_TaughtObjectStagePerFrame(benchmark::State& state) {
   };
   for (std::size_t warm = 0; warm < 2 * models.size(); ++warm) {
     const Frame& frame = nextFrame();
-    tracker.update(SceneSurface(frame.depth, frame.intrinsics), models);
+    tracker.update(frame.depth, frame.intrinsics, models);
   }
-  double found = 0, searches = 0, frames_run = 0;
+  double found = 0, searches = 0, described = 0, frames_run = 0;
   for (auto _ : state) {
     const Frame& frame = nextFrame();
-    const SceneSurface surface(frame.depth, frame.intrinsics);
-    found += static_cast<double>(tracker.update(surface, models).size());
+    found += static_cast<double>(tracker.update(frame.depth, frame.intrinsics, models).size());
+    described += tracker.lastDescribedShare();
     searches += tracker.lastSearches();
     ++frames_run;
   }
   state.counters["models"] = static_cast<double>(models.size());
   state.counters["found_per_frame"] = found / frames_run;
   state.counters["searches_per_frame"] = searches / frames_run;
+  state.counters["described_share"] = described / frames_run;
 }
 BENCHMARK(BM_TaughtObjectStagePerFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 

@@ -45,7 +45,7 @@ Daemon::Daemon(const DaemonOptions& options)
       throw std::invalid_argument(
           "the taught-object stage needs an object models folder (--object-models)");
     }
-    detectors.taught_model_params = object_models_->params();
+    detectors.taught_tracker_params.describe = object_models_->params();
     detectors.taught_models = [store = object_models_.get()] {
       std::vector<std::shared_ptr<const ObjectModel>> models;
       for (auto& stored : store->list()) models.push_back(std::move(stored.model));

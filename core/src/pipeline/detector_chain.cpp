@@ -97,8 +97,8 @@ DetectorChain makeDetectorChain(const DetectorConfig& config) {
     chain.add(std::make_unique<ThingTrackingStage>(config.tracker_params));
   }
   if (config.taught_models) {
-    chain.add(std::make_unique<TaughtObjectStage>(config.taught_models, config.taught_model_params,
-                                                  config.taught_tracker_params));
+    chain.add(
+        std::make_unique<TaughtObjectStage>(config.taught_models, config.taught_tracker_params));
   }
   return chain;
 }

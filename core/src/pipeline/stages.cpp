@@ -159,7 +159,6 @@ void TaughtObjectStage::run(const Frame& frame, FrameResults& results) {
     results.taught_objects.emplace();
     return;
   }
-  const SceneSurface scene(frame.depth, frame.intrinsics, describe_);
-  results.taught_objects = tracker_.update(scene, models);
+  results.taught_objects = tracker_.update(frame.depth, frame.intrinsics, models);
 }
 }  // namespace shapesense

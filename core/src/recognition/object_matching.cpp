@@ -370,6 +370,16 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
   return pose;
 }
 
+// How far from the posed model's points ICP may pair them: it pairs over icp_max_distance_m
+// and may move the pose as far again, twice.
+float icpReach(const ObjectMatchParams& params) { return 3.0f * params.icp_max_distance_m; }
+
+Eigen::AlignedBox3f posedBounds(const ObjectModel& model, const Eigen::Isometry3f& pose) {
+  Eigen::AlignedBox3f posed;  // empty
+  for (const Eigen::Vector3f& p : model.surface.points) posed.extend(pose * p);
+  return posed;
+}
+
 Eigen::AlignedBox3f grown(const Eigen::AlignedBox3f& box, float margin) {
   return {box.min() - Eigen::Vector3f::Constant(margin),
           box.max() + Eigen::Vector3f::Constant(margin)};
@@ -425,16 +435,13 @@ class ScenePatches {
   ScenePatches(const ObjectModel& model, const SceneSurface& scene, const ObjectMatchParams& params)
       : model_(model),
         scene_(scene),
-        // ICP pairs over icp_max_distance_m and may move the pose as far again, twice.
-        reach_(3.0f * params.icp_max_distance_m),
+        reach_(icpReach(params)),
         spare_(params.icp_max_distance_m) {}
 
   /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
   /// long as this.
   const ScenePatch& forPose(const Eigen::Isometry3f& pose) {
-    Eigen::AlignedBox3f posed;  // empty
-    for (const Eigen::Vector3f& p : model_.surface.points) posed.extend(pose * p);
-    const Eigen::AlignedBox3f needed = grown(posed, reach_);
+    const Eigen::AlignedBox3f needed = grown(posedBounds(model_, pose), reach_);
     for (const auto& patch : patches_)
       if (patch->covers(needed)) return *patch;
     patches_.push_back(std::make_unique<ScenePatch>(scene_, grown(needed, spare_)));
@@ -574,10 +581,10 @@ OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
 }  // namespace
 
 SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                           const ObjectModelParams& params)
+                           const ObjectModelParams& params, const cv::Mat& mask)
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
-      surface_(surfaceCloudFromDepth(depth_mm, intrinsics, {}, params.surface)),
+      surface_(surfaceCloudFromDepth(depth_mm, intrinsics, mask, params.surface)),
       feature_params_(params.features) {}
 
 const std::vector<ShapeFeature>& SceneSurface::features() const {
@@ -645,6 +652,31 @@ std::optional<ObjectDetection> followObject(const ObjectModel& model, const Scen
       refinePose(prior, model, patch, params.icp_iterations, params.icp_max_points, params);
   pose = refinePose(pose, model, patch, params.icp_final_iterations, 0, params);
   return verifyObjectPose(model, scene, pose, params);
+}
+
+cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
+                           const CameraIntrinsics& intrinsics, const ObjectMatchParams& params) {
+  // The scene points ICP may pair with: the posed bounds grown by its reach, and the patch's
+  // spare room (ScenePatches), so the surface in this region holds every one of them.
+  const Eigen::AlignedBox3f reached =
+      grown(posedBounds(model, prior), icpReach(params) + params.icp_max_distance_m);
+  const cv::Rect image(0, 0, intrinsics.width, intrinsics.height);
+  if (reached.isEmpty()) return {};
+  constexpr float kNearestZ = 0.05f;  // a region reaching behind the camera: the whole image
+  if (reached.min().z() < kNearestZ) return image;
+  float u0 = 1e9f, v0 = 1e9f, u1 = -1e9f, v1 = -1e9f;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3f c = reached.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner));
+    const Eigen::Vector2d uv = intrinsics.project(c.cast<double>());
+    u0 = std::min(u0, static_cast<float>(uv.x()));
+    v0 = std::min(v0, static_cast<float>(uv.y()));
+    u1 = std::max(u1, static_cast<float>(uv.x()));
+    v1 = std::max(v1, static_cast<float>(uv.y()));
+  }
+  const auto clamp = [](float value) { return static_cast<int>(std::clamp(value, -1e6f, 1e6f)); };
+  return cv::Rect(cv::Point(clamp(std::floor(u0)), clamp(std::floor(v0))),
+                  cv::Point(clamp(std::ceil(u1)) + 1, clamp(std::ceil(v1)) + 1)) &
+         image;
 }
 
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

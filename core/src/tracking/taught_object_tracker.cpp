@@ -8,7 +8,8 @@ namespace shapesense {
 TaughtObjectTracker::TaughtObjectTracker(TaughtObjectTrackerParams params) : params_(params) {}
 
 std::vector<ObjectDetection> TaughtObjectTracker::update(
-    const SceneSurface& scene, const std::vector<std::shared_ptr<const ObjectModel>>& models) {
+    const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+    const std::vector<std::shared_ptr<const ObjectModel>>& models) {
   ++frame_;
   last_searches_ = 0;
   std::set<std::string> present;
@@ -20,23 +21,37 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   }
   std::erase_if(objects_, [&](const auto& entry) { return !present.contains(entry.first); });
 
+  // The surface around the followed objects first; the whole frame's only when one is searched
+  // for (one that was not followed, or that following lost in this frame).
   std::map<std::string, ObjectDetection> found;
-  for (auto& [name, object] : objects_) {
-    if (!object.pose) continue;
-    auto detection = followObject(*object.model, scene, *object.pose, params_.match);
-    object.pose.reset();
-    if (!detection) continue;
-    object.pose = detection->camera_from_model;
-    found.emplace(name, std::move(*detection));
+  const cv::Mat regions = followedRegions(intrinsics);
+  last_described_share_ = 0.0;
+  if (!regions.empty()) {
+    const SceneSurface around(depth_mm, intrinsics, params_.describe, regions);
+    last_described_share_ = static_cast<double>(cv::countNonZero(regions)) /
+                            static_cast<double>(regions.total());
+    for (auto& [name, object] : objects_) {
+      if (!object.pose) continue;
+      auto detection = followObject(*object.model, around, *object.pose, params_.match);
+      object.pose.reset();
+      if (!detection) continue;
+      object.pose = detection->camera_from_model;
+      found.emplace(name, std::move(*detection));
+    }
   }
-  for (const std::string& name : dueForSearch()) {
-    Followed& object = objects_.at(name);
-    object.last_searched = frame_;
-    ++last_searches_;
-    auto detection = findObject(*object.model, scene, params_.match);
-    if (!detection) continue;
-    object.pose = detection->camera_from_model;
-    found.emplace(name, std::move(*detection));
+  const std::vector<std::string> due = dueForSearch();
+  if (!due.empty()) {
+    const SceneSurface whole(depth_mm, intrinsics, params_.describe);
+    last_described_share_ = 1.0;
+    for (const std::string& name : due) {
+      Followed& object = objects_.at(name);
+      object.last_searched = frame_;
+      ++last_searches_;
+      auto detection = findObject(*object.model, whole, params_.match);
+      if (!detection) continue;
+      object.pose = detection->camera_from_model;
+      found.emplace(name, std::move(*detection));
+    }
   }
 
   std::vector<ObjectDetection> out;
@@ -48,6 +63,19 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
     found.erase(it);  // a name listed twice is reported once
   }
   return out;
+}
+
+cv::Mat TaughtObjectTracker::followedRegions(const CameraIntrinsics& intrinsics) const {
+  cv::Mat mask;
+  for (const auto& [name, object] : objects_) {
+    if (!object.pose) continue;
+    const cv::Rect region =
+        followObjectRegion(*object.model, *object.pose, intrinsics, params_.match);
+    if (region.empty()) continue;
+    if (mask.empty()) mask = cv::Mat::zeros(intrinsics.height, intrinsics.width, CV_8UC1);
+    mask(region).setTo(255);
+  }
+  return mask;
 }
 
 std::vector<std::string> TaughtObjectTracker::dueForSearch() const {

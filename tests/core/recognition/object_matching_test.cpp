@@ -155,6 +155,19 @@ TEST(ObjectMatching, FollowsAnObjectFromANearbyPose) {
     EXPECT_LE(error.translation_m, 0.005) << object.name;
     EXPECT_LE(error.rotation_deg, 2.0) << object.name;
     EXPECT_EQ(followed->feature_inliers, 0);
+    // The same from the surface of the region it reads alone.
+    const cv::Rect region = followObjectRegion(model, near, later.frame.intrinsics);
+    cv::Mat mask = cv::Mat::zeros(later.frame.depth.size(), CV_8UC1);
+    mask(region).setTo(255);
+    EXPECT_LT(region.area(), later.frame.depth.total() / 2);
+    const SceneSurface around(later.frame.depth, later.frame.intrinsics, {}, mask);
+    const auto followed_around = followObject(model, around, near);
+    ASSERT_TRUE(followed_around.has_value()) << object.name;
+    EXPECT_LT((followed_around->camera_from_model.translation() -
+               followed->camera_from_model.translation())
+                  .norm(),
+              0.001f)
+        << object.name;
 
     Eigen::Isometry3f far_away = Eigen::Isometry3f::Identity();
     far_away.translation() = Eigen::Vector3f(0.4f, 0.0f, 0.0f);

@@ -65,6 +65,7 @@ bool poseIsRight(const ObjectDetection& detection, const ObjectModel& model,
 // counts the frames after each has had its first search.
 TEST(TaughtObjectTrackerQuality, FollowsTaughtObjectsWhileTheCameraMoves) {
   int visible = 0, found = 0, wrong = 0, frames = 0, frames_without_search = 0;
+  double described_without_search = 0.0;
   for (std::uint64_t seed = 21; seed <= 26; ++seed) {
     const TaughtScene taught = teachScene(seed);
     TaughtObjectTracker tracker;
@@ -72,11 +73,14 @@ TEST(TaughtObjectTrackerQuality, FollowsTaughtObjectsWhileTheCameraMoves) {
       const auto later = taught.scene->render(index, 0);
       const Eigen::Isometry3d truth_motion =
           later.truth.world_from_camera.inverse() * taught.world_from_teaching_camera;
-      const SceneSurface scene(later.frame.depth, later.frame.intrinsics);
-      const auto detections = tracker.update(scene, taught.models);
+      const auto detections =
+          tracker.update(later.frame.depth, later.frame.intrinsics, taught.models);
       const bool warming_up = index / 3 <= taught.models.size();
       ++frames;
-      frames_without_search += tracker.lastSearches() == 0 ? 1 : 0;
+      if (tracker.lastSearches() == 0) {
+        ++frames_without_search;
+        described_without_search += tracker.lastDescribedShare();
+      }
       for (std::size_t m = 0; m < taught.models.size(); ++m) {
         const ObjectModel& model = *taught.models[m];
         const synthetic::TruthObject* object = inFrame(later.truth, taught.taught[m]);
@@ -102,8 +106,11 @@ TEST(TaughtObjectTrackerQuality, FollowsTaughtObjectsWhileTheCameraMoves) {
       }
     }
   }
-  std::printf("%d of %d objects in view found, %d wrong poses; %d of %d frames without a search\n",
-              found, visible, wrong, frames_without_search, frames);
+  const double described_share = described_without_search / std::max(1, frames_without_search);
+  std::printf(
+      "%d of %d objects in view found, %d wrong poses; %d of %d frames without a search, "
+      "describing %.2f of the image\n",
+      found, visible, wrong, frames_without_search, frames, described_share);
   ASSERT_GE(visible, 150);
   // Requirements (issue 22): recall >= 0.90 at 1 cm and 5 deg; at most 0.1 false detections
   // a frame.
@@ -112,6 +119,8 @@ TEST(TaughtObjectTrackerQuality, FollowsTaughtObjectsWhileTheCameraMoves) {
   // What following is for: once found, objects in view are not searched for again. The first
   // frames search (one object a frame), objects that leave the view are searched for in turn.
   EXPECT_GE(frames_without_search, frames / 2);
+  // ...and describe only the image around them.
+  EXPECT_LT(described_share, 0.8);
 }
 
 TEST(TaughtObjectTracker, SearchesForObjectsOutOfViewInTurn) {
@@ -126,8 +135,7 @@ TEST(TaughtObjectTracker, SearchesForObjectsOutOfViewInTurn) {
   int searches = 0;
   for (std::uint64_t index = 0; index < 2 * absent.size(); ++index) {
     const auto frame = here.scene->render(index, 0);
-    const SceneSurface scene(frame.frame.depth, frame.frame.intrinsics);
-    const auto detections = tracker.update(scene, absent);
+    const auto detections = tracker.update(frame.frame.depth, frame.frame.intrinsics, absent);
     EXPECT_TRUE(detections.empty()) << "frame " << index << ": " << detections.front().name;
     EXPECT_EQ(tracker.lastSearches(), 1);
     searches += tracker.lastSearches();
@@ -136,8 +144,7 @@ TEST(TaughtObjectTracker, SearchesForObjectsOutOfViewInTurn) {
 
   TaughtObjectTracker all_at_once({.searches_per_frame = 0});
   const auto frame = here.scene->render(0, 0);
-  const SceneSurface scene(frame.frame.depth, frame.frame.intrinsics);
-  all_at_once.update(scene, absent);
+  all_at_once.update(frame.frame.depth, frame.frame.intrinsics, absent);
   EXPECT_EQ(all_at_once.lastSearches(), static_cast<int>(absent.size()));
 }
 
@@ -146,10 +153,11 @@ TEST(TaughtObjectTracker, AReplacedModelIsSearchedForAfresh) {
   ASSERT_GE(taught.models.size(), 2u);
   TaughtObjectTracker tracker;
   const auto first = taught.scene->render(0, 0);
-  const SceneSurface first_scene(first.frame.depth, first.frame.intrinsics);
+  const cv::Mat& depth = first.frame.depth;
+  const CameraIntrinsics& intrinsics = first.frame.intrinsics;
   const std::vector<std::shared_ptr<const ObjectModel>> one = {taught.models[0]};
-  ASSERT_EQ(tracker.update(first_scene, one).size(), 1u);
-  ASSERT_EQ(tracker.update(first_scene, one).size(), 1u);
+  ASSERT_EQ(tracker.update(depth, intrinsics, one).size(), 1u);
+  ASSERT_EQ(tracker.update(depth, intrinsics, one).size(), 1u);
   EXPECT_EQ(tracker.lastSearches(), 0);  // followed
 
   // Another object under the first one's name: its pose is not the old object's.
@@ -157,15 +165,15 @@ TEST(TaughtObjectTracker, AReplacedModelIsSearchedForAfresh) {
   other.name = taught.models[0]->name;
   const std::vector<std::shared_ptr<const ObjectModel>> replaced = {
       std::make_shared<const ObjectModel>(std::move(other))};
-  const auto detections = tracker.update(first_scene, replaced);
+  const auto detections = tracker.update(depth, intrinsics, replaced);
   EXPECT_EQ(tracker.lastSearches(), 1);
   ASSERT_EQ(detections.size(), 1u);
   EXPECT_TRUE(
       poseIsRight(detections[0], *replaced[0], taught.taught[1], Eigen::Isometry3d::Identity()));
 
   // A model no longer listed is forgotten.
-  EXPECT_TRUE(tracker.update(first_scene, {}).empty());
-  tracker.update(first_scene, one);
+  EXPECT_TRUE(tracker.update(depth, intrinsics, {}).empty());
+  tracker.update(depth, intrinsics, one);
   EXPECT_EQ(tracker.lastSearches(), 1);
 }
 

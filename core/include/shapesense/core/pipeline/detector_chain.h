@@ -88,8 +88,7 @@ struct DetectorConfig {
   /// for, asked on every frame. Default unset: off (the daemon sets it with
   /// --taught-objects on).
   TaughtModelSource taught_models;
-  /// The parameters the taught models were made with. Default: defaults.
-  ObjectModelParams taught_model_params;
+  /// Its parameters; `describe` must be what the models were taught with. Default: defaults.
   TaughtObjectTrackerParams taught_tracker_params;
 };
 

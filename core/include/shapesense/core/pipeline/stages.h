@@ -110,16 +110,14 @@ class ThingTrackingStage : public DetectorStage {
 /// objects' last poses, so one instance must see the frames in order.
 class TaughtObjectStage : public DetectorStage {
  public:
-  /// `describe`: the parameters the models were taught with (the frame is described alike).
-  TaughtObjectStage(TaughtModelSource models, ObjectModelParams describe,
-                    TaughtObjectTrackerParams params)
-      : models_(std::move(models)), describe_(describe), tracker_(params) {}
+  /// `params.describe`: the parameters the models were taught with.
+  TaughtObjectStage(TaughtModelSource models, TaughtObjectTrackerParams params)
+      : models_(std::move(models)), tracker_(params) {}
   std::string name() const override { return "taught_objects"; }
   void run(const Frame& frame, FrameResults& results) override;
 
  private:
   TaughtModelSource models_;
-  ObjectModelParams describe_;
   TaughtObjectTracker tracker_;
 };
 

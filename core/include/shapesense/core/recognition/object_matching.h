@@ -43,9 +43,12 @@ namespace shapesense {
 class SceneSurface {
  public:
   /// `params` must be the models' (surface and feature parameters), so that the descriptors
-  /// compare. Keeps a reference-counted copy of `depth_mm` (cv::Mat semantics).
+  /// compare. Keeps a reference-counted copy of `depth_mm` (cv::Mat semantics). `mask`
+  /// (CV_8UC1, optional: empty = every pixel) restricts the surface and its features to the
+  /// pixels where it is non-zero: a surface for following objects whose poses are known
+  /// (followObject) costs only their part of the image. The depth check reads all of it.
   SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-               const ObjectModelParams& params = {});
+               const ObjectModelParams& params = {}, const cv::Mat& mask = {});
   ~SceneSurface();
   SceneSurface(const SceneSurface&) = delete;
   SceneSurface& operator=(const SceneSurface&) = delete;
@@ -159,6 +162,12 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
 std::optional<ObjectDetection> followObject(const ObjectModel& model, const SceneSurface& scene,
                                             const Eigen::Isometry3f& prior,
                                             const ObjectMatchParams& params = {});
+
+/// The part of the image followObject reads from `prior` (the posed model with what ICP may
+/// reach around it): a SceneSurface made on this region alone follows the object as one made
+/// on the whole image does. Empty when the model has no points.
+cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
+                           const CameraIntrinsics& intrinsics, const ObjectMatchParams& params = {});
 
 /// Step 4 alone: `model` at `camera_from_model` as a detection if the depth confirms it (a pose
 /// from elsewhere: the last frame's, another method's). feature_inliers is left 0.

@@ -2,8 +2,9 @@
 // Taught objects (object_model.h) over a frame sequence: each object found in the previous
 // frame is followed from its pose there (followObject: ICP and the depth check, no features),
 // and only the objects not followed are searched for (findObject), a few per frame, in turn. A
-// frame where every object is followed costs the frame's surface and one ICP per object; a
-// frame with a search also costs the frame's features and the search. Searching in turn bounds that
+// frame where every object is followed costs the surface around the objects and one ICP per
+// object; a frame with a search also costs the whole frame's surface and features and the
+// search. Searching in turn bounds that
 // cost when many taught objects are out of view: an object that comes into view is found within
 // (objects not followed) / searches_per_frame frames.
 
@@ -27,6 +28,8 @@ namespace shapesense {
 using TaughtModelSource = std::function<std::vector<std::shared_ptr<const ObjectModel>>()>;
 
 struct TaughtObjectTrackerParams {
+  /// The parameters the models were taught with: frames are described alike.
+  ObjectModelParams describe;
   /// Search and check parameters for both following and searching.
   ObjectMatchParams match;
   /// Objects not followed from the previous frame that are searched for in one frame, those
@@ -39,14 +42,17 @@ class TaughtObjectTracker {
  public:
   explicit TaughtObjectTracker(TaughtObjectTrackerParams params = {});
 
-  /// The objects of `models` found in `scene`, in the order of `models`. Objects are known by
-  /// name: a model replaced under its name (another object) is searched for afresh, and
-  /// objects no longer in `models` are forgotten.
-  std::vector<ObjectDetection> update(
-      const SceneSurface& scene, const std::vector<std::shared_ptr<const ObjectModel>>& models);
+  /// The objects of `models` found in the next frame (`depth_mm`: CV_16UC1 millimetres), in
+  /// the order of `models`. Objects are known by name: a model replaced under its name
+  /// (another object) is searched for afresh, and objects no longer in `models` are forgotten.
+  std::vector<ObjectDetection> update(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                      const std::vector<std::shared_ptr<const ObjectModel>>& models);
 
   /// Searches (findObject) made by the last update(); for tests and benchmarks.
   int lastSearches() const { return last_searches_; }
+  /// Share of the image the last update() described (1 with a search; the followed objects'
+  /// regions without); for tests and benchmarks.
+  double lastDescribedShare() const { return last_described_share_; }
 
  private:
   struct Followed {
@@ -58,11 +64,14 @@ class TaughtObjectTracker {
   /// The names of the objects to search for this frame: those not followed, longest unsearched
   /// first, at most searches_per_frame.
   std::vector<std::string> dueForSearch() const;
+  /// Where the followed objects may be now, as a mask of the image (followObjectRegion).
+  cv::Mat followedRegions(const CameraIntrinsics& intrinsics) const;
 
   TaughtObjectTrackerParams params_;
   std::map<std::string, Followed> objects_;
   std::uint64_t frame_ = 0;
   int last_searches_ = 0;
+  double last_described_share_ = 0.0;
 };
 
 }  // namespace shapesense
