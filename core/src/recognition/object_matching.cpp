@@ -433,10 +433,7 @@ class ScenePatch {
 class ScenePatches {
  public:
   ScenePatches(const ObjectModel& model, const SceneSurface& scene, const ObjectMatchParams& params)
-      : model_(model),
-        scene_(scene),
-        reach_(icpReach(params)),
-        spare_(params.icp_max_distance_m) {}
+      : model_(model), scene_(scene), reach_(icpReach(params)), spare_(params.icp_max_distance_m) {}
 
   /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
   /// long as this.
@@ -655,7 +652,7 @@ std::optional<ObjectDetection> followObject(const ObjectModel& model, const Scen
 }
 
 cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
-                           const CameraIntrinsics& intrinsics, const ObjectMatchParams& params) {
+                            const CameraIntrinsics& intrinsics, const ObjectMatchParams& params) {
   // The scene points ICP may pair with: the posed bounds grown by its reach, and the patch's
   // spare room (ScenePatches), so the surface in this region holds every one of them.
   const Eigen::AlignedBox3f reached =

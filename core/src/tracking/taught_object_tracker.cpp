@@ -28,8 +28,8 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   last_described_share_ = 0.0;
   if (!regions.empty()) {
     const SceneSurface around(depth_mm, intrinsics, params_.describe, regions);
-    last_described_share_ = static_cast<double>(cv::countNonZero(regions)) /
-                            static_cast<double>(regions.total());
+    last_described_share_ =
+        static_cast<double>(cv::countNonZero(regions)) / static_cast<double>(regions.total());
     for (auto& [name, object] : objects_) {
       if (!object.pose) continue;
       auto detection = followObject(*object.model, around, *object.pose, params_.match);

@@ -167,7 +167,8 @@ std::optional<ObjectDetection> followObject(const ObjectModel& model, const Scen
 /// reach around it): a SceneSurface made on this region alone follows the object as one made
 /// on the whole image does. Empty when the model has no points.
 cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
-                           const CameraIntrinsics& intrinsics, const ObjectMatchParams& params = {});
+                            const CameraIntrinsics& intrinsics,
+                            const ObjectMatchParams& params = {});
 
 /// Step 4 alone: `model` at `camera_from_model` as a detection if the depth confirms it (a pose
 /// from elsewhere: the last frame's, another method's). feature_inliers is left 0.
