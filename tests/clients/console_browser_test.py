@@ -122,7 +122,7 @@ def run(build_dir, chromium):
                       "--object-models", os.path.join(scratch, "object-models"),
                       # This machine also runs chromium: let a query wait for the daemon's
                       # worker rather than be refused (the load limits have tests of their own).
-                      "--query-max-wait-ms", "500"],
+                      "--query-max-wait-ms", "500", "--taught-objects", "on"],
                      "shapesensed")
     console = driver = None
     try:
@@ -210,6 +210,35 @@ def run(build_dir, chromium):
                 assert abs(got[axis] - want[axis]) <= 0.001, \
                     f"corner {got} differs from EstimateBox's {want} by more than 1 mm"
 
+        # Teach an object of the scene: the taught-object stage follows it from then on, and
+        # both views draw it from the stream.
+        taught = None
+        fresh = http_json(url + "api/scene?preview=none")  # the cache keeps the last 3 s
+        candidates = [o for o in fresh["objects"] if drawable(o)]
+        for o in sorted(candidates, key=lambda o: -o["box"]["width"] * o["box"]["height"]):
+            b = o["box"]
+            done = subprocess.run(
+                [cli, "--server", server, "teach", "--at", ns_to_seconds_text(fresh["info"]["timestamp_ns"]),
+                 "--roi", f"{b['x']},{b['y']},{b['x'] + b['width'] - 1},{b['y'] + b['height'] - 1}",
+                 "--name", "console-object"], capture_output=True, text=True, timeout=30)
+            if done.returncode == 0:
+                taught = o
+                break
+        assert taught, f"no object of the scene could be taught: {done.stderr}"
+
+        driver.find_element(By.ID, "btn-live").click()  # drawing the box paused the page
+        seen = {}
+
+        def taught_drawn():
+            seen["drawn"] = driver.execute_script(hook + "taughtCount3d()")
+            seen["served"] = [d["name"] for d in http_json(url + "api/scene?preview=none").get(
+                "taught_objects", [])]
+            seen["label"] = driver.find_element(By.ID, "scene-label").text
+            return seen["drawn"] if (seen["drawn"] >= 1 and "console-object" in seen["served"]
+                                     and "console-object" in seen["label"]) else None
+        wait_until("the 3D view draws the taught object and the label names it", taught_drawn, 15,
+                   lambda: str(seen))
+
         time.sleep(0.5)  # let the box settle in both views before the picture
         screenshot = os.path.join(build_dir, "console-screenshot.png")
         driver.save_screenshot(screenshot)
@@ -217,7 +246,7 @@ def run(build_dir, chromium):
         errors = [entry for entry in driver.get_log("browser") if entry["level"] == "SEVERE"]
         assert not errors, f"the browser logged errors: {errors}"
         print(f"ok: {expected} planes in both views, box at {ns_to_seconds_text(request['at_ns'])} "
-              f"s matches EstimateBox; screenshot {screenshot}")
+              f"s matches EstimateBox, the taught object drawn; screenshot {screenshot}")
     finally:
         if driver:
             driver.quit()

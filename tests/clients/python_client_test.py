@@ -71,7 +71,8 @@ class PythonClientTest(unittest.TestCase):
         cls.scratch = tempfile.TemporaryDirectory(prefix="shapesense-python-")
         # A query waits as long as it takes for a worker: the suite runs beside other tests
         # on busy machines, and these tests are about the client, not the load limits.
-        cls.daemon = Daemon(cls.scratch.name, "--query-max-wait-ms", "5000")
+        cls.daemon = Daemon(cls.scratch.name, "--query-max-wait-ms", "5000",
+                            "--taught-objects", "on")
         cls.client = shapesense.Client(cls.daemon.address, timeout=10.0)
         cls.client.wait_until_serving(10.0)
         # Detector queries want a processed frame.
@@ -201,6 +202,17 @@ class PythonClientTest(unittest.TestCase):
         self.assertGreater(abs(detection.rotation[0]), math.cos(math.radians(1.0)))
         self.assertEqual(len(detection.box.corners), 8)
         self.assertGreater(detection.image_box.width, 0)
+        # The taught-object stage (--taught-objects on) looks for it from the next frame on, and
+        # the scene model carries it.
+        deadline = time.monotonic() + 15
+        followed = []
+        while not followed and time.monotonic() < deadline:
+            scene = self.client.scene()
+            followed = [d for d in scene.taught_objects if d.name == "py-object"]
+            time.sleep(0.05)
+        self.assertEqual(len(followed), 1, "the stage never reported the taught object")
+        self.assertGreaterEqual(followed[0].score, 0.95)
+        self.assertEqual(len(followed[0].box.corners), 8)
         with self.assertRaises(shapesense.ShapeSenseError) as caught:
             self.client.teach_object("py-object", boxes[0].p1, boxes[0].p2, at_ns=stamp)
         self.assertEqual(caught.exception.code, "ALREADY_EXISTS")

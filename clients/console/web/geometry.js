@@ -36,7 +36,7 @@ export function cssColour(rgb, alpha = 1) {
 }
 
 /// The overlay colours, the same in both views so a thing is found by colour and id.
-export const COLOURS = { object: 0xffb020, bowl: 0x3ad0ff, userBox: 0xff4fd8 };
+export const COLOURS = { object: 0xffb020, bowl: 0x3ad0ff, taught: 0x7dff6a, userBox: 0xff4fd8 };
 
 /// "O3" for object track 3, "B5" for bowl track 5, "P2" for plane track 2.
 export function objectLabel(object) {

@@ -45,13 +45,19 @@ function openEvents() {
   events.onerror = () => status.setLink('unreachable', 'the console itself (retrying)');
 }
 
+function sceneLabel(scene) {
+  const taught = scene.taughtObjects.length;
+  return `${scene.planes.length} planes, ${scene.objects.length} things` +
+         (taught ? `, ${taught} taught (${scene.taughtObjects.map((t) => t.name).join(', ')})` : '');
+}
+
 function onSceneUpdate(update) {
   if (live.apply(update)) onDaemonRestarted();
   ++updatesApplied;
   if (mode !== 'live') return;
   const scene = live.snapshot();
   view3d.show(scene);
-  $('scene-label').textContent = `${scene.planes.length} planes, ${scene.objects.length} things`;
+  $('scene-label').textContent = sceneLabel(scene);
   if (!update.preview_jpeg) return;  // the image stays that of its own frame, with its overlays
   pendingPreview = { update, scene };
   if (!decoding) showPreviews();
@@ -151,7 +157,7 @@ async function showCachedFrame(index) {
     if (ticket !== newestPausedQuery || mode !== 'paused') return image?.close();
     const scene = SceneState.fromFullUpdate(update).snapshot();
     view3d.show(scene);
-    $('scene-label').textContent = `${scene.planes.length} planes, ${scene.objects.length} things`;
+    $('scene-label').textContent = sceneLabel(scene);
     if (image) showFrame(image, scene);
     updateTimeLabel();
   } catch (error) {
@@ -242,6 +248,7 @@ for (const id of ['preview-kind', 'preview-width']) {
 // Read-only hooks for the browser test (tests/clients/console_browser_test.py).
 window.shapesenseConsole = {
   planeCount3d: () => view3d.planeCount(),
+  taughtCount3d: () => view3d.taughtCount(),
   shownTimestampNs: () => view2d.shownTimestampNs(),
   lastBox: () => lastBox,
   frameCount: () => framesShown,

@@ -6,6 +6,7 @@ export class SceneState {
     this.sessionId = null;
     this.planes = new Map();   // id -> ScenePlane (JSON)
     this.objects = new Map();  // id -> SceneObject (JSON)
+    this.taughtObjects = [];   // ObjectDetection (JSON) of the last update: each carries all
     this.info = null;          // FrameInfo of the last update applied
     this.intrinsics = null;
   }
@@ -23,6 +24,7 @@ export class SceneState {
     for (const object of update.objects) this.objects.set(object.id, object);
     for (const id of update.removed_plane_ids) this.planes.delete(id);
     for (const id of update.removed_object_ids) this.objects.delete(id);
+    this.taughtObjects = update.taught_objects || [];
     this.info = update.info;
     this.intrinsics = update.intrinsics;
     return restarted;
@@ -33,6 +35,7 @@ export class SceneState {
     this.sessionId = sessionId;
     this.planes.clear();
     this.objects.clear();
+    this.taughtObjects = [];
   }
 
   /// A copy that later updates do not change: what one frame's overlays are drawn from.
@@ -43,6 +46,7 @@ export class SceneState {
       intrinsics: this.intrinsics,
       planes: [...this.planes.values()],
       objects: [...this.objects.values()],
+      taughtObjects: this.taughtObjects,
     };
   }
 

@@ -72,6 +72,11 @@ export class View2D {
       this.drawBox(object.corners, scene.intrinsics, colour, objectLabel(object),
                    object.frames_missed > 0);
     }
+    if (this.overlays.boxes) {
+      for (const taught of scene.taughtObjects) {
+        this.drawBox(taught.box.corners, scene.intrinsics, COLOURS.taught, taught.name);
+      }
+    }
     if (sameFrame(this.userBox)) {
       this.drawRectangle(this.userBox.p1, this.userBox.p2, '#ffffff');
       this.drawBox(this.userBox.corners, scene.intrinsics, COLOURS.userBox, this.userBox.label);

@@ -80,6 +80,11 @@ export class View3D {
       this.objects.add(wireBox(object.corners, colour, objectLabel(object), this.materials,
                                this.labels));
     }
+    for (const taught of scene.taughtObjects) {
+      this.objects.add(wireBox(taught.box.corners, COLOURS.taught, taught.name, this.materials,
+                               this.labels));
+    }
+    this.taughtShown = scene.taughtObjects.length;
     this.needsRender = true;
   }
 
@@ -94,6 +99,11 @@ export class View3D {
   /// Plane meshes in the 3D scene.
   planeCount() {
     return this.planes.children.length;
+  }
+
+  /// Taught objects drawn by the last build.
+  taughtCount() {
+    return this.taughtShown || 0;
   }
 }
 

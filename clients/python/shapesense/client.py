@@ -403,7 +403,8 @@ def _scene_update(m: Any) -> t.SceneUpdate:
                          planes, objects, list(m.removed_plane_ids), list(m.removed_object_ids),
                          m.dropped_before, t.timings(m.timings),
                          t.decode_png(m.preview_jpeg, colour=True), m.preview_jpeg,
-                         m.preview_width, m.preview_height)
+                         m.preview_width, m.preview_height,
+                         [t.object_detection(d) for d in m.taught_objects])
 
 
 class SceneState:

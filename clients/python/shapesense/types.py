@@ -350,6 +350,7 @@ class FrameSummary:
     segments: int
     planes: int
     bowls: int
+    taught_objects: int = 0
 
 
 @dataclass
@@ -415,6 +416,9 @@ class SceneUpdate:
     preview_jpeg: bytes = field(default=b"", repr=False)
     preview_width: int = 0
     preview_height: int = 0
+    #: The taught objects the daemon's taught-object stage found in this frame (every update
+    #: carries all of them; empty when the stage is off).
+    taught_objects: List[ObjectDetection] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -492,7 +496,7 @@ def timings(items: Sequence[Any]) -> List[StageTiming]:
 
 def frame_summary(m: Any) -> FrameSummary:
     return FrameSummary(frame_info(m.info), depth_stats(m.depth_stats), timings(m.timings),
-                        m.dropped_before, m.segments, m.planes, m.bowls)
+                        m.dropped_before, m.segments, m.planes, m.bowls, m.taught_objects)
 
 
 # ---------------------------------------------------------------------------------------------
