@@ -24,7 +24,7 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   // The surface around the followed objects first; the whole frame's only when one is searched
   // for (one that was not followed, or that following lost in this frame).
   std::map<std::string, ObjectDetection> found;
-  const cv::Mat regions = followedRegions(intrinsics);
+  const cv::Mat regions = followedRegions(intrinsics, depth_mm.size());
   last_described_share_ = 0.0;
   if (!regions.empty()) {
     const SceneSurface around(depth_mm, intrinsics, params_.describe, regions);
@@ -65,14 +65,17 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   return out;
 }
 
-cv::Mat TaughtObjectTracker::followedRegions(const CameraIntrinsics& intrinsics) const {
+cv::Mat TaughtObjectTracker::followedRegions(const CameraIntrinsics& intrinsics,
+                                             cv::Size image) const {
   cv::Mat mask;
   for (const auto& [name, object] : objects_) {
     if (!object.pose) continue;
+    // Clipped to the depth image itself, in case the intrinsics name another size.
     const cv::Rect region =
-        followObjectRegion(*object.model, *object.pose, intrinsics, params_.match);
+        followObjectRegion(*object.model, *object.pose, intrinsics, params_.match) &
+        cv::Rect(cv::Point(0, 0), image);
     if (region.empty()) continue;
-    if (mask.empty()) mask = cv::Mat::zeros(intrinsics.height, intrinsics.width, CV_8UC1);
+    if (mask.empty()) mask = cv::Mat::zeros(image, CV_8UC1);
     mask(region).setTo(255);
   }
   return mask;

@@ -65,8 +65,9 @@ class TaughtObjectTracker {
   /// The names of the objects to search for this frame: those not followed, longest unsearched
   /// first, at most searches_per_frame.
   std::vector<std::string> dueForSearch() const;
-  /// Where the followed objects may be now, as a mask of the image (followObjectRegion).
-  cv::Mat followedRegions(const CameraIntrinsics& intrinsics) const;
+  /// Where the followed objects may be now, as a mask of an `image`-sized frame
+  /// (followObjectRegion); empty when none is followed.
+  cv::Mat followedRegions(const CameraIntrinsics& intrinsics, cv::Size image) const;
 
   TaughtObjectTrackerParams params_;
   std::map<std::string, Followed> objects_;
