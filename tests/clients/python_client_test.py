@@ -211,6 +211,10 @@ class PythonClientTest(unittest.TestCase):
             followed = [d for d in scene.taught_objects if d.name == "py-object"]
             time.sleep(0.05)
         self.assertEqual(len(followed), 1, "the stage never reported the taught object")
+        state = shapesense.SceneState()
+        state.apply(scene)
+        self.assertEqual([d.name for d in state.taught_objects],
+                         [d.name for d in scene.taught_objects])
         self.assertGreaterEqual(followed[0].score, 0.95)
         self.assertEqual(len(followed[0].box.corners), 8)
         with self.assertRaises(shapesense.ShapeSenseError) as caught:

@@ -411,14 +411,15 @@ class SceneState:
     """The whole scene as a WatchScene subscriber sees it: apply every update in order.
 
     ``planes`` and ``objects`` map track ids to the newest :class:`ScenePlane` and
-    :class:`SceneObject`; ``session_id`` changes (and the state starts over) when the daemon
-    restarted.
+    :class:`SceneObject`; ``taught_objects`` are those of the last update (each carries all);
+    ``session_id`` changes (and the state starts over) when the daemon restarted.
     """
 
     def __init__(self) -> None:
         self.session_id = ""
         self.planes: dict = {}
         self.objects: dict = {}
+        self.taught_objects: List[t.ObjectDetection] = []
         self.info: Optional[t.FrameInfo] = None
 
     def apply(self, update: t.SceneUpdate) -> None:
@@ -427,6 +428,7 @@ class SceneState:
             self.planes, self.objects = {}, {}
         self.session_id = update.session_id
         self.info = update.info
+        self.taught_objects = list(update.taught_objects)
         for plane_id in update.removed_plane_ids:
             self.planes.pop(plane_id, None)
         for object_id in update.removed_object_ids:

@@ -154,11 +154,6 @@ void ThingTrackingStage::run(const Frame&, FrameResults& results) {
 }
 
 void TaughtObjectStage::run(const Frame& frame, FrameResults& results) {
-  const auto models = models_();
-  if (models.empty()) {
-    results.taught_objects.emplace();
-    return;
-  }
-  results.taught_objects = tracker_.update(frame.depth, frame.intrinsics, models);
+  results.taught_objects = tracker_.update(frame.depth, frame.intrinsics, models_());
 }
 }  // namespace shapesense

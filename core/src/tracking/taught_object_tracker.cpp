@@ -16,42 +16,59 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   for (const auto& model : models) {
     if (!model) continue;
     present.insert(model->name);
-    Followed& object = objects_[model->name];
-    if (object.model != model) object = Followed{.model = model};
+    TrackedObject& object = objects_[model->name];
+    if (object.model != model) object = TrackedObject{.model = model};
   }
   std::erase_if(objects_, [&](const auto& entry) { return !present.contains(entry.first); });
 
-  // The surface around the followed objects first; the whole frame's only when one is searched
-  // for (one that was not followed, or that following lost in this frame).
+  // Each object's pose in the previous frame; from here on `pose` is this frame's.
+  std::map<std::string, Eigen::Isometry3f> previous;
+  for (auto& [name, object] : objects_) {
+    if (object.pose) previous.emplace(name, *object.pose);
+    object.pose.reset();
+  }
+
+  // The whole frame's surface when an object that was not found in the previous frame is due
+  // for a search; otherwise the surface around the followed objects only, and the whole one
+  // later if following loses one.
   std::map<std::string, ObjectDetection> found;
-  const cv::Mat regions = followedRegions(intrinsics, depth_mm.size());
+  std::optional<SceneSurface> whole;
   last_described_share_ = 0.0;
-  if (!regions.empty()) {
-    const SceneSurface around(depth_mm, intrinsics, params_.describe, regions);
+  const bool searching = objects_.size() > previous.size();  // one was not found before
+  const cv::Mat regions =
+      searching ? cv::Mat() : followedRegions(previous, intrinsics, depth_mm.size());
+  std::optional<SceneSurface> around;
+  if (searching) {
+    whole.emplace(depth_mm, intrinsics, params_.describe);
+    last_described_share_ = 1.0;
+  } else if (!regions.empty()) {
+    around.emplace(depth_mm, intrinsics, params_.describe, regions);
     last_described_share_ =
         static_cast<double>(cv::countNonZero(regions)) / static_cast<double>(regions.total());
-    for (auto& [name, object] : objects_) {
-      if (!object.pose) continue;
-      auto detection = followObject(*object.model, around, *object.pose, params_.match);
-      object.pose.reset();
+  }
+  const SceneSurface* following = whole ? &*whole : around ? &*around : nullptr;
+  if (following) {
+    for (const auto& [name, pose] : previous) {
+      TrackedObject& object = objects_.at(name);
+      auto detection = followObject(*object.model, *following, pose, params_.match);
       if (!detection) continue;
       object.pose = detection->camera_from_model;
       found.emplace(name, std::move(*detection));
     }
   }
   const std::vector<std::string> due = dueForSearch();
-  if (!due.empty()) {
-    const SceneSurface whole(depth_mm, intrinsics, params_.describe);
+  if (!due.empty() && !whole) {
+    whole.emplace(depth_mm, intrinsics, params_.describe);
     last_described_share_ = 1.0;
-    for (const std::string& name : due) {
-      Followed& object = objects_.at(name);
-      object.last_searched = frame_;
-      ++last_searches_;
-      auto detection = findObject(*object.model, whole, params_.match);
-      if (!detection) continue;
-      object.pose = detection->camera_from_model;
-      found.emplace(name, std::move(*detection));
-    }
+  }
+  for (const std::string& name : due) {
+    TrackedObject& object = objects_.at(name);
+    object.last_searched = frame_;
+    ++last_searches_;
+    auto detection = findObject(*object.model, *whole, params_.match);
+    if (!detection) continue;
+    object.pose = detection->camera_from_model;
+    found.emplace(name, std::move(*detection));
   }
 
   std::vector<ObjectDetection> out;
@@ -65,14 +82,14 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   return out;
 }
 
-cv::Mat TaughtObjectTracker::followedRegions(const CameraIntrinsics& intrinsics,
+cv::Mat TaughtObjectTracker::followedRegions(const std::map<std::string, Eigen::Isometry3f>& poses,
+                                             const CameraIntrinsics& intrinsics,
                                              cv::Size image) const {
   cv::Mat mask;
-  for (const auto& [name, object] : objects_) {
-    if (!object.pose) continue;
+  for (const auto& [name, pose] : poses) {
     // Clipped to the depth image itself, in case the intrinsics name another size.
     const cv::Rect region =
-        followObjectRegion(*object.model, *object.pose, intrinsics, params_.match) &
+        followObjectRegion(*objects_.at(name).model, pose, intrinsics, params_.match) &
         cv::Rect(cv::Point(0, 0), image);
     if (region.empty()) continue;
     if (mask.empty()) mask = cv::Mat::zeros(image, CV_8UC1);
@@ -84,7 +101,7 @@ cv::Mat TaughtObjectTracker::followedRegions(const CameraIntrinsics& intrinsics,
 std::vector<std::string> TaughtObjectTracker::dueForSearch() const {
   std::vector<std::pair<std::uint64_t, std::string>> waiting;
   for (const auto& [name, object] : objects_) {
-    if (object.pose) continue;  // followed into this frame
+    if (object.pose) continue;  // found in this frame already
     waiting.emplace_back(object.last_searched, name);
   }
   std::sort(waiting.begin(), waiting.end());

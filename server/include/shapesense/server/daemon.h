@@ -76,7 +76,8 @@ class Daemon {
   FrameCache cache_;
   SummaryHub hub_;
   FrameTap tap_;
-  std::unique_ptr<ObjectModelStore> object_models_;  // outlives the server, which reads it
+  // Outlives the server and the pipeline (its taught-object stage asks it for the models).
+  std::unique_ptr<ObjectModelStore> object_models_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<RpcServer> server_;
   std::chrono::steady_clock::duration stall_limit_;

@@ -46,7 +46,8 @@ class SceneSurface {
   /// compare. Keeps a reference-counted copy of `depth_mm` (cv::Mat semantics). `mask`
   /// (CV_8UC1, optional: empty = every pixel) restricts the surface and its features to the
   /// pixels where it is non-zero: a surface for following objects whose poses are known
-  /// (followObject) costs only their part of the image. The depth check reads all of it.
+  /// (followObject) thins and indexes only their part of the image (the normals are still
+  /// estimated on all of it). The depth check reads all of the depth.
   SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                const ObjectModelParams& params = {}, const cv::Mat& mask = {});
   ~SceneSurface();
@@ -165,7 +166,8 @@ std::optional<ObjectDetection> followObject(const ObjectModel& model, const Scen
 
 /// The part of the image followObject reads from `prior` (the posed model with what ICP may
 /// reach around it): a SceneSurface made on this region alone follows the object as one made
-/// on the whole image does. Empty when the model has no points.
+/// on the whole image does. Empty when the model has no points or the region lies outside the
+/// image.
 cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
                             const CameraIntrinsics& intrinsics,
                             const ObjectMatchParams& params = {});

@@ -28,13 +28,14 @@ namespace shapesense {
 using TaughtModelSource = std::function<std::vector<std::shared_ptr<const ObjectModel>>()>;
 
 struct TaughtObjectTrackerParams {
-  /// The parameters the models were taught with: frames are described alike.
+  /// The parameters the models were taught with: frames are described alike. Default: the
+  /// defaults, which teachObjectModel uses by default.
   ObjectModelParams describe;
-  /// Search and check parameters for both following and searching.
+  /// Search and check parameters for both following and searching. Default: defaults.
   ObjectMatchParams match;
   /// Objects not followed from the previous frame that are searched for in one frame, those
-  /// searched for longest ago first; 0 = every one, every frame. Default 1: with five objects
-  /// out of view a frame costs one search, and each is looked for every fifth frame.
+  /// searched for longest ago first; 0 (or less) = every one, every frame. Default 1: with five
+  /// objects out of view a frame costs one search, and each is looked for every fifth frame.
   int searches_per_frame = 1;
 };
 
@@ -56,21 +57,22 @@ class TaughtObjectTracker {
   double lastDescribedShare() const { return last_described_share_; }
 
  private:
-  struct Followed {
+  struct TrackedObject {
     std::shared_ptr<const ObjectModel> model;
-    std::optional<Eigen::Isometry3f> pose;  ///< where it was found in the previous frame
+    std::optional<Eigen::Isometry3f> pose;  ///< where it was last found (the previous frame)
     std::uint64_t last_searched = 0;        ///< the update() it was last searched in; 0 = never
   };
 
   /// The names of the objects to search for this frame: those not followed, longest unsearched
   /// first, at most searches_per_frame.
   std::vector<std::string> dueForSearch() const;
-  /// Where the followed objects may be now, as a mask of an `image`-sized frame
-  /// (followObjectRegion); empty when none is followed.
-  cv::Mat followedRegions(const CameraIntrinsics& intrinsics, cv::Size image) const;
+  /// Where the objects at `poses` (by name) may be now, as a mask of an `image`-sized frame
+  /// (followObjectRegion); empty when none of them is in view.
+  cv::Mat followedRegions(const std::map<std::string, Eigen::Isometry3f>& poses,
+                          const CameraIntrinsics& intrinsics, cv::Size image) const;
 
   TaughtObjectTrackerParams params_;
-  std::map<std::string, Followed> objects_;
+  std::map<std::string, TrackedObject> objects_;
   std::uint64_t frame_ = 0;
   int last_searches_ = 0;
   double last_described_share_ = 0.0;
