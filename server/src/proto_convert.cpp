@@ -30,29 +30,6 @@ std::array<Eigen::Vector3d, 8> boxCorners(const OrientedBox& box) {
   return corners;
 }
 
-// The image bounds of the corners in front of the camera, clipped to the image.
-cv::Rect imageBox(const std::array<Eigen::Vector3d, 8>& corners,
-                  const CameraIntrinsics& intrinsics) {
-  constexpr double kNearestZ = 0.01;  // closer corners project to nonsense
-  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-  bool any = false;
-  for (const auto& corner : corners) {
-    if (corner.z() < kNearestZ) continue;
-    const Eigen::Vector2d pixel = intrinsics.project(corner);
-    x0 = std::min(x0, pixel.x());
-    y0 = std::min(y0, pixel.y());
-    x1 = std::max(x1, pixel.x());
-    y1 = std::max(y1, pixel.y());
-    any = true;
-  }
-  if (!any) return {};
-  const cv::Rect image(0, 0, intrinsics.width, intrinsics.height);
-  const auto clamp = [](double value) { return static_cast<int>(std::clamp(value, -1e6, 1e6)); };
-  const cv::Point tl(clamp(std::floor(x0)), clamp(std::floor(y0)));
-  const cv::Point br(clamp(std::ceil(x1)) + 1, clamp(std::ceil(y1)) + 1);
-  return cv::Rect(tl, br) & image;
-}
-
 }  // namespace
 
 void toProto(const CachedFrame& entry, v1::FrameInfo* out) {
@@ -204,7 +181,7 @@ void toProto(const ObjectDetection& detection, const CameraIntrinsics& intrinsic
   toProto(detection.box.size.cast<double>().eval(), box->mutable_size());
   const auto corners = boxCorners(detection.box);
   for (const auto& corner : corners) toProto(corner, box->add_corners());
-  toProto(imageBox(corners, intrinsics), out->mutable_image_box());
+  toProto(projectedBounds(corners, intrinsics), out->mutable_image_box());
 }
 
 }  // namespace shapesense

@@ -1,8 +1,32 @@
 #include "shapesense/core/geometry/camera.h"
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace shapesense {
+
+cv::Rect projectedBounds(std::span<const Eigen::Vector3d> points,
+                         const CameraIntrinsics& intrinsics) {
+  constexpr double kNearestZ = 0.01;
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  bool any = false;
+  for (const Eigen::Vector3d& point : points) {
+    if (!(point.z() >= kNearestZ)) continue;
+    const Eigen::Vector2d pixel = intrinsics.project(point);
+    x0 = std::min(x0, pixel.x());
+    y0 = std::min(y0, pixel.y());
+    x1 = std::max(x1, pixel.x());
+    y1 = std::max(y1, pixel.y());
+    any = true;
+  }
+  if (!any) return {};
+  const cv::Rect image(0, 0, intrinsics.width, intrinsics.height);
+  const auto clamp = [](double value) { return static_cast<int>(std::clamp(value, -1e6, 1e6)); };
+  const cv::Point tl(clamp(std::floor(x0)), clamp(std::floor(y0)));
+  const cv::Point br(clamp(std::ceil(x1)) + 1, clamp(std::ceil(y1)) + 1);
+  return cv::Rect(tl, br) & image;
+}
 
 cv::Mat depthToPoints(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics) {
   CV_Assert(depth_mm.type() == CV_16UC1);

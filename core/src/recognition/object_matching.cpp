@@ -657,23 +657,15 @@ cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& p
   // spare room (ScenePatches), so the surface in this region holds every one of them.
   const Eigen::AlignedBox3f reached =
       grown(posedBounds(model, prior), icpReach(params) + params.icp_max_distance_m);
-  const cv::Rect image(0, 0, intrinsics.width, intrinsics.height);
   if (reached.isEmpty()) return {};
-  constexpr float kNearestZ = 0.05f;  // a region reaching behind the camera: the whole image
-  if (reached.min().z() < kNearestZ) return image;
-  float u0 = 1e9f, v0 = 1e9f, u1 = -1e9f, v1 = -1e9f;
-  for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3f c = reached.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner));
-    const Eigen::Vector2d uv = intrinsics.project(c.cast<double>());
-    u0 = std::min(u0, static_cast<float>(uv.x()));
-    v0 = std::min(v0, static_cast<float>(uv.y()));
-    u1 = std::max(u1, static_cast<float>(uv.x()));
-    v1 = std::max(v1, static_cast<float>(uv.y()));
-  }
-  const auto clamp = [](float value) { return static_cast<int>(std::clamp(value, -1e6f, 1e6f)); };
-  return cv::Rect(cv::Point(clamp(std::floor(u0)), clamp(std::floor(v0))),
-                  cv::Point(clamp(std::ceil(u1)) + 1, clamp(std::ceil(v1)) + 1)) &
-         image;
+  // A region reaching behind or right up to the camera projects without bound: all of it.
+  constexpr float kNearestZ = 0.05f;
+  if (reached.min().z() < kNearestZ) return cv::Rect(0, 0, intrinsics.width, intrinsics.height);
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int i = 0; i < 8; ++i)
+    corners[static_cast<std::size_t>(i)] =
+        reached.corner(static_cast<Eigen::AlignedBox3f::CornerType>(i)).cast<double>();
+  return projectedBounds(corners, intrinsics);
 }
 
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

@@ -4,6 +4,8 @@
 // Conventions (see README): OpenCV camera frame, x right, y down, z forward, metres.
 // Depth images are CV_16UC1 millimetres; 0 means "no reading".
 
+#include <span>
+
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
@@ -42,6 +44,12 @@ struct KinectNoiseModel {
   /// Depth quantisation step (metres) at range z (metres).
   double depthStep(double z) const { return z * z * disparity_step_px / focal_baseline_px_m; }
 };
+
+/// The pixels the camera-frame `points` in front of the camera (z >= 1 cm: nearer ones project
+/// to nonsense) fall on, as the bounding rectangle clipped to the image; empty when none of
+/// them is in front or the rectangle lies outside the image.
+cv::Rect projectedBounds(std::span<const Eigen::Vector3d> points,
+                         const CameraIntrinsics& intrinsics);
 
 /// Converts a CV_16UC1 millimetre depth image to a CV_32FC3 image of camera-frame points in
 /// metres; pixels without depth get NaN coordinates.
