@@ -146,6 +146,7 @@ void Pipeline::detectLoop(std::stop_token stop) {
     }
     const auto start = std::chrono::steady_clock::now();
     auto results = std::make_shared<const FrameResults>(chain_.process(*frame));
+    if (!results->stage_errors.empty()) logStageErrors(*results);
     const std::chrono::duration<double, std::milli> total =
         std::chrono::steady_clock::now() - start;
     for (const auto& [stage, ms] : results->timings_ms) latency_.record(stage, ms);
@@ -164,6 +165,20 @@ void Pipeline::detectLoop(std::stop_token stop) {
     detecting_ = false;
   }
   changed_.notify_all();
+}
+
+void Pipeline::logStageErrors(const FrameResults& results) {
+  const auto now = std::chrono::steady_clock::now();
+  for (const auto& [stage, message] : results.stage_errors) {
+    auto [entry, first] = stage_error_log_.try_emplace(stage);
+    StageErrorLog& log = entry->second;
+    ++log.since_logged;
+    if (!first && now - log.logged < std::chrono::minutes(1)) continue;
+    spdlog::error("detector stage {} failed on a frame ({} failures since the last report): {}",
+                  stage, log.since_logged, message);
+    log.logged = now;
+    log.since_logged = 0;
+  }
 }
 
 bool Pipeline::waitUntilDrained(std::chrono::milliseconds timeout) {

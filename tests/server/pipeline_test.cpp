@@ -84,6 +84,15 @@ class SlowStage : public DetectorStage {
   std::chrono::milliseconds delay_;
 };
 
+// Throws on every frame whose sequence is odd.
+class FlakyStage : public DetectorStage {
+ public:
+  std::string name() const override { return "flaky"; }
+  void run(const Frame& frame, FrameResults&) override {
+    if (frame.sequence % 2 == 1) throw std::runtime_error("odd frame");
+  }
+};
+
 DetectorChain slowChain(std::chrono::milliseconds delay = 3ms) {
   DetectorChain chain;
   chain.add(std::make_unique<DepthStatsStage>());
@@ -215,6 +224,34 @@ TEST(Pipeline, EndOfStreamLeavesTheCacheServing) {
   EXPECT_EQ(cache.range().frames, 5u);
   ASSERT_TRUE(std::holds_alternative<CachedFrame>(cache.at(0)));
   EXPECT_EQ(std::get<CachedFrame>(cache.at(0)).frame->sequence, 4u);
+}
+
+TEST(Pipeline, AStageThatThrowsFailsOnlyThatFrameAndStage) {
+  FrameCache cache(16);
+  SummaryHub hub;
+  DetectorChain chain;
+  chain.add(std::make_unique<FlakyStage>());
+  chain.add(std::make_unique<DepthStatsStage>());
+  Pipeline pipeline(std::make_unique<FakeSource>(frames(4)), std::move(chain), cache, hub, nullptr);
+  pipeline.start();
+  ASSERT_TRUE(pipeline.waitUntilDrained(5s));
+  const PipelineStatus status = pipeline.status();
+  EXPECT_EQ(status.frames_processed + status.frames_skipped, 4u);
+  for (int i = 0; i < 4; ++i) {
+    const auto found = cache.at(kT0 + i * kStep);
+    ASSERT_TRUE(std::holds_alternative<CachedFrame>(found));
+    const auto& results = std::get<CachedFrame>(found).results;
+    if (!results) continue;  // skipped
+    // The stage after the failing one ran on every processed frame.
+    EXPECT_TRUE(results->depth_stats.has_value());
+    if (i % 2 == 1) {
+      ASSERT_EQ(results->stage_errors.count("flaky"), 1u) << "frame " << i;
+      EXPECT_EQ(results->stage_errors.at("flaky"), "odd frame");
+    } else {
+      EXPECT_TRUE(results->stage_errors.empty()) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(status.state, SourceState::kEnded);
 }
 
 TEST(Pipeline, ThrowingSourceFailsWithItsMessage) {

@@ -12,7 +12,11 @@ FrameResults DetectorChain::process(const Frame& frame) const {
   FrameResults results;
   for (const auto& stage : stages_) {
     const auto start = std::chrono::steady_clock::now();
-    stage->run(frame, results);
+    try {
+      stage->run(frame, results);
+    } catch (const std::exception& e) {
+      results.stage_errors[stage->name()] = e.what();
+    }
     const std::chrono::duration<double, std::milli> took = std::chrono::steady_clock::now() - start;
     results.timings_ms[stage->name()] = took.count();
   }

@@ -17,7 +17,10 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
     if (!model) continue;
     present.insert(model->name);
     TrackedObject& object = objects_[model->name];
-    if (object.model != model) object = TrackedObject{.model = model};
+    if (object.model != model) {
+      object = TrackedObject{};
+      object.model = model;
+    }
   }
   std::erase_if(objects_, [&](const auto& entry) { return !present.contains(entry.first); });
 

@@ -15,8 +15,8 @@ TEST(ProjectedBounds, CoversThePixelsOfThePointsInFrontClippedToTheImage) {
   const std::vector<Eigen::Vector3d> square = {
       {-0.1, -0.1, 1.0}, {0.1, -0.1, 1.0}, {0.1, 0.1, 1.0}, {-0.1, 0.1, 1.0}};
   const cv::Rect bounds = projectedBounds(square, k);
-  EXPECT_EQ(bounds.x, 267);  // floor(319.5 - 52.5)
-  EXPECT_EQ(bounds.y, 187);  // floor(239.5 - 52.5)
+  EXPECT_EQ(bounds.x, 267);       // floor(319.5 - 52.5)
+  EXPECT_EQ(bounds.y, 187);       // floor(239.5 - 52.5)
   EXPECT_EQ(bounds.br().x, 373);  // ceil(319.5 + 52.5) + 1
   EXPECT_EQ(bounds.br().y, 293);
 
@@ -33,8 +33,8 @@ TEST(ProjectedBounds, CoversThePixelsOfThePointsInFrontClippedToTheImage) {
   EXPECT_TRUE(projectedBounds(std::vector<Eigen::Vector3d>{{0.0, 0.0, -1.0}}, k).empty());
 
   // Wholly outside the image: empty.
-  EXPECT_TRUE(projectedBounds(std::vector<Eigen::Vector3d>{{5.0, 0.0, 1.0}, {6.0, 0.0, 1.0}}, k)
-                  .empty());
+  EXPECT_TRUE(
+      projectedBounds(std::vector<Eigen::Vector3d>{{5.0, 0.0, 1.0}, {6.0, 0.0, 1.0}}, k).empty());
 }
 
 }  // namespace

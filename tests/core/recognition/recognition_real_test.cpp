@@ -131,7 +131,9 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
   std::vector<std::shared_ptr<const ObjectModel>> shared;
   for (const auto& entry : models)
     shared.push_back(std::make_shared<const ObjectModel>(entry.second));
-  TaughtObjectTracker tracker({.searches_per_frame = 0});
+  TaughtObjectTrackerParams tracker_params;
+  tracker_params.searches_per_frame = 0;
+  TaughtObjectTracker tracker(tracker_params);
   for (std::size_t f = 1; f < frames.size(); ++f) {
     for (const ObjectDetection& detection :
          tracker.update(frames[f].depth, frames[f].intrinsics, shared)) {

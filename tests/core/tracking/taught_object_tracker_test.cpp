@@ -131,7 +131,9 @@ TEST(TaughtObjectTracker, SearchesForObjectsOutOfViewInTurn) {
   }
   ASSERT_GE(absent.size(), 3u);
   const TaughtScene here = teachScene(21);
-  TaughtObjectTracker tracker({.searches_per_frame = 1});
+  TaughtObjectTrackerParams tracker_params;
+  tracker_params.searches_per_frame = 1;
+  TaughtObjectTracker tracker(tracker_params);
   int searches = 0;
   for (std::uint64_t index = 0; index < 2 * absent.size(); ++index) {
     const auto frame = here.scene->render(index, 0);
@@ -142,7 +144,9 @@ TEST(TaughtObjectTracker, SearchesForObjectsOutOfViewInTurn) {
   }
   EXPECT_EQ(searches, static_cast<int>(2 * absent.size()));
 
-  TaughtObjectTracker all_at_once({.searches_per_frame = 0});
+  TaughtObjectTrackerParams all_at_once_params;
+  all_at_once_params.searches_per_frame = 0;
+  TaughtObjectTracker all_at_once(all_at_once_params);
   const auto frame = here.scene->render(0, 0);
   all_at_once.update(frame.frame.depth, frame.frame.intrinsics, absent);
   EXPECT_EQ(all_at_once.lastSearches(), static_cast<int>(absent.size()));

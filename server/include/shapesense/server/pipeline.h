@@ -8,6 +8,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -84,6 +85,8 @@ class Pipeline {
  private:
   void captureLoop(std::stop_token stop);
   void detectLoop(std::stop_token stop);
+  /// Logs the stages that failed on a frame, each at most once a minute.
+  void logStageErrors(const FrameResults& results);
   /// Names the calling pipeline thread and gives it the configured priority.
   void prepareThisThread(const char* name);
   void setState(SourceState state, std::string message = {});
@@ -100,6 +103,12 @@ class Pipeline {
   const PipelineOptions options_;
   std::once_flag priority_refused_;
   LatencyTracker latency_;
+  // Detector thread only: when each failing stage was last logged, and its failures since.
+  struct StageErrorLog {
+    std::chrono::steady_clock::time_point logged;
+    std::uint64_t since_logged = 0;
+  };
+  std::map<std::string, StageErrorLog> stage_error_log_;
 
   mutable std::mutex mutex_;  // guards the fields below
   std::condition_variable_any changed_;

@@ -38,7 +38,9 @@ class DetectorChain {
  public:
   void add(std::unique_ptr<DetectorStage> stage) { stages_.push_back(std::move(stage)); }
 
-  /// Runs every stage in order and records each one's wall time in results.timings_ms.
+  /// Runs every stage in order and records each one's wall time in results.timings_ms. A stage
+  /// that throws (a frame its algorithm cannot take) is recorded in results.stage_errors and
+  /// the chain goes on: one bad frame or one broken stage does not stop the detectors.
   FrameResults process(const Frame& frame) const;
 
   std::vector<std::string> stageNames() const;

@@ -64,6 +64,9 @@ struct FrameResults {
   /// The taught objects found in this frame (TaughtObjectStage), in the models' order;
   /// nullopt when the stage is off.
   std::optional<std::vector<ObjectDetection>> taught_objects;
+  /// The stages that failed on this frame (threw), by name, with the reason. A failed stage's
+  /// member may be missing or partial; the stages after it still ran.
+  std::map<std::string, std::string> stage_errors;
   /// Wall time of each stage on this frame, milliseconds, by stage name.
   std::map<std::string, double> timings_ms;
 };
