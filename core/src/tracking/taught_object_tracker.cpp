@@ -35,40 +35,38 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   // for a search; otherwise the surface around the followed objects only, and the whole one
   // later if following loses one.
   std::map<std::string, ObjectDetection> found;
-  std::optional<SceneSurface> whole;
-  last_described_share_ = 0.0;
-  const bool searching = objects_.size() > previous.size();  // one was not found before
-  const cv::Mat regions =
-      searching ? cv::Mat() : followedRegions(previous, intrinsics, depth_mm.size());
-  std::optional<SceneSurface> around;
-  if (searching) {
-    whole.emplace(depth_mm, intrinsics, params_.describe);
+  std::optional<SceneSurface> surface;
+  bool whole_frame = objects_.size() > previous.size();  // one was not found before
+  const auto describeWholeFrame = [&] {
+    surface.emplace(depth_mm, intrinsics, params_.describe);
+    whole_frame = true;
     last_described_share_ = 1.0;
-  } else if (!regions.empty()) {
-    around.emplace(depth_mm, intrinsics, params_.describe, regions);
+  };
+  last_described_share_ = 0.0;
+  if (whole_frame) {
+    describeWholeFrame();
+  } else if (const cv::Mat regions = followedRegions(previous, intrinsics, depth_mm.size());
+             !regions.empty()) {
+    surface.emplace(depth_mm, intrinsics, params_.describe, regions);
     last_described_share_ =
         static_cast<double>(cv::countNonZero(regions)) / static_cast<double>(regions.total());
   }
-  const SceneSurface* following = whole ? &*whole : around ? &*around : nullptr;
-  if (following) {
+  if (surface) {
     for (const auto& [name, pose] : previous) {
       TrackedObject& object = objects_.at(name);
-      auto detection = followObject(*object.model, *following, pose, params_.match);
+      auto detection = followObject(*object.model, *surface, pose, params_.match);
       if (!detection) continue;
       object.pose = detection->camera_from_model;
       found.emplace(name, std::move(*detection));
     }
   }
   const std::vector<std::string> due = dueForSearch();
-  if (!due.empty() && !whole) {
-    whole.emplace(depth_mm, intrinsics, params_.describe);
-    last_described_share_ = 1.0;
-  }
+  if (!due.empty() && !whole_frame) describeWholeFrame();
   for (const std::string& name : due) {
     TrackedObject& object = objects_.at(name);
     object.last_searched = frame_;
     ++last_searches_;
-    auto detection = findObject(*object.model, *whole, params_.match);
+    auto detection = findObject(*object.model, *surface, params_.match);
     if (!detection) continue;
     object.pose = detection->camera_from_model;
     found.emplace(name, std::move(*detection));

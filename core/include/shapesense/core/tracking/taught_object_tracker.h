@@ -4,9 +4,9 @@
 // and only the objects not followed are searched for (findObject), a few per frame, in turn. A
 // frame where every object is followed costs the surface around the objects and one ICP per
 // object; a frame with a search also costs the whole frame's surface and features and the
-// search. Searching in turn bounds that
-// cost when many taught objects are out of view: an object that comes into view is found within
-// (objects not followed) / searches_per_frame frames.
+// search. Searching in turn bounds that cost when many taught objects are out of view: an
+// object that comes into view is found within (objects not followed) / searches_per_frame
+// frames.
 
 #include <cstdint>
 #include <functional>
