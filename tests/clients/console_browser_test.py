@@ -122,7 +122,10 @@ def run(build_dir, chromium):
                       "--object-models", os.path.join(scratch, "object-models"),
                       # This machine also runs chromium: let a query wait for the daemon's
                       # worker rather than be refused (the load limits have tests of their own).
-                      "--query-max-wait-ms", "500", "--taught-objects", "on"],
+                      "--query-max-wait-ms", "500", "--taught-objects", "on",
+                      # Ten seconds of frames: a frame the test names stays cached while it
+                      # makes several calls about it.
+                      "--cache-frames", "300"],
                      "shapesensed")
     console = driver = None
     try:
@@ -213,7 +216,7 @@ def run(build_dir, chromium):
         # Teach an object of the scene: the taught-object stage follows it from then on, and
         # both views draw it from the stream.
         taught = None
-        fresh = http_json(url + "api/scene?preview=none")  # the cache keeps the last 3 s
+        fresh = http_json(url + "api/scene?preview=none")
         candidates = [o for o in fresh["objects"] if drawable(o)]
         for o in sorted(candidates, key=lambda o: -o["box"]["width"] * o["box"]["height"]):
             b = o["box"]

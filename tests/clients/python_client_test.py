@@ -71,8 +71,10 @@ class PythonClientTest(unittest.TestCase):
         cls.scratch = tempfile.TemporaryDirectory(prefix="shapesense-python-")
         # A query waits as long as it takes for a worker: the suite runs beside other tests
         # on busy machines, and these tests are about the client, not the load limits.
+        # Ten seconds of frames, so a frame a test names stays cached while it makes several
+        # calls, even when the machine is slow.
         cls.daemon = Daemon(cls.scratch.name, "--query-max-wait-ms", "5000",
-                            "--taught-objects", "on")
+                            "--taught-objects", "on", "--cache-frames", "300")
         cls.client = shapesense.Client(cls.daemon.address, timeout=10.0)
         cls.client.wait_until_serving(10.0)
         # Detector queries want a processed frame.
