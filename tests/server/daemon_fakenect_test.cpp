@@ -83,14 +83,17 @@ TEST(DaemonFakenect, InnerDaemonUnderFakenect) {
   auto stub = v1::ShapeSense::NewStub(grpc::CreateChannel(
       "127.0.0.1:" + std::to_string(daemon.port()), grpc::InsecureChannelCredentials()));
 
-  // All frames arrive, then the end of the dump reads as a lost sensor.
+  // All frames arrive, then the end of the dump reads as a lost sensor. The state follows the
+  // device at once, the message once the pipeline has read the source's error event: wait for
+  // both.
   v1::GetStatusResponse s;
   const auto until = std::chrono::steady_clock::now() + 30s;
   do {
     std::this_thread::sleep_for(20ms);
     s = status(*stub);
   } while ((s.frames_received() < static_cast<std::uint64_t>(kFrames) ||
-            s.source_state() != v1::GetStatusResponse::RECONNECTING) &&
+            s.source_state() != v1::GetStatusResponse::RECONNECTING ||
+            s.source_message().find("sensor lost") == std::string::npos) &&
            std::chrono::steady_clock::now() < until);
   EXPECT_EQ(s.source(), "freenect:0");
   ASSERT_EQ(s.source_state(), v1::GetStatusResponse::RECONNECTING) << s.ShortDebugString();
