@@ -29,13 +29,21 @@ struct BoxAxes {
   Eigen::Vector3d forward = Eigen::Vector3d::UnitZ();
 };
 
+// How much of what the segmentation joined to the object is the object's (see objectUnderRoi).
+enum class ObjectExtent { kAsSegmented, kTight };
+
 // Step 1, the continuity rule: the covered segments fall into groups joined through
-// depth-continuous contacts; the groups holding at least `min_group_share` of the largest
-// group's pixels are the object (an ROI drawn around a stack holds several objects), the
-// others are what shows between or behind them (a patch of wall, a strip of floor).
+// depth-continuous contacts. For the tight extent, when some segment lies mostly inside the ROI
+// (a face of the object), only groups holding such faces are the object, each with at least
+// `min_group_share` of the largest one's pixels (an ROI drawn around a stack holds several
+// objects); the others are what shows between or behind them (a patch of wall, a strip of
+// floor); and a segment only clipped by the ROI does not join with less than
+// `min_clipped_share_of_faces` of its group's faces' pixels: a sliver of the next object seen
+// past this one's edge.
 std::vector<RoiSegment> mainGroups(const std::vector<RoiSegment>& covered,
                                    const cv::Mat& segment_labels, const cv::Mat& depth_mm,
-                                   const cv::Rect& bounds, const SegmentBoxParams& params) {
+                                   const cv::Rect& bounds, const SegmentBoxParams& params,
+                                   ObjectExtent extent) {
   const auto neighbours = continuousNeighbours(segment_labels, depth_mm, params.support, bounds);
   std::map<std::uint16_t, std::size_t> index_of;
   for (std::size_t i = 0; i < covered.size(); ++i) index_of[covered[i].id] = i;
@@ -50,15 +58,32 @@ std::vector<RoiSegment> mainGroups(const std::vector<RoiSegment>& covered,
         unite(parent, static_cast<int>(a->second), static_cast<int>(b->second));
     }
   }
-  std::map<int, int> group_pixels;
-  for (std::size_t i = 0; i < covered.size(); ++i)
-    group_pixels[findRoot(parent, static_cast<int>(i))] += covered[i].pixels;
+  struct Group {
+    int pixels = 0;
+    int face_pixels = 0;  ///< of its whole segments
+  };
+  std::map<int, Group> groups;
+  for (std::size_t i = 0; i < covered.size(); ++i) {
+    Group& group = groups[findRoot(parent, static_cast<int>(i))];
+    group.pixels += covered[i].pixels;
+    if (covered[i].whole) group.face_pixels += covered[i].pixels;
+  }
+  const bool tight = extent == ObjectExtent::kTight;
+  const bool any_faces =
+      tight && std::any_of(covered.begin(), covered.end(), [](const auto& s) { return s.whole; });
+  const auto candidate = [&](const Group& group) { return !any_faces || group.face_pixels > 0; };
   int largest = 0;
-  for (const auto& [root, pixels] : group_pixels) largest = std::max(largest, pixels);
+  for (const auto& [root, group] : groups)
+    if (candidate(group)) largest = std::max(largest, group.pixels);
   std::vector<RoiSegment> kept;
-  for (std::size_t i = 0; i < covered.size(); ++i)
-    if (group_pixels[findRoot(parent, static_cast<int>(i))] >= params.min_group_share * largest)
-      kept.push_back(covered[i]);
+  for (std::size_t i = 0; i < covered.size(); ++i) {
+    const Group& group = groups[findRoot(parent, static_cast<int>(i))];
+    if (!candidate(group) || group.pixels < params.min_group_share * largest) continue;
+    if (tight && !covered[i].whole &&
+        covered[i].pixels < params.min_clipped_share_of_faces * group.face_pixels)
+      continue;
+    kept.push_back(covered[i]);
+  }
   return kept;
 }
 
@@ -189,9 +214,15 @@ BoxCorners boxAlong(const BoxAxes& axes, const std::vector<Eigen::Vector3d>& poi
   std::array<Eigen::Vector3d, 3> frame{axes.right, axes.down, axes.forward};
   std::array<std::pair<double, double>, 3> range;
   std::vector<double> coordinate(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) coordinate[i] = points[i].z();
+  const double max_gap = std::max(
+      params.max_gap_floor_m,
+      params.max_gap_steps * params.support.estimation.noise.depthStep(quantile(coordinate, 0.5)));
   for (std::size_t axis = 0; axis < 3; ++axis) {
     for (std::size_t i = 0; i < points.size(); ++i) coordinate[i] = points[i].dot(frame[axis]);
-    range[axis] = trimmedRange(coordinate, params.trim_fraction);
+    const auto trimmed = trimmedRange(coordinate, params.trim_fraction);
+    const auto dense = denseRange(coordinate, max_gap, params.min_cluster_share);
+    range[axis] = {std::max(trimmed.first, dense.first), std::min(trimmed.second, dense.second)};
   }
   if (support) {
     // Along `down` = -n the plane lies at d; the object's lowest point at range[1].second.
@@ -320,11 +351,44 @@ std::optional<RoiSurface> surfaceUnderRoi(const cv::Mat& depth_mm, const cv::Mat
   return RoiSurface{{widest, false, segment_readings[widest]}, &*plane};
 }
 
+// The segment labels and statistics with the whole segments cut to the ROI grown by
+// `whole_segment_reach` of its size on each side: a segment mostly inside the ROI is the
+// object's face, but the segmentation may have joined to it a strip of something else that runs
+// on far outside (the front edge of the table a tin stands at). Unchanged when no whole segment
+// reaches past that.
+struct NearRoiSegments {
+  cv::Mat labels;
+  std::vector<SegmentStatistics> segments;
+};
+
+NearRoiSegments segmentsNearRoi(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                const cv::Mat& segment_labels,
+                                const std::vector<SegmentStatistics>& segments, const cv::Rect& roi,
+                                const std::vector<RoiSegment>& covered,
+                                const SegmentBoxParams& params) {
+  const int dx = static_cast<int>(std::ceil(params.whole_segment_reach * roi.width));
+  const int dy = static_cast<int>(std::ceil(params.whole_segment_reach * roi.height));
+  const cv::Rect reach = cv::Rect(roi.x - dx, roi.y - dy, roi.width + 2 * dx, roi.height + 2 * dy) &
+                         cv::Rect(0, 0, segment_labels.cols, segment_labels.rows);
+  const bool beyond = std::any_of(covered.begin(), covered.end(), [&](const RoiSegment& c) {
+    if (!c.whole) return false;
+    const auto it = std::find_if(segments.begin(), segments.end(),
+                                 [&](const SegmentStatistics& s) { return s.id == c.id; });
+    return it != segments.end() && (it->box & reach) != it->box;
+  });
+  if (!beyond) return {segment_labels, segments};
+  NearRoiSegments out;
+  out.labels = cv::Mat::zeros(segment_labels.size(), CV_16UC1);
+  segment_labels(reach).copyTo(out.labels(reach));
+  out.segments = computeSegmentStatistics(out.labels, depth_mm, intrinsics);
+  return out;
+}
+
 // Steps 1-3 of boxFromSegments.
 std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
-    const PlaneDetection& planes, const SegmentBoxParams& params) {
+    const PlaneDetection& planes, const SegmentBoxParams& params, ObjectExtent extent) {
   if (auto failure = checkRoiRequest(depth_mm, intrinsics, p1, p2)) return *failure;
   if (segment_labels.type() != CV_16UC1 || segment_labels.size() != depth_mm.size() ||
       planes.labels.type() != CV_16UC1 || planes.labels.size() != depth_mm.size()) {
@@ -336,6 +400,18 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
                      cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
   std::vector<RoiSegment> object =
       segmentsUnderRoi(depth_mm, segment_labels, segments, roi, params);
+  // For the tight extent, whole segments count only near the ROI (segmentsNearRoi).
+  const NearRoiSegments near =
+      extent == ObjectExtent::kTight
+          ? segmentsNearRoi(depth_mm, intrinsics, segment_labels, segments, roi, object, params)
+          : NearRoiSegments{segment_labels, segments};
+  const cv::Mat& labels = near.labels;
+  for (RoiSegment& segment : object) {
+    if (!segment.whole) continue;
+    const auto it = std::find_if(near.segments.begin(), near.segments.end(),
+                                 [&](const SegmentStatistics& s) { return s.id == segment.id; });
+    segment.pixels = it == near.segments.end() ? 0 : it->pixels;
+  }
   cv::Rect bounds = roi;
   const DetectedPlane* support = nullptr;
   const bool part_of_larger_segment = object.empty();
@@ -350,22 +426,22 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     object.push_back(surface->segment);
     support = surface->plane;
   } else {
-    for (const auto& segment : segments) {
+    for (const auto& segment : near.segments) {
       const auto it = std::find_if(object.begin(), object.end(),
                                    [&](const RoiSegment& o) { return o.id == segment.id; });
       if (it != object.end() && it->whole) bounds |= segment.box;
     }
-    object = mainGroups(object, segment_labels, depth_mm, bounds, params);
+    object = mainGroups(object, labels, depth_mm, bounds, params, extent);
     // The support is what the object's own faces stand on: a clipped segment may be the table.
     std::vector<std::uint16_t> ids;
     for (const auto& segment : object)
       if (segment.whole) ids.push_back(segment.id);
     if (ids.empty())
       for (const auto& segment : object) ids.push_back(segment.id);
-    support = supportPlaneBelow(depth_mm, segment_labels, segments, planes, ids, params.support);
+    support = supportPlaneBelow(depth_mm, labels, near.segments, planes, ids, params.support);
   }
   SupportedPoints read =
-      objectPoints(depth_mm, intrinsics, segment_labels, object, roi, bounds, support, params);
+      objectPoints(depth_mm, intrinsics, labels, object, roi, bounds, support, params);
   if (read.all.points.empty()) return noObject("the ROI's segments have no depth reading");
   // An object has only noise below the plane it stands on: a tenth of its points below say the
   // plane is not its support (an object beyond the table's far edge, seen over it; a shelf or
@@ -394,8 +470,8 @@ std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params) {
-  auto found =
-      findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
+  auto found = findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params,
+                             ObjectExtent::kAsSegmented);
   if (auto* failure = std::get_if<BoxEstimationFailure>(&found)) return *failure;
   FoundObject& object = std::get<FoundObject>(found);
   RoiObject out;
@@ -411,8 +487,8 @@ std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params) {
   // Not objectUnderRoi: the box needs the points, not a frame-sized mask of them.
-  auto found =
-      findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params);
+  auto found = findRoiObject(depth_mm, intrinsics, p1, p2, segment_labels, segments, planes, params,
+                             ObjectExtent::kTight);
   if (auto* failure = std::get_if<BoxEstimationFailure>(&found)) return *failure;
   const FoundObject& object = std::get<FoundObject>(found);
   const cv::Rect roi(cv::Point(std::min(p1.x, p2.x), std::min(p1.y, p2.y)),

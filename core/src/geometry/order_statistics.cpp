@@ -68,6 +68,48 @@ std::pair<double, double> trimmedRange(std::span<const double> values, double tr
   return {select(low_bin, low.rank), select(high_bin, high.rank)};
 }
 
+std::pair<double, double> denseRange(std::span<const double> values, double max_gap,
+                                     double min_share) {
+  const auto [min_it, max_it] = std::minmax_element(values.begin(), values.end());
+  const double lowest = *min_it, highest = *max_it;
+  // Bins half the gap wide, fewer than a bound a stray value far off cannot push past.
+  constexpr double kMaxBins = 1 << 16;
+  const double width = std::max(0.5 * max_gap, (highest - lowest) / kMaxBins);
+  if (!(highest - lowest > width)) return {lowest, highest};
+  const auto bins = static_cast<std::size_t>((highest - lowest) / width) + 1;
+  const auto binOf = [&](double value) {
+    return std::min(bins - 1, static_cast<std::size_t>((value - lowest) / width));
+  };
+  std::vector<std::size_t> counts(bins, 0);
+  for (const double value : values) ++counts[binOf(value)];
+  // Clusters: runs of non-empty bins. Kept: the median's, and every one holding min_share.
+  const double needed = min_share * static_cast<double>(values.size());
+  std::size_t first = bins, last = 0, seen = 0;
+  for (std::size_t begin = 0; begin < bins;) {
+    if (counts[begin] == 0) {
+      ++begin;
+      continue;
+    }
+    std::size_t end = begin, held = 0;
+    while (end < bins && counts[end] > 0) held += counts[end++];
+    const bool holds_median = seen <= values.size() / 2 && values.size() / 2 < seen + held;
+    if (holds_median || static_cast<double>(held) >= needed) {
+      first = std::min(first, begin);
+      last = std::max(last, end - 1);
+    }
+    seen += held;
+    begin = end;
+  }
+  double low = highest, high = lowest;
+  for (const double value : values) {
+    const std::size_t bin = binOf(value);
+    if (bin < first || bin > last) continue;
+    low = std::min(low, value);
+    high = std::max(high, value);
+  }
+  return {low, high};
+}
+
 double bucketQuantile(std::span<const double> upper_bounds, std::span<const std::uint64_t> counts,
                       double q) {
   std::uint64_t total = 0;

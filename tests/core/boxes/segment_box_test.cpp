@@ -2,7 +2,8 @@
 // requirement (issue 18): >= 0.95 of an object's visible points inside its box, and a volume of
 // at most 1.5 times the box of those points, with the object's image bounds as the ROI, on the
 // evaluation's test split (scenes never used to choose parameters) and on the labelled real
-// objects of mosd_test. The volume requirement is asserted as the median over the objects.
+// objects of mosd_test. The volume requirement is asserted as the median over the objects; the
+// share of objects whose own box meets both parts is recorded against regression.
 
 #include <gtest/gtest.h>
 
@@ -64,12 +65,22 @@ void scoreTargets(const Frame& frame, const std::vector<eval::BoxTarget>& target
   }
 }
 
+// Share of the objects whose own box meets both parts of the requirement.
+double shareMeetingBoth(const eval::BoxModeScore& score) {
+  int both = 0;
+  for (std::size_t i = 0; i < score.coverage.size(); ++i)
+    both += score.coverage[i] >= kRequiredCoverage && score.volume_ratio[i] <= kMaxVolumeRatio;
+  return score.objects ? static_cast<double>(both) / score.objects : 0.0;
+}
+
 void printScore(const char* set, const eval::BoxModeScore& score) {
   std::printf(
       "[segment boxes, %s] %d objects, %d without a box, mean share inside %.3f, median "
-      "volume ratio %.2f; requirement: mean share inside >= %.2f (%s)\n",
+      "volume ratio %.2f; requirement: mean share inside >= %.2f (%s); objects whose own box "
+      "meets both parts: %.3f\n",
       set, score.objects, score.failed, score.meanCoverage(), median(score.volume_ratio),
-      kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met");
+      kRequiredCoverage, score.meanCoverage() >= kRequiredCoverage ? "met" : "NOT met",
+      shareMeetingBoth(score));
 }
 
 TEST(SegmentBox, HoldsTheVisiblePointsOfTestSplitObjectsTightly) {
@@ -83,6 +94,11 @@ TEST(SegmentBox, HoldsTheVisiblePointsOfTestSplitObjectsTightly) {
   ASSERT_GE(score.objects, 60);
   EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
+  // Regression record, not the requirement (which every object's box should meet): the share
+  // of objects whose box meets both parts was 0.851 on these 60 frames at this change (0.808
+  // on the 100 of docs/benchmarks.md); boxes stretched by what the segmentation joined to an
+  // object were what failed it before.
+  EXPECT_GE(shareMeetingBoth(score), 0.75);
 }
 
 TEST(SegmentBox, HoldsTheLabelledRealObjects) {
@@ -95,6 +111,8 @@ TEST(SegmentBox, HoldsTheLabelledRealObjects) {
   ASSERT_GE(score.objects, 50);
   EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
   EXPECT_LE(median(score.volume_ratio), kMaxVolumeRatio);
+  // Regression record (see the test split's): 0.796 at this change.
+  EXPECT_GE(shareMeetingBoth(score), 0.75);
 }
 
 // One object of a validation scene, found by the ROI an operator would draw around it, with
@@ -150,6 +168,49 @@ TEST(SegmentBox, AThinObjectMergedIntoItsTableIsBoxed) {
   const eval::BoxModeScore score = scoreObject(thin);
   EXPECT_EQ(score.failed, 0);
   EXPECT_GE(score.meanCoverage(), kMinThinObjectCoverage);
+  ASSERT_EQ(score.volume_ratio.size(), 1u);
+  EXPECT_LE(score.volume_ratio[0], kMaxVolumeRatio);
+}
+
+// The whole segment under the ROI reaches far past it: the segmentation joined something else
+// to the object's face.
+bool segmentReachesFarPastRoi(const ValidationObject& object) {
+  const FrameAnalysis& a = object.analysis;
+  const cv::Rect roi = object.target->roi;
+  for (const RoiSegment& covered : segmentsUnderRoi(object.rendered.frame.depth, a.segments.labels,
+                                                    a.segments.segments, roi, SegmentBoxParams{})) {
+    if (!covered.whole) continue;
+    for (const auto& segment : a.segments.segments)
+      if (segment.id == covered.id &&
+          (segment.box.width > 2 * roi.width || segment.box.height > 2 * roi.height))
+        return true;
+  }
+  return false;
+}
+
+// Validation scene 9 has a tin standing at the table's front edge: the segmentation joined the
+// narrow edge face of the table, running across the image, to the tin's segment. Boxed whole,
+// that segment gave a box 1.6 m wide around a 9 cm tin (350 times its points' box).
+TEST(SegmentBox, AStripJoinedToTheObjectsSegmentDoesNotStretchItsBox) {
+  const ValidationObject tin = validationObject(9, cv::Rect(317, 257, 29, 39));
+  ASSERT_TRUE(tin.target) << "the scene no longer has the tin where this test expects it";
+  ASSERT_TRUE(segmentReachesFarPastRoi(tin))
+      << "the segmentation no longer joins a strip to the tin: pick another such object";
+  const eval::BoxModeScore score = scoreObject(tin);
+  EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
+  ASSERT_EQ(score.volume_ratio.size(), 1u);
+  EXPECT_LE(score.volume_ratio[0], kMaxVolumeRatio);
+}
+
+// Validation scene 11 has a tall tin with a cup just behind it: the ROI around the tin holds a
+// sliver of the cup's segment (4% of it, depth-continuous with the tin), and the background
+// pixels along the tin's silhouette read depths far behind it. With both, the box ran 1.1 m
+// deep around a tin 11 cm deep.
+TEST(SegmentBox, NeitherANeighboursSliverNorStragglersBehindStretchTheBox) {
+  const ValidationObject tin = validationObject(11, cv::Rect(384, 53, 46, 109));
+  ASSERT_TRUE(tin.target) << "the scene no longer has the tin where this test expects it";
+  const eval::BoxModeScore score = scoreObject(tin);
+  EXPECT_GE(score.meanCoverage(), kRequiredCoverage);
   ASSERT_EQ(score.volume_ratio.size(), 1u);
   EXPECT_LE(score.volume_ratio[0], kMaxVolumeRatio);
 }

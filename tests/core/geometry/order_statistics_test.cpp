@@ -1,5 +1,5 @@
-// Quantiles and trimmed ranges (core/geometry/order_statistics.h) against a full sort, and
-// quantiles of bucket counts.
+// Quantiles and trimmed ranges (core/geometry/order_statistics.h) against a full sort, dense
+// ranges, and quantiles of bucket counts.
 
 #include "shapesense/core/geometry/order_statistics.h"
 
@@ -44,6 +44,39 @@ TEST(TrimmedRange, RepeatedValuesAndAllEqual) {
   for (std::size_t i = 0; i < values.size(); i += 3) values[i] = -1.0;
   EXPECT_EQ(trimmedRange(values, 0.1), sortedTrimmedRange(values, 0.1));
   EXPECT_EQ(trimmedRange(values, 0.4), sortedTrimmedRange(values, 0.4));
+}
+
+TEST(DenseRange, LeavesOutStragglersPastAGap) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> body(1.0, 1.2);
+  std::vector<double> values;
+  for (int i = 0; i < 2000; ++i) values.push_back(body(rng));
+  // A sparse trail behind the body, 10 cm apart, and one far value.
+  for (double v = 1.4; v < 2.5; v += 0.1) values.push_back(v);
+  values.push_back(4.0);
+  const auto [low, high] = denseRange(values, 0.03, 0.2);
+  EXPECT_EQ(low, *std::min_element(values.begin(), values.begin() + 2000));
+  EXPECT_EQ(high, *std::max_element(values.begin(), values.begin() + 2000));
+}
+
+TEST(DenseRange, KeepsEveryClusterHoldingTheShareAndTheMediansOwn) {
+  std::vector<double> values;
+  for (int i = 0; i < 700; ++i) values.push_back(1.0 + 0.0001 * i);  // 1.0 .. 1.07, the median
+  for (int i = 0; i < 250; ++i) values.push_back(2.0 + 0.0001 * i);  // a quarter: kept
+  for (int i = 0; i < 50; ++i) values.push_back(0.5 + 0.0001 * i);   // a twentieth: left out
+  EXPECT_EQ(denseRange(values, 0.03, 0.2), std::make_pair(1.0, 2.0 + 0.0001 * 249));
+  // Asking for a larger share leaves out the quarter; no share keeps everything.
+  EXPECT_EQ(denseRange(values, 0.03, 0.3), std::make_pair(1.0, 1.0 + 0.0001 * 699));
+  EXPECT_EQ(denseRange(values, 0.03, 0.0), std::make_pair(0.5, 2.0 + 0.0001 * 249));
+}
+
+TEST(DenseRange, AGapNarrowerThanHalfTheLimitNeverCuts) {
+  // Evenly spaced 1 cm apart: no empty bin of 2 cm (half a 4 cm limit) can fall between two.
+  std::vector<double> values;
+  for (int i = 0; i < 100; ++i) values.push_back(0.01 * i);
+  EXPECT_EQ(denseRange(values, 0.04, 0.5), std::make_pair(0.0, 0.99));
+  const std::vector<double> one{3.0};
+  EXPECT_EQ(denseRange(one, 0.04, 0.5), std::make_pair(3.0, 3.0));
 }
 
 TEST(Quantile, IsTheValueAtItsRank) {

@@ -14,8 +14,12 @@
 //      inside the ROI (a face of the object, wholly, including any pixels outside the ROI),
 //      and the part inside the ROI of every segment with at least `min_clipped_fraction` inside
 //      (an object the segmentation merged with a neighbour touching it); of those, the groups
-//      joined without a depth step (continuousNeighbours) that are not much smaller than the
-//      largest group: a patch of wall seen between two objects is not part of either. When no
+//      joined without a depth step (continuousNeighbours) that hold such a face and are not
+//      much smaller than the largest group: a patch of wall seen between two objects is not part
+//      of either, nor is a sliver of the next object seen past this one's edge
+//      (min_clipped_share_of_faces). A whole segment counts only near the ROI: the segmentation
+//      may have joined a strip of something else to a face (the front edge of the table a tin
+//      stands at), which must not stretch the box. When no
 //      segment is covered, the object is part of a larger one (a book or a lid only a few depth
 //      steps proud of the table is not parted from it): the part inside the ROI of the segment
 //      holding most of the ROI's readings, standing on the plane region under most of that part;
@@ -32,7 +36,10 @@
 //      up to the highest point, reaching down to the plane when the object's foot is near it);
 //      with no support, along the camera's axes. Each extent is taken between the
 //      `trim_fraction` and 1 - `trim_fraction` quantiles of the points along that axis, so a
-//      few flying pixels at the object's edges do not stretch it.
+//      few flying pixels at the object's edges do not stretch it, and within the dense body of
+//      the points along it (denseRange): stragglers past a gap wider than the sensor's noise at
+//      the object's range (background pixels that joined a segment at its silhouette) do not
+//      stretch it either.
 
 #include <cstdint>
 #include <variant>
@@ -55,9 +62,18 @@ struct SegmentBoxParams {
   /// with its pixels inside the ROI only. Default 0.03: the table, the floor or a wall an
   /// object stands before has far less of itself inside an ROI drawn around the object.
   double min_clipped_fraction = 0.03;
+  /// A whole segment counts only within the ROI grown by this share of its width and height on
+  /// each side: a loosely drawn ROI still gets all of the object's faces, while a strip the
+  /// segmentation joined to a face (a table edge at a tin's foot) does not stretch the box far
+  /// beyond it. Default 0.25.
+  double whole_segment_reach = 0.25;
   /// Groups of covered segments joined without a depth step with fewer pixels than this share
   /// of the largest group are background. Default 0.1.
   double min_group_share = 0.1;
+  /// A segment only clipped by the ROI, in a group with whole segments, joins it with at least
+  /// this share of their pixels inside the ROI. Default 0.1 (chosen on the validation split and
+  /// mosd_learn, docs/benchmarks.md).
+  double min_clipped_share_of_faces = 0.1;
   /// Points within max(support_band_floor_m, support_band_steps sensor depth steps at their
   /// depth) of the support plane are the support's. Defaults 4 mm and 2 steps.
   double support_band_floor_m = 0.004;
@@ -69,6 +85,13 @@ struct SegmentBoxParams {
   double max_foot_gap_m = 0.05;
   /// Share of the points ignored at each end of each axis (flying pixels). Default 0.002.
   double trim_fraction = 0.002;
+  /// Along each axis, points past an empty stretch wider than max(max_gap_floor_m,
+  /// max_gap_steps sensor depth steps at the points' median range) are left out, unless they
+  /// hold at least min_cluster_share of the points (another object in the ROI). Defaults 3 cm,
+  /// 3 steps and 0.2 (chosen on the validation split and mosd_learn, docs/benchmarks.md).
+  double max_gap_floor_m = 0.03;
+  double max_gap_steps = 3.0;
+  double min_cluster_share = 0.2;
   /// The support rule (supportPlaneBelow) and the noise model of the band.
   ObjectBoxParams support{};
 };
@@ -85,15 +108,18 @@ std::variant<BoxEstimate, BoxEstimationFailure> boxFromSegments(
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,
     const PlaneDetection& planes, const SegmentBoxParams& params = {});
 
-/// The object an ROI marks: steps 1-3 of boxFromSegments.
+/// The object an ROI marks: steps 1-3 of boxFromSegments, without the rules that keep the box
+/// tight (whole_segment_reach, groups only with faces, min_clipped_share_of_faces): the object
+/// with what the segmentation joined to it. Teaching a recognition model from it measured better
+/// than from the tight object (docs/benchmarks.md, box mode 4).
 struct RoiObject {
   cv::Mat mask;  ///< CV_8UC1, the depth image's size: 255 on the object's pixels
   std::vector<Eigen::Vector3d> points;     ///< their camera-frame points, row by row
   const DetectedPlane* support = nullptr;  ///< the plane it stands on (in `planes`), if any
 };
 
-/// The object the ROI with corners p1, p2 marks (steps 1-3 of boxFromSegments, which see for
-/// the arguments and the failures). Other uses: what to teach as an object (recognition).
+/// The object the ROI with corners p1, p2 marks (RoiObject; boxFromSegments says the arguments
+/// and the failures). Its use: what to teach as an object (recognition).
 std::variant<RoiObject, BoxEstimationFailure> objectUnderRoi(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, cv::Point p1, cv::Point p2,
     const cv::Mat& segment_labels, const std::vector<SegmentStatistics>& segments,

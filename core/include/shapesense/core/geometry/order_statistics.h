@@ -19,6 +19,16 @@ double quantile(std::vector<double>& values, double q);
 /// about as much as reading it twice. n > 0.
 std::pair<double, double> trimmedRange(std::span<const double> values, double trim);
 
+/// The range of the dense body of `values`, without sparse stragglers beyond a gap (the wall
+/// seen past an object's edge, a trail of flying pixels behind it). The values fall into
+/// clusters separated by empty stretches wider than `max_gap`; the range spans the cluster that
+/// holds the median and every cluster holding at least `min_share` of the values (several
+/// objects in one set stay together). Found on a histogram of bins max_gap / 2 wide, split at
+/// empty bins, so a gap wider than `max_gap` always separates and one over half of it may.
+/// Exact ends (the outermost values kept). n > 0, max_gap > 0.
+std::pair<double, double> denseRange(std::span<const double> values, double max_gap,
+                                     double min_share);
+
 /// The upper bound of the bucket in which the share `q` (0..1) of the counted values is reached:
 /// an upper estimate of their q-quantile. counts[i] counts values up to upper_bounds[i]; one more
 /// count than bounds takes the values above the last bound, and +inf stands for them. 0 when
