@@ -157,6 +157,32 @@ void printSpurious(int frame, const synthetic::TruthFrame& truth, const PlaneDet
   }
 }
 
+// One line per reported plane: whether it is matched to a truth plane, its pixels, RMS, mean
+// range and RMS of the residuals in sensor depth steps at each pixel's range.
+void printResiduals(int frame, const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                    const PlaneDetection& out, const eval::PlaneScore& score) {
+  const KinectNoiseModel noise;
+  std::map<int, bool> matched;
+  for (const auto& [truth_id, found_id] : score.matches) matched[found_id] = true;
+  std::map<int, double> sum_z, sum_r2;
+  std::map<int, long> count;
+  for (int v = 0; v < out.labels.rows; ++v)
+    for (int u = 0; u < out.labels.cols; ++u) {
+      const int found = out.labels.at<std::uint16_t>(v, u);
+      const double z = depth_mm.at<std::uint16_t>(v, u) * 1e-3;
+      if (!found || z <= 0) continue;
+      const DetectedPlane& p = out.planes[found - 1];
+      const Eigen::Vector3d X = K.ray(u, v) * z;
+      const double r = (p.normal.dot(X) + p.d) / noise.depthStep(z);
+      sum_z[found] += z;
+      sum_r2[found] += r * r;
+      ++count[found];
+    }
+  for (const auto& [found, n] : count)
+    std::printf("RESID %d %d %d %ld %.2f %.3f %.3f\n", frame, found, matched[found] ? 1 : 0, n,
+                1000 * out.planes[found - 1].rms_m, sum_z[found] / n, std::sqrt(sum_r2[found] / n));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -173,6 +199,10 @@ int main(int argc, char** argv) {
   int dump_frame = -1;
   std::string out_dir = ".";
   app.add_flag("--spurious", show_spurious, "list the spurious planes");
+  bool show_residuals = false;
+  app.add_flag("--residuals", show_residuals,
+               "per reported plane: frame, id, matched, pixels, RMS mm, mean range m, RMS in "
+               "depth steps");
   app.add_option("--dump-frame", dump_frame, "write the label images of this frame");
   app.add_option("--out", out_dir, "folder for --dump-frame's images")
       ->check(CLI::ExistingDirectory);
@@ -186,6 +216,8 @@ int main(int argc, char** argv) {
   app.add_option("--noise-steps", params.labeling.tolerance.noise_steps);
   app.add_option("--adaptive-factor", params.labeling.adaptive_tolerance_factor);
   app.add_option("--min-tolerance-steps", params.labeling.min_tolerance_steps);
+  app.add_option("--grow-normal", params.labeling.grow_max_normal_deg);
+  app.add_option("--grow-unreliable-normal", params.labeling.grow_max_unreliable_normal_deg);
   CLI11_PARSE(app, argc, argv);
   const auto split = eval::parseSplit(split_name);
   if (!split) {
@@ -209,6 +241,7 @@ int main(int argc, char** argv) {
     std::map<int, bool> correct;
     for (const auto& [tid, fid] : score.matches) correct[tid] = true;
     if (show_spurious) printSpurious(i, f.truth, out, score);
+    if (show_residuals) printResiduals(i, f.frame.depth, f.frame.intrinsics, out, score);
     for (const auto& ts : f.truth.surfaces) {
       const auto size = o.truth_size.find(ts.id);
       if (ts.kind != synthetic::SurfaceKind::kPlane || size == o.truth_size.end()) continue;
