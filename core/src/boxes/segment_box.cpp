@@ -214,10 +214,13 @@ BoxCorners boxAlong(const BoxAxes& axes, const std::vector<Eigen::Vector3d>& poi
   std::array<Eigen::Vector3d, 3> frame{axes.right, axes.down, axes.forward};
   std::array<std::pair<double, double>, 3> range;
   std::vector<double> coordinate(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) coordinate[i] = points[i].z();
+  // The gap follows the sensor's noise at the points' median range, read off every 16th point.
+  std::vector<double> ranges;
+  ranges.reserve(points.size() / 16 + 1);
+  for (std::size_t i = 0; i < points.size(); i += 16) ranges.push_back(points[i].z());
   const double max_gap = std::max(
       params.max_gap_floor_m,
-      params.max_gap_steps * params.support.estimation.noise.depthStep(quantile(coordinate, 0.5)));
+      params.max_gap_steps * params.support.estimation.noise.depthStep(quantile(ranges, 0.5)));
   for (std::size_t axis = 0; axis < 3; ++axis) {
     for (std::size_t i = 0; i < points.size(); ++i) coordinate[i] = points[i].dot(frame[axis]);
     const auto trimmed = trimmedRange(coordinate, params.trim_fraction);

@@ -77,8 +77,9 @@ std::pair<double, double> denseRange(std::span<const double> values, double max_
   const double width = std::max(0.5 * max_gap, (highest - lowest) / kMaxBins);
   if (!(highest - lowest > width)) return {lowest, highest};
   const auto bins = static_cast<std::size_t>((highest - lowest) / width) + 1;
+  const double scale = 1.0 / width;
   const auto binOf = [&](double value) {
-    return std::min(bins - 1, static_cast<std::size_t>((value - lowest) / width));
+    return std::min(bins - 1, static_cast<std::size_t>((value - lowest) * scale));
   };
   std::vector<std::size_t> counts(bins, 0);
   for (const double value : values) ++counts[binOf(value)];
@@ -100,6 +101,7 @@ std::pair<double, double> denseRange(std::span<const double> values, double max_
     seen += held;
     begin = end;
   }
+  if (first == 0 && last == bins - 1) return {lowest, highest};
   double low = highest, high = lowest;
   for (const double value : values) {
     const std::size_t bin = binOf(value);
