@@ -199,6 +199,13 @@ void addObjectModelOptions(CLI::App& app, CommandLine& c) {
                  "(WatchScene and GetScene carry them): on or off")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  app.add_option("--taught-searches-per-frame",
+                 c.options.detectors.taught_tracker_params.searches_per_frame,
+                 "With --taught-objects on: taught objects not in view that are searched for in "
+                 "one frame, in turn (each search costs the whole frame's features and tens of "
+                 "milliseconds); 0 = all of them, every frame")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
 }
 
 void addDetectorOptions(CLI::App& app, CommandLine& c) {
@@ -390,6 +397,9 @@ int main(int argc, char** argv) {
   CLI::App app{
       "shapesensed: RGB-D perception daemon. Serves frames and detector results over gRPC."};
   app.set_config("--config", "", "Read options from a TOML file (keys as the long option names)");
+  // A misspelt key would otherwise be dropped without a word, and the daemon run on a default
+  // the operator meant to change.
+  app.allow_config_extras(CLI::config_extras_mode::error);
   addSourceOptions(app, command_line);
   addSecurityOptions(app, command_line);
   addRecordOptions(app, command_line);

@@ -2,7 +2,8 @@
 // (run on a copy whose ExecStart names the binary just built, since verify checks that it
 // exists) and `systemd-analyze security --offline=true` scores its sandbox at most 2.0. Both
 // work without a running systemd (in a container too); systemd-analyze comes with Debian's
-// systemd package (scripts/deps).
+// systemd package (scripts/deps). The unit's systemd/shapesensed.toml starts the daemon: every
+// key is one of its options.
 
 #include <sys/wait.h>
 
@@ -14,6 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "self_exec.h"
 #include "test_paths.h"
 #include "test_pki.h"
 
@@ -80,6 +82,36 @@ TEST(SystemdUnit, SandboxExposureIsAtMostTwo) {
       << security.output;
   const double exposure = std::stod(match[1].str());
   EXPECT_LE(exposure, 2.0) << security.output;
+}
+
+TEST(SystemdConfig, TheShippedConfigStartsTheDaemon) {
+  const fs::path config = fs::path(SHAPESENSE_SOURCE_DIR) / "systemd" / "shapesensed.toml";
+  // Its own port may be taken on a test machine: the one the system picks instead.
+  const auto [code, output] =
+      testing::runShapesensed("--config '" + config.string() + "' --listen 127.0.0.1:0", 3);
+  EXPECT_EQ(code, 124) << output;  // still serving when stopped
+  EXPECT_THAT(output, HasSubstr("serving")) << output;
+}
+
+TEST(SystemdConfig, AMisspeltKeyIsRefusedNamingIt) {
+  const fs::path dir = testing::scratchDir("systemd-config-misspelt");
+  const fs::path config = dir / "shapesensed.toml";
+  std::ofstream(config) << testing::readText(fs::path(SHAPESENSE_SOURCE_DIR) / "systemd" /
+                                             "shapesensed.toml")
+                        << "taught-searches-per-frames = 2\n";
+  const auto [code, output] =
+      testing::runShapesensed("--config '" + config.string() + "' --listen 127.0.0.1:0", 10);
+  EXPECT_NE(code, 0) << output;
+  EXPECT_NE(code, 124) << output;  // refused at start, not left serving
+  EXPECT_THAT(output, HasSubstr("taught-searches-per-frames")) << output;
+}
+
+TEST(SystemdConfig, TaughtSearchesPerFrameOutOfRangeIsRefusedNamingTheOption) {
+  const auto [code, output] = testing::runShapesensed(
+      "--listen 127.0.0.1:0 --taught-objects on --taught-searches-per-frame -1", 10);
+  EXPECT_NE(code, 0) << output;
+  EXPECT_NE(code, 124) << output;  // refused at start, not left serving
+  EXPECT_THAT(output, HasSubstr("--taught-searches-per-frame")) << output;
 }
 
 }  // namespace

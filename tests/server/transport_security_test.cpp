@@ -17,6 +17,7 @@
 #include <grpcpp/security/credentials.h>
 #include <gtest/gtest.h>
 
+#include "self_exec.h"
 #include "server_fixture.h"
 #include "shapesense/server/daemon.h"
 #include "shapesense/server/rpc_server.h"
@@ -306,31 +307,16 @@ TEST(ListenPolicy, TheDaemonRefusesToStartOnAReachableAddressWithoutTlsAndTokens
   }
 }
 
-/// Runs the built shapesensed with `arguments`, stopped with SIGTERM after `seconds` if it has
-/// not exited by then; its exit code (124 when stopped) and output.
-std::pair<int, std::string> runDaemon(const std::string& arguments, int seconds = 20) {
-  const fs::path binary = fs::path(SHAPESENSE_BINARY_DIR) / "server" / "shapesensed";
-  const fs::path dir = testing::scratchDir(
-      "shapesensed-run-" +
-      std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-  const fs::path log = dir / "out.txt";
-  const std::string line = "timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
-                           arguments + " --record-root '" + (dir / "recordings").string() +
-                           "' --object-models '" + (dir / "object-models").string() + "' >'" +
-                           log.string() + "' 2>&1";
-  const int status = std::system(line.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};
-}
-
 TEST(ListenPolicy, ShapesensedExitsWithAClearMessage) {
-  const auto [code, output] = runDaemon("--listen 0.0.0.0:0 --bowls off");
+  const auto [code, output] = testing::runShapesensed("--listen 0.0.0.0:0 --bowls off");
   EXPECT_EQ(code, 1) << output;
   EXPECT_THAT(output, HasSubstr("is reachable from other machines"));
   EXPECT_THAT(output, HasSubstr("--insecure-remote"));
 }
 
 TEST(ListenPolicy, InsecureRemoteServesButWarns) {
-  const auto [code, output] = runDaemon("--listen 0.0.0.0:0 --bowls off --insecure-remote", 2);
+  const auto [code, output] =
+      testing::runShapesensed("--listen 0.0.0.0:0 --bowls off --insecure-remote", 2);
   EXPECT_EQ(code, 124) << output;  // still serving when stopped
   EXPECT_THAT(output, HasSubstr("--insecure-remote: 0.0.0.0:0 serves the whole API without "
                                 "encryption or authentication"));
@@ -340,9 +326,9 @@ TEST(TokenFile, ShapesensedRefusesATokenFileOthersCanRead) {
   const fs::path file = writeTokenFile(testing::scratchDir("tokens-mode"));
   fs::permissions(file, fs::perms::group_read, fs::perm_options::add);
   const auto& pki = testPki();
-  const auto [code, output] =
-      runDaemon("--listen 127.0.0.1:0 --bowls off --tls-cert " + pki.server_cert.string() +
-                " --tls-key " + pki.server_key.string() + " --token-file " + file.string());
+  const auto [code, output] = testing::runShapesensed(
+      "--listen 127.0.0.1:0 --bowls off --tls-cert " + pki.server_cert.string() + " --tls-key " +
+      pki.server_key.string() + " --token-file " + file.string());
   EXPECT_EQ(code, 1) << output;
   EXPECT_THAT(output, HasSubstr("mode 640: group or others may read it"));
 }

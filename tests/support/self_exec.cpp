@@ -1,5 +1,7 @@
 #include "self_exec.h"
 
+#include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -9,6 +11,9 @@
 #include <fstream>
 #include <sstream>
 #include <thread>
+
+#include "test_paths.h"
+#include "test_pki.h"
 
 namespace shapesense::testing {
 
@@ -63,6 +68,20 @@ std::vector<std::string> fakenectEnvironment(const fs::path& library_dir, const 
   return {inner_flag + "=1", "FAKENECT_PATH=" + dump.string(),
           "LD_LIBRARY_PATH=" + library_dir.string() + (ld_path ? std::string(":") + ld_path : ""),
           asan};
+}
+
+std::pair<int, std::string> runShapesensed(const std::string& arguments, int seconds) {
+  const fs::path binary = fs::path(SHAPESENSE_BINARY_DIR) / "server" / "shapesensed";
+  const fs::path dir =
+      scratchDir("shapesensed-run-" +
+                 std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+  const fs::path log = dir / "out.txt";
+  const std::string line = "timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
+                           arguments + " --record-root '" + (dir / "recordings").string() +
+                           "' --object-models '" + (dir / "object-models").string() + "' >'" +
+                           log.string() + "' 2>&1";
+  const int status = std::system(line.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, readText(log)};
 }
 
 }  // namespace shapesense::testing

@@ -1,6 +1,6 @@
 #pragma once
-// Running the test binary again in a child process with extra environment, e.g. under Debian's
-// fakenect library (which replaces libfreenect.so.0.5 for a whole process).
+// Child processes: the test binary again with extra environment, e.g. under Debian's fakenect
+// library (which replaces libfreenect.so.0.5 for a whole process), and the built daemon.
 
 #include <chrono>
 #include <filesystem>
@@ -23,5 +23,10 @@ std::pair<int, std::string> runSelf(const std::string& filter, const std::vector
 std::vector<std::string> fakenectEnvironment(const std::filesystem::path& library_dir,
                                              const std::filesystem::path& dump,
                                              const std::string& inner_flag);
+
+/// Runs the built shapesensed with `arguments` (shell words) and a --record-root and
+/// --object-models in a scratch folder named after the running test, stopped with SIGTERM
+/// after `seconds` if it has not exited by then; its exit code (124 when stopped) and output.
+std::pair<int, std::string> runShapesensed(const std::string& arguments, int seconds = 20);
 
 }  // namespace shapesense::testing
