@@ -84,14 +84,20 @@ TEST_F(FindObjectsTest, FindsItInALaterFrameAtTheTruthMotion) {
 }
 
 TEST_F(FindObjectsTest, BuildsAFramesSurfaceOnceForSeveralCalls) {
-  v1::FindObjectsResponse first, second, other;
-  ASSERT_TRUE(find(kServerT0, {}, first).ok());
+  // TeachObject built the surface of the frame it taught from (kServerT0) and checked the model
+  // there; the next frame's is built by the first call on it.
+  const std::int64_t next = kServerT0 + kFramePeriodNs;
+  v1::FindObjectsResponse taught_frame, first, second, other;
+  ASSERT_TRUE(find(kServerT0, {}, taught_frame).ok());
+  EXPECT_TRUE(taught_frame.surface_reused());
+  ASSERT_TRUE(find(next, {}, first).ok());
   EXPECT_FALSE(first.surface_reused());
-  ASSERT_TRUE(find(kServerT0, {"box1"}, second).ok());
+  ASSERT_TRUE(find(next, {"box1"}, second).ok());
   EXPECT_TRUE(second.surface_reused());
+  ASSERT_EQ(first.detections_size(), 1);
   ASSERT_EQ(second.detections_size(), 1);
   EXPECT_DOUBLE_EQ(second.detections(0).score(), first.detections(0).score());
-  ASSERT_TRUE(find(kServerT0 + kFramePeriodNs, {}, other).ok());
+  ASSERT_TRUE(find(kServerT0, {}, other).ok());
   EXPECT_FALSE(other.surface_reused());
 }
 

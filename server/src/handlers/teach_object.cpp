@@ -1,6 +1,7 @@
 #include <stdexcept>
 
 #include "shapesense/core/boxes/segment_box.h"
+#include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/core/recognition/object_model.h"
 #include "shapesense/core/recognition/object_model_file.h"
 #include "shapesense/server/handlers.h"
@@ -65,6 +66,17 @@ grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObj
   } catch (const std::invalid_argument& e) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             std::string("this object cannot be taught: ") + e.what()};
+  }
+  // A model FindObjects cannot find even in the frame it was taught from would only ever be
+  // missed: say so now, while the operator still looks at the object.
+  bool reused = false;
+  const auto scene = context.scene_surfaces->get(*entry.frame, store->params(), reused);
+  if (!findObject(model, *scene)) {
+    return {grpc::StatusCode::FAILED_PRECONDITION,
+            "this object cannot be taught: its shape from this view (" +
+                std::to_string(model.features.size()) +
+                " features) is not found again even in this frame; teach it from a view that "
+                "shows more of its corners and edges"};
   }
   StoredObjectModel stored;
   bool replaced = false;

@@ -60,7 +60,8 @@ grpc::ServerWriteReactor<v1::SceneUpdate>* startWatchScene(
     const v1::WatchSceneRequest& request, QueryPool* builders);
 
 /// Teaches the object the ROI marks in the frame at T (as EstimateBox mode 4 finds it) and
-/// saves it in context.object_models.
+/// saves it in context.object_models, unless findObject would not find the model in that very
+/// frame (its surface from context.scene_surfaces, shared with FindObjects).
 grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObjectRequest& request,
                                v1::TeachObjectResponse* response);
 
