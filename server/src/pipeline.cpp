@@ -146,11 +146,11 @@ void Pipeline::detectLoop(std::stop_token stop) {
     }
     const auto start = std::chrono::steady_clock::now();
     auto results = std::make_shared<const FrameResults>(chain_.process(*frame));
-    if (!results->stage_errors.empty()) logStageErrors(*results);
     const std::chrono::duration<double, std::milli> total =
         std::chrono::steady_clock::now() - start;
     for (const auto& [stage, ms] : results->timings_ms) latency_.record(stage, ms);
     latency_.record("total", total.count());
+    if (!results->stage_errors.empty()) logStageErrors(*results);
     cache_.publishResults(frame->sequence, results);
     hub_.publish(CachedFrame{frame, results});
     ++processed_;

@@ -1,8 +1,6 @@
 #include "shapesense/server/proto_convert.h"
 
-#include <algorithm>
 #include <array>
-#include <cmath>
 
 namespace shapesense {
 namespace {

@@ -5,8 +5,6 @@
 // systemd package (scripts/deps). The unit's systemd/shapesensed.toml starts the daemon: every
 // key is one of its options.
 
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <fstream>
 #include <regex>
@@ -25,16 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-struct CommandResult {
-  int code;
-  std::string output;
-};
-
-CommandResult runCommand(const std::string& command, const fs::path& log) {
-  const int status = std::system((command + " >'" + log.string() + "' 2>&1").c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::readText(log)};
-}
 
 /// The unit with ExecStart pointing at the built daemon, as <scratch>/shapesensed.service.
 fs::path unitUnderTest(const std::string& scratch_name) {
@@ -62,26 +50,27 @@ TEST(SystemdUnit, IsANotifyServiceWithAWatchdog) {
 
 TEST(SystemdUnit, SystemdAnalyzeVerifyAcceptsIt) {
   const fs::path unit = unitUnderTest("systemd_unit_verify");
-  const CommandResult verify = runCommand("systemd-analyze verify '" + unit.string() + "'",
-                                          unit.parent_path() / "verify.log");
-  EXPECT_EQ(verify.code, 0) << verify.output;
+  const auto [code, output] = testing::runCommand("systemd-analyze verify '" + unit.string() + "'",
+                                                  unit.parent_path() / "verify.log");
+  EXPECT_EQ(code, 0) << output;
   // Unknown or misspelt settings are only warnings for verify; none are allowed here.
-  EXPECT_THAT(verify.output, Not(HasSubstr("shapesensed.service"))) << verify.output;
+  EXPECT_THAT(output, Not(HasSubstr("shapesensed.service"))) << output;
 }
 
 TEST(SystemdUnit, SandboxExposureIsAtMostTwo) {
   const fs::path unit = unitUnderTest("systemd_unit_security");
-  const CommandResult security =
-      runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
-                 unit.parent_path() / "security.log");
+  const std::string output =
+      testing::runCommand("systemd-analyze security --offline=true '" + unit.string() + "'",
+                          unit.parent_path() / "security.log")
+          .second;
   std::smatch match;
-  ASSERT_TRUE(std::regex_search(security.output, match,
+  ASSERT_TRUE(std::regex_search(output, match,
                                 std::regex("Overall exposure level for shapesensed\\.service: "
                                            "([0-9]+\\.[0-9])")))
       << "systemd-analyze security said:\n"
-      << security.output;
+      << output;
   const double exposure = std::stod(match[1].str());
-  EXPECT_LE(exposure, 2.0) << security.output;
+  EXPECT_LE(exposure, 2.0) << output;
 }
 
 TEST(SystemdConfig, TheShippedConfigStartsTheDaemon) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -27,11 +28,11 @@ using testing::clientContext;
 constexpr std::uint64_t kSeed = 21;
 
 // The boxes and tins of frame 0 of the daemon's synthetic scene, saved where the daemon loads
-// its taught objects; returns their names.
-std::vector<std::string> teachFirstFrame(const synthetic::SyntheticScene& scene,
-                                         const std::filesystem::path& dir) {
+// its taught objects; returns their box centres (model frame) by name.
+std::map<std::string, Eigen::Vector3d> teachFirstFrame(const synthetic::SyntheticScene& scene,
+                                                       const std::filesystem::path& dir) {
   const auto teach = scene.render(0, 0);
-  std::vector<std::string> names;
+  std::map<std::string, Eigen::Vector3d> centres;
   for (const auto& object : teach.truth.objects) {
     if ((object.kind != "box" && object.kind != "tin") || object.pixel_count < 3000) continue;
     try {
@@ -39,12 +40,12 @@ std::vector<std::string> teachFirstFrame(const synthetic::SyntheticScene& scene,
           teachObjectModel(object.name, teach.frame.depth, teach.frame.intrinsics,
                            teach.truth.object_labels == object.id);
       saveObjectModel(model, ObjectModelParams{}, dir / (object.name + ".json"));
-      names.push_back(object.name);
+      centres[object.name] = model.box.centre.cast<double>();
     } catch (const std::invalid_argument&) {
       // Too little shape to teach.
     }
   }
-  return names;
+  return centres;
 }
 
 DaemonOptions stageOptions(const std::filesystem::path& models) {
@@ -67,9 +68,9 @@ TEST(TaughtObjectStage, TheDaemonFollowsTaughtObjectsAtTheTruthMotion) {
   synthetic::SceneParams params;
   params.seed = kSeed;
   const synthetic::SyntheticScene scene(params);
-  const auto names = teachFirstFrame(scene, models);
-  ASSERT_GE(names.size(), 2u);
-  const Eigen::Isometry3d world_from_teaching = scene.render(0, 0).truth.world_from_camera;
+  const auto centres = teachFirstFrame(scene, models);
+  ASSERT_GE(centres.size(), 2u);
+  const Eigen::Isometry3d world_from_teaching = scene.worldFromCamera(0);
 
   Daemon daemon(stageOptions(models));
   auto stub = v1::ShapeSense::NewStub(grpc::CreateChannel(
@@ -81,7 +82,7 @@ TEST(TaughtObjectStage, TheDaemonFollowsTaughtObjectsAtTheTruthMotion) {
   int checked = 0;
   const auto until = std::chrono::steady_clock::now() + 60s;
   std::uint64_t last_sequence = 0;
-  while (seen.size() < names.size() && std::chrono::steady_clock::now() < until) {
+  while (seen.size() < centres.size() && std::chrono::steady_clock::now() < until) {
     v1::GetSceneRequest request;
     v1::SceneUpdate update;
     const grpc::Status status =
@@ -97,12 +98,10 @@ TEST(TaughtObjectStage, TheDaemonFollowsTaughtObjectsAtTheTruthMotion) {
     }
     last_sequence = update.info().sequence();
     const Eigen::Isometry3d truth =
-        scene.render(update.info().sequence(), 0).truth.world_from_camera.inverse() *
-        world_from_teaching;
+        scene.worldFromCamera(update.info().sequence()).inverse() * world_from_teaching;
     for (const auto& detection : update.taught_objects()) {
       seen.insert(detection.name());
-      const auto model = loadObjectModel(models / (detection.name() + ".json"));
-      const Eigen::Vector3d centre = model.box.centre.cast<double>();
+      const Eigen::Vector3d& centre = centres.at(detection.name());
       const Eigen::Vector3d t(detection.translation().x(), detection.translation().y(),
                               detection.translation().z());
       const Eigen::Quaterniond q(detection.rotation().w(), detection.rotation().x(),
@@ -117,8 +116,8 @@ TEST(TaughtObjectStage, TheDaemonFollowsTaughtObjectsAtTheTruthMotion) {
     for (const auto& timing : update.timings()) timed |= timing.stage() == "taught_objects";
     EXPECT_TRUE(timed);
   }
-  EXPECT_EQ(seen.size(), names.size());
-  EXPECT_GE(checked, static_cast<int>(names.size()));
+  EXPECT_EQ(seen.size(), centres.size());
+  EXPECT_GE(checked, static_cast<int>(centres.size()));
 
   v1::GetStatusResponse status;
   ASSERT_TRUE(stub->GetStatus(clientContext().get(), {}, &status).ok());

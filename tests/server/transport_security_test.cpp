@@ -5,7 +5,6 @@
 #include "shapesense/server/transport_security.h"
 
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <fstream>

@@ -70,18 +70,20 @@ std::vector<std::string> fakenectEnvironment(const fs::path& library_dir, const 
           asan};
 }
 
+std::pair<int, std::string> runCommand(const std::string& command, const fs::path& log) {
+  const int status = std::system((command + " >'" + log.string() + "' 2>&1").c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, readText(log)};
+}
+
 std::pair<int, std::string> runShapesensed(const std::string& arguments, int seconds) {
   const fs::path binary = fs::path(SHAPESENSE_BINARY_DIR) / "server" / "shapesensed";
   const fs::path dir =
       scratchDir("shapesensed-run-" +
                  std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-  const fs::path log = dir / "out.txt";
-  const std::string line = "timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
-                           arguments + " --record-root '" + (dir / "recordings").string() +
-                           "' --object-models '" + (dir / "object-models").string() + "' >'" +
-                           log.string() + "' 2>&1";
-  const int status = std::system(line.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, readText(log)};
+  return runCommand("timeout " + std::to_string(seconds) + " '" + binary.string() + "' " +
+                        arguments + " --record-root '" + (dir / "recordings").string() +
+                        "' --object-models '" + (dir / "object-models").string() + "'",
+                    dir / "out.txt");
 }
 
 }  // namespace shapesense::testing

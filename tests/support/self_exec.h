@@ -24,6 +24,11 @@ std::vector<std::string> fakenectEnvironment(const std::filesystem::path& librar
                                              const std::filesystem::path& dump,
                                              const std::string& inner_flag);
 
+/// Runs the shell command `command` with its output (stdout and stderr) to `log`; its exit code
+/// (-1 when it did not exit) and output.
+std::pair<int, std::string> runCommand(const std::string& command,
+                                       const std::filesystem::path& log);
+
 /// Runs the built shapesensed with `arguments` (shell words) and a --record-root and
 /// --object-models in a scratch folder named after the running test, stopped with SIGTERM
 /// after `seconds` if it has not exited by then; its exit code (124 when stopped) and output.

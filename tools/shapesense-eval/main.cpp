@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -78,16 +79,11 @@ void printBoxTable(const BoxScores& scores) {
       "volume / points' box, median | p90 | objects >= 0.95 inside with volume <= 1.5 |\n"
       "|---|---|---|---|---|---|---|---|\n");
   for (const auto& [mode, s] : scores) {
-    const auto well =
-        std::count_if(s.coverage.begin(), s.coverage.end(), [](double c) { return c >= 0.95; });
-    long both = 0;  // the requirement for each object
-    for (std::size_t i = 0; i < s.coverage.size(); ++i)
-      if (s.coverage[i] >= 0.95 && s.volume_ratio[i] <= 1.5) ++both;
-    const auto share = [&](long n) { return s.objects ? static_cast<double>(n) / s.objects : 0.0; };
+    constexpr double kNoVolumeLimit = std::numeric_limits<double>::infinity();
     std::printf("| %d (%s) | %d | %d | %.3f | %.3f | %.2f | %.2f | %.3f |\n", mode,
                 toString(static_cast<BoxMode>(mode)), s.objects, s.failed, s.meanCoverage(),
-                share(well), quantileOrZero(s.volume_ratio, 0.5),
-                quantileOrZero(s.volume_ratio, 0.9), share(both));
+                s.shareMeeting(0.95, kNoVolumeLimit), quantileOrZero(s.volume_ratio, 0.5),
+                quantileOrZero(s.volume_ratio, 0.9), s.shareMeeting(0.95, 1.5));
   }
 }
 

@@ -354,37 +354,40 @@ std::optional<RoiSurface> surfaceUnderRoi(const cv::Mat& depth_mm, const cv::Mat
   return RoiSurface{{widest, false, segment_readings[widest]}, &*plane};
 }
 
-// The segment labels and statistics with the whole segments cut to the ROI grown by
-// `whole_segment_reach` of its size on each side: a segment mostly inside the ROI is the
-// object's face, but the segmentation may have joined to it a strip of something else that runs
-// on far outside (the front edge of the table a tin stands at). Unchanged when no whole segment
-// reaches past that.
-struct NearRoiSegments {
-  cv::Mat labels;
-  std::vector<SegmentStatistics> segments;
-};
-
-NearRoiSegments segmentsNearRoi(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                                const cv::Mat& segment_labels,
-                                const std::vector<SegmentStatistics>& segments, const cv::Rect& roi,
-                                const std::vector<RoiSegment>& covered,
-                                const SegmentBoxParams& params) {
+// Cuts the whole segments to the ROI grown by `whole_segment_reach` of its size on each side:
+// a segment mostly inside the ROI is the object's face, but the segmentation may have joined to
+// it a strip of something else that runs on far outside (the front edge of the table a tin
+// stands at). When some whole segment of `covered` reaches past that, writes the cut labels and
+// their statistics, sets the whole segments' pixels to what is left of them, and returns true;
+// otherwise leaves everything as it is.
+bool cutWholeSegmentsNearRoi(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                             const cv::Mat& segment_labels,
+                             const std::vector<SegmentStatistics>& segments, const cv::Rect& roi,
+                             const SegmentBoxParams& params, std::vector<RoiSegment>& covered,
+                             cv::Mat& cut_labels, std::vector<SegmentStatistics>& cut_segments) {
   const int dx = static_cast<int>(std::ceil(params.whole_segment_reach * roi.width));
   const int dy = static_cast<int>(std::ceil(params.whole_segment_reach * roi.height));
   const cv::Rect reach = cv::Rect(roi.x - dx, roi.y - dy, roi.width + 2 * dx, roi.height + 2 * dy) &
                          cv::Rect(0, 0, segment_labels.cols, segment_labels.rows);
+  const auto statisticsOf = [](const std::vector<SegmentStatistics>& all, std::uint16_t id) {
+    const auto it = std::find_if(all.begin(), all.end(),
+                                 [&](const SegmentStatistics& s) { return s.id == id; });
+    return it == all.end() ? nullptr : &*it;
+  };
   const bool beyond = std::any_of(covered.begin(), covered.end(), [&](const RoiSegment& c) {
-    if (!c.whole) return false;
-    const auto it = std::find_if(segments.begin(), segments.end(),
-                                 [&](const SegmentStatistics& s) { return s.id == c.id; });
-    return it != segments.end() && (it->box & reach) != it->box;
+    const SegmentStatistics* stats = c.whole ? statisticsOf(segments, c.id) : nullptr;
+    return stats && (stats->box & reach) != stats->box;
   });
-  if (!beyond) return {segment_labels, segments};
-  NearRoiSegments out;
-  out.labels = cv::Mat::zeros(segment_labels.size(), CV_16UC1);
-  segment_labels(reach).copyTo(out.labels(reach));
-  out.segments = computeSegmentStatistics(out.labels, depth_mm, intrinsics);
-  return out;
+  if (!beyond) return false;
+  cut_labels = cv::Mat::zeros(segment_labels.size(), CV_16UC1);
+  segment_labels(reach).copyTo(cut_labels(reach));
+  cut_segments = computeSegmentStatistics(cut_labels, depth_mm, intrinsics);
+  for (RoiSegment& segment : covered) {
+    if (!segment.whole) continue;
+    const SegmentStatistics* stats = statisticsOf(cut_segments, segment.id);
+    segment.pixels = stats ? stats->pixels : 0;
+  }
+  return true;
 }
 
 // Steps 1-3 of boxFromSegments.
@@ -403,18 +406,14 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
                      cv::Point(std::max(p1.x, p2.x) + 1, std::max(p1.y, p2.y) + 1));
   std::vector<RoiSegment> object =
       segmentsUnderRoi(depth_mm, segment_labels, segments, roi, params);
-  // For the tight extent, whole segments count only near the ROI (segmentsNearRoi).
-  const NearRoiSegments near =
-      extent == ObjectExtent::kTight
-          ? segmentsNearRoi(depth_mm, intrinsics, segment_labels, segments, roi, object, params)
-          : NearRoiSegments{segment_labels, segments};
-  const cv::Mat& labels = near.labels;
-  for (RoiSegment& segment : object) {
-    if (!segment.whole) continue;
-    const auto it = std::find_if(near.segments.begin(), near.segments.end(),
-                                 [&](const SegmentStatistics& s) { return s.id == segment.id; });
-    segment.pixels = it == near.segments.end() ? 0 : it->pixels;
-  }
+  // For the tight extent, whole segments count only near the ROI.
+  cv::Mat cut_labels;
+  std::vector<SegmentStatistics> cut_segments;
+  const bool cut = extent == ObjectExtent::kTight &&
+                   cutWholeSegmentsNearRoi(depth_mm, intrinsics, segment_labels, segments, roi,
+                                           params, object, cut_labels, cut_segments);
+  const cv::Mat& labels = cut ? cut_labels : segment_labels;
+  const std::vector<SegmentStatistics>& statistics = cut ? cut_segments : segments;
   cv::Rect bounds = roi;
   const DetectedPlane* support = nullptr;
   const bool part_of_larger_segment = object.empty();
@@ -429,7 +428,7 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
     object.push_back(surface->segment);
     support = surface->plane;
   } else {
-    for (const auto& segment : near.segments) {
+    for (const auto& segment : statistics) {
       const auto it = std::find_if(object.begin(), object.end(),
                                    [&](const RoiSegment& o) { return o.id == segment.id; });
       if (it != object.end() && it->whole) bounds |= segment.box;
@@ -441,7 +440,7 @@ std::variant<FoundObject, BoxEstimationFailure> findRoiObject(
       if (segment.whole) ids.push_back(segment.id);
     if (ids.empty())
       for (const auto& segment : object) ids.push_back(segment.id);
-    support = supportPlaneBelow(depth_mm, labels, near.segments, planes, ids, params.support);
+    support = supportPlaneBelow(depth_mm, labels, statistics, planes, ids, params.support);
   }
   SupportedPoints read =
       objectPoints(depth_mm, intrinsics, labels, object, roi, bounds, support, params);

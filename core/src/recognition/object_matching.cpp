@@ -385,6 +385,19 @@ Eigen::AlignedBox3f grown(const Eigen::AlignedBox3f& box, float margin) {
           box.max() + Eigen::Vector3f::Constant(margin)};
 }
 
+// What ICP from `pose` may pair the model's points with: their bounds grown by its reach.
+Eigen::AlignedBox3f icpNeeds(const ObjectModel& model, const Eigen::Isometry3f& pose,
+                             const ObjectMatchParams& params) {
+  return grown(posedBounds(model, pose), icpReach(params));
+}
+
+// The bounds of the patch made for a pose needing `needed`: room to spare, so that it serves
+// poses near that one too (ScenePatches).
+Eigen::AlignedBox3f patchBounds(const Eigen::AlignedBox3f& needed,
+                                const ObjectMatchParams& params) {
+  return grown(needed, params.icp_max_distance_m);
+}
+
 // The scene points ICP may pair a model with while its pose stays near the one the patch was
 // made for, with a nearest-point index over them: those within the bounds of the posed
 // model's points, grown by what ICP can reach (ScenePatches). An index over the whole scene
@@ -433,23 +446,22 @@ class ScenePatch {
 class ScenePatches {
  public:
   ScenePatches(const ObjectModel& model, const SceneSurface& scene, const ObjectMatchParams& params)
-      : model_(model), scene_(scene), reach_(icpReach(params)), spare_(params.icp_max_distance_m) {}
+      : model_(model), scene_(scene), params_(params) {}
 
   /// A patch for ICP from `pose` on, shared with earlier poses where one covers it; it lives as
   /// long as this.
   const ScenePatch& forPose(const Eigen::Isometry3f& pose) {
-    const Eigen::AlignedBox3f needed = grown(posedBounds(model_, pose), reach_);
+    const Eigen::AlignedBox3f needed = icpNeeds(model_, pose, params_);
     for (const auto& patch : patches_)
       if (patch->covers(needed)) return *patch;
-    patches_.push_back(std::make_unique<ScenePatch>(scene_, grown(needed, spare_)));
+    patches_.push_back(std::make_unique<ScenePatch>(scene_, patchBounds(needed, params_)));
     return *patches_.back();
   }
 
  private:
   const ObjectModel& model_;
   const SceneSurface& scene_;
-  const float reach_;
-  const float spare_;
+  const ObjectMatchParams& params_;
   std::vector<std::unique_ptr<ScenePatch>> patches_;
 };
 
@@ -643,8 +655,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
 std::optional<ObjectDetection> followObject(const ObjectModel& model, const SceneSurface& scene,
                                             const Eigen::Isometry3f& prior,
                                             const ObjectMatchParams& params) {
-  ScenePatches patches(model, scene, params);
-  const ScenePatch& patch = patches.forPose(prior);
+  const ScenePatch patch(scene, patchBounds(icpNeeds(model, prior, params), params));
   Eigen::Isometry3f pose =
       refinePose(prior, model, patch, params.icp_iterations, params.icp_max_points, params);
   pose = refinePose(pose, model, patch, params.icp_final_iterations, 0, params);
@@ -653,10 +664,9 @@ std::optional<ObjectDetection> followObject(const ObjectModel& model, const Scen
 
 cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& prior,
                             const CameraIntrinsics& intrinsics, const ObjectMatchParams& params) {
-  // The scene points ICP may pair with: the posed bounds grown by its reach, and the patch's
-  // spare room (ScenePatches), so the surface in this region holds every one of them.
-  const Eigen::AlignedBox3f reached =
-      grown(posedBounds(model, prior), icpReach(params) + params.icp_max_distance_m);
+  // The bounds of the patch followObject makes, so the surface in this region holds every
+  // scene point it may pair with.
+  const Eigen::AlignedBox3f reached = patchBounds(icpNeeds(model, prior, params), params);
   if (reached.isEmpty()) return {};
   // A region reaching behind or right up to the camera projects without bound: all of it.
   constexpr float kNearestZ = 0.05f;

@@ -36,15 +36,10 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   // later if following loses one.
   std::map<std::string, ObjectDetection> found;
   std::optional<SceneSurface> surface;
-  bool whole_frame = objects_.size() > previous.size();  // one was not found before
-  const auto describeWholeFrame = [&] {
-    surface.emplace(depth_mm, intrinsics, params_.describe);
-    whole_frame = true;
-    last_described_share_ = 1.0;
-  };
-  last_described_share_ = 0.0;
+  const bool whole_frame = objects_.size() > previous.size();  // one was not found before
+  last_described_share_ = whole_frame ? 1.0 : 0.0;
   if (whole_frame) {
-    describeWholeFrame();
+    surface.emplace(depth_mm, intrinsics, params_.describe);
   } else if (const cv::Mat regions = followedRegions(previous, intrinsics, depth_mm.size());
              !regions.empty()) {
     surface.emplace(depth_mm, intrinsics, params_.describe, regions);
@@ -61,7 +56,10 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
     }
   }
   const std::vector<std::string> due = dueForSearch();
-  if (!due.empty() && !whole_frame) describeWholeFrame();
+  if (!due.empty() && !whole_frame) {
+    surface.emplace(depth_mm, intrinsics, params_.describe);
+    last_described_share_ = 1.0;
+  }
   for (const std::string& name : due) {
     TrackedObject& object = objects_.at(name);
     object.last_searched = frame_;

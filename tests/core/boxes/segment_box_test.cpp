@@ -67,10 +67,7 @@ void scoreTargets(const Frame& frame, const std::vector<eval::BoxTarget>& target
 
 // Share of the objects whose own box meets both parts of the requirement.
 double shareMeetingBoth(const eval::BoxModeScore& score) {
-  int both = 0;
-  for (std::size_t i = 0; i < score.coverage.size(); ++i)
-    both += score.coverage[i] >= kRequiredCoverage && score.volume_ratio[i] <= kMaxVolumeRatio;
-  return score.objects ? static_cast<double>(both) / score.objects : 0.0;
+  return score.shareMeeting(kRequiredCoverage, kMaxVolumeRatio);
 }
 
 void printScore(const char* set, const eval::BoxModeScore& score) {

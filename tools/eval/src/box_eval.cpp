@@ -59,6 +59,13 @@ double BoxModeScore::meanCoverage() const {
   return objects ? std::accumulate(coverage.begin(), coverage.end(), 0.0) / objects : 0.0;
 }
 
+double BoxModeScore::shareMeeting(double min_coverage, double max_volume_ratio) const {
+  int meeting = 0;
+  for (std::size_t i = 0; i < coverage.size(); ++i)
+    meeting += coverage[i] >= min_coverage && volume_ratio[i] <= max_volume_ratio;
+  return objects ? static_cast<double>(meeting) / objects : 0.0;
+}
+
 std::vector<const synthetic::TruthObject*> boxableObjects(const synthetic::TruthFrame& truth,
                                                           int image_cols, int image_rows,
                                                           std::size_t min_pixels) {

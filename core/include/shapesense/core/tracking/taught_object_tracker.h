@@ -2,11 +2,11 @@
 // Taught objects (object_model.h) over a frame sequence: each object found in the previous
 // frame is followed from its pose there (followObject: ICP and the depth check, no features),
 // and only the objects not followed are searched for (findObject), a few per frame, in turn. A
-// frame where every object is followed costs the surface around the objects and one ICP per
-// object; a frame with a search also costs the whole frame's surface and features and the
-// search. Searching in turn bounds that cost when many taught objects are out of view: an
-// object that comes into view is found within (objects not followed) / searches_per_frame
-// frames.
+// frame where every object is followed costs the frame's normals, the surface around the
+// objects and one ICP per object; a frame with a search also costs the whole frame's surface
+// and features and the search. Searching in turn bounds that cost when many taught objects are out
+// of view: an object that comes into view is found within (objects not followed) /
+// searches_per_frame frames.
 
 #include <cstdint>
 #include <functional>

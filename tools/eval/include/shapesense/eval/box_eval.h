@@ -31,6 +31,9 @@ struct BoxModeScore {
   void add(const BoxModeScore& other);
   /// Mean share of the objects' points inside their boxes, a failed box counting 0.
   double meanCoverage() const;
+  /// Share of the objects whose own box holds at least `min_coverage` of their points and is at
+  /// most `max_volume_ratio` times the box of those points (a failed box meets neither).
+  double shareMeeting(double min_coverage, double max_volume_ratio) const;
 };
 
 /// Truth objects an operator would box: not room structure, the table or a shelf unit, with at
