@@ -12,6 +12,7 @@
 #include <grpcpp/security/credentials.h>
 #include <gtest/gtest.h>
 
+#include "object_scene.h"
 #include "server_fixture.h"
 #include "shapesense/core/recognition/object_model_file.h"
 #include "shapesense/driver/synthetic_scene.h"
@@ -60,6 +61,9 @@ DaemonOptions stageOptions(const std::filesystem::path& models) {
   options.detectors.bowls = false;
   options.detectors.track_things = false;
   options.record.root.clear();
+  // The test polls the scene while the detector thread works: a query waits for a worker
+  // rather than being refused (the load limits have tests of their own).
+  options.limits = testing::patientLimits();
   return options;
 }
 
