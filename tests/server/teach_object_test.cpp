@@ -141,7 +141,9 @@ TEST_F(TeachObjectTest, EveryModelItAcceptsIsFoundInItsOwnFrame) {
         const cv::Rect roi(object.image_box.x - margin, object.image_box.y - margin / 2,
                            object.image_box.width + 2 * margin, object.image_box.height + margin);
         if ((roi & cv::Rect(0, 0, 640, 480)) != roi) continue;
-        const std::string name = "o" + std::to_string(accepted + refused_as_unfindable);
+        // Appended, not "o" + to_string(...): GCC 12 warns a false -Wstringop-overflow there.
+        std::string name = "o";
+        name += std::to_string(accepted + refused_as_unfindable);
         const auto status = teachObject(srv, at_ns, roi, name, true, response);
         if (!status.ok()) {
           refused_as_unfindable +=
