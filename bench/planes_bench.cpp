@@ -88,15 +88,27 @@ void BM_NormalsHoughPlanes(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
 
+// The Hough detector without the labelling's crease step (PlaneLabelingParams::crease_*): what
+// the step costs, beside BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesNoCreaseStep(benchmark::State& state) {
+  HoughPlaneParams params;
+  params.labeling.crease_max_passes = 0;
+  HoughPlaneDetector det(params);
+  run(state, "hough-no-crease-step",
+      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+}
+BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
+
 // The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
-// coplanar region merging, the growth limit on unreliable normals): what those steps cost and
-// what they gain, beside BM_NormalsHoughPlanes.
+// coplanar region merging, the growth limit on unreliable normals, the crease step): what those
+// steps cost and what they gain, beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   HoughPlaneParams off;
   off.leftover_ransac_hypotheses = 0;
   off.labeling.adaptive_tolerance_factor = 0.0;
   off.labeling.merge_coplanar_regions = false;
   off.labeling.grow_max_unreliable_normal_deg = 180.0;
+  off.labeling.crease_max_passes = 0;
   HoughPlaneDetector det(off);
   run(state, "hough-basic",
       [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });

@@ -196,10 +196,6 @@ RowSpan runSpan(const std::uint16_t* lrow, int u0, int u1, std::uint16_t label, 
   return span;
 }
 
-// Moments and colour are accumulated on every kMomentStride-th pixel of every kMomentStride-th
-// row (see labelPixels).
-constexpr int kMomentStride = 2;
-
 // The first pixel column >= u0 on the moment lattice.
 inline int firstMomentPixel(int u0) {
   return (u0 + kMomentStride - 1) / kMomentStride * kMomentStride;

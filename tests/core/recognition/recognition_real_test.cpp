@@ -5,10 +5,14 @@
 // objectUnderRoi) and looked for in the later frames; a detection counts as the same object
 // when its pose, which is the camera's motion since the first frame if the object is the same,
 // aligns the rest of the (static) scene as well (the camera moves a few centimetres between
-// the desk frames and pans across the room in the sweep). Skipped when shared/ is not there.
+// the desk frames and pans across the room in the sweep), or, for a round object whose turn
+// about its axis no view determines, when its centre lies where the camera's motion carries
+// the taught one. Skipped when shared/ is not there.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +68,41 @@ double sceneAgreement(const Frame& from, const Frame& to, const Eigen::Isometry3
 // The least share of the scene a pose must align to count as the taught object found where it
 // is (a wrong place aligns little of the room; measured agreements are printed).
 constexpr double kMinSceneAgreement = 0.6;
+// A detection whose pose does not align the scene is still where its object is when the
+// camera's motion (the pose of the frame's detection that aligns the scene best, if one does)
+// carries the taught object's centre to within this of the detection's (m): a round object
+// (a cup, a plate) is found with its turn about its axis undetermined, which a pose taken as
+// the camera's motion shows as a turn of the whole scene.
+constexpr double kMaxCentreOffsetM = 0.03;
+
+// Judges the detections of one later frame: where its detections are, by their poses and the
+// camera's motion that the best-aligning one gives.
+class PlaceJudge {
+ public:
+  PlaceJudge(const Frame& first, const Frame& later,
+             const std::vector<std::pair<const ObjectModel*, ObjectDetection>>& detections) {
+    double best = kMinSceneAgreement;
+    for (const auto& [model, detection] : detections) {
+      const double agreement = sceneAgreement(first, later, detection.camera_from_model);
+      agreements_.push_back(agreement);
+      if (agreement >= best) {
+        best = agreement;
+        camera_motion_ = detection.camera_from_model;
+      }
+    }
+  }
+  double agreement(std::size_t k) const { return agreements_[k]; }
+  // Whether detection k (of `model`) is where the taught object is.
+  bool samePlace(std::size_t k, const ObjectModel& model, const ObjectDetection& detection) const {
+    if (agreements_[k] >= kMinSceneAgreement) return true;
+    return camera_motion_ && ((*camera_motion_) * model.box.centre - detection.box.centre).norm() <=
+                                 kMaxCentreOffsetM;
+  }
+
+ private:
+  std::vector<double> agreements_;
+  std::optional<Eigen::Isometry3f> camera_motion_;
+};
 
 struct RecordingResult {
   int taught = 0;
@@ -104,21 +143,29 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
                 model.surface.size());
   for (std::size_t f = 1; f < frames.size(); ++f) {
     const SceneSurface scene(frames[f].depth, frames[f].intrinsics);
+    std::vector<std::pair<const ObjectModel*, ObjectDetection>> found;
+    std::vector<cv::Rect> found_rois;
     for (const auto& [roi, model] : models) {
       ++out.searches;
-      const auto detection = findObject(model, scene);
-      if (!detection) continue;
-      const cv::Point centre = projectedCentre(detection->box, frames[f].intrinsics);
-      // The model's frame is the first frame's camera frame: the pose is the camera's motion.
-      const double agreement = sceneAgreement(frames[0], frames[f], detection->camera_from_model);
-      const bool same_place = agreement >= kMinSceneAgreement;
+      if (auto detection = findObject(model, scene)) {
+        found.emplace_back(&model, *detection);
+        found_rois.push_back(roi);
+      }
+    }
+    // The model's frame is the first frame's camera frame: a pose is the camera's motion.
+    const PlaceJudge judge(frames[0], frames[f], found);
+    for (std::size_t k = 0; k < found.size(); ++k) {
+      const auto& [model, detection] = found[k];
+      const cv::Rect& roi = found_rois[k];
+      const cv::Point centre = projectedCentre(detection.box, frames[f].intrinsics);
+      const bool same_place = judge.samePlace(k, *model, detection);
       std::printf(
           "%s: object taught at (%d, %d, %d x %d) found in frame %zu centred at (%d, %d), "
           "score %.2f, box %.0f x %.0f x %.0f cm; as the camera's motion its pose aligns "
           "%.2f of the scene: %s\n",
           recording.c_str(), roi.x, roi.y, roi.width, roi.height, f, centre.x, centre.y,
-          detection->score, 100 * detection->box.size.x(), 100 * detection->box.size.y(),
-          100 * detection->box.size.z(), agreement,
+          detection.score, 100 * detection.box.size.x(), 100 * detection.box.size.y(),
+          100 * detection.box.size.z(), judge.agreement(k),
           same_place ? "the taught object" : "somewhere else");
       (same_place ? out.found_same_place : out.found_elsewhere) += 1;
     }
@@ -134,11 +181,17 @@ RecordingResult teachFirstFindLater(const std::string& recording) {
   TaughtObjectTrackerParams tracker_params;
   tracker_params.searches_per_frame = 0;
   TaughtObjectTracker tracker(tracker_params);
+  std::map<std::string, const ObjectModel*> by_name;
+  for (const auto& model : shared) by_name[model->name] = model.get();
   for (std::size_t f = 1; f < frames.size(); ++f) {
+    std::vector<std::pair<const ObjectModel*, ObjectDetection>> found;
     for (const ObjectDetection& detection :
-         tracker.update(frames[f].depth, frames[f].intrinsics, shared)) {
-      const bool same_place =
-          sceneAgreement(frames[0], frames[f], detection.camera_from_model) >= kMinSceneAgreement;
+         tracker.update(frames[f].depth, frames[f].intrinsics, shared))
+      found.emplace_back(by_name.at(detection.name), detection);
+    const PlaceJudge judge(frames[0], frames[f], found);
+    for (std::size_t k = 0; k < found.size(); ++k) {
+      const auto& [model, detection] = found[k];
+      const bool same_place = judge.samePlace(k, *model, detection);
       (same_place ? out.tracked_same_place : out.tracked_elsewhere) += 1;
       out.tracked_followed += detection.feature_inliers == 0 ? 1 : 0;
     }

@@ -229,6 +229,38 @@ TEST(Segmentation, FloatingBoxesSeparatedByDepthSteps) {
   }
 }
 
+// planes_objects: the pixels no plane covers take the plane_prediction region they lie in. When
+// the planes leave two separate patches of one such region uncovered (here two patches of a
+// floor, cut out of the given floor plane's labels), each patch is a region of its own: one
+// region for both would join whatever lies in them, as one object, across the image.
+TEST(Segmentation, PlanesAndObjectsGivesApartPiecesOfOneUncoveredRegionApartRegions) {
+  const CameraIntrinsics K;
+  Scene s;
+  s.planes = {{{0, -1, 0}, 0.8, 1}};
+  cv::Mat depth, truth;
+  render(s, K, 0.3, depth, truth);
+  PlaneDetection planes;
+  planes.labels = cv::Mat::zeros(depth.size(), CV_16UC1);
+  planes.labels.setTo(1, depth > 0);
+  const cv::Rect left(100, 330, 60, 60), right(480, 330, 60, 60);
+  planes.labels(left).setTo(0);
+  planes.labels(right).setTo(0);
+  DetectedPlane floor;
+  floor.id = 1;
+  floor.normal = Eigen::Vector3d(0, -1, 0);
+  floor.d = 0.8;
+  planes.planes.push_back(floor);
+  const cv::Mat regions =
+      segmentWithPlanes(depth, K, SegmentationMethod::kPlanesAndObjects, planes);
+  const cv::Point in_left(130, 360), in_right(510, 360);
+  const int left_label = regions.at<std::uint16_t>(in_left);
+  const int right_label = regions.at<std::uint16_t>(in_right);
+  ASSERT_NE(left_label, 0);
+  ASSERT_NE(right_label, 0);
+  EXPECT_NE(left_label, regions.at<std::uint16_t>(420, 320)) << "the patch joined the floor";
+  EXPECT_NE(left_label, right_label);
+}
+
 // A wall at 3-4 m (tilted 40 deg, so it spans many disparity steps) must stay one region.
 TEST(Segmentation, FarWallDoesNotShatter) {
   const CameraIntrinsics K;

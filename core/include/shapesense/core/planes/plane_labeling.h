@@ -49,11 +49,20 @@ void growSampleLabels(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                       const std::vector<PlaneHypothesis>& planes,
                       const PlaneLabelingParams& params);
 
+/// Per plane, the RMS residual of the samples currently labelled with it, in sensor depth
+/// steps at their range; negative for a plane with fewer than 6 samples (too few to tell).
+std::vector<double> planeNoiseSteps(const PlaneSampleGrid& grid, const cv::Mat& sample_labels,
+                                    const std::vector<PlaneHypothesis>& planes,
+                                    const PlaneTolerance& tolerance);
+
 /// Per plane, the coefficient c of its inlier tolerance max(tolerance.floor_m, c z^2) (see
 /// PlaneLabelingParams::adaptive_tolerance_factor), from the samples currently labelled with it.
 std::vector<float> planeToleranceCoefficients(const PlaneSampleGrid& grid,
                                               const cv::Mat& sample_labels,
                                               const std::vector<PlaneHypothesis>& planes,
+                                              const PlaneLabelingParams& params);
+/// The same from the planes' noise (planeNoiseSteps).
+std::vector<float> planeToleranceCoefficients(const std::vector<double>& noise_steps,
                                               const PlaneLabelingParams& params);
 
 /// Whether two neighbouring samples at ranges z1, z2 (m) are depth-continuous (one surface):

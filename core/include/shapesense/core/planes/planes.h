@@ -25,7 +25,9 @@
 //     region = one physical surface: two box tops at the same height get two ids), every
 //     full-resolution pixel takes the closest plane among the regions of its neighbouring
 //     samples within that plane's tolerance (tightened from the plane's own residuals), each
-//     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge.
+//     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge;
+//     the strips a plane took across a crease of a surface not found as a plane are given back
+//     (PlaneLabelingParams::crease_*).
 //
 // Output: one DetectedPlane per connected region; `group` tells which regions share a
 // supporting plane. See DetectedPlane.
@@ -116,6 +118,19 @@ struct PlaneLabelingParams {
   /// so a flat surface passes at any range. 0 = no check. Defaults 2 /m (50 cm radius), 1.3.
   double max_plane_curvature_per_m = 2.0;
   double curved_rms_ratio = 1.3;
+  /// Strips a plane takes across a crease, where the surface beyond it was not found as a
+  /// plane of its own, are given back (see the labelling's crease step): from a region's
+  /// boundary inwards, a pixel goes when the readings within crease_window_px of it (those
+  /// within reach of the plane) have a mean residual beyond crease_mean_sigmas of the plane's
+  /// noise and crease_min_outside_share of them lie beyond crease_outside_sigmas on that side,
+  /// for at most crease_max_passes pixels inwards (0 = no peeling). The plane's noise is the
+  /// RMS residual of its samples, in depth steps, so it scales with range. Defaults 3 px, 0.7,
+  /// 1.4, 0.15 and 6 (chosen on the validation split, docs/benchmarks.md).
+  int crease_window_px = 3;
+  double crease_mean_sigmas = 0.7;
+  double crease_outside_sigmas = 1.4;
+  double crease_min_outside_share = 0.15;
+  int crease_max_passes = 6;
   /// Compute polygon and triangles. Default true.
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.

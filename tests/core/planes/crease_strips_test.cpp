@@ -1,0 +1,182 @@
+// The labelling's crease step (PlaneLabelingParams::crease_*): a plane gives back the strip it
+// took of a neighbouring face that was not found as a plane, and keeps its own pixels, on
+// frames with the Kinect's disparity noise and quantisation.
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "shapesense/core/planes/plane_labeling.h"
+
+namespace shapesense {
+namespace {
+
+// One rectangular face: the points E + s t + y (0, 1, 0) with s in [0, width], |y| <= half_height.
+struct Face {
+  Eigen::Vector3d normal;  // towards the camera
+  Eigen::Vector3d edge;    // E
+  Eigen::Vector3d along;   // t, unit, orthogonal to the normal and to y
+  double width = 0.0;
+  double half_height = 0.3;
+
+  PlaneHypothesis plane() const { return {normal, -normal.dot(edge)}; }
+  // Range of the face along the pixel's ray, if the ray meets it.
+  std::optional<double> rangeAt(const Eigen::Vector3d& ray) const {
+    const double denom = normal.dot(ray);
+    if (std::fabs(denom) < 1e-9) return std::nullopt;
+    const Eigen::Vector3d p = ray * (normal.dot(edge) / denom);
+    const double s = (p - edge).dot(along);
+    if (p.z() <= 0.0 || s < 0.0 || s > width || std::fabs(p.y()) > half_height) return std::nullopt;
+    return p.z();
+  }
+};
+
+enum class Truth : std::uint8_t { kBackground, kFront, kSide };
+
+// A leg 10 cm wide and 5 cm deep with its convex edge 1.5 m ahead, turned so that the camera
+// sees its front at 27 deg and its side at 63 deg, before a wall at 3 m.
+struct LegScene {
+  Face front, side;
+  cv::Mat depth;  // CV_16UC1 mm, with the sensor's noise
+  cv::Mat truth;  // CV_8UC1 Truth
+
+  LegScene() {
+    const Eigen::Vector3d edge(0.0, 0.0, 1.5);
+    const Eigen::Vector3d front_normal = Eigen::Vector3d(-0.5, 0.0, -1.0).normalized();
+    const Eigen::Vector3d front_along = Eigen::Vector3d(-1.0, 0.0, 0.5).normalized();
+    front = {front_normal, edge, front_along, 0.10};
+    side = {-front_along, edge, -front_normal, 0.05};
+    const CameraIntrinsics K;  // Kinect v1
+    depth.create(K.height, K.width, CV_16UC1);
+    truth.create(K.height, K.width, CV_8UC1);
+    std::mt19937 rng(7);
+    std::normal_distribution<double> disparity_noise(0.0, 0.07);
+    constexpr double kFocalBaseline = 43.5, kDisparityStep = 0.125;
+    for (int v = 0; v < K.height; ++v)
+      for (int u = 0; u < K.width; ++u) {
+        const Eigen::Vector3d ray = K.ray(u, v);
+        double z = 3.0;
+        Truth what = Truth::kBackground;
+        for (const auto& [face, label] : {std::pair{&front, Truth::kFront}, {&side, Truth::kSide}})
+          if (const auto range = face->rangeAt(ray); range && *range < z) {
+            z = *range;
+            what = label;
+          }
+        double disparity = kFocalBaseline / z + disparity_noise(rng);
+        disparity = std::round(disparity / kDisparityStep) * kDisparityStep;
+        depth.at<std::uint16_t>(v, u) =
+            static_cast<std::uint16_t>(std::lround(1e3 * kFocalBaseline / disparity));
+        truth.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(what);
+      }
+  }
+
+  // Labels with the front face as the only plane (its samples labelled, the side left to the
+  // labelling's growth), as a detector that did not find the narrow side gives them.
+  PlaneDetection labelFrontOnly(const PlaneLabelingParams& params) const {
+    const CameraIntrinsics K;  // Kinect v1
+    PlaneSampleGrid grid;
+    grid.build(depth, K, params.sample_step);
+    cv::Mat sample_labels(grid.points.size(), CV_32SC1);
+    for (int r = 0; r < grid.points.rows; ++r)
+      for (int c = 0; c < grid.points.cols; ++c) {
+        const int u = grid.offset + c * grid.step, v = grid.offset + r * grid.step;
+        sample_labels.at<int>(r, c) =
+            truth.at<std::uint8_t>(v, u) == static_cast<std::uint8_t>(Truth::kFront) ? 0 : -1;
+      }
+    return labelPlanes(depth, K, cv::Mat(), grid, sample_labels, {front.plane()}, params);
+  }
+};
+
+struct Shares {
+  double front_kept = 0.0;  // of the front's pixels, the share labelled
+  double side_taken = 0.0;  // of the side's pixels, the share labelled (with the front's plane)
+  int front_pixels = 0;
+  int front_rows = 0;  // image rows the front spans (the crease's length in pixels)
+};
+
+Shares sharesOf(const LegScene& scene, const PlaneDetection& out) {
+  int front = 0, front_labelled = 0, side = 0, side_labelled = 0, front_rows = 0;
+  for (int v = 0; v < scene.truth.rows; ++v) {
+    const int front_before_row = front;
+    for (int u = 0; u < scene.truth.cols; ++u) {
+      const bool labelled = out.labels.at<std::uint16_t>(v, u) != 0;
+      switch (static_cast<Truth>(scene.truth.at<std::uint8_t>(v, u))) {
+        case Truth::kFront:
+          ++front, front_labelled += labelled;
+          break;
+        case Truth::kSide:
+          ++side, side_labelled += labelled;
+          break;
+        case Truth::kBackground:
+          break;
+      }
+    }
+    front_rows += front > front_before_row;
+  }
+  return {static_cast<double>(front_labelled) / front, static_cast<double>(side_labelled) / side,
+          front, front_rows};
+}
+
+TEST(CreaseStrips, APlaneGivesBackTheStripItTookOfAnUnfoundNeighbour) {
+  const LegScene scene;
+  PlaneLabelingParams without;
+  without.crease_max_passes = 0;
+  const Shares before = sharesOf(scene, scene.labelFrontOnly(without));
+  const Shares after = sharesOf(scene, scene.labelFrontOnly(PlaneLabelingParams{}));
+  // Without the step the front's tolerance takes a strip of the side (what the step is for).
+  ASSERT_GT(before.side_taken, 0.15);
+  // With it, at most a third of that strip stays (the pixels nearest the crease, where the two
+  // surfaces are within the noise of each other)...
+  EXPECT_LT(after.side_taken, before.side_taken / 3.0)
+      << "side taken " << before.side_taken << " -> " << after.side_taken;
+  // ...and the front keeps its own pixels but a rim along the crease at most 2 px wide.
+  const double rim = 2.0 * before.front_rows / before.front_pixels;
+  EXPECT_GT(after.front_kept, before.front_kept - rim)
+      << "front kept " << before.front_kept << " -> " << after.front_kept << " (rim " << rim
+      << ")";
+}
+
+// A plane with no crease (a floor seen at a grazing angle, holes in it) loses none of its
+// pixels: its boundary's windows average out to the plane, and holes add no readings.
+TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
+  const CameraIntrinsics K;  // Kinect v1
+  // A floor 0.8 m below the camera, seen from 1.2 m to 4 m.
+  const PlaneHypothesis floor{Eigen::Vector3d(0.0, -1.0, 0.0), 0.8};
+  cv::Mat depth(K.height, K.width, CV_16UC1);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> disparity_noise(0.0, 0.07);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const Eigen::Vector3d ray = K.ray(u, v);
+      const double z = ray.y() > 1e-6 ? 0.8 / ray.y() : 0.0;
+      if (z < 1.2 || z > 4.0 || unit(rng) < 0.03) {
+        depth.at<std::uint16_t>(v, u) = 0;
+        continue;
+      }
+      double disparity = 43.5 / z + disparity_noise(rng);
+      disparity = std::round(disparity / 0.125) * 0.125;
+      depth.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(std::lround(1e3 * 43.5 / disparity));
+    }
+  auto labelled = [&](const PlaneLabelingParams& params) {
+    PlaneSampleGrid grid;
+    grid.build(depth, K, params.sample_step);
+    cv::Mat sample_labels(grid.points.size(), CV_32SC1);
+    for (int r = 0; r < grid.points.rows; ++r)
+      for (int c = 0; c < grid.points.cols; ++c)
+        sample_labels.at<int>(r, c) = grid.depth_mm.at<std::uint16_t>(r, c) ? 0 : -1;
+    const PlaneDetection out = labelPlanes(depth, K, cv::Mat(), grid, sample_labels, {floor}, params);
+    return cv::countNonZero(out.labels);
+  };
+  PlaneLabelingParams without;
+  without.crease_max_passes = 0;
+  const int before = labelled(without), after = labelled(PlaneLabelingParams{});
+  ASSERT_GT(before, 50000);
+  EXPECT_GE(after, 0.995 * before) << before << " -> " << after;
+}
+
+}  // namespace
+}  // namespace shapesense
