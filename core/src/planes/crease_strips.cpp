@@ -104,8 +104,7 @@ class CreaseTest {
     if (readings < kMinWindowReadings) return false;
     const int outside_on_its_side = sum > 0.0f ? above : below;
     return std::fabs(sum) > mean_sigmas_ * sigma * static_cast<float>(readings) &&
-           static_cast<float>(outside_on_its_side) >=
-               outside_share_ * static_cast<float>(readings);
+           static_cast<float>(outside_on_its_side) >= outside_share_ * static_cast<float>(readings);
   }
 
  private:
@@ -126,8 +125,8 @@ constexpr int kMinOutsideNeighbours = 2;
 
 // Whether pixel (u, v) of `region` (label region + 1), not on the image's border, is such a
 // pixel.
-bool onStripEdge(const cv::Mat& depth_mm, const cv::Mat& labels, const CreaseTest& test,
-                 int region, int u, int v) {
+bool onStripEdge(const cv::Mat& depth_mm, const cv::Mat& labels, const CreaseTest& test, int region,
+                 int u, int v) {
   const auto l = static_cast<std::uint16_t>(region + 1);
   const float z = depth_mm.at<std::uint16_t>(v, u);
   const float r = test.residual(region, u, v, z);
@@ -232,8 +231,8 @@ bool onBounds(cv::Point p, const RegionAccumulator& region) {
 }
 
 // Whether the pixels [u0, u1] x [v0, v1] hold one of region k (a label whose root is k).
-bool holdsRegion(const cv::Mat& labels, const std::vector<int>& root, int k, int u0, int u1,
-                 int v0, int v1) {
+bool holdsRegion(const cv::Mat& labels, const std::vector<int>& root, int k, int u0, int u1, int v0,
+                 int v1) {
   for (int v = v0; v <= v1; ++v) {
     const auto* row = labels.ptr<std::uint16_t>(v);
     for (int u = u0; u <= u1; ++u)
@@ -261,8 +260,7 @@ void shrinkBounds(const cv::Mat& labels, const std::vector<int>& root, int k,
 
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
-                                           const int* region_of,
-                                           const PlaneLabelingParams& params,
+                                           const int* region_of, const PlaneLabelingParams& params,
                                            const std::vector<double>& noise_at_1m,
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions,
@@ -302,8 +300,8 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
       if (onBounds(p, region)) stale_bounds[root[label - 1]] = 1;
       labels.at<std::uint16_t>(p) = 0;
       // The strip goes on inwards: its pixels next to the peeled ones are tested next.
-      for (const cv::Point& step : {cv::Point(-1, 0), cv::Point(1, 0), cv::Point(0, -1),
-                                    cv::Point(0, 1)}) {
+      for (const cv::Point& step :
+           {cv::Point(-1, 0), cv::Point(1, 0), cv::Point(0, -1), cv::Point(0, 1)}) {
         const cv::Point q = p + step;
         if (q.x < 0 || q.y < 0 || q.x >= labels.cols || q.y >= labels.rows) continue;
         if (labels.at<std::uint16_t>(q) != label || queued.at<std::uint8_t>(q)) continue;

@@ -43,8 +43,7 @@ namespace shapesense::labeling {
 /// roots do).
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
-                                           const int* region_of,
-                                           const PlaneLabelingParams& params,
+                                           const int* region_of, const PlaneLabelingParams& params,
                                            const std::vector<double>& noise_at_1m,
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions,

@@ -135,8 +135,7 @@ TEST(CreaseStrips, APlaneGivesBackTheStripItTookOfAnUnfoundNeighbour) {
   // ...and the front keeps its own pixels but a rim along the crease at most 2 px wide.
   const double rim = 2.0 * before.front_rows / before.front_pixels;
   EXPECT_GT(after.front_kept, before.front_kept - rim)
-      << "front kept " << before.front_kept << " -> " << after.front_kept << " (rim " << rim
-      << ")";
+      << "front kept " << before.front_kept << " -> " << after.front_kept << " (rim " << rim << ")";
 }
 
 // A plane with no crease (a floor seen at a grazing angle, holes in it) loses none of its
@@ -159,7 +158,8 @@ TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
       }
       double disparity = 43.5 / z + disparity_noise(rng);
       disparity = std::round(disparity / 0.125) * 0.125;
-      depth.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(std::lround(1e3 * 43.5 / disparity));
+      depth.at<std::uint16_t>(v, u) =
+          static_cast<std::uint16_t>(std::lround(1e3 * 43.5 / disparity));
     }
   auto labelled = [&](const PlaneLabelingParams& params) {
     PlaneSampleGrid grid;
@@ -168,7 +168,8 @@ TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
     for (int r = 0; r < grid.points.rows; ++r)
       for (int c = 0; c < grid.points.cols; ++c)
         sample_labels.at<int>(r, c) = grid.depth_mm.at<std::uint16_t>(r, c) ? 0 : -1;
-    const PlaneDetection out = labelPlanes(depth, K, cv::Mat(), grid, sample_labels, {floor}, params);
+    const PlaneDetection out =
+        labelPlanes(depth, K, cv::Mat(), grid, sample_labels, {floor}, params);
     return cv::countNonZero(out.labels);
   };
   PlaneLabelingParams without;
