@@ -22,9 +22,10 @@
 //                      regions of their own;
 // and one combines the plane detector with them (the default, kDefaultSegmentationMethod):
 //  - kPlanesAndObjects: each plane of the Hough plane detector (planes.h) is a region of its
-//                      own; the pixels no plane covers take kPlanePrediction's regions (an
-//                      object standing on a plane is cut from it by the plane, and from its
-//                      neighbours by the prediction edges); pixels still left (region borders,
+//                      own; the pixels no plane covers take kPlanePrediction's regions, each
+//                      connected piece apart (an object standing on a plane is cut from it by
+//                      the plane, and from its neighbours by the prediction edges and by the
+//                      plane between them); pixels still left (region borders,
 //                      small pieces) join a depth-continuous neighbour. Given the frame's plane
 //                      detection (segmentWithPlanes) it costs kPlanePrediction plus a pass.
 //
