@@ -218,6 +218,11 @@ int main(int argc, char** argv) {
   app.add_option("--min-tolerance-steps", params.labeling.min_tolerance_steps);
   app.add_option("--grow-normal", params.labeling.grow_max_normal_deg);
   app.add_option("--grow-unreliable-normal", params.labeling.grow_max_unreliable_normal_deg);
+  app.add_option("--crease-passes", params.labeling.crease_max_passes);
+  app.add_option("--crease-window", params.labeling.crease_window_px);
+  app.add_option("--crease-mean-sigmas", params.labeling.crease_mean_sigmas);
+  app.add_option("--crease-outside-sigmas", params.labeling.crease_outside_sigmas);
+  app.add_option("--crease-outside-share", params.labeling.crease_min_outside_share);
   CLI11_PARSE(app, argc, argv);
   const auto split = eval::parseSplit(split_name);
   if (!split) {
