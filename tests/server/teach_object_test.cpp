@@ -127,9 +127,10 @@ TEST_F(TeachObjectTest, AModelNotFoundEvenInItsOwnFrameIsRefusedSayingSo) {
   EXPECT_FALSE(fs::exists(srv.objectModels().dir() / "part.json"));
 }
 
-// What TeachObject accepts, FindObjects finds in the frame it was taught from: a model that
-// would be missed even there is refused, saying so. Every object of both frames of the scene,
-// each ROI also shifted and grown a little as an operator's rectangle would be.
+// What TeachObject accepts, FindObjects finds in the frame it was taught from, where it is: a
+// model that would be missed even there, or found elsewhere, is refused, saying so. Every object of
+// both frames of the scene, each ROI also shifted and grown a little as an operator's rectangle
+// would be.
 TEST_F(TeachObjectTest, EveryModelItAcceptsIsFoundInItsOwnFrame) {
   int accepted = 0, refused_as_unfindable = 0;
   std::string answers;
@@ -160,6 +161,12 @@ TEST_F(TeachObjectTest, EveryModelItAcceptsIsFoundInItsOwnFrame) {
                         .ok());
         EXPECT_EQ(found.detections_size(), 1) << object.name << " in frame " << sequence;
         answers += object.name + " " + std::to_string(found.detections_size()) + "\n";
+        // ...where it is: a model found elsewhere in its own frame is refused too.
+        for (const auto& detection : found.detections()) {
+          const cv::Point centre(detection.image_box().x() + detection.image_box().width() / 2,
+                                 detection.image_box().y() + detection.image_box().height() / 2);
+          EXPECT_TRUE(roi.contains(centre)) << object.name << " in frame " << sequence;
+        }
       }
     }
   }

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <stdexcept>
 
 #include "shapesense/core/boxes/segment_box.h"
@@ -9,6 +10,10 @@
 
 namespace shapesense {
 namespace {
+
+// The farthest a model found in the frame it was taught from may lie from where it was taught
+// (m): past this, what matched is something else.
+constexpr double kMaxSelfFindOffsetM = 0.02;
 
 // The object's pixels as box mode 4 finds them (the EstimateBox handler's rule), so that
 // what an operator sees boxed is what gets taught.
@@ -71,12 +76,24 @@ grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObj
   // missed: say so now, while the operator still looks at the object.
   bool reused = false;
   const auto scene = context.scene_surfaces->get(*entry.frame, store->params(), reused);
-  if (!findObject(model, *scene)) {
+  const auto found = findObject(model, *scene);
+  if (!found) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             "this object cannot be taught: its shape from this view (" +
                 std::to_string(model.features.size()) +
                 " features) is not found again even in this frame; teach it from a view that "
                 "shows more of its corners and edges"};
+  }
+  // ...and one found somewhere else in that frame would be found there again: its shape from
+  // this view is not its own. The model's frame is this frame's camera, so the object found
+  // where it is leaves its centre in place (a round one may turn about its axis).
+  const double offset_m = (found->camera_from_model * model.box.centre - model.box.centre).norm();
+  if (offset_m > kMaxSelfFindOffsetM) {
+    return {grpc::StatusCode::FAILED_PRECONDITION,
+            "this object cannot be taught: its shape from this view is found " +
+                std::to_string(static_cast<int>(std::lround(100.0 * offset_m))) +
+                " cm away from it in this very frame, so it would be found there too; teach it "
+                "from a view that shows what sets it apart"};
   }
   StoredObjectModel stored;
   bool replaced = false;
