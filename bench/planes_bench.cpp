@@ -99,9 +99,20 @@ void BM_NormalsHoughPlanesNoCreaseStep(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
 
+// The Hough detector without the check for facets of one curved surface
+// (PlaneLabelingParams::curved_pair_*), beside BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesNoCurvedPairCheck(benchmark::State& state) {
+  HoughPlaneParams params;
+  params.labeling.curved_pair_rms_factor = 0.0;
+  HoughPlaneDetector det(params);
+  run(state, "hough-no-curved-pairs",
+      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+}
+BENCHMARK(BM_NormalsHoughPlanesNoCurvedPairCheck)->Unit(benchmark::kMillisecond);
+
 // The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
-// coplanar region merging, the growth limit on unreliable normals, the crease step): what those
-// steps cost and what they gain, beside BM_NormalsHoughPlanes.
+// coplanar region merging, the growth limit on unreliable normals, the crease step, the curved
+// pair check): what those steps cost and what they gain, beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   HoughPlaneParams off;
   off.leftover_ransac_hypotheses = 0;
@@ -109,6 +120,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.merge_coplanar_regions = false;
   off.labeling.grow_max_unreliable_normal_deg = 180.0;
   off.labeling.crease_max_passes = 0;
+  off.labeling.curved_pair_rms_factor = 0.0;
   HoughPlaneDetector det(off);
   run(state, "hough-basic",
       [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });

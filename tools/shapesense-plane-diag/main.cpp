@@ -213,6 +213,8 @@ int main(int argc, char** argv) {
   app.add_option("--min-plane-samples", params.min_plane_samples);
   app.add_option("--max-curvature", params.labeling.max_plane_curvature_per_m);
   app.add_option("--curved-rms-ratio", params.labeling.curved_rms_ratio);
+  app.add_option("--curved-pair-rms-factor", params.labeling.curved_pair_rms_factor);
+  app.add_option("--curved-pair-max-angle", params.labeling.curved_pair_max_angle_deg);
   app.add_option("--noise-steps", params.labeling.tolerance.noise_steps);
   app.add_option("--adaptive-factor", params.labeling.adaptive_tolerance_factor);
   app.add_option("--min-tolerance-steps", params.labeling.min_tolerance_steps);

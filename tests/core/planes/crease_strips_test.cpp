@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "kinect_depth.h"
 #include "shapesense/core/planes/plane_labeling.h"
 
 namespace shapesense {
@@ -53,8 +54,6 @@ struct LegScene {
     depth.create(K.height, K.width, CV_16UC1);
     truth.create(K.height, K.width, CV_8UC1);
     std::mt19937 rng(7);
-    std::normal_distribution<double> disparity_noise(0.0, 0.07);
-    constexpr double kFocalBaseline = 43.5, kDisparityStep = 0.125;
     for (int v = 0; v < K.height; ++v)
       for (int u = 0; u < K.width; ++u) {
         const Eigen::Vector3d ray = K.ray(u, v);
@@ -65,10 +64,7 @@ struct LegScene {
             z = *range;
             what = label;
           }
-        double disparity = kFocalBaseline / z + disparity_noise(rng);
-        disparity = std::round(disparity / kDisparityStep) * kDisparityStep;
-        depth.at<std::uint16_t>(v, u) =
-            static_cast<std::uint16_t>(std::lround(1e3 * kFocalBaseline / disparity));
+        depth.at<std::uint16_t>(v, u) = testing::kinectDepthMm(z, rng);
         truth.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(what);
       }
   }
@@ -146,7 +142,6 @@ TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
   const PlaneHypothesis floor{Eigen::Vector3d(0.0, -1.0, 0.0), 0.8};
   cv::Mat depth(K.height, K.width, CV_16UC1);
   std::mt19937 rng(11);
-  std::normal_distribution<double> disparity_noise(0.0, 0.07);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int v = 0; v < K.height; ++v)
     for (int u = 0; u < K.width; ++u) {
@@ -156,10 +151,7 @@ TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
         depth.at<std::uint16_t>(v, u) = 0;
         continue;
       }
-      double disparity = 43.5 / z + disparity_noise(rng);
-      disparity = std::round(disparity / 0.125) * 0.125;
-      depth.at<std::uint16_t>(v, u) =
-          static_cast<std::uint16_t>(std::lround(1e3 * 43.5 / disparity));
+      depth.at<std::uint16_t>(v, u) = testing::kinectDepthMm(z, rng);
     }
   auto labelled = [&](const PlaneLabelingParams& params) {
     PlaneSampleGrid grid;

@@ -118,6 +118,14 @@ struct PlaneLabelingParams {
   /// so a flat surface passes at any range. 0 = no check. Defaults 2 /m (50 cm radius), 1.3.
   double max_plane_curvature_per_m = 2.0;
   double curved_rms_ratio = 1.3;
+  /// Two adjacent regions whose normals differ by at most curved_pair_max_angle_deg are two
+  /// facets of one curved surface (a bin or a column found as several planes), and both are
+  /// dropped, when one quadric with such a curvature fits their samples together with an RMS
+  /// of at most curved_pair_rms_factor times the worse of their own plane fits. A crease or a
+  /// step between two planes is no quadric, so they stay. 0 = no pair check. Defaults 1.0 and
+  /// 60 deg.
+  double curved_pair_rms_factor = 1.0;
+  double curved_pair_max_angle_deg = 60.0;
   /// Strips a plane takes across a crease, where the surface beyond it was not found as a
   /// plane of its own, are given back (see the labelling's crease step): from a region's
   /// boundary inwards, a pixel goes when the readings within crease_window_px of it (those
