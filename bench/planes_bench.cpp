@@ -82,10 +82,13 @@ void run(benchmark::State& state, const char* name,
   state.counters["median_cpu_ms"] = median_ms;
 }
 
-void BM_NormalsHoughPlanes(benchmark::State& state) {
-  HoughPlaneDetector det;  // keeps its buffers between frames, as in the daemon
-  run(state, "hough", [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+// The Hough detector with `params`, which keeps its buffers between frames, as in the daemon.
+void runHough(benchmark::State& state, const char* name, const HoughPlaneParams& params) {
+  HoughPlaneDetector det(params);
+  run(state, name, [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
 }
+
+void BM_NormalsHoughPlanes(benchmark::State& state) { runHough(state, "hough", {}); }
 BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
 
 // The Hough detector without the labelling's crease step (PlaneLabelingParams::crease_*): what
@@ -93,9 +96,7 @@ BENCHMARK(BM_NormalsHoughPlanes)->Unit(benchmark::kMillisecond);
 void BM_NormalsHoughPlanesNoCreaseStep(benchmark::State& state) {
   HoughPlaneParams params;
   params.labeling.crease_max_passes = 0;
-  HoughPlaneDetector det(params);
-  run(state, "hough-no-crease-step",
-      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+  runHough(state, "hough-no-crease-step", params);
 }
 BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
 
@@ -104,9 +105,7 @@ BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
 void BM_NormalsHoughPlanesNoCurvedPairCheck(benchmark::State& state) {
   HoughPlaneParams params;
   params.labeling.curved_pair_rms_factor = 0.0;
-  HoughPlaneDetector det(params);
-  run(state, "hough-no-curved-pairs",
-      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+  runHough(state, "hough-no-curved-pairs", params);
 }
 BENCHMARK(BM_NormalsHoughPlanesNoCurvedPairCheck)->Unit(benchmark::kMillisecond);
 
@@ -121,9 +120,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.grow_max_unreliable_normal_deg = 180.0;
   off.labeling.crease_max_passes = 0;
   off.labeling.curved_pair_rms_factor = 0.0;
-  HoughPlaneDetector det(off);
-  run(state, "hough-basic",
-      [&](const Frame& f) { return det.detect(f.depth, f.intrinsics, f.rgb); });
+  runHough(state, "hough-basic", off);
 }
 BENCHMARK(BM_NormalsHoughPlanesAccuracyStepsOff)->Unit(benchmark::kMillisecond);
 

@@ -22,27 +22,11 @@ constexpr int kMinWindowReadings = 5;
 // at a third of the cost.
 constexpr int kWindowStride = 2;
 
-// A region's plane in the pinhole form, in millimetres: the pixel (u, v) at depth z (mm) lies
-// z (a u + (b v + c)) + d from it (mm, signed, positive towards the camera).
-struct PixelPlane {
-  float a = 0.0f, b = 0.0f, c = 0.0f, d = 0.0f;
-  float residual(int u, int v, float z) const {
-    return z * (a * static_cast<float>(u) + (b * static_cast<float>(v) + c)) + d;
-  }
-};
-
-PixelPlane pixelPlane(const PlaneFit& fit, const CameraIntrinsics& K) {
-  const Eigen::Vector3d& n = fit.normal;
-  return {static_cast<float>(n.x() / K.fx), static_cast<float>(n.y() / K.fy),
-          static_cast<float>(n.z() - n.x() * K.cx / K.fx - n.y() * K.cy / K.fy),
-          static_cast<float>(1e3 * fit.d)};
-}
-
 // What a region's test needs: its plane and its noise (sigma = noise_k z^2, mm for z in mm);
 // usable is false for a region whose moments give no plane.
 struct RegionPlane {
   bool usable = false;
-  PixelPlane plane;
+  PinholePlane plane;  // in millimetres
   float noise_k = 0.0f;
 };
 
@@ -78,7 +62,7 @@ class CreaseTest {
 
   // Whether pixel (u, v) of `region` lies on a strip across a crease (see crease_strips.h).
   bool onStrip(int region, int u, int v) const {
-    const PixelPlane& plane = planes_[region].plane;
+    const PinholePlane& plane = planes_[region].plane;
     const float z0 = depth_.at<std::uint16_t>(v, u);
     const float sigma = sigmaAt(region, z0);
     const float reach = reachAt(z0);
@@ -268,15 +252,20 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
   std::vector<std::uint8_t> peeled_from(regions.size(), 0);
   if (params.crease_max_passes <= 0 || regions.empty()) return peeled_from;
   CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
+  // Each root's plane, for the regions merged into it (with their own noise).
   std::vector<RegionPlane> planes(regions.size());
   for (std::size_t k = 0; k < regions.size(); ++k) {
-    const PlaneFit fit = regions[root[k]].moments.fit();
-    if (!fit.valid) continue;
+    if (root[k] != static_cast<int>(k)) continue;
+    const PlaneFit fit = regions[k].moments.fit();
+    if (fit.valid) planes[k] = {true, pinholePlane(fit.normal, 1e3 * fit.d, K), 0.0f};
+  }
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    if (!planes[root[k]].usable) continue;
     // sigma(z) = noise_at_1m z^2 (m, z in m), at least kMinNoiseSteps depth steps; for z in mm
     // and sigma in mm, the coefficient is a thousandth of that.
     const double noise_at_1m_floored =
         std::max(noise_at_1m[k], kMinNoiseSteps * params.tolerance.noise.depthStep(1.0));
-    planes[k] = {true, pixelPlane(fit, K), static_cast<float>(1e-3 * noise_at_1m_floored)};
+    planes[k] = {true, planes[root[k]].plane, static_cast<float>(1e-3 * noise_at_1m_floored)};
   }
   const CreaseTest test(depth_mm, params, planes);
   std::vector<cv::Point> candidates =

@@ -10,6 +10,12 @@
 #include "planes/planes_kernels.h"
 
 namespace shapesense::labeling {
+
+PinholePlane pinholePlane(const Eigen::Vector3d& normal, double d, const CameraIntrinsics& K) {
+  return {static_cast<float>(normal.x() / K.fx), static_cast<float>(normal.y() / K.fy),
+          static_cast<float>(normal.z() - normal.x() * K.cx / K.fx - normal.y() * K.cy / K.fy),
+          static_cast<float>(d)};
+}
 namespace {
 
 // Summary of a set of region ids: -1 none (only unlabelled samples), -2 several, else the one
@@ -117,19 +123,18 @@ void buildCandidateRuns(const int* region_of, int R, int C, const std::vector<in
   }
 }
 
-// Pinhole form of the plane distance: a pixel (u, v) with depth z is z (A u + B v + C) + D from
-// the plane (floats; coef holds A, B, C, D per region).
+// The regions' planes in the pinhole form (pinholePlane), a, b, c, d per region.
 std::vector<float> pixelPlaneCoefficients(const std::vector<RegionAccumulator>& regions,
                                           const std::vector<PlaneHypothesis>& planes,
                                           const CameraIntrinsics& K) {
   std::vector<float> coef(4 * regions.size());
   for (std::size_t k = 0; k < regions.size(); ++k) {
     const auto& h = planes[regions[k].plane];
-    coef[4 * k + 0] = static_cast<float>(h.normal.x() / K.fx);
-    coef[4 * k + 1] = static_cast<float>(h.normal.y() / K.fy);
-    coef[4 * k + 2] =
-        static_cast<float>(h.normal.z() - h.normal.x() * K.cx / K.fx - h.normal.y() * K.cy / K.fy);
-    coef[4 * k + 3] = static_cast<float>(h.d);
+    const PinholePlane p = pinholePlane(h.normal, h.d, K);
+    coef[4 * k + 0] = p.a;
+    coef[4 * k + 1] = p.b;
+    coef[4 * k + 2] = p.c;
+    coef[4 * k + 3] = p.d;
   }
   return coef;
 }

@@ -20,6 +20,19 @@ namespace shapesense::labeling {
 /// kMomentStride-th row (from pixel (0, 0)): see labelPixels.
 inline constexpr int kMomentStride = 2;
 
+/// A plane n.X + d = 0 in the pinhole form: the pixel (u, v) at depth z lies
+/// z (a u + (b v + c)) + d from it (signed, positive towards the camera; d in z's unit).
+struct PinholePlane {
+  float a = 0.0f, b = 0.0f, c = 0.0f, d = 0.0f;
+  float residual(int u, int v, float z) const {
+    return z * (a * static_cast<float>(u) + (b * static_cast<float>(v) + c)) + d;
+  }
+};
+
+/// The plane with unit `normal` and offset `d` (in the unit the residuals are to be in) as seen
+/// through the pinhole camera K.
+PinholePlane pinholePlane(const Eigen::Vector3d& normal, double d, const CameraIntrinsics& K);
+
 /// One region of samples (one plane, connected) and what its pixels add up to.
 struct RegionAccumulator {
   int plane = -1;       // index into the hypotheses

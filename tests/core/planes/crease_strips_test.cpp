@@ -3,37 +3,18 @@
 // frames with the Kinect's disparity noise and quantisation.
 #include <cmath>
 #include <cstdint>
-#include <optional>
 #include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "kinect_depth.h"
+#include "face_scene.h"
 #include "shapesense/core/planes/plane_labeling.h"
 
 namespace shapesense {
 namespace {
 
-// One rectangular face: the points E + s t + y (0, 1, 0) with s in [0, width], |y| <= half_height.
-struct Face {
-  Eigen::Vector3d normal;  // towards the camera
-  Eigen::Vector3d edge;    // E
-  Eigen::Vector3d along;   // t, unit, orthogonal to the normal and to y
-  double width = 0.0;
-  double half_height = 0.3;
-
-  PlaneHypothesis plane() const { return {normal, -normal.dot(edge)}; }
-  // Range of the face along the pixel's ray, if the ray meets it.
-  std::optional<double> rangeAt(const Eigen::Vector3d& ray) const {
-    const double denom = normal.dot(ray);
-    if (std::fabs(denom) < 1e-9) return std::nullopt;
-    const Eigen::Vector3d p = ray * (normal.dot(edge) / denom);
-    const double s = (p - edge).dot(along);
-    if (p.z() <= 0.0 || s < 0.0 || s > width || std::fabs(p.y()) > half_height) return std::nullopt;
-    return p.z();
-  }
-};
+using testing::Face;
 
 enum class Truth : std::uint8_t { kBackground, kFront, kSide };
 
@@ -50,23 +31,10 @@ struct LegScene {
     const Eigen::Vector3d front_along = Eigen::Vector3d(-1.0, 0.0, 0.5).normalized();
     front = {front_normal, edge, front_along, 0.10};
     side = {-front_along, edge, -front_normal, 0.05};
-    const CameraIntrinsics K;  // Kinect v1
-    depth.create(K.height, K.width, CV_16UC1);
-    truth.create(K.height, K.width, CV_8UC1);
-    std::mt19937 rng(7);
-    for (int v = 0; v < K.height; ++v)
-      for (int u = 0; u < K.width; ++u) {
-        const Eigen::Vector3d ray = K.ray(u, v);
-        double z = 3.0;
-        Truth what = Truth::kBackground;
-        for (const auto& [face, label] : {std::pair{&front, Truth::kFront}, {&side, Truth::kSide}})
-          if (const auto range = face->rangeAt(ray); range && *range < z) {
-            z = *range;
-            what = label;
-          }
-        depth.at<std::uint16_t>(v, u) = testing::kinectDepthMm(z, rng);
-        truth.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(what);
-      }
+    // Face i + 1 of the render is Truth's value for it.
+    testing::FaceFrame frame = testing::renderFaces({front, side}, 3.0, 7);
+    depth = frame.depth;
+    truth = frame.face;
   }
 
   // Labels with the front face as the only plane (its samples labelled, the side left to the

@@ -4,12 +4,11 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
-#include <random>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "kinect_depth.h"
+#include "face_scene.h"
 #include "shapesense/core/pipeline/detector_chain.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
@@ -74,36 +73,18 @@ struct ShallowCrease {
   cv::Mat face;   // CV_8UC1: 1 left face, 2 right face, 0 wall
 
   ShallowCrease(double angle_deg, double range_m) {
-    const CameraIntrinsics K;  // Kinect v1
     const double half = angle_deg * M_PI / 360.0;
     const Eigen::Vector3d crease(0.0, 0.0, range_m);
     // Each face leans back from the crease by `half` on its side.
     const Eigen::Vector3d left_along(-std::cos(half), 0.0, std::sin(half));
     const Eigen::Vector3d right_along(std::cos(half), 0.0, std::sin(half));
-    depth.create(K.height, K.width, CV_16UC1);
-    face.create(K.height, K.width, CV_8UC1);
-    std::mt19937 rng(5);
-    for (int v = 0; v < K.height; ++v)
-      for (int u = 0; u < K.width; ++u) {
-        const Eigen::Vector3d ray = K.ray(u, v);
-        double z = 3.5;
-        std::uint8_t which = 0;
-        int side = 1;
-        for (const Eigen::Vector3d& along : {left_along, right_along}) {
-          const Eigen::Vector3d normal =
-              Eigen::Vector3d(0, 1, 0).cross(along).normalized() * (along.x() < 0 ? 1.0 : -1.0);
-          const double t = normal.dot(crease) / normal.dot(ray);
-          const Eigen::Vector3d p = ray * t;
-          const double s = (p - crease).dot(along);
-          if (t > 0 && s >= 0 && s <= 0.3 && std::fabs(p.y()) <= 0.2 && p.z() < z) {
-            z = p.z();
-            which = static_cast<std::uint8_t>(side);
-          }
-          ++side;
-        }
-        depth.at<std::uint16_t>(v, u) = testing::kinectDepthMm(z, rng);
-        face.at<std::uint8_t>(v, u) = which;
-      }
+    const Eigen::Vector3d left_normal(-std::sin(half), 0.0, -std::cos(half));
+    const Eigen::Vector3d right_normal(std::sin(half), 0.0, -std::cos(half));
+    testing::FaceFrame frame = testing::renderFaces({{left_normal, crease, left_along, 0.3, 0.2},
+                                                     {right_normal, crease, right_along, 0.3, 0.2}},
+                                                    3.5, 5);
+    depth = frame.depth;
+    face = frame.face;
   }
 
   // Whether each face is one reported plane: >= 80% of its pixels in one plane whose pixels
