@@ -330,10 +330,13 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
 
 // Point-to-plane ICP, linearised about the current pose, with each model point facing the
 // camera (at most `max_points` of them, evenly spread; 0 = all) paired by
-// `partner(p, q, normal)` (false: no partner).
+// `partner(p, q, normal)` (false: no partner). Each pair also adds its point-to-point gap,
+// weighted by `point_weight`: the plane term alone lets a face slide along itself, and a
+// model point paired across the scene's edge only pulls it back in the plane of the face.
 template <class Partner>
 Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& model, int iterations,
-                                  int max_points, float max_distance, Partner&& partner) {
+                                  int max_points, float max_distance, double point_weight,
+                                  Partner&& partner) {
   const float max_d2 = max_distance * max_distance;
   const std::size_t stride = detail::thinningStep(model.surface.size(), max_points);
   Eigen::Vector3f q, normal;
@@ -353,6 +356,15 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
       row << pd.cross(n), n;
       normal_matrix += row * row.transpose();
       rhs += row * n.dot(q.cast<double>() - pd);
+      if (point_weight > 0.0) {
+        const Eigen::Vector3d gap = q.cast<double>() - pd;
+        for (int k = 0; k < 3; ++k) {  // one row per axis of the gap
+          const Eigen::Vector3d axis = Eigen::Vector3d::Unit(k);
+          row << pd.cross(axis), axis;
+          normal_matrix += point_weight * row * row.transpose();
+          rhs += point_weight * row * gap[k];
+        }
+      }
       ++pairs;
     }
     if (pairs < 6) break;
@@ -473,6 +485,7 @@ Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& 
                              const ObjectMatchParams& params) {
   return pointToPlaneIcp(
       start, model, iterations, max_points, params.icp_max_distance_m,
+      params.icp_point_to_point_weight,
       [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
         return patch.nearestWithin(p, params.icp_max_distance_m, q, normal);
       });

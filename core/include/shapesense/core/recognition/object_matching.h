@@ -114,6 +114,12 @@ struct ObjectMatchParams {
   int icp_final_iterations = 5;
   float icp_max_distance_m = 0.02f;
   int icp_max_points = 500;
+  /// Weight of each pair's point-to-point gap beside its point-to-plane distance in ICP: the
+  /// plane term alone lets a box face or a tin's side slide along itself by a centimetre or
+  /// two where the rest of the object is hidden. Default 0.02: the largest weight on the
+  /// validation split that keeps a tin model from verifying on larger tins of other scenes
+  /// (docs/benchmarks.md); 0 = point-to-plane alone.
+  float icp_point_to_point_weight = 0.02f;
   /// A depth reading confirms a model point within max(this, confirm_steps sensor depth
   /// steps) of its predicted depth (m). Defaults 1 cm and 3 steps.
   float confirm_distance_m = 0.01f;
