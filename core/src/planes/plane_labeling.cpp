@@ -401,9 +401,6 @@ std::vector<cv::Mat> keptRegionMasks(const PlaneSampleGrid& grid, const int* reg
   return masks;
 }
 
-// The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
-// and polygon), and the labels renumbered to them (merged regions take their survivor's id,
-// dropped ones 0).
 // Marks the regions that would be reported but lie on a curved surface (labeling::curvedRegions),
 // so that keepsRegion drops them; `labels` holds region k as k + 1.
 void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& params,
@@ -426,7 +423,7 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
   for (std::size_t k = 0; k < curved.size(); ++k) regions[k].curved = curved[k];
 }
 
-// Step 5b: the crease step on the merged regions, whose fits are then taken again.
+// Step 5: the crease step on the merged regions, whose fits are then taken again.
 void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const int* region_of,
                       const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
@@ -447,6 +444,9 @@ void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     if (peeled[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
 }
 
+// The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
+// and polygon), and the labels renumbered to them (merged regions take their survivor's id,
+// dropped ones 0).
 void describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid, bool with_colour,
                      const PlaneLabelingParams& params, const int* region_of,
                      std::vector<RegionAccumulator>& regions, RegionFits& fits,
@@ -561,11 +561,12 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::iota(merged_into.begin(), merged_into.end(), 0);
   if (params.merge_coplanar_regions)
     merged_into = mergeCoplanarRegions(grid, continuous, params, region_of, regions, fits);
-  // 5. Regions that bend are not planes.
-  dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
-  // 5b. Strips taken across creases go back (crease_strips.h).
+  // 5. Strips taken across creases go back (crease_strips.h).
   peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, params, noise_steps,
                    merged_into, regions, fits, out.labels);
+  // 5b. Regions that bend are not planes. After the peeling: a strip of the surface beyond a
+  //     crease bends a flat face's quadric as a curved surface would.
+  dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   describeRegions(K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs,
                   out);

@@ -16,9 +16,9 @@
 namespace shapesense {
 namespace {
 
-HoughPlaneParams withoutPairCheck() {
+HoughPlaneParams withoutCurvatureChecks() {
   HoughPlaneParams params = DetectorConfig{}.hough_params;
-  params.labeling.curved_pair_rms_factor = 0.0;
+  params.labeling.max_plane_curvature_per_m = 0.0;
   return params;
 }
 
@@ -44,7 +44,7 @@ int planesOnBinsAndColumns(const PlaneDetection& out, const synthetic::TruthFram
 
 // Rooms with a bin and a column near the camera, where their facets are resolved.
 TEST(CurvedRegions, BinsAndColumnsCutIntoFacetsAreNoPlanes) {
-  HoughPlaneDetector with(DetectorConfig{}.hough_params), without(withoutPairCheck());
+  HoughPlaneDetector with(DetectorConfig{}.hough_params), without(withoutCurvatureChecks());
   int facets_without = 0, facets_with = 0, frames = 0;
   for (std::uint64_t seed = 101; seed <= 112; ++seed) {
     synthetic::SceneParams params;
@@ -59,7 +59,7 @@ TEST(CurvedRegions, BinsAndColumnsCutIntoFacetsAreNoPlanes) {
     facets_with += planesOnBinsAndColumns(with.detect(f.frame.depth, f.frame.intrinsics), f.truth);
     ++frames;
   }
-  // Without the pair check the curved surfaces come back as facets (what the check is for).
+  // Without the checks the curved surfaces come back as facets (what the checks are for).
   ASSERT_GE(facets_without, frames) << "the scenes show too few facets to test the check";
   // Requirement: the sides of bins and columns are not planes. With the check, at most a
   // quarter of the facets remain (single facets too narrow for a quadric to tell).

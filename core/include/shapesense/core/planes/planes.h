@@ -115,9 +115,11 @@ struct PlaneLabelingParams {
   /// whose quadric fit has a principal curvature above max_plane_curvature_per_m (a radius
   /// under 1 / that) and whose plane RMS is at least curved_rms_ratio times the quadric's is
   /// dropped (the sides of tins, balls and bowls). Sensor noise and quantisation do not bend,
-  /// so a flat surface passes at any range. 0 = no check. Defaults 2 /m (50 cm radius), 1.3.
+  /// so a flat surface passes at any range. The check runs after the crease step: a strip of
+  /// the surface beyond a crease would bend a flat face's quadric too. 0 = no check. Defaults
+  /// 2 /m (50 cm radius) and 1.1 (chosen on the validation split, docs/benchmarks.md).
   double max_plane_curvature_per_m = 2.0;
-  double curved_rms_ratio = 1.3;
+  double curved_rms_ratio = 1.1;
   /// Two adjacent regions whose normals differ by at most curved_pair_max_angle_deg are two
   /// facets of one curved surface (a bin or a column found as several planes), and both are
   /// dropped, when one quadric with such a curvature fits their samples together with an RMS
