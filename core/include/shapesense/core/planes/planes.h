@@ -135,7 +135,9 @@ struct PlaneLabelingParams {
   /// noise and crease_min_outside_share of them lie beyond crease_outside_sigmas on that side,
   /// for at most crease_max_passes pixels inwards (0 = no peeling). The plane's noise is the
   /// RMS residual of its samples, in depth steps, so it scales with range. Defaults 3 px, 0.7,
-  /// 1.4, 0.15 and 6 (chosen on the validation split, docs/benchmarks.md).
+  /// 1.4, 0.15 and 6 (chosen on the validation split, docs/benchmarks.md). Without peeling, a
+  /// face that keeps a strip bends like a curved surface: curved_rms_ratio 1.3 then keeps more
+  /// of them (and more spurious planes).
   int crease_window_px = 3;
   double crease_mean_sigmas = 0.7;
   double crease_outside_sigmas = 1.4;
