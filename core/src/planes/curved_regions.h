@@ -1,7 +1,9 @@
 #pragma once
 // The last check of a plane region: a region whose samples a quadric fits markedly better
 // than its plane, with a curvature no flat surface shows, lies on a curved surface (the side
-// of a tin, a ball, a bowl) and is not reported as a plane.
+// of a tin, a ball, a bowl) and is not reported as a plane. So do two adjacent regions that
+// each bend and that one such quadric fits together as well as their two planes do: facets
+// of one bin or column, each too narrow to tell on its own.
 
 #include <vector>
 
