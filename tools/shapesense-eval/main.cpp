@@ -87,6 +87,34 @@ void printBoxTable(const BoxScores& scores) {
   }
 }
 
+const char* outcomeName(SegCompOutcome outcome) {
+  switch (outcome) {
+    case SegCompOutcome::kCorrect:
+      return "correct";
+    case SegCompOutcome::kOverSegmented:
+      return "split";
+    case SegCompOutcome::kUnderSegmented:
+      return "merged";
+    case SegCompOutcome::kNone:
+      break;
+  }
+  return "missed";
+}
+
+// One line per truth region the default segmentation does not get right: the frame, the
+// surface's name ("curved object" for the one region of an object with a curved surface), its
+// pixels and what became of it.
+void listSegmentMisses(int frame, const SegCompScore& score, const synthetic::TruthFrame& truth) {
+  for (const SegCompTruthRegion& region : score.truth) {
+    if (!region.considered || region.outcome == SegCompOutcome::kCorrect) continue;
+    std::string name = "curved object";
+    for (const auto& surface : truth.surfaces)
+      if (surface.id == region.label) name = surface.name;
+    std::printf("frame %3d %-26s %6d px: %s\n", frame, name.c_str(), region.pixels,
+                outcomeName(region.outcome));
+  }
+}
+
 void addSegComp(const SegCompScore& s, SegCompScore& total) {
   total.truth_regions += s.truth_regions;
   total.correct += s.correct;
@@ -98,7 +126,8 @@ void addSegComp(const SegCompScore& s, SegCompScore& total) {
 }
 
 SyntheticResults evaluateSynthetic(eval::Split split, int frames,
-                                   const std::vector<SegmentationMethod>& methods) {
+                                   const std::vector<SegmentationMethod>& methods,
+                                   bool list_segment_misses) {
   const DetectorConfig config;
   HoughPlaneDetector hough(config.hough_params);
   SyntheticResults results;
@@ -112,7 +141,10 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
     for (const SegmentationMethod m : methods) {
       const SegmentationResult seg =
           segmentFrame(rendered.frame, m, config.segmentation_params, &planes);
-      addSegComp(eval::scoreSegments(seg.labels, rendered.truth), results.segments[m]);
+      const SegCompScore regions = eval::scoreSegments(seg.labels, rendered.truth);
+      if (list_segment_misses && m == kDefaultSegmentationMethod)
+        listSegmentMisses(i, regions, rendered.truth);
+      addSegComp(regions, results.segments[m]);
     }
     const Frame& frame = rendered.frame;
     const SegmentationResult default_segments =
@@ -215,6 +247,9 @@ int main(int argc, char** argv) {
                  "taught-object recognition cases of the split (0 = none)")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
+  bool list_segment_misses = false;
+  app.add_flag("--list-segment-misses", list_segment_misses,
+               "print each truth region the default segmentation splits, merges or misses");
   CLI11_PARSE(app, argc, argv);
 
   const auto split = eval::parseSplit(split_name);
@@ -237,7 +272,8 @@ int main(int argc, char** argv) {
     methods.push_back(*m);
   }
   try {
-    if (frames > 0) printSynthetic(*split, evaluateSynthetic(*split, frames, methods));
+    if (frames > 0)
+      printSynthetic(*split, evaluateSynthetic(*split, frames, methods, list_segment_misses));
     for (const auto& dir : real_dirs) evaluateReal(dir, methods);
     if (recognition_cases > 0) {
       const auto score = eval::scoreRecognition(*split, 0, recognition_cases);
