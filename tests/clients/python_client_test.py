@@ -25,7 +25,6 @@ EXAMPLES = os.path.join(SOURCE_DIR, "clients", "python", "examples")
 ROI = ((280, 200), (360, 280))  # the middle of the 640x480 image: the table and what stands on it
 
 
-
 def rotate_by_inverse(q, v):
     """v turned by the inverse of the unit quaternion q = (w, x, y, z)."""
     w, x, y, z = q[0], -q[1], -q[2], -q[3]
@@ -38,6 +37,7 @@ def rotate_by_inverse(q, v):
     inner = [c + w * vi for c, vi in zip(cross(u, v), v)]
     outer = cross(u, inner)
     return [vi + 2.0 * o for vi, o in zip(v, outer)]
+
 
 class Daemon:
     """build/server/shapesensed --source synthetic on a port the system picks (--listen

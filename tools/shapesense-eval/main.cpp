@@ -141,14 +141,14 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
     for (const SegmentationMethod m : methods) {
       const SegmentationResult seg =
           segmentFrame(rendered.frame, m, config.segmentation_params, &planes);
-      const SegCompScore regions = eval::scoreSegments(seg.labels, rendered.truth);
-      if (list_segment_misses && m == kDefaultSegmentationMethod)
-        listSegmentMisses(i, regions, rendered.truth);
-      addSegComp(regions, results.segments[m]);
+      addSegComp(eval::scoreSegments(seg.labels, rendered.truth), results.segments[m]);
     }
     const Frame& frame = rendered.frame;
     const SegmentationResult default_segments =
         segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+    if (list_segment_misses)
+      listSegmentMisses(i, eval::scoreSegments(default_segments.labels, rendered.truth),
+                        rendered.truth);
     for (const auto& target : eval::syntheticBoxTargets(rendered, kMinBoxedObjectShare))
       scoreObjectBoxes(frame, target, default_segments, planes, results.boxes);
     ++results.frames;
