@@ -23,10 +23,12 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "shapesense/core/geometry/units.h"
+#include "shapesense/core/pipeline/stages.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/eval/plane_eval.h"
 #include "shapesense/eval/scene_splits.h"
+#include "shapesense/eval/segment_eval.h"
 
 using namespace shapesense;
 
@@ -112,10 +114,17 @@ cv::Mat colourLabels(const cv::Mat& labels) {
   return c;
 }
 
-void dumpLabels(const std::string& dir, const cv::Mat& truth, const cv::Mat& found) {
-  cv::imwrite(dir + "/planes_truth.png", colourLabels(truth));
-  cv::imwrite(dir + "/planes_found.png", colourLabels(found));
-  std::printf("wrote %s/planes_truth.png and planes_found.png\n", dir.c_str());
+// The plane labels of truth and detector, and the segment labels of truth and the default
+// segmentation.
+void dumpLabels(const std::string& dir, const synthetic::TruthFrame& truth, const Frame& frame,
+                const PlaneDetection& found) {
+  cv::imwrite(dir + "/planes_truth.png", colourLabels(eval::planarTruth(truth)));
+  cv::imwrite(dir + "/planes_found.png", colourLabels(found.labels));
+  cv::imwrite(dir + "/segments_truth.png", colourLabels(eval::segmentTruth(truth)));
+  const SegmentationResult segments = segmentFrame(frame, kDefaultSegmentationMethod, {}, &found);
+  cv::imwrite(dir + "/segments_found.png", colourLabels(segments.labels));
+  std::printf("wrote planes_truth, planes_found, segments_truth and segments_found.png in %s\n",
+              dir.c_str());
 }
 
 // Reported planes not matched to a truth plane and with under 80% of their pixels on one planar
@@ -243,7 +252,7 @@ int main(int argc, char** argv) {
     total.add(score);
     (scene.curved_clutter ? clutter : plain).add(score);
     const cv::Mat truth = eval::planarTruth(f.truth);
-    if (i == dump_frame) dumpLabels(out_dir, truth, out.labels);
+    if (i == dump_frame) dumpLabels(out_dir, f.truth, f.frame, out);
     const Overlaps o = overlapsOf(truth, out.labels);
     std::map<int, bool> correct;
     for (const auto& [tid, fid] : score.matches) correct[tid] = true;
