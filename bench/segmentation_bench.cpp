@@ -152,7 +152,7 @@ BENCHMARK(BM_Segment)
 
 // The default segmentation as the daemon runs it: after the plane stage, on its planes (the
 // plane detection is made once per frame outside the timed loop; BM_Segment's planes_objects
-// row includes it).
+// row includes it). curved_join 0: without joining curved objects' pieces.
 void BM_SegmentWithPlanes(benchmark::State& state) {
   const auto& src = source(static_cast<int>(state.range(0)));
   if (src.empty()) {
@@ -162,7 +162,8 @@ void BM_SegmentWithPlanes(benchmark::State& state) {
   HoughPlaneDetector hough;
   std::vector<PlaneDetection> planes;
   for (const auto& depth : src) planes.push_back(hough.detect(depth, frames().intrinsics));
-  const SegmentationParams params;
+  SegmentationParams params;
+  params.planes_and_objects.join_curved_objects = state.range(1) != 0;
   std::size_t i = 0;
   for (auto _ : state) {
     const std::size_t k = i++ % src.size();
@@ -171,7 +172,10 @@ void BM_SegmentWithPlanes(benchmark::State& state) {
     benchmark::DoNotOptimize(r.data);
   }
 }
-BENCHMARK(BM_SegmentWithPlanes)->ArgName("mosd")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SegmentWithPlanes)
+    ->ArgNames({"mosd", "curved_join"})
+    ->ArgsProduct({{0, 1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
 
 // Per-segment statistics (the daemon's segmentation stage runs them after segmentDepth) of the
 // depth_step regions of each frame, segmented outside the timed loop.

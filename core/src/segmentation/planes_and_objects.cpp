@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 #include "segmentation/segmentation_kernels.h"
+#include "shapesense/core/geometry/height_fit.h"
+#include "shapesense/core/geometry/plane_fitting.h"
 #include "shapesense/core/geometry/union_find.h"
 
 namespace shapesense::segmentation {
@@ -185,6 +188,197 @@ void growIntoUnlabelled(const cv::Mat& depth_mm, const PlanesAndObjectsParams& p
   }
 }
 
+// Pixel pairs across the border of two regions: on one surface (no depth step between them)
+// or not.
+struct Border {
+  int continuous = 0;
+  int steps = 0;
+};
+
+// The borders of every two 4-adjacent regions, keyed by (smaller label) << 32 | larger label.
+using Borders = std::unordered_map<std::uint64_t, Border>;
+
+std::uint64_t borderKey(int a, int b) {
+  return static_cast<std::uint64_t>(std::min(a, b)) << 32 |
+         static_cast<std::uint32_t>(std::max(a, b));
+}
+
+// Runs of two regions side by side, and overlapping runs of two regions in rows one above the
+// other, are where the borders lie: walking the runs skips the insides of regions.
+Borders regionBorders(const cv::Mat& depth_mm, const RowRuns& runs,
+                      const DepthStepRule& continuity) {
+  Borders borders;
+  // Neighbouring pixels of a border mostly lie between the same two regions: the last entry
+  // saves most lookups (the map's entries stay where they are as it grows).
+  std::uint64_t last_key = 0;
+  Border* last = nullptr;
+  const auto count = [&](int la, int lb, std::uint16_t za, std::uint16_t zb) {
+    if (!za || !zb) return;
+    const std::uint64_t key = borderKey(la, lb);
+    if (!last || key != last_key) {
+      last = &borders[key];
+      last_key = key;
+    }
+    ++(continuity.isStep(za * 1e-3, zb * 1e-3) ? last->steps : last->continuous);
+  };
+  for (std::size_t v = 0; v < runs.size(); ++v) {
+    const auto* z = depth_mm.ptr<std::uint16_t>(static_cast<int>(v));
+    const auto& row = runs[v];
+    for (std::size_t r = 0; r + 1 < row.size(); ++r)
+      if (row[r].label && row[r + 1].label)
+        count(row[r].label, row[r + 1].label, z[row[r].end - 1], z[row[r + 1].begin]);
+    if (v + 1 == runs.size()) continue;
+    const auto* z_below = depth_mm.ptr<std::uint16_t>(static_cast<int>(v) + 1);
+    const auto& below = runs[v + 1];
+    std::size_t b = 0;
+    for (const LabelRun& run : row) {
+      if (!run.label) continue;
+      while (b < below.size() && below[b].end <= run.begin) ++b;
+      for (std::size_t k = b; k < below.size() && below[k].begin < run.end; ++k) {
+        if (!below[k].label || below[k].label == run.label) continue;
+        const int end = std::min(run.end, below[k].end);
+        for (int u = std::max(run.begin, below[k].begin); u < end; ++u)
+          count(run.label, below[k].label, z[u], z_below[u]);
+      }
+    }
+  }
+  return borders;
+}
+
+// Every region takes the label of its set's root, its smallest label: a tin and its top take
+// the top's.
+void relabelToRoots(std::vector<int>& parent, const RowRuns& runs, cv::Mat& labels) {
+  for (std::size_t v = 0; v < runs.size(); ++v) {
+    int* l = labels.ptr<int>(static_cast<int>(v));
+    for (const LabelRun& run : runs[v]) {
+      const int root = findRoot(parent, run.label);
+      if (root != run.label) std::fill(l + run.begin, l + run.end, root);
+    }
+  }
+}
+
+// The object regions' points every curved_sample_step_px pixels, visited as (label, point).
+template <typename Visit>
+void eachObjectSample(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                      const RowRuns& runs, int plane_count, const PlanesAndObjectsParams& p,
+                      const Visit& visit) {
+  const int step = std::max(1, p.curved_sample_step_px);
+  for (int v = 0; v < static_cast<int>(runs.size()); v += step) {
+    const auto* z = depth_mm.ptr<std::uint16_t>(v);
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)]) {
+      if (run.label <= plane_count) continue;
+      for (int u = (run.begin + step - 1) / step * step; u < run.end; u += step)
+        if (z[u]) visit(run.label, intrinsics.backproject(u, v, z[u] * 1e-3));
+    }
+  }
+}
+
+// Each object region's plane normal, height fits, and whether it lies on a curved surface: a
+// quadric fits its points markedly better than their plane and bends as no flat face seen
+// through the sensor's noise does. Planes (labels up to plane_count) are not curved.
+struct ObjectShapes {
+  std::vector<Eigen::Vector3d> normal;
+  std::vector<HeightFit> fit;
+  std::vector<bool> curved;
+};
+
+ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                          const RowRuns& runs, int plane_count, int label_count,
+                          const PlanesAndObjectsParams& p) {
+  const auto each_sample = [&](const auto& visit) {
+    eachObjectSample(depth_mm, intrinsics, runs, plane_count, p, visit);
+  };
+  const auto count = static_cast<std::size_t>(label_count) + 1;
+  std::vector<PlaneMoments> moments(count);
+  each_sample([&](int label, const Eigen::Vector3d& x) { moments[label].add(x); });
+  ObjectShapes shapes;
+  std::vector<HeightSums> heights;
+  heights.reserve(count);
+  for (const PlaneMoments& m : moments) {
+    const PlaneFit plane = m.count() >= 3 ? m.fit() : PlaneFit{};
+    shapes.normal.push_back(plane.valid ? plane.normal : Eigen::Vector3d::UnitZ());
+    heights.emplace_back(shapes.normal.back());
+  }
+  each_sample([&](int label, const Eigen::Vector3d& x) { heights[label].add(x); });
+  shapes.fit.resize(count);
+  shapes.curved.assign(count, false);
+  for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label) {
+    const HeightFit fit = fitHeights(heights[label]);
+    shapes.fit[label] = fit;
+    shapes.curved[label] = fit.reliable() && fit.curvature > p.curved_min_curvature_per_m &&
+                           fit.planeToQuadricRms() >= p.curved_rms_ratio;
+  }
+  return shapes;
+}
+
+// Whether one quadric fits two curved regions together about as well as their own quadrics
+// fit each: pieces of one ball or bin do, two tins side by side do not.
+bool oneQuadricFitsBoth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                        const RowRuns& runs, int plane_count, const PlanesAndObjectsParams& p,
+                        const ObjectShapes& shapes, int a, int b) {
+  HeightSums both((shapes.normal[a] + shapes.normal[b]).normalized());
+  eachObjectSample(depth_mm, intrinsics, runs, plane_count, p,
+                   [&](int label, const Eigen::Vector3d& x) {
+                     if (label == a || label == b) both.add(x);
+                   });
+  const HeightFit& fa = shapes.fit[a];
+  const HeightFit& fb = shapes.fit[b];
+  const double own_rms =
+      std::sqrt((fa.quadric_residual + fb.quadric_residual) / std::max(fa.count + fb.count, 1));
+  return fitHeights(both).quadricRms() <= p.join_quadric_rms_factor * own_rms;
+}
+
+// Curved objects made whole again: plane_prediction cuts a bowl at its rim and a ball or a
+// bin where it bends fastest, and a tin's flat top is a region of its own. Two curved object
+// regions that meet on one surface (no depth step along most of their border) are joined;
+// then a region that is not curved joins the curved object along which most of its border on
+// one surface lies.
+void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, int plane_count,
+                       const PlanesAndObjectsParams& p, cv::Mat& labels) {
+  const RowRuns runs = labelRunsOf(labels);
+  int label_count = 0;
+  for (const auto& row : runs)
+    for (const LabelRun& run : row) label_count = std::max(label_count, run.label);
+  if (label_count <= plane_count) return;
+  const ObjectShapes shapes = objectShapes(depth_mm, intrinsics, runs, plane_count, label_count, p);
+  const std::vector<bool>& curved = shapes.curved;
+  const Borders borders = regionBorders(depth_mm, runs, p.continuity);
+  std::vector<int> parent(static_cast<std::size_t>(label_count) + 1);
+  resetSets(parent);
+  const auto on_one_surface = [&](const Border& b) {
+    return b.continuous >= p.join_min_border_px &&
+           b.continuous >= p.join_min_continuous_share * (b.continuous + b.steps);
+  };
+  for (const auto& [key, border] : borders) {
+    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
+    if (curved[a] && curved[b] && on_one_surface(border) &&
+        oneQuadricFitsBoth(depth_mm, intrinsics, runs, plane_count, p, shapes, a, b))
+      unite(parent, a, b);
+  }
+  // Each region's continuous border, in total and with each curved set it touches.
+  std::vector<int> continuous_border(parent.size(), 0);
+  std::unordered_map<std::uint64_t, int> border_with_curved;  // (region, curved root)
+  for (const auto& [key, border] : borders) {
+    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
+    continuous_border[a] += border.continuous;
+    continuous_border[b] += border.continuous;
+    const int root_a = findRoot(parent, a), root_b = findRoot(parent, b);
+    if (root_a == root_b) continue;
+    if (!curved[a] && curved[b])
+      border_with_curved[static_cast<std::uint64_t>(a) << 32 | root_b] += border.continuous;
+    if (!curved[b] && curved[a])
+      border_with_curved[static_cast<std::uint64_t>(b) << 32 | root_a] += border.continuous;
+  }
+  std::vector<std::pair<int, int>> caps;  // (region, curved root)
+  for (const auto& [key, continuous] : border_with_curved) {
+    const int region = static_cast<int>(key >> 32), object = static_cast<int>(key & 0xffffffffu);
+    if (p.cap_min_border_share > 0.0 && continuous >= p.join_min_border_px &&
+        continuous >= p.cap_min_border_share * continuous_border[region])
+      caps.emplace_back(region, object);
+  }
+  for (const auto& [region, object] : caps) unite(parent, region, object);
+  relabelToRoots(parent, runs, labels);
+}
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.
 cv::Mat compactRegions(const cv::Mat& labels, int min_pixels) {
   const RowRuns runs = labelRunsOf(labels);
@@ -210,6 +404,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   CV_Assert(depth_mm.type() == CV_16UC1 && planes.labels.type() == CV_16UC1 &&
             planes.labels.size() == depth_mm.size());
   const PlanesAndObjectsParams& p = params.planes_and_objects;
+
   const cv::Mat objects =
       segmentDepth(depth_mm, intrinsics, SegmentationMethod::kPlanePrediction, params);
   int plane_count = 0;
@@ -219,6 +414,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   splitDisconnectedObjects(labels, plane_count, runs);
   clearSlivers(labels, plane_count, runs, p);
   growIntoUnlabelled(depth_mm, p, labels);
+  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, plane_count, p, labels);
   return compactRegions(labels, p.min_region_px);
 }
 

@@ -18,35 +18,66 @@ constexpr int kTestFrames = 60;
 
 struct SplitScore {
   int truth_regions = 0, correct = 0;
+  int curved_objects = 0, curved_objects_split = 0;
   double pixel_accuracy_sum = 0;
   int frames = 0;
 };
 
-const SplitScore& testSplitScore() {
-  static const SplitScore score = [] {
-    SplitScore s;
-    const DetectorConfig config;
-    HoughPlaneDetector hough(config.hough_params);
-    for (int i = 0; i < kTestFrames; ++i) {
-      const eval::EvalScene scene = eval::evalScene(eval::Split::kTest, i);
-      const auto f = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
-      const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
-      const SegmentationResult seg =
-          segmentFrame(f.frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
-      const SegCompScore sc = eval::scoreSegments(seg.labels, f.truth);
-      s.truth_regions += sc.truth_regions;
-      s.correct += sc.correct;
-      s.pixel_accuracy_sum += sc.pixel_accuracy;
-      ++s.frames;
+// Truth regions that are no surface of the scene are the one region of an object with a curved
+// surface (eval::segmentTruth).
+bool isCurvedObject(const SegCompTruthRegion& region, const synthetic::TruthFrame& truth) {
+  for (const auto& surface : truth.surfaces)
+    if (surface.id == region.label) return false;
+  return true;
+}
+
+SplitScore scoreTestSplit(const DetectorConfig& config) {
+  SplitScore s;
+  HoughPlaneDetector hough(config.hough_params);
+  for (int i = 0; i < kTestFrames; ++i) {
+    const eval::EvalScene scene = eval::evalScene(eval::Split::kTest, i);
+    const auto f = synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+    const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
+    const SegmentationResult seg =
+        segmentFrame(f.frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
+    const SegCompScore sc = eval::scoreSegments(seg.labels, f.truth);
+    s.truth_regions += sc.truth_regions;
+    s.correct += sc.correct;
+    s.pixel_accuracy_sum += sc.pixel_accuracy;
+    for (const SegCompTruthRegion& region : sc.truth) {
+      if (!region.considered || !isCurvedObject(region, f.truth)) continue;
+      ++s.curved_objects;
+      s.curved_objects_split += region.outcome == SegCompOutcome::kOverSegmented;
     }
-    return s;
-  }();
+    ++s.frames;
+  }
+  return s;
+}
+
+const SplitScore& testSplitScore() {
+  static const SplitScore score = scoreTestSplit(DetectorConfig{});
   return score;
 }
 
 TEST(SegmentationQuality, DefaultIsPlanesAndObjects) {
   EXPECT_EQ(kDefaultSegmentationMethod, SegmentationMethod::kPlanesAndObjects);
   EXPECT_EQ(DetectorConfig{}.segmentation, SegmentationMethod::kPlanesAndObjects);
+}
+
+// Requirement: each curved object one region. Regression record: at most 30% of them split
+// (reached 22 of 79). Curved objects that plane_prediction cuts at a rim or a bend, or whose
+// flat top is a region of its own, are joined again; without that 33 of the 79 are split.
+TEST(SegmentationQuality, CurvedObjectsSplitRegressionRecord) {
+  const SplitScore& s = testSplitScore();
+  ASSERT_GT(s.curved_objects, 60);
+  EXPECT_LE(s.curved_objects_split, 0.30 * s.curved_objects)
+      << s.curved_objects_split << " of " << s.curved_objects;
+  DetectorConfig without;
+  without.segmentation_params.planes_and_objects.join_curved_objects = false;
+  const SplitScore before = scoreTestSplit(without);
+  EXPECT_GT(before.curved_objects_split, s.curved_objects_split);
+  std::printf("curved objects split: %d of %d, without joining %d\n", s.curved_objects_split,
+              s.curved_objects, before.curved_objects_split);
 }
 
 // Target: pixel accuracy >= 0.95 (reached 0.976).
@@ -56,12 +87,12 @@ TEST(SegmentationQuality, DefaultMeetsThePixelAccuracyTarget) {
   EXPECT_GE(s.pixel_accuracy_sum / s.frames, 0.95);
 }
 
-// Target: correct >= 0.85. Regression record: 0.81 (reached 0.821; plane_prediction 0.53 on
+// Target: correct >= 0.85. Regression record: 0.82 (reached 0.830; plane_prediction 0.53 on
 // the same split, depth_step 0.10).
 TEST(SegmentationQuality, DefaultCorrectRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.truth_regions, 500);
-  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.81);
+  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.82);
 }
 
 eval::RealSegmentScore realScore(const char* recording) {
@@ -77,7 +108,7 @@ eval::RealSegmentScore realScore(const char* recording) {
   return total;
 }
 
-// Target: >= 0.95 of the real objects kept apart, the table one region (reached 98 of 98 and
+// Target: >= 0.95 of the real objects kept apart, the table one region (reached 96 of 98 and
 // 33 of 33 on mosd_test; 40 of 42 and 6 of 6 on mosd_tabletop).
 TEST(SegmentationQuality, RealObjectsAreKeptApart) {
   for (const char* recording : {"mosd_test", "mosd_tabletop"}) {

@@ -233,6 +233,28 @@ struct PlanesAndObjectsParams {
   int sliver_radius_px = 3;
   /// Regions smaller than this (full-resolution pixels) are dropped. Default 64.
   int min_region_px = 64;
+  /// Whether curved objects that the steps above leave in pieces are joined again (below).
+  /// Default true.
+  bool join_curved_objects = true;
+  /// An object region is curved when a quadric fits its points (every
+  /// curved_sample_step_px pixels) curved_rms_ratio times better than their plane and bends
+  /// more than curved_min_curvature_per_m. Defaults 2 px, 2, 2 /m (a radius of 0.5 m). Faces
+  /// meeting at a crease (a table leg's two sides in one region) reach ratios up to ~1.7.
+  int curved_sample_step_px = 2;
+  double curved_rms_ratio = 2.0;
+  double curved_min_curvature_per_m = 2.0;
+  /// Two curved object regions are one object when at least join_min_border_px pixel
+  /// pairs across their border, and join_min_continuous_share of all, have no depth step
+  /// between them. Defaults 10, 0.7.
+  int join_min_border_px = 10;
+  double join_min_continuous_share = 0.7;
+  /// ...and one quadric fits both with an RMS residual at most this many times that of their
+  /// own two quadrics. Default 2.
+  double join_quadric_rms_factor = 2.0;
+  /// A region that is not curved (a tin's flat top, a piece of a bowl) joins a curved object
+  /// when at least this share of its border pixel pairs without a depth step lie along that
+  /// object. 0 disables. Default 0.8.
+  double cap_min_border_share = 0.8;
   /// The planes when segmentDepth detects them itself (segmentWithPlanes takes them given).
   HoughPlaneParams planes{};
 };
