@@ -246,13 +246,15 @@ Borders regionBorders(const cv::Mat& depth_mm, const RowRuns& runs,
 }
 
 // Every region takes the label of its set's root, its smallest label: a tin and its top take
-// the top's.
-void relabelToRoots(std::vector<int>& parent, const RowRuns& runs, cv::Mat& labels) {
+// the top's. The runs take it too (two runs side by side may then hold one label).
+void relabelToRoots(std::vector<int>& parent, RowRuns& runs, cv::Mat& labels) {
   for (std::size_t v = 0; v < runs.size(); ++v) {
     int* l = labels.ptr<int>(static_cast<int>(v));
-    for (const LabelRun& run : runs[v]) {
+    for (LabelRun& run : runs[v]) {
       const int root = findRoot(parent, run.label);
-      if (root != run.label) std::fill(l + run.begin, l + run.end, root);
+      if (root == run.label) continue;
+      run.label = root;
+      std::fill(l + run.begin, l + run.end, root);
     }
   }
 }
@@ -332,10 +334,9 @@ bool oneQuadricFitsBoth(const cv::Mat& depth_mm, const CameraIntrinsics& intrins
 // bin where it bends fastest, and a tin's flat top is a region of its own. Two curved object
 // regions that meet on one surface (no depth step along most of their border) are joined;
 // then a region that is not curved joins the curved object along which most of its border on
-// one surface lies.
+// one surface lies. `runs`: the label image's runs; their labels change with the image's.
 void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, int plane_count,
-                       const PlanesAndObjectsParams& p, cv::Mat& labels) {
-  const RowRuns runs = labelRunsOf(labels);
+                       const PlanesAndObjectsParams& p, cv::Mat& labels, RowRuns& runs) {
   int label_count = 0;
   for (const auto& row : runs)
     for (const LabelRun& run : row) label_count = std::max(label_count, run.label);
@@ -380,8 +381,8 @@ void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsi
   relabelToRoots(parent, runs, labels);
 }
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.
-cv::Mat compactRegions(const cv::Mat& labels, int min_pixels) {
-  const RowRuns runs = labelRunsOf(labels);
+// `runs`: the label image's runs.
+cv::Mat compactRegions(const cv::Mat& labels, const RowRuns& runs, int min_pixels) {
   const std::vector<int> size = labelCounts(runs);
   std::vector<int> id(size.size(), 0);
   int next = 0;
@@ -414,8 +415,9 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   splitDisconnectedObjects(labels, plane_count, runs);
   clearSlivers(labels, plane_count, runs, p);
   growIntoUnlabelled(depth_mm, p, labels);
-  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, plane_count, p, labels);
-  return compactRegions(labels, p.min_region_px);
+  runs = labelRunsOf(labels);
+  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, plane_count, p, labels, runs);
+  return compactRegions(labels, runs, p.min_region_px);
 }
 
 }  // namespace shapesense::segmentation
