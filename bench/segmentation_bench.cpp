@@ -152,7 +152,7 @@ BENCHMARK(BM_Segment)
 
 // The default segmentation as the daemon runs it: after the plane stage, on its planes (the
 // plane detection is made once per frame outside the timed loop; BM_Segment's planes_objects
-// row includes it). curved_join 0: without joining curved objects' pieces.
+// row includes it). joins 0: without joining the pieces of faces and of curved objects.
 void BM_SegmentWithPlanes(benchmark::State& state) {
   const auto& src = source(static_cast<int>(state.range(0)));
   if (src.empty()) {
@@ -163,6 +163,7 @@ void BM_SegmentWithPlanes(benchmark::State& state) {
   std::vector<PlaneDetection> planes;
   for (const auto& depth : src) planes.push_back(hough.detect(depth, frames().intrinsics));
   SegmentationParams params;
+  params.planes_and_objects.join_face_parts = state.range(1) != 0;
   params.planes_and_objects.join_curved_objects = state.range(1) != 0;
   std::size_t i = 0;
   for (auto _ : state) {
@@ -173,7 +174,7 @@ void BM_SegmentWithPlanes(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SegmentWithPlanes)
-    ->ArgNames({"mosd", "curved_join"})
+    ->ArgNames({"mosd", "joins"})
     ->ArgsProduct({{0, 1}, {0, 1}})
     ->Unit(benchmark::kMillisecond);
 

@@ -30,6 +30,14 @@ void PlaneMoments::transform(const Eigen::Matrix3d& R, const Eigen::Vector3d& t)
   ref_ = R * ref_ + t;
 }
 
+double PlaneMoments::meanSquaredDistance(const Eigen::Vector3d& normal, double d) const {
+  if (n_ <= 0) return 0.0;
+  // Each point is ref + a: (n.ref + d + n.a)^2 summed is k^2 n + 2 k n.s + n^T ss n.
+  const double k = normal.dot(ref_) + d;
+  const Eigen::Matrix3d ss = ss_.selfadjointView<Eigen::Upper>();
+  return (k * k * n_ + 2.0 * k * normal.dot(s_) + normal.dot(ss * normal)) / n_;
+}
+
 PlaneFit PlaneMoments::fit(const Eigen::Vector3d& viewpoint) const {
   PlaneFit f;
   f.count = n_;

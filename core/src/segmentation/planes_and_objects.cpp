@@ -1,6 +1,7 @@
 #include "segmentation/planes_and_objects.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <unordered_map>
 #include <utility>
@@ -279,6 +280,7 @@ void eachObjectSample(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsic
 // quadric fits its points markedly better than their plane and bends as no flat face seen
 // through the sensor's noise does. Planes (labels up to plane_count) are not curved.
 struct ObjectShapes {
+  std::vector<PlaneMoments> moments;
   std::vector<Eigen::Vector3d> normal;
   std::vector<HeightFit> fit;
   std::vector<bool> curved;
@@ -294,6 +296,7 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
   std::vector<PlaneMoments> moments(count);
   each_sample([&](int label, const Eigen::Vector3d& x) { moments[label].add(x); });
   ObjectShapes shapes;
+  shapes.moments = moments;
   std::vector<HeightSums> heights;
   heights.reserve(count);
   for (const PlaneMoments& m : moments) {
@@ -330,36 +333,71 @@ bool oneQuadricFitsBoth(const cv::Mat& depth_mm, const CameraIntrinsics& intrins
   return fitHeights(both).quadricRms() <= p.join_quadric_rms_factor * own_rms;
 }
 
+// What the joining steps know of the regions after the growth: each object region's shape,
+// each border, and the sets joined so far (parent, over labels).
+struct RegionGraph {
+  int plane_count = 0;
+  ObjectShapes shapes;
+  Borders borders;
+  std::vector<int> parent;
+};
+
+// Faces the plane detector found only in part: an object region that is not curved, borders a
+// plane on one surface and lies on that plane's surface (the RMS distance of its points to it
+// is within face_part_rms_steps sensor depth steps at its range) joins it; of several such
+// planes, the one it lies closest to.
+void joinFacesFoundInPart(const PlaneDetection& planes, const PlanesAndObjectsParams& p,
+                          RegionGraph& graph) {
+  std::vector<const DetectedPlane*> plane_of(static_cast<std::size_t>(graph.plane_count) + 1,
+                                             nullptr);
+  for (const DetectedPlane& plane : planes.planes) plane_of[plane.id] = &plane;
+  std::vector<std::pair<double, int>> nearest(graph.parent.size(), {0.0, 0});  // (RMS, plane)
+  for (const auto& [key, border] : graph.borders) {
+    const int plane = static_cast<int>(key >> 32), object = static_cast<int>(key & 0xffffffffu);
+    if (plane > graph.plane_count || object <= graph.plane_count || !plane_of[plane] ||
+        graph.shapes.curved[object] || border.continuous < p.join_min_border_px)
+      continue;
+    const PlaneMoments& points = graph.shapes.moments[object];
+    if (points.count() < 12) continue;
+    const double rms =
+        std::sqrt(points.meanSquaredDistance(plane_of[plane]->normal, plane_of[plane]->d));
+    // The sensor's depth step seen along the plane's normal: a grazing plane's points scatter
+    // off it by a fraction of their scatter in depth.
+    const Eigen::Vector3d centroid = points.centroid();
+    const double along_normal = std::abs(plane_of[plane]->normal.dot(centroid)) / centroid.z();
+    const double tolerance =
+        p.face_part_rms_steps * p.continuity.noise.depthStep(centroid.z()) * along_normal;
+    auto& [nearest_rms, nearest_plane] = nearest[static_cast<std::size_t>(object)];
+    if (rms <= tolerance && (!nearest_plane || rms < nearest_rms)) nearest[object] = {rms, plane};
+  }
+  for (std::size_t object = 0; object < nearest.size(); ++object)
+    if (nearest[object].second)
+      unite(graph.parent, static_cast<int>(object), nearest[object].second);
+}
+
 // Curved objects made whole again: plane_prediction cuts a bowl at its rim and a ball or a
 // bin where it bends fastest, and a tin's flat top is a region of its own. Two curved object
-// regions that meet on one surface (no depth step along most of their border) are joined;
-// then a region that is not curved joins the curved object along which most of its border on
-// one surface lies. `runs`: the label image's runs; their labels change with the image's.
-void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics, int plane_count,
-                       const PlanesAndObjectsParams& p, cv::Mat& labels, RowRuns& runs) {
-  int label_count = 0;
-  for (const auto& row : runs)
-    for (const LabelRun& run : row) label_count = std::max(label_count, run.label);
-  if (label_count <= plane_count) return;
-  const ObjectShapes shapes = objectShapes(depth_mm, intrinsics, runs, plane_count, label_count, p);
-  const std::vector<bool>& curved = shapes.curved;
-  const Borders borders = regionBorders(depth_mm, runs, p.continuity);
-  std::vector<int> parent(static_cast<std::size_t>(label_count) + 1);
-  resetSets(parent);
+// regions that meet on one surface (no depth step along most of their border) and that one
+// quadric fits are joined; then a region that is not curved and not yet joined to anything
+// joins the curved object along which most of its border on one surface lies.
+void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                       const RowRuns& runs, const PlanesAndObjectsParams& p, RegionGraph& graph) {
+  const std::vector<bool>& curved = graph.shapes.curved;
+  std::vector<int>& parent = graph.parent;
   const auto on_one_surface = [&](const Border& b) {
     return b.continuous >= p.join_min_border_px &&
            b.continuous >= p.join_min_continuous_share * (b.continuous + b.steps);
   };
-  for (const auto& [key, border] : borders) {
+  for (const auto& [key, border] : graph.borders) {
     const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
     if (curved[a] && curved[b] && on_one_surface(border) &&
-        oneQuadricFitsBoth(depth_mm, intrinsics, runs, plane_count, p, shapes, a, b))
+        oneQuadricFitsBoth(depth_mm, intrinsics, runs, graph.plane_count, p, graph.shapes, a, b))
       unite(parent, a, b);
   }
   // Each region's continuous border, in total and with each curved set it touches.
   std::vector<int> continuous_border(parent.size(), 0);
   std::unordered_map<std::uint64_t, int> border_with_curved;  // (region, curved root)
-  for (const auto& [key, border] : borders) {
+  for (const auto& [key, border] : graph.borders) {
     const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
     continuous_border[a] += border.continuous;
     continuous_border[b] += border.continuous;
@@ -373,13 +411,35 @@ void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsi
   std::vector<std::pair<int, int>> caps;  // (region, curved root)
   for (const auto& [key, continuous] : border_with_curved) {
     const int region = static_cast<int>(key >> 32), object = static_cast<int>(key & 0xffffffffu);
-    if (p.cap_min_border_share > 0.0 && continuous >= p.join_min_border_px &&
+    if (findRoot(parent, region) == region && p.cap_min_border_share > 0.0 &&
+        continuous >= p.join_min_border_px &&
         continuous >= p.cap_min_border_share * continuous_border[region])
       caps.emplace_back(region, object);
   }
   for (const auto& [region, object] : caps) unite(parent, region, object);
-  relabelToRoots(parent, runs, labels);
 }
+
+// Regions that are pieces of one surface, joined. `runs`: the label image's runs; their labels
+// change with the image's.
+void joinPieces(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                const PlaneDetection& planes, int plane_count, const PlanesAndObjectsParams& p,
+                cv::Mat& labels, RowRuns& runs) {
+  if (!p.join_face_parts && !p.join_curved_objects) return;
+  int label_count = 0;
+  for (const auto& row : runs)
+    for (const LabelRun& run : row) label_count = std::max(label_count, run.label);
+  if (label_count <= plane_count) return;
+  RegionGraph graph;
+  graph.plane_count = plane_count;
+  graph.shapes = objectShapes(depth_mm, intrinsics, runs, plane_count, label_count, p);
+  graph.borders = regionBorders(depth_mm, runs, p.continuity);
+  graph.parent.resize(static_cast<std::size_t>(label_count) + 1);
+  resetSets(graph.parent);
+  if (p.join_face_parts) joinFacesFoundInPart(planes, p, graph);
+  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, runs, p, graph);
+  relabelToRoots(graph.parent, runs, labels);
+}
+
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.
 // `runs`: the label image's runs.
 cv::Mat compactRegions(const cv::Mat& labels, const RowRuns& runs, int min_pixels) {
@@ -416,7 +476,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   clearSlivers(labels, plane_count, runs, p);
   growIntoUnlabelled(depth_mm, p, labels);
   runs = labelRunsOf(labels);
-  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, plane_count, p, labels, runs);
+  joinPieces(depth_mm, intrinsics, planes, plane_count, p, labels, runs);
   return compactRegions(labels, runs, p.min_region_px);
 }
 

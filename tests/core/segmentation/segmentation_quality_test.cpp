@@ -87,12 +87,12 @@ TEST(SegmentationQuality, DefaultMeetsThePixelAccuracyTarget) {
   EXPECT_GE(s.pixel_accuracy_sum / s.frames, 0.95);
 }
 
-// Target: correct >= 0.85. Regression record: 0.82 (reached 0.830; plane_prediction 0.53 on
+// Target: correct >= 0.85. Regression record: 0.83 (reached 0.835; plane_prediction 0.53 on
 // the same split, depth_step 0.10).
 TEST(SegmentationQuality, DefaultCorrectRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.truth_regions, 500);
-  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.82);
+  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.83);
 }
 
 eval::RealSegmentScore realScore(const char* recording) {

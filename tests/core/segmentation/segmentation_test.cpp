@@ -233,32 +233,76 @@ TEST(Segmentation, FloatingBoxesSeparatedByDepthSteps) {
 // the planes leave two separate patches of one such region uncovered (here two patches of a
 // floor, cut out of the given floor plane's labels), each patch is a region of its own: one
 // region for both would join whatever lies in them, as one object, across the image.
-TEST(Segmentation, PlanesAndObjectsGivesApartPiecesOfOneUncoveredRegionApartRegions) {
-  const CameraIntrinsics K;
-  Scene s;
-  s.planes = {{{0, -1, 0}, 0.8, 1}};
-  cv::Mat depth, truth;
-  render(s, K, 0.3, depth, truth);
+// A floor the plane detector found all but two patches of.
+struct FloorWithUncoveredPatches {
+  CameraIntrinsics K;
+  cv::Mat depth;
   PlaneDetection planes;
-  planes.labels = cv::Mat::zeros(depth.size(), CV_16UC1);
-  planes.labels.setTo(1, depth > 0);
-  const cv::Rect left(100, 330, 60, 60), right(480, 330, 60, 60);
-  planes.labels(left).setTo(0);
-  planes.labels(right).setTo(0);
-  DetectedPlane floor;
-  floor.id = 1;
-  floor.normal = Eigen::Vector3d(0, -1, 0);
-  floor.d = 0.8;
-  planes.planes.push_back(floor);
-  const cv::Mat regions =
-      segmentWithPlanes(depth, K, SegmentationMethod::kPlanesAndObjects, planes);
-  const cv::Point in_left(130, 360), in_right(510, 360);
-  const int left_label = regions.at<std::uint16_t>(in_left);
-  const int right_label = regions.at<std::uint16_t>(in_right);
+  const cv::Point in_left{130, 360}, in_right{510, 360}, on_floor{320, 420};
+
+  FloorWithUncoveredPatches() {
+    Scene s;
+    s.planes = {{{0, -1, 0}, 0.8, 1}};
+    cv::Mat truth;
+    render(s, K, 0.3, depth, truth);
+    planes.labels = cv::Mat::zeros(depth.size(), CV_16UC1);
+    planes.labels.setTo(1, depth > 0);
+    planes.labels(cv::Rect(100, 330, 60, 60)).setTo(0);
+    planes.labels(cv::Rect(480, 330, 60, 60)).setTo(0);
+    DetectedPlane floor;
+    floor.id = 1;
+    floor.normal = Eigen::Vector3d(0, -1, 0);
+    floor.d = 0.8;
+    planes.planes.push_back(floor);
+  }
+};
+
+// Without the joining of faces found in part, the patches (one plane_prediction region minus
+// the plane) are two regions, apart from each other and from the plane.
+TEST(Segmentation, PlanesAndObjectsGivesApartPiecesOfOneUncoveredRegionApartRegions) {
+  const FloorWithUncoveredPatches scene;
+  SegmentationParams params;
+  params.planes_and_objects.join_face_parts = false;
+  const cv::Mat regions = segmentWithPlanes(
+      scene.depth, scene.K, SegmentationMethod::kPlanesAndObjects, scene.planes, params);
+  const int left_label = regions.at<std::uint16_t>(scene.in_left);
+  const int right_label = regions.at<std::uint16_t>(scene.in_right);
   ASSERT_NE(left_label, 0);
   ASSERT_NE(right_label, 0);
-  EXPECT_NE(left_label, regions.at<std::uint16_t>(420, 320)) << "the patch joined the floor";
+  EXPECT_NE(left_label, regions.at<std::uint16_t>(scene.on_floor)) << "the patch joined the floor";
   EXPECT_NE(left_label, right_label);
+}
+
+// With it (the default), patches that lie on the plane they border are the rest of its face.
+TEST(Segmentation, PlanesAndObjectsJoinsPatchesOnAPlaneToIt) {
+  const FloorWithUncoveredPatches scene;
+  const cv::Mat regions =
+      segmentWithPlanes(scene.depth, scene.K, SegmentationMethod::kPlanesAndObjects, scene.planes);
+  const int floor_label = regions.at<std::uint16_t>(scene.on_floor);
+  ASSERT_NE(floor_label, 0);
+  EXPECT_EQ(regions.at<std::uint16_t>(scene.in_left), floor_label);
+  EXPECT_EQ(regions.at<std::uint16_t>(scene.in_right), floor_label);
+}
+
+// A patch standing 3 cm proud of the floor (a board lying on it) is no part of the floor,
+// though the plane_prediction region around it may border the floor without a depth step.
+TEST(Segmentation, PlanesAndObjectsKeepsAPatchProudOfThePlaneApart) {
+  FloorWithUncoveredPatches scene;
+  const cv::Rect board(480, 330, 60, 60);
+  // Raise the right patch 3 cm towards the camera along the floor's normal (y up is -y).
+  for (int v = board.y; v < board.y + board.height; ++v)
+    for (int u = board.x; u < board.x + board.width; ++u) {
+      std::uint16_t& z = scene.depth.at<std::uint16_t>(v, u);
+      if (!z) continue;
+      const double y = (v - scene.K.cy) / scene.K.fy;  // ray's y per metre of z
+      z = static_cast<std::uint16_t>(std::lround(0.77 / y * 1000.0));
+    }
+  const cv::Mat regions =
+      segmentWithPlanes(scene.depth, scene.K, SegmentationMethod::kPlanesAndObjects, scene.planes);
+  const int floor_label = regions.at<std::uint16_t>(scene.on_floor);
+  ASSERT_NE(floor_label, 0);
+  EXPECT_EQ(regions.at<std::uint16_t>(scene.in_left), floor_label);
+  EXPECT_NE(regions.at<std::uint16_t>(scene.in_right), floor_label);
 }
 
 // A wall at 3-4 m (tilted 40 deg, so it spans many disparity steps) must stay one region.

@@ -83,6 +83,9 @@ class PlaneMoments {
   /// Total-least-squares plane (smallest eigenvector of the covariance). The normal is oriented
   /// towards `viewpoint` (the camera centre by default). Invalid with < 3 points.
   PlaneFit fit(const Eigen::Vector3d& viewpoint = Eigen::Vector3d::Zero()) const;
+  /// Mean squared signed distance n.X + d of the points to the plane (unit `normal`, `d`);
+  /// 0 with no points.
+  double meanSquaredDistance(const Eigen::Vector3d& normal, double d) const;
 
  private:
   Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();
