@@ -103,7 +103,7 @@ void splitDisconnectedObjects(cv::Mat& labels, int plane_count, RowRuns& runs) {
 // its whole (2 r + 1)^2 window in the region), are cleared: the slivers plane_prediction leaves
 // along creases and borders between planes, which the growth below hands to their neighbours.
 // `runs`: the label image's runs.
-void clearSlivers(cv::Mat& labels, int plane_count, const RowRuns& runs,
+void clearSlivers(cv::Mat& labels, int plane_count, RowRuns& runs,
                   const PlanesAndObjectsParams& p) {
   // Pixels whose 3x3 window holds one label, eroded to the (2 r + 1)^2 window.
   cv::Mat uniform = cv::Mat::zeros(labels.size(), CV_8UC1);
@@ -129,19 +129,23 @@ void clearSlivers(cv::Mat& labels, int plane_count, const RowRuns& runs,
     cleared[label] = size[label] < p.min_object_px || !has_interior[label];
   for (int v = 0; v < labels.rows; ++v) {
     int* l = labels.ptr<int>(v);
-    for (const LabelRun& run : runs[static_cast<std::size_t>(v)])
-      if (cleared[run.label]) std::fill(l + run.begin, l + run.end, 0);
+    for (LabelRun& run : runs[static_cast<std::size_t>(v)])
+      if (cleared[run.label]) {
+        std::fill(l + run.begin, l + run.end, 0);
+        run.label = 0;
+      }
   }
 }
 
 // Pixels with depth and no region, by index (row-major).
-std::vector<int> unlabelledPixels(const cv::Mat& depth_mm, const cv::Mat& labels) {
+std::vector<int> unlabelledPixels(const cv::Mat& depth_mm, const RowRuns& runs) {
   std::vector<int> pixels;
-  for (int v = 0; v < labels.rows; ++v) {
+  for (int v = 0; v < depth_mm.rows; ++v) {
     const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    const int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u)
-      if (!l[u] && depth[u]) pixels.push_back(v * labels.cols + u);
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)])
+      if (!run.label)
+        for (int u = run.begin; u < run.end; ++u)
+          if (depth[u]) pixels.push_back(v * depth_mm.cols + u);
   }
   return pixels;
 }
@@ -149,9 +153,11 @@ std::vector<int> unlabelledPixels(const cv::Mat& depth_mm, const cv::Mat& labels
 // Growth passes: in each, every pixel still without a region takes the label of its
 // 4-neighbour nearest in depth among those labelled before the pass and on its surface (no
 // depth step between them), so a pass adds one ring.
-void growIntoUnlabelled(const cv::Mat& depth_mm, const PlanesAndObjectsParams& p, cv::Mat& labels) {
+// `runs`: the label image's runs.
+void growIntoUnlabelled(const cv::Mat& depth_mm, const RowRuns& runs,
+                        const PlanesAndObjectsParams& p, cv::Mat& labels) {
   CV_Assert(labels.isContinuous() && depth_mm.isContinuous());
-  std::vector<int> open = unlabelledPixels(depth_mm, labels), still_open;
+  std::vector<int> open = unlabelledPixels(depth_mm, runs), still_open;
   const int rows = labels.rows, cols = labels.cols;
   int* const lab = labels.ptr<int>(0);
   const std::uint16_t* const depth = depth_mm.ptr<std::uint16_t>(0);
@@ -260,26 +266,12 @@ void relabelToRoots(std::vector<int>& parent, RowRuns& runs, cv::Mat& labels) {
   }
 }
 
-// The object regions' points every curved_sample_step_px pixels, visited as (label, point).
-template <typename Visit>
-void eachObjectSample(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                      const RowRuns& runs, int plane_count, const PlanesAndObjectsParams& p,
-                      const Visit& visit) {
-  const int step = std::max(1, p.curved_sample_step_px);
-  for (int v = 0; v < static_cast<int>(runs.size()); v += step) {
-    const auto* z = depth_mm.ptr<std::uint16_t>(v);
-    for (const LabelRun& run : runs[static_cast<std::size_t>(v)]) {
-      if (run.label <= plane_count) continue;
-      for (int u = (run.begin + step - 1) / step * step; u < run.end; u += step)
-        if (z[u]) visit(run.label, intrinsics.backproject(u, v, z[u] * 1e-3));
-    }
-  }
-}
-
-// Each object region's plane normal, height fits, and whether it lies on a curved surface: a
-// quadric fits its points markedly better than their plane and bends as no flat face seen
-// through the sensor's noise does. Planes (labels up to plane_count) are not curved.
+// Each object region's sample points (every curved_sample_step_px pixels), plane normal and
+// height fits, and whether it lies on a curved surface: a quadric fits its points markedly
+// better than their plane and bends as no flat face seen through the sensor's noise does.
+// Planes (labels up to plane_count) have no samples and are not curved.
 struct ObjectShapes {
+  std::vector<std::vector<Eigen::Vector3d>> points;
   std::vector<PlaneMoments> moments;
   std::vector<Eigen::Vector3d> normal;
   std::vector<HeightFit> fit;
@@ -289,26 +281,33 @@ struct ObjectShapes {
 ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                           const RowRuns& runs, int plane_count, int label_count,
                           const PlanesAndObjectsParams& p) {
-  const auto each_sample = [&](const auto& visit) {
-    eachObjectSample(depth_mm, intrinsics, runs, plane_count, p, visit);
-  };
   const auto count = static_cast<std::size_t>(label_count) + 1;
-  std::vector<PlaneMoments> moments(count);
-  each_sample([&](int label, const Eigen::Vector3d& x) { moments[label].add(x); });
   ObjectShapes shapes;
-  shapes.moments = moments;
-  std::vector<HeightSums> heights;
-  heights.reserve(count);
-  for (const PlaneMoments& m : moments) {
-    const PlaneFit plane = m.count() >= 3 ? m.fit() : PlaneFit{};
-    shapes.normal.push_back(plane.valid ? plane.normal : Eigen::Vector3d::UnitZ());
-    heights.emplace_back(shapes.normal.back());
+  shapes.points.resize(count);
+  const int step = std::max(1, p.curved_sample_step_px);
+  for (int v = 0; v < static_cast<int>(runs.size()); v += step) {
+    const auto* z = depth_mm.ptr<std::uint16_t>(v);
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)]) {
+      if (run.label <= plane_count) continue;
+      auto& points = shapes.points[static_cast<std::size_t>(run.label)];
+      for (int u = (run.begin + step - 1) / step * step; u < run.end; u += step)
+        if (z[u]) points.push_back(intrinsics.backproject(u, v, z[u] * 1e-3));
+    }
   }
-  each_sample([&](int label, const Eigen::Vector3d& x) { heights[label].add(x); });
+  shapes.moments.resize(count);
+  shapes.normal.assign(count, Eigen::Vector3d::UnitZ());
   shapes.fit.resize(count);
   shapes.curved.assign(count, false);
   for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label) {
-    const HeightFit fit = fitHeights(heights[label]);
+    const auto& points = shapes.points[label];
+    if (points.size() < 3) continue;
+    PlaneMoments& moments = shapes.moments[label];
+    for (const Eigen::Vector3d& x : points) moments.add(x);
+    const PlaneFit plane = moments.fit();
+    if (plane.valid) shapes.normal[label] = plane.normal;
+    HeightSums heights(shapes.normal[label]);
+    for (const Eigen::Vector3d& x : points) heights.add(x);
+    const HeightFit fit = fitHeights(heights);
     shapes.fit[label] = fit;
     shapes.curved[label] = fit.reliable() && fit.curvature > p.curved_min_curvature_per_m &&
                            fit.planeToQuadricRms() >= p.curved_rms_ratio;
@@ -318,14 +317,10 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
 
 // Whether one quadric fits two curved regions together about as well as their own quadrics
 // fit each: pieces of one ball or bin do, two tins side by side do not.
-bool oneQuadricFitsBoth(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                        const RowRuns& runs, int plane_count, const PlanesAndObjectsParams& p,
-                        const ObjectShapes& shapes, int a, int b) {
+bool oneQuadricFitsBoth(const ObjectShapes& shapes, int a, int b, const PlanesAndObjectsParams& p) {
   HeightSums both((shapes.normal[a] + shapes.normal[b]).normalized());
-  eachObjectSample(depth_mm, intrinsics, runs, plane_count, p,
-                   [&](int label, const Eigen::Vector3d& x) {
-                     if (label == a || label == b) both.add(x);
-                   });
+  for (const int label : {a, b})
+    for (const Eigen::Vector3d& x : shapes.points[static_cast<std::size_t>(label)]) both.add(x);
   const HeightFit& fa = shapes.fit[a];
   const HeightFit& fb = shapes.fit[b];
   const double own_rms =
@@ -380,8 +375,7 @@ void joinFacesFoundInPart(const PlaneDetection& planes, const PlanesAndObjectsPa
 // regions that meet on one surface (no depth step along most of their border) and that one
 // quadric fits are joined; then a region that is not curved and not yet joined to anything
 // joins the curved object along which most of its border on one surface lies.
-void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                       const RowRuns& runs, const PlanesAndObjectsParams& p, RegionGraph& graph) {
+void joinCurvedObjects(const PlanesAndObjectsParams& p, RegionGraph& graph) {
   const std::vector<bool>& curved = graph.shapes.curved;
   std::vector<int>& parent = graph.parent;
   const auto on_one_surface = [&](const Border& b) {
@@ -391,7 +385,7 @@ void joinCurvedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsi
   for (const auto& [key, border] : graph.borders) {
     const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
     if (curved[a] && curved[b] && on_one_surface(border) &&
-        oneQuadricFitsBoth(depth_mm, intrinsics, runs, graph.plane_count, p, graph.shapes, a, b))
+        oneQuadricFitsBoth(graph.shapes, a, b, p))
       unite(parent, a, b);
   }
   // Each region's continuous border, in total and with each curved set it touches.
@@ -436,7 +430,7 @@ void joinPieces(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
   graph.parent.resize(static_cast<std::size_t>(label_count) + 1);
   resetSets(graph.parent);
   if (p.join_face_parts) joinFacesFoundInPart(planes, p, graph);
-  if (p.join_curved_objects) joinCurvedObjects(depth_mm, intrinsics, runs, p, graph);
+  if (p.join_curved_objects) joinCurvedObjects(p, graph);
   relabelToRoots(graph.parent, runs, labels);
 }
 
@@ -474,7 +468,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   RowRuns runs = labelRunsOf(labels);
   splitDisconnectedObjects(labels, plane_count, runs);
   clearSlivers(labels, plane_count, runs, p);
-  growIntoUnlabelled(depth_mm, p, labels);
+  growIntoUnlabelled(depth_mm, runs, p, labels);
   runs = labelRunsOf(labels);
   joinPieces(depth_mm, intrinsics, planes, plane_count, p, labels, runs);
   return compactRegions(labels, runs, p.min_region_px);
