@@ -255,6 +255,10 @@ struct FloorWithUncoveredPatches {
     floor.d = 0.8;
     planes.planes.push_back(floor);
   }
+
+  cv::Mat regions(const SegmentationParams& params = {}) const {
+    return segmentWithPlanes(depth, K, SegmentationMethod::kPlanesAndObjects, planes, params);
+  }
 };
 
 // Without the joining of faces found in part, the patches (one plane_prediction region minus
@@ -276,16 +280,16 @@ TEST(Segmentation, PlanesAndObjectsGivesApartPiecesOfOneUncoveredRegionApartRegi
 // With it (the default), patches that lie on the plane they border are the rest of its face.
 TEST(Segmentation, PlanesAndObjectsJoinsPatchesOnAPlaneToIt) {
   const FloorWithUncoveredPatches scene;
-  const cv::Mat regions =
-      segmentWithPlanes(scene.depth, scene.K, SegmentationMethod::kPlanesAndObjects, scene.planes);
+  const cv::Mat regions = scene.regions();
   const int floor_label = regions.at<std::uint16_t>(scene.on_floor);
   ASSERT_NE(floor_label, 0);
   EXPECT_EQ(regions.at<std::uint16_t>(scene.in_left), floor_label);
   EXPECT_EQ(regions.at<std::uint16_t>(scene.in_right), floor_label);
 }
 
-// A patch standing 3 cm proud of the floor (a board lying on it) is no part of the floor,
-// though the plane_prediction region around it may border the floor without a depth step.
+// A patch standing 3 cm proud of the floor (a board lying on it, 3.4 m away) is no part of the
+// floor, though it borders the floor without a depth step and lies within 2 depth steps of it:
+// seen this obliquely, the floor's points scatter off it by a quarter of their depth scatter.
 TEST(Segmentation, PlanesAndObjectsKeepsAPatchProudOfThePlaneApart) {
   FloorWithUncoveredPatches scene;
   const cv::Rect board(480, 330, 60, 60);
@@ -297,8 +301,7 @@ TEST(Segmentation, PlanesAndObjectsKeepsAPatchProudOfThePlaneApart) {
       const double y = (v - scene.K.cy) / scene.K.fy;  // ray's y per metre of z
       z = static_cast<std::uint16_t>(std::lround(0.77 / y * 1000.0));
     }
-  const cv::Mat regions =
-      segmentWithPlanes(scene.depth, scene.K, SegmentationMethod::kPlanesAndObjects, scene.planes);
+  const cv::Mat regions = scene.regions();
   const int floor_label = regions.at<std::uint16_t>(scene.on_floor);
   ASSERT_NE(floor_label, 0);
   EXPECT_EQ(regions.at<std::uint16_t>(scene.in_left), floor_label);
