@@ -26,8 +26,12 @@
 //                      connected piece apart (an object standing on a plane is cut from it by
 //                      the plane, and from its neighbours by the prediction edges and by the
 //                      plane between them); pixels still left (region borders,
-//                      small pieces) join a depth-continuous neighbour. Given the frame's plane
-//                      detection (segmentWithPlanes) it costs kPlanePrediction plus a pass.
+//                      small pieces) join a depth-continuous neighbour. Then pieces of one
+//                      surface are joined: an object region lying on a plane it borders (the
+//                      rest of a face the plane detector found in part), curved pieces of one
+//                      object that one quadric fits, and a flat region (a tin's top) lying
+//                      mostly along a curved object. Given the frame's plane detection
+//                      (segmentWithPlanes) it costs kPlanePrediction plus a few passes.
 //
 // All methods work at 1/`downsample` resolution (default 2, i.e. 320x240 for a Kinect frame) and
 // upsample the labels with nearest neighbour; region borders are then accurate to 1-2 full-res
