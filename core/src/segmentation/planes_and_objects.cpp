@@ -339,8 +339,8 @@ struct RegionGraph {
 
 // Faces the plane detector found only in part: an object region that is not curved, borders a
 // plane on one surface and lies on that plane's surface (the RMS distance of its points to it
-// is within face_part_rms_steps sensor depth steps at its range) joins it; of several such
-// planes, the one it lies closest to.
+// is within face_part_rms_steps sensor depth steps at its range, seen along the plane's
+// normal) joins it; of several such planes, the one it lies closest to.
 void joinFacesFoundInPart(const PlaneDetection& planes, const PlanesAndObjectsParams& p,
                           RegionGraph& graph) {
   std::vector<const DetectedPlane*> plane_of(static_cast<std::size_t>(graph.plane_count) + 1,
@@ -363,7 +363,10 @@ void joinFacesFoundInPart(const PlaneDetection& planes, const PlanesAndObjectsPa
     const double tolerance =
         p.face_part_rms_steps * p.continuity.noise.depthStep(centroid.z()) * along_normal;
     auto& [nearest_rms, nearest_plane] = nearest[static_cast<std::size_t>(object)];
-    if (rms <= tolerance && (!nearest_plane || rms < nearest_rms)) nearest[object] = {rms, plane};
+    if (rms <= tolerance && (!nearest_plane || rms < nearest_rms)) {
+      nearest_rms = rms;
+      nearest_plane = plane;
+    }
   }
   for (std::size_t object = 0; object < nearest.size(); ++object)
     if (nearest[object].second)
@@ -459,7 +462,6 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   CV_Assert(depth_mm.type() == CV_16UC1 && planes.labels.type() == CV_16UC1 &&
             planes.labels.size() == depth_mm.size());
   const PlanesAndObjectsParams& p = params.planes_and_objects;
-
   const cv::Mat objects =
       segmentDepth(depth_mm, intrinsics, SegmentationMethod::kPlanePrediction, params);
   int plane_count = 0;
