@@ -152,7 +152,8 @@ BENCHMARK(BM_Segment)
 
 // The default segmentation as the daemon runs it: after the plane stage, on its planes (the
 // plane detection is made once per frame outside the timed loop; BM_Segment's planes_objects
-// row includes it). joins 0: without joining the pieces of faces and of curved objects.
+// row includes it). joins 0: without joining the pieces of faces and of curved objects, nor
+// splitting creased regions.
 void BM_SegmentWithPlanes(benchmark::State& state) {
   const auto& src = source(static_cast<int>(state.range(0)));
   if (src.empty()) {
@@ -165,6 +166,7 @@ void BM_SegmentWithPlanes(benchmark::State& state) {
   SegmentationParams params;
   params.planes_and_objects.join_face_parts = state.range(1) != 0;
   params.planes_and_objects.join_curved_objects = state.range(1) != 0;
+  params.planes_and_objects.split_creased_objects = state.range(1) != 0;
   std::size_t i = 0;
   for (auto _ : state) {
     const std::size_t k = i++ % src.size();

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "segmentation/segmentation_kernels.h"
@@ -266,12 +268,87 @@ void relabelToRoots(std::vector<int>& parent, RowRuns& runs, cv::Mat& labels) {
   }
 }
 
+// Two planes fitted to points by alternating assignment and refit, from a split of the points
+// across `axis` through their centroid.
+struct TwoPlanes {
+  PlaneFit a, b;
+  double residual = -1.0;  // sum of squared distances to the nearer plane; < 0: no fit
+};
+
+TwoPlanes fitTwoPlanes(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centroid,
+                       const Eigen::Vector3d& axis) {
+  constexpr int kIterations = 3;
+  std::vector<std::uint8_t> on_b(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) on_b[i] = (points[i] - centroid).dot(axis) > 0;
+  TwoPlanes two;
+  for (int iteration = 0; iteration < kIterations; ++iteration) {
+    PlaneMoments moments_a, moments_b;
+    for (std::size_t i = 0; i < points.size(); ++i)
+      (on_b[i] ? moments_b : moments_a).add(points[i]);
+    two.a = moments_a.fit();
+    two.b = moments_b.fit();
+    if (!two.a.valid || !two.b.valid) return TwoPlanes{};
+    two.residual = 0.0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const double da = two.a.normal.dot(points[i]) + two.a.d;
+      const double db = two.b.normal.dot(points[i]) + two.b.d;
+      on_b[i] = std::abs(db) < std::abs(da);
+      two.residual += std::min(da * da, db * db);
+    }
+  }
+  return two;
+}
+
+// The two faces of an object region that is two faces meeting at a crease, if it is: two
+// planes (from a split across either in-plane axis, the better) each fit their points within
+// crease_face_rms_steps depth steps RMS and at least twice as well as one plane fits them all,
+// together better than the region's quadric does (a quadric bends smoothly: it fits a tin's
+// side better than two planes, and a crease worse), and their normals lie crease_min_angle_deg
+// or more apart. Regions flat within half the tolerance are not tried.
+std::optional<TwoPlanes> creaseFaces(const std::vector<Eigen::Vector3d>& points,
+                                     const PlaneMoments& moments, const HeightFit& quadric,
+                                     const PlanesAndObjectsParams& p) {
+  constexpr std::size_t kMinPoints = 60;
+  // The planes are fitted to at most this many of the points, evenly spread: enough for two
+  // faces' planes, and the cost stays that of a few hundred points however large the region.
+  constexpr std::size_t kMaxFitPoints = 150;
+  constexpr double kMinFacePoints = 20;
+  constexpr double kMinGain = 2.0;
+  if (points.size() < kMinPoints) return std::nullopt;
+  const Eigen::Vector3d centroid = moments.centroid();
+  const double tolerance = p.crease_face_rms_steps * p.continuity.noise.depthStep(centroid.z());
+  const PlaneFit one = moments.fit();
+  if (!one.valid || one.rms_m <= tolerance) return std::nullopt;
+  const std::size_t stride = (points.size() + kMaxFitPoints - 1) / kMaxFitPoints;
+  std::vector<Eigen::Vector3d> fit_points;
+  fit_points.reserve(points.size() / stride + 1);
+  for (std::size_t i = 0; i < points.size(); i += stride) fit_points.push_back(points[i]);
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& x : fit_points)
+    scatter += (x - centroid) * (x - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(scatter);  // ascending: normal first
+  TwoPlanes best;
+  for (const int axis : {1, 2}) {
+    const TwoPlanes two = fitTwoPlanes(fit_points, centroid, axes.eigenvectors().col(axis));
+    if (two.residual >= 0.0 && (best.residual < 0.0 || two.residual < best.residual)) best = two;
+  }
+  const double min_face_points = kMinFacePoints / static_cast<double>(stride);
+  if (best.residual < 0.0 || best.a.count < min_face_points || best.b.count < min_face_points ||
+      best.a.rms_m > tolerance || best.b.rms_m > tolerance ||
+      one.rms_m < kMinGain * std::max(best.a.rms_m, best.b.rms_m) ||
+      std::sqrt(best.residual / static_cast<double>(fit_points.size())) >= quadric.quadricRms() ||
+      std::abs(best.a.normal.dot(best.b.normal)) > std::cos(p.crease_min_angle_deg * M_PI / 180.0))
+    return std::nullopt;
+  return best;
+}
+
 // Each object region's sample points (every curved_sample_step_px pixels), plane normal and
 // height fits, and whether it lies on a curved surface: a quadric fits its points markedly
 // better than their plane and bends as no flat face seen through the sensor's noise does.
 // Planes (labels up to plane_count) have no samples and are not curved.
 struct ObjectShapes {
   std::vector<std::vector<Eigen::Vector3d>> points;
+  std::vector<std::optional<TwoPlanes>> faces;  // of the regions that are two faces at a crease
   std::vector<PlaneMoments> moments;
   std::vector<Eigen::Vector3d> normal;
   std::vector<HeightFit> fit;
@@ -298,6 +375,7 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
   shapes.normal.assign(count, Eigen::Vector3d::UnitZ());
   shapes.fit.resize(count);
   shapes.curved.assign(count, false);
+  shapes.faces.resize(count);
   for (std::size_t label = static_cast<std::size_t>(plane_count) + 1; label < count; ++label) {
     const auto& points = shapes.points[label];
     if (points.size() < 3) continue;
@@ -309,7 +387,9 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
     for (const Eigen::Vector3d& x : points) heights.add(x);
     const HeightFit fit = fitHeights(heights);
     shapes.fit[label] = fit;
-    shapes.curved[label] = fit.reliable() && fit.curvature > p.curved_min_curvature_per_m &&
+    if (p.split_creased_objects) shapes.faces[label] = creaseFaces(points, moments, fit, p);
+    shapes.curved[label] = !shapes.faces[label] && fit.reliable() &&
+                           fit.curvature > p.curved_min_curvature_per_m &&
                            fit.planeToQuadricRms() >= p.curved_rms_ratio;
   }
   return shapes;
@@ -416,12 +496,45 @@ void joinCurvedObjects(const PlanesAndObjectsParams& p, RegionGraph& graph) {
   for (const auto& [region, object] : caps) unite(parent, region, object);
 }
 
-// Regions that are pieces of one surface, joined. `runs`: the label image's runs; their labels
-// change with the image's.
+// Object regions that are two faces meeting at a crease (a table leg's two sides, which the
+// plane detector missed and plane_prediction did not cut), split into their faces: the pixels
+// nearer the second face's plane take a new label. Regions joined to another are left whole.
+void splitCreasedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                         RegionGraph& graph, cv::Mat& labels, RowRuns& runs) {
+  const std::size_t count = graph.parent.size();
+  std::vector<int> members(count, 0);
+  for (std::size_t label = 1; label < count; ++label)
+    ++members[static_cast<std::size_t>(findRoot(graph.parent, static_cast<int>(label)))];
+  const std::vector<std::optional<TwoPlanes>>& faces = graph.shapes.faces;
+  std::vector<int> second_label(count, 0);
+  int next_label = static_cast<int>(count);
+  for (std::size_t label = static_cast<std::size_t>(graph.plane_count) + 1; label < count; ++label)
+    if (members[label] == 1 && faces[label]) second_label[label] = next_label++;
+  if (next_label == static_cast<int>(count)) return;
+  for (std::size_t v = 0; v < runs.size(); ++v) {
+    int* l = labels.ptr<int>(static_cast<int>(v));
+    const auto* z = depth_mm.ptr<std::uint16_t>(static_cast<int>(v));
+    for (const LabelRun& run : runs[v]) {
+      const auto label = static_cast<std::size_t>(run.label);
+      if (!second_label[label]) continue;
+      const TwoPlanes& two = *faces[label];
+      for (int u = run.begin; u < run.end; ++u) {
+        if (!z[u]) continue;
+        const Eigen::Vector3d x = intrinsics.backproject(u, static_cast<double>(v), z[u] * 1e-3);
+        if (std::abs(two.b.normal.dot(x) + two.b.d) < std::abs(two.a.normal.dot(x) + two.a.d))
+          l[u] = second_label[label];
+      }
+    }
+  }
+  runs = labelRunsOf(labels);
+}
+
+// Regions that are pieces of one surface, joined; then regions that are two faces, split.
+// `runs`: the label image's runs; their labels change with the image's.
 void joinPieces(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                 const PlaneDetection& planes, int plane_count, const PlanesAndObjectsParams& p,
                 cv::Mat& labels, RowRuns& runs) {
-  if (!p.join_face_parts && !p.join_curved_objects) return;
+  if (!p.join_face_parts && !p.join_curved_objects && !p.split_creased_objects) return;
   int label_count = 0;
   for (const auto& row : runs)
     for (const LabelRun& run : row) label_count = std::max(label_count, run.label);
@@ -435,6 +548,7 @@ void joinPieces(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
   if (p.join_face_parts) joinFacesFoundInPart(planes, p, graph);
   if (p.join_curved_objects) joinCurvedObjects(p, graph);
   relabelToRoots(graph.parent, runs, labels);
+  if (p.split_creased_objects) splitCreasedObjects(depth_mm, intrinsics, graph, labels, runs);
 }
 
 // Regions of at least min_pixels, renumbered 1..N in raster order of their first pixel.

@@ -66,7 +66,7 @@ TEST(SegmentationQuality, DefaultIsPlanesAndObjects) {
 
 // Requirement: each curved object one region. Regression record: at most 30% of them split
 // (reached 22 of 79). Curved objects that plane_prediction cuts at a rim or a bend, or whose
-// flat top is a region of its own, are joined again; without that 33 of the 79 are split.
+// flat top is a region of its own, are joined again; without that 34 of the 79 are split.
 TEST(SegmentationQuality, CurvedObjectsSplitRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.curved_objects, 60);
@@ -87,12 +87,12 @@ TEST(SegmentationQuality, DefaultMeetsThePixelAccuracyTarget) {
   EXPECT_GE(s.pixel_accuracy_sum / s.frames, 0.95);
 }
 
-// Target: correct >= 0.85. Regression record: 0.83 (reached 0.835; plane_prediction 0.53 on
+// Target: correct >= 0.85. Regression record: 0.84 (reached 0.842; plane_prediction 0.53 on
 // the same split, depth_step 0.10).
 TEST(SegmentationQuality, DefaultCorrectRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.truth_regions, 500);
-  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.83);
+  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.84);
 }
 
 eval::RealSegmentScore realScore(const char* recording) {

@@ -267,6 +267,13 @@ struct PlanesAndObjectsParams {
   /// when at least this share of its border pixel pairs without a depth step lie along that
   /// object. 0 disables. Default 0.8.
   double cap_min_border_share = 0.8;
+  /// Whether an object region left whole by the joining that is two faces meeting at a crease
+  /// is split into them: its one plane fits it worse than 2 x crease_face_rms_steps sensor
+  /// depth steps RMS, and two planes each fit their points within crease_face_rms_steps, with
+  /// normals crease_min_angle_deg or more apart. Defaults true, 1 step, 20 deg.
+  bool split_creased_objects = true;
+  double crease_face_rms_steps = 1.0;
+  double crease_min_angle_deg = 20.0;
   /// The planes when segmentDepth detects them itself (segmentWithPlanes takes them given).
   HoughPlaneParams planes{};
 };
