@@ -38,20 +38,6 @@ double largestCurvature(const Eigen::VectorXd& q) {
 HeightSums::HeightSums(const Eigen::Vector3d& normal)
     : normal_(normal), e1_(normal.unitOrthogonal()), e2_(normal.cross(e1_)) {}
 
-void HeightSums::add(const Eigen::Vector3d& x) {
-  if (count_ == 0) reference_ = x;
-  const Eigen::Vector3d p = x - reference_;
-  const double a = p.dot(e1_), b = p.dot(e2_), h = p.dot(normal_);
-  const double f[6] = {a * a, a * b, b * b, a, b, 1.0};
-  int k = 0;
-  for (int i = 0; i < 6; ++i) {
-    for (int j = i; j < 6; ++j) products_[k++] += f[i] * f[j];
-    rhs_[i] += h * f[i];
-  }
-  sum_h2_ += h * h;
-  ++count_;
-}
-
 Eigen::Matrix<double, 6, 6> HeightSums::normalMatrix() const {
   Eigen::Matrix<double, 6, 6> m;
   int k = 0;

@@ -362,12 +362,20 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
   ObjectShapes shapes;
   shapes.points.resize(count);
   const int step = std::max(1, p.curved_sample_step_px);
+  const auto first_sample = [step](int u) { return (u + step - 1) / step * step; };
+  std::vector<std::size_t> samples(count, 0);  // an upper bound: some have no depth
+  for (int v = 0; v < static_cast<int>(runs.size()); v += step)
+    for (const LabelRun& run : runs[static_cast<std::size_t>(v)])
+      if (run.label > plane_count && run.end > first_sample(run.begin))
+        samples[static_cast<std::size_t>(run.label)] +=
+            static_cast<std::size_t>((run.end - 1 - first_sample(run.begin)) / step + 1);
+  for (std::size_t label = 0; label < count; ++label) shapes.points[label].reserve(samples[label]);
   for (int v = 0; v < static_cast<int>(runs.size()); v += step) {
     const auto* z = depth_mm.ptr<std::uint16_t>(v);
     for (const LabelRun& run : runs[static_cast<std::size_t>(v)]) {
       if (run.label <= plane_count) continue;
       auto& points = shapes.points[static_cast<std::size_t>(run.label)];
-      for (int u = (run.begin + step - 1) / step * step; u < run.end; u += step)
+      for (int u = first_sample(run.begin); u < run.end; u += step)
         if (z[u]) points.push_back(intrinsics.backproject(u, v, z[u] * 1e-3));
     }
   }

@@ -18,7 +18,19 @@ class HeightSums {
   /// metres of range keep their precision.
   explicit HeightSums(const Eigen::Vector3d& normal = Eigen::Vector3d::UnitZ());
 
-  void add(const Eigen::Vector3d& x);
+  void add(const Eigen::Vector3d& x) {
+    if (count_ == 0) reference_ = x;
+    const Eigen::Vector3d p = x - reference_;
+    const double a = p.dot(e1_), b = p.dot(e2_), h = p.dot(normal_);
+    const double f[6] = {a * a, a * b, b * b, a, b, 1.0};
+    int k = 0;
+    for (int i = 0; i < 6; ++i) {
+      for (int j = i; j < 6; ++j) products_[k++] += f[i] * f[j];
+      rhs_[i] += h * f[i];
+    }
+    sum_h2_ += h * h;
+    ++count_;
+  }
   int count() const { return count_; }
   const Eigen::Vector3d& normal() const { return normal_; }
 
