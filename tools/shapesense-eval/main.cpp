@@ -108,8 +108,9 @@ void listSegmentMisses(int frame, const SegCompScore& score, const synthetic::Tr
   for (const SegCompTruthRegion& region : score.truth) {
     if (!region.considered || region.outcome == SegCompOutcome::kCorrect) continue;
     std::string name = "curved object";
-    for (const auto& surface : truth.surfaces)
-      if (surface.id == region.label) name = surface.name;
+    if (!eval::isCurvedObjectRegion(region.label, truth))
+      for (const auto& surface : truth.surfaces)
+        if (surface.id == region.label) name = surface.name;
     std::printf("frame %3d %-26s %6d px: %s\n", frame, name.c_str(), region.pixels,
                 outcomeName(region.outcome));
   }

@@ -5,7 +5,8 @@
 // then a count of the misses by cause: mostly unlabelled, taken by a plane of another surface,
 // or found only in part. With --spurious it lists the reported planes that lie on no one truth
 // plane and the surfaces they cover; with --dump-frame the truth and found labels of one frame
-// are written as images into --out. Detector parameters can be changed for experiments.
+// (planes, and the default segmentation's segments) are written as images into --out. Detector
+// parameters can be changed for experiments.
 //
 //   shapesense-plane-diag [--split validation] [--frames N] [--max-share S] [--quiet]
 //                         [--spurious] [--dump-frame I --out DIR] [--leftover-agreement DEG ...]
@@ -116,9 +117,9 @@ cv::Mat colourLabels(const cv::Mat& labels) {
 
 // The plane labels of truth and detector, and the segment labels of truth and the default
 // segmentation.
-void dumpLabels(const std::string& dir, const synthetic::TruthFrame& truth, const Frame& frame,
-                const PlaneDetection& found) {
-  cv::imwrite(dir + "/planes_truth.png", colourLabels(eval::planarTruth(truth)));
+void dumpLabels(const std::string& dir, const synthetic::TruthFrame& truth,
+                const cv::Mat& planar_truth, const Frame& frame, const PlaneDetection& found) {
+  cv::imwrite(dir + "/planes_truth.png", colourLabels(planar_truth));
   cv::imwrite(dir + "/planes_found.png", colourLabels(found.labels));
   cv::imwrite(dir + "/segments_truth.png", colourLabels(eval::segmentTruth(truth)));
   const SegmentationResult segments = segmentFrame(frame, kDefaultSegmentationMethod, {}, &found);
@@ -252,7 +253,7 @@ int main(int argc, char** argv) {
     total.add(score);
     (scene.curved_clutter ? clutter : plain).add(score);
     const cv::Mat truth = eval::planarTruth(f.truth);
-    if (i == dump_frame) dumpLabels(out_dir, f.truth, f.frame, out);
+    if (i == dump_frame) dumpLabels(out_dir, f.truth, truth, f.frame, out);
     const Overlaps o = overlapsOf(truth, out.labels);
     std::map<int, bool> correct;
     for (const auto& [tid, fid] : score.matches) correct[tid] = true;

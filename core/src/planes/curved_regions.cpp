@@ -1,6 +1,5 @@
 #include "planes/curved_regions.h"
 
-#include <array>
 #include <cmath>
 #include <map>
 #include <utility>

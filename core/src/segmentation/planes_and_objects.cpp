@@ -204,13 +204,19 @@ struct Border {
   int steps = 0;
 };
 
-// The borders of every two 4-adjacent regions, keyed by (smaller label) << 32 | larger label.
+// Two labels as one key, first << 32 | second, and back.
+std::uint64_t labelPairKey(int first, int second) {
+  return static_cast<std::uint64_t>(first) << 32 | static_cast<std::uint32_t>(second);
+}
+
+std::pair<int, int> labelPair(std::uint64_t key) {
+  return {static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu)};
+}
+
+// The borders of every two 4-adjacent regions, keyed by their labels, the smaller first.
 using Borders = std::unordered_map<std::uint64_t, Border>;
 
-std::uint64_t borderKey(int a, int b) {
-  return static_cast<std::uint64_t>(std::min(a, b)) << 32 |
-         static_cast<std::uint32_t>(std::max(a, b));
-}
+std::uint64_t borderKey(int a, int b) { return labelPairKey(std::min(a, b), std::max(a, b)); }
 
 // Runs of two regions side by side, and overlapping runs of two regions in rows one above the
 // other, are where the borders lie: walking the runs skips the insides of regions.
@@ -301,13 +307,13 @@ TwoPlanes fitTwoPlanes(const std::vector<Eigen::Vector3d>& points, const Eigen::
 
 // The two faces of an object region that is two faces meeting at a crease, if it is: two
 // planes (from a split across either in-plane axis, the better) each fit their points within
-// crease_face_rms_steps depth steps RMS and at least twice as well as one plane fits them all,
-// together better than the region's quadric does (a quadric bends smoothly: it fits a tin's
+// crease_face_rms_steps depth steps RMS and at least twice as well as one plane (`one`) fits them
+// all, together better than the region's quadric does (a quadric bends smoothly: it fits a tin's
 // side better than two planes, and a crease worse), and their normals lie crease_min_angle_deg
 // or more apart. Regions flat within half the tolerance are not tried.
 std::optional<TwoPlanes> creaseFaces(const std::vector<Eigen::Vector3d>& points,
-                                     const PlaneMoments& moments, const HeightFit& quadric,
-                                     const PlanesAndObjectsParams& p) {
+                                     const PlaneMoments& moments, const PlaneFit& one,
+                                     const HeightFit& quadric, const PlanesAndObjectsParams& p) {
   constexpr std::size_t kMinPoints = 60;
   // The planes are fitted to at most this many of the points, evenly spread: enough for two
   // faces' planes, and the cost stays that of a few hundred points however large the region.
@@ -317,7 +323,6 @@ std::optional<TwoPlanes> creaseFaces(const std::vector<Eigen::Vector3d>& points,
   if (points.size() < kMinPoints) return std::nullopt;
   const Eigen::Vector3d centroid = moments.centroid();
   const double tolerance = p.crease_face_rms_steps * p.continuity.noise.depthStep(centroid.z());
-  const PlaneFit one = moments.fit();
   if (!one.valid || one.rms_m <= tolerance) return std::nullopt;
   const std::size_t stride = (points.size() + kMaxFitPoints - 1) / kMaxFitPoints;
   std::vector<Eigen::Vector3d> fit_points;
@@ -395,7 +400,7 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
     for (const Eigen::Vector3d& x : points) heights.add(x);
     const HeightFit fit = fitHeights(heights);
     shapes.fit[label] = fit;
-    if (p.split_creased_objects) shapes.faces[label] = creaseFaces(points, moments, fit, p);
+    if (p.split_creased_objects) shapes.faces[label] = creaseFaces(points, moments, plane, fit, p);
     shapes.curved[label] = !shapes.faces[label] && fit.reliable() &&
                            fit.curvature > p.curved_min_curvature_per_m &&
                            fit.planeToQuadricRms() >= p.curved_rms_ratio;
@@ -436,7 +441,7 @@ void joinFacesFoundInPart(const PlaneDetection& planes, const PlanesAndObjectsPa
   for (const DetectedPlane& plane : planes.planes) plane_of[plane.id] = &plane;
   std::vector<std::pair<double, int>> nearest(graph.parent.size(), {0.0, 0});  // (RMS, plane)
   for (const auto& [key, border] : graph.borders) {
-    const int plane = static_cast<int>(key >> 32), object = static_cast<int>(key & 0xffffffffu);
+    const auto [plane, object] = labelPair(key);
     if (plane > graph.plane_count || object <= graph.plane_count || !plane_of[plane] ||
         graph.shapes.curved[object] || border.continuous < p.join_min_border_px)
       continue;
@@ -474,7 +479,7 @@ void joinCurvedObjects(const PlanesAndObjectsParams& p, RegionGraph& graph) {
            b.continuous >= p.join_min_continuous_share * (b.continuous + b.steps);
   };
   for (const auto& [key, border] : graph.borders) {
-    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
+    const auto [a, b] = labelPair(key);
     if (curved[a] && curved[b] && on_one_surface(border) &&
         oneQuadricFitsBoth(graph.shapes, a, b, p))
       unite(parent, a, b);
@@ -483,19 +488,17 @@ void joinCurvedObjects(const PlanesAndObjectsParams& p, RegionGraph& graph) {
   std::vector<int> continuous_border(parent.size(), 0);
   std::unordered_map<std::uint64_t, int> border_with_curved;  // (region, curved root)
   for (const auto& [key, border] : graph.borders) {
-    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
+    const auto [a, b] = labelPair(key);
     continuous_border[a] += border.continuous;
     continuous_border[b] += border.continuous;
     const int root_a = findRoot(parent, a), root_b = findRoot(parent, b);
     if (root_a == root_b) continue;
-    if (!curved[a] && curved[b])
-      border_with_curved[static_cast<std::uint64_t>(a) << 32 | root_b] += border.continuous;
-    if (!curved[b] && curved[a])
-      border_with_curved[static_cast<std::uint64_t>(b) << 32 | root_a] += border.continuous;
+    if (!curved[a] && curved[b]) border_with_curved[labelPairKey(a, root_b)] += border.continuous;
+    if (!curved[b] && curved[a]) border_with_curved[labelPairKey(b, root_a)] += border.continuous;
   }
   std::vector<std::pair<int, int>> caps;  // (region, curved root)
   for (const auto& [key, continuous] : border_with_curved) {
-    const int region = static_cast<int>(key >> 32), object = static_cast<int>(key & 0xffffffffu);
+    const auto [region, object] = labelPair(key);
     if (findRoot(parent, region) == region && p.cap_min_border_share > 0.0 &&
         continuous >= p.join_min_border_px &&
         continuous >= p.cap_min_border_share * continuous_border[region])

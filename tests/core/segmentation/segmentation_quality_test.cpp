@@ -23,14 +23,6 @@ struct SplitScore {
   int frames = 0;
 };
 
-// Truth regions that are no surface of the scene are the one region of an object with a curved
-// surface (eval::segmentTruth).
-bool isCurvedObject(const SegCompTruthRegion& region, const synthetic::TruthFrame& truth) {
-  for (const auto& surface : truth.surfaces)
-    if (surface.id == region.label) return false;
-  return true;
-}
-
 SplitScore scoreTestSplit(const DetectorConfig& config) {
   SplitScore s;
   HoughPlaneDetector hough(config.hough_params);
@@ -45,7 +37,7 @@ SplitScore scoreTestSplit(const DetectorConfig& config) {
     s.correct += sc.correct;
     s.pixel_accuracy_sum += sc.pixel_accuracy;
     for (const SegCompTruthRegion& region : sc.truth) {
-      if (!region.considered || !isCurvedObject(region, f.truth)) continue;
+      if (!region.considered || !eval::isCurvedObjectRegion(region.label, f.truth)) continue;
       ++s.curved_objects;
       s.curved_objects_split += region.outcome == SegCompOutcome::kOverSegmented;
     }

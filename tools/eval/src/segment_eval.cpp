@@ -24,6 +24,14 @@ bool isCurvedObjectKind(const std::string& kind) {
   return false;
 }
 
+// The first label after every surface id: curved objects' regions take labels from it on, so
+// the two never collide.
+std::uint16_t firstObjectRegion(const synthetic::TruthFrame& truth) {
+  std::uint16_t next = 1;
+  for (const auto& s : truth.surfaces) next = std::max<std::uint16_t>(next, s.id + 1);
+  return next;
+}
+
 }  // namespace
 
 int osdOwner(int label) {
@@ -31,10 +39,12 @@ int osdOwner(int label) {
   return label >= 20 ? label / 10 : 0;
 }
 
+bool isCurvedObjectRegion(int label, const synthetic::TruthFrame& truth) {
+  return label >= firstObjectRegion(truth);
+}
+
 cv::Mat segmentTruth(const synthetic::TruthFrame& truth) {
-  // Curved objects get labels after every surface id, so the two never collide.
-  std::uint16_t next = 1;
-  for (const auto& s : truth.surfaces) next = std::max<std::uint16_t>(next, s.id + 1);
+  std::uint16_t next = firstObjectRegion(truth);
   std::map<std::uint16_t, std::uint16_t> object_region;
   for (const auto& o : truth.objects)
     if (isCurvedObjectKind(o.kind)) object_region[o.id] = next++;

@@ -122,8 +122,9 @@ struct PlaneLabelingParams {
   double curved_rms_ratio = 1.1;
   /// Two adjacent regions whose normals differ by at most curved_pair_max_angle_deg are two
   /// facets of one curved surface (a bin or a column found as several planes), and both are
-  /// dropped, when one quadric with such a curvature fits their samples together with an RMS
-  /// of at most curved_pair_rms_factor times the worse of their own plane fits. A crease or a
+  /// dropped, when each bends so on its own and one quadric with such a curvature fits their
+  /// samples together with an RMS of at most curved_pair_rms_factor times that of their two
+  /// plane fits (pooled). A crease or a
   /// step between two planes is no quadric, so they stay. 0 = no pair check. Defaults 1.0 and
   /// 60 deg.
   double curved_pair_rms_factor = 1.0;

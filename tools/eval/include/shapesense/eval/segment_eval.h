@@ -20,6 +20,10 @@ namespace shapesense::eval {
 /// surface (bowl, cup, tin, ball, bin, column, torus, mound, lid) as one region.
 cv::Mat segmentTruth(const synthetic::TruthFrame& truth);
 
+/// Whether `label` of segmentTruth(truth) is the one region of an object with a curved surface
+/// (else it is a surface of the scene, its label the surface's id).
+bool isCurvedObjectRegion(int label, const synthetic::TruthFrame& truth);
+
 /// SegComp at T = 0.8 of `regions` against segmentTruth(truth).
 SegCompScore scoreSegments(const cv::Mat& regions, const synthetic::TruthFrame& truth);
 
