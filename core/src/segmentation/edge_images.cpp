@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -149,48 +150,22 @@ cv::Mat smoothedInverseDepth(const cv::Mat& depth, const cv::Mat& inv, int s) {
                 cv::BORDER_CONSTANT);
   cv::boxFilter(mask, cnt, CV_32F, cv::Size(2 * s + 1, 2 * s + 1), cv::Point(-1, -1), false,
                 cv::BORDER_CONSTANT);
-  cv::Mat sm(depth.size(), CV_32F);
   const float min_cnt = 0.5f * static_cast<float>((2 * s + 1) * (2 * s + 1));
-  for (int v = 0; v < depth.rows; ++v) {
-    const float* a = inv_sum.ptr<float>(v);
-    const float* c = cnt.ptr<float>(v);
-    float* o = sm.ptr<float>(v);
-    for (int u = 0; u < depth.cols; ++u) o[u] = c[u] >= min_cnt ? a[u] / c[u] : 0.0f;
-  }
+  cv::Mat sm;
+  cv::divide(inv_sum, cv::max(cnt, min_cnt), sm);
+  sm.setTo(0.0f, cnt < min_cnt);
   return sm;
 }
 
-// Central differences of the smoothed inverse depth over +-g pixels; one-sided where one side
-// is missing, which keeps the prediction usable near holes. 0 where neither applies.
+// The smoothed inverse depth's gradient over +-g pixels (inverseDepthGradientRow).
 void inverseDepthGradient(const cv::Mat& sm, int g, cv::Mat& gx, cv::Mat& gy) {
   const int rows = sm.rows, cols = sm.cols;
-  gx = cv::Mat(rows, cols, CV_32F, cv::Scalar(0));
-  gy = cv::Mat(rows, cols, CV_32F, cv::Scalar(0));
-  const float inv2g = 1.0f / (2.0f * static_cast<float>(g));
-  const float fg = static_cast<float>(g);
-  for (int v = 0; v < rows; ++v) {
-    const float* c = sm.ptr<float>(v);
-    const float* up = sm.ptr<float>(std::max(v - g, 0));
-    const float* dn = sm.ptr<float>(std::min(v + g, rows - 1));
-    float* ox = gx.ptr<float>(v);
-    float* oy = gy.ptr<float>(v);
-    for (int u = g; u < cols - g; ++u) {
-      const float l = c[u - g], r = c[u + g];
-      if (l > 0 && r > 0)
-        ox[u] = (r - l) * inv2g;
-      else if (l > 0 && c[u] > 0)
-        ox[u] = (c[u] - l) / fg;
-      else if (r > 0 && c[u] > 0)
-        ox[u] = (r - c[u]) / fg;
-      const float t = up[u], b = dn[u];
-      if (t > 0 && b > 0 && v - g >= 0 && v + g < rows)
-        oy[u] = (b - t) * inv2g;
-      else if (t > 0 && c[u] > 0 && v - g >= 0)
-        oy[u] = (c[u] - t) / fg;
-      else if (b > 0 && c[u] > 0 && v + g < rows)
-        oy[u] = (b - c[u]) / fg;
-    }
-  }
+  gx.create(rows, cols, CV_32F);
+  gy.create(rows, cols, CV_32F);
+  for (int v = 0; v < rows; ++v)
+    inverseDepthGradientRow(v - g >= 0 ? sm.ptr<float>(v - g) : nullptr, sm.ptr<float>(v),
+                            v + g < rows ? sm.ptr<float>(v + g) : nullptr, g, cols,
+                            gx.ptr<float>(v), gy.ptr<float>(v));
 }
 
 struct PredictionOffset {
@@ -232,23 +207,16 @@ cv::Mat planePredictionEdges(const WorkingImage& w, const PlanePredictionParams&
   const std::vector<PredictionOffset> offsets = predictionOffsets(p);
   cv::Mat edges(rows, cols, CV_8UC1);
   if (short_edges) short_edges->create(rows, cols, CV_8UC1);
-  std::vector<std::uint8_t> acc_short(cols), acc_long(cols);
-  std::vector<float> centre(cols);
   // Rows padded with `reach` columns of no reading on each side: a neighbour off the image
-  // then counts as a neighbour without depth, which is never anomalous.
+  // then counts as a neighbour without depth, which is never anomalous. No reading is NaN here.
   int reach = 0;
   for (const PredictionOffset& o : offsets) reach = std::max(reach, std::abs(o.du));
   cv::Mat padded;
-  cv::copyMakeBorder(inv, padded, 0, 0, reach, reach, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::copyMakeBorder(inv, padded, 0, 0, reach, reach, cv::BORDER_CONSTANT,
+                     cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  padded.setTo(std::numeric_limits<float>::quiet_NaN(), padded == 0.0f);
   std::vector<PredictionNeighbour> neighbours;
   for (int v = 0; v < rows; ++v) {
-    const float* wc = inv.ptr<float>(v);
-    const float* smc = sm.ptr<float>(v);
-    const float* gxp = gx.ptr<float>(v);
-    const float* gyp = gy.ptr<float>(v);
-    for (int u = 0; u < cols; ++u) centre[u] = smc[u] > 0 ? smc[u] : wc[u];
-    std::fill(acc_short.begin(), acc_short.end(), 0);
-    std::fill(acc_long.begin(), acc_long.end(), 0);
     neighbours.clear();
     for (const PredictionOffset& o : offsets) {
       const int vq = v + o.dv;
@@ -256,16 +224,10 @@ cv::Mat planePredictionEdges(const WorkingImage& w, const PlanePredictionParams&
         neighbours.push_back({padded.ptr<float>(vq) + reach, o.du, o.dv,
                               o.long_range ? thr_long : thr, o.long_range});
     }
-    countPredictionAnomaliesRow(centre.data(), gxp, gyp, neighbours.data(),
-                                static_cast<int>(neighbours.size()), cols, acc_short.data(),
-                                acc_long.data());
-    auto* e = edges.ptr<std::uint8_t>(v);
-    for (int u = 0; u < cols; ++u)
-      e[u] = wc[u] == 0.0f ? kNoDepth : static_cast<std::uint8_t>(acc_short[u] + acc_long[u]);
-    if (short_edges) {
-      auto* es = short_edges->ptr<std::uint8_t>(v);
-      for (int u = 0; u < cols; ++u) es[u] = wc[u] == 0.0f ? kNoDepth : acc_short[u];
-    }
+    predictionEdgesRow(inv.ptr<float>(v), sm.ptr<float>(v), gx.ptr<float>(v), gy.ptr<float>(v),
+                       neighbours.data(), static_cast<int>(neighbours.size()), cols,
+                       edges.ptr<std::uint8_t>(v),
+                       short_edges ? short_edges->ptr<std::uint8_t>(v) : nullptr);
   }
   return edges;
 }

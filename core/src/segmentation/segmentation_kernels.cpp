@@ -9,6 +9,7 @@
 // Highway's foreach_target must come before highway.h.
 #include <hwy/highway.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "segmentation/segmentation_kernels.h"
@@ -296,9 +297,47 @@ bool LabelFullRow(const std::uint16_t* d, const std::uint16_t* lab2, const std::
 // ---------------------------------------------------------------------------------------------
 // Plane prediction
 
-void CountPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
-                                 const PredictionNeighbour* neighbours, int count, int cols,
-                                 std::uint8_t* counts_short, std::uint8_t* counts_long) {
+void InverseDepthGradientRow(const float* up, const float* row, const float* down, int g, int cols,
+                             float* gx, float* gy) {
+  std::fill(gx, gx + cols, 0.0f);
+  std::fill(gy, gy + cols, 0.0f);
+  int u = g;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<float> df;
+  const int lanes = static_cast<int>(hn::Lanes(df));
+  const auto zero = hn::Zero(df), span = hn::Set(df, static_cast<float>(g)),
+             two_spans = hn::Set(df, 2.0f * static_cast<float>(g));
+  // inverseDepthSlope, every branch computed and the applicable one kept.
+  const auto slope = [&](auto before, auto centre, auto after) {
+    const auto has_before = hn::Gt(before, zero), has_after = hn::Gt(after, zero),
+               has_centre = hn::Gt(centre, zero);
+    const auto central = hn::Div(hn::Sub(after, before), two_spans);
+    const auto backward = hn::Div(hn::Sub(centre, before), span);
+    const auto forward = hn::Div(hn::Sub(after, centre), span);
+    return hn::IfThenElse(
+        hn::And(has_before, has_after), central,
+        hn::IfThenElse(hn::And(has_before, has_centre), backward,
+                       hn::IfThenElseZero(hn::And(has_after, has_centre), forward)));
+  };
+  for (; u + lanes <= cols - g; u += lanes) {
+    const auto centre = hn::LoadU(df, row + u);
+    hn::StoreU(slope(hn::LoadU(df, row + u - g), centre, hn::LoadU(df, row + u + g)), df, gx + u);
+    hn::StoreU(
+        slope(up ? hn::LoadU(df, up + u) : zero, centre, down ? hn::LoadU(df, down + u) : zero), df,
+        gy + u);
+  }
+#endif
+  for (; u < cols - g; ++u) {
+    gx[u] = inverseDepthSlope(row[u - g], row[u], row[u + g], g);
+    gy[u] = inverseDepthSlope(up ? up[u] : 0.0f, row[u], down ? down[u] : 0.0f, g);
+  }
+}
+
+void PredictionEdgesRow(const float* inverse, const float* smoothed, const float* gx,
+                        const float* gy, const PredictionNeighbour* neighbours, int count, int cols,
+                        std::uint8_t* edges, std::uint8_t* short_edges) {
+  int short_end = 0;
+  while (short_end < count && !neighbours[short_end].long_range) ++short_end;
   int u = 0;
 #if HWY_TARGET != HWY_SCALAR
   const hn::ScalableTag<float> df;
@@ -306,40 +345,53 @@ void CountPredictionAnomaliesRow(const float* centre, const float* gx, const flo
   const hn::Rebind<std::uint8_t, decltype(df)> d8;
   const int lanes = static_cast<int>(hn::Lanes(df));
   const auto zero = hn::Zero(df);
+  const auto no_depth = hn::Set(di, kNoDepth);
   for (; u + lanes <= cols; u += lanes) {
-    const auto c = hn::LoadU(df, centre + u), g_x = hn::LoadU(df, gx + u),
-               g_y = hn::LoadU(df, gy + u);
-    auto short_count = hn::Zero(di), long_count = hn::Zero(di);
-    for (int k = 0; k < count; ++k) {
-      const PredictionNeighbour& q = neighbours[k];
-      // As the scalar rule: multiplies and adds apart, in its order.
-      const auto predicted =
-          hn::Add(hn::Add(c, hn::Mul(g_x, hn::Set(df, static_cast<float>(q.du)))),
-                  hn::Mul(g_y, hn::Set(df, static_cast<float>(q.dv))));
-      const auto y = hn::LoadU(df, q.row + u + q.du);
-      const auto anomaly = hn::And(
-          hn::Gt(y, zero), hn::Gt(hn::Abs(hn::Sub(y, predicted)), hn::Set(df, q.threshold)));
-      // A mask lane is all ones: -1 as an integer, so subtracting it counts.
-      const auto minus_one = hn::BitCast(di, hn::VecFromMask(df, anomaly));
-      if (q.long_range)
-        long_count = hn::Sub(long_count, minus_one);
-      else
-        short_count = hn::Sub(short_count, minus_one);
-    }
-    hn::StoreU(hn::Add(hn::LoadU(d8, counts_short + u), hn::DemoteTo(d8, short_count)), d8,
-               counts_short + u);
-    hn::StoreU(hn::Add(hn::LoadU(d8, counts_long + u), hn::DemoteTo(d8, long_count)), d8,
-               counts_long + u);
+    const auto reading = hn::LoadU(df, inverse + u), smooth = hn::LoadU(df, smoothed + u);
+    const auto c = hn::IfThenElse(hn::Gt(smooth, zero), smooth, reading);
+    const auto g_x = hn::LoadU(df, gx + u), g_y = hn::LoadU(df, gy + u);
+    auto along_v = c;
+    // Anomalies of neighbours [begin, end), as a negative count (a mask lane is all ones: -1 as
+    // an integer, so adding it counts down).
+    const auto count_anomalies = [&](int begin, int end) {
+      auto negative_count = hn::Zero(di);
+      for (int k = begin; k < end; ++k) {
+        const PredictionNeighbour& q = neighbours[k];
+        // As the scalar rule: multiplies and adds apart, in its order.
+        if (k == 0 || q.dv != neighbours[k - 1].dv)
+          along_v = hn::Add(c, hn::Mul(g_y, hn::Set(df, static_cast<float>(q.dv))));
+        const auto predicted =
+            hn::Add(along_v, hn::Mul(g_x, hn::Set(df, static_cast<float>(q.du))));
+        const auto y = hn::LoadU(df, q.row + u + q.du);
+        const auto anomaly = hn::Gt(hn::Abs(hn::Sub(y, predicted)), hn::Set(df, q.threshold));
+        negative_count = hn::Add(negative_count, hn::BitCast(di, hn::VecFromMask(df, anomaly)));
+      }
+      return hn::Neg(negative_count);
+    };
+    const auto short_count = count_anomalies(0, short_end);
+    const auto all_count = hn::Add(short_count, count_anomalies(short_end, count));
+    const auto without_depth = hn::RebindMask(di, hn::Eq(reading, zero));
+    hn::StoreU(hn::DemoteTo(d8, hn::IfThenElse(without_depth, no_depth, all_count)), d8, edges + u);
+    if (short_edges)
+      hn::StoreU(hn::DemoteTo(d8, hn::IfThenElse(without_depth, no_depth, short_count)), d8,
+                 short_edges + u);
   }
 #endif
-  for (; u < cols; ++u)
+  for (; u < cols; ++u) {
+    const float c = smoothed[u] > 0.0f ? smoothed[u] : inverse[u];
+    int short_count = 0, long_count = 0;
     for (int k = 0; k < count; ++k) {
       const PredictionNeighbour& q = neighbours[k];
       const bool anomaly =
-          predictionAnomaly(centre[u], gx[u], gy[u], q.row[u + q.du], static_cast<float>(q.du),
+          predictionAnomaly(c, gx[u], gy[u], q.row[u + q.du], static_cast<float>(q.du),
                             static_cast<float>(q.dv), q.threshold);
-      (q.long_range ? counts_long : counts_short)[u] += static_cast<std::uint8_t>(anomaly);
+      (q.long_range ? long_count : short_count) += anomaly;
     }
+    const bool without_depth = inverse[u] == 0.0f;
+    edges[u] = without_depth ? kNoDepth : static_cast<std::uint8_t>(short_count + long_count);
+    if (short_edges)
+      short_edges[u] = without_depth ? kNoDepth : static_cast<std::uint8_t>(short_count);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -420,7 +472,8 @@ HWY_EXPORT(ReduceRow);
 HWY_EXPORT(CollectFloodSeeds);
 HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
-HWY_EXPORT(CountPredictionAnomaliesRow);
+HWY_EXPORT(InverseDepthGradientRow);
+HWY_EXPORT(PredictionEdgesRow);
 HWY_EXPORT(UniformLabelRow);
 HWY_EXPORT(LabelRuns);
 
@@ -452,11 +505,16 @@ bool labelFullRow(const std::uint16_t* depth, const std::uint16_t* labels2,
   return HWY_DYNAMIC_DISPATCH(LabelFullRow)(depth, labels2, depth2, tolerance2, cols, out, bad);
 }
 
-void countPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
-                                 const PredictionNeighbour* neighbours, int count, int cols,
-                                 std::uint8_t* counts_short, std::uint8_t* counts_long) {
-  HWY_DYNAMIC_DISPATCH(CountPredictionAnomaliesRow)
-  (centre, gx, gy, neighbours, count, cols, counts_short, counts_long);
+void inverseDepthGradientRow(const float* up, const float* row, const float* down, int g, int cols,
+                             float* gx, float* gy) {
+  HWY_DYNAMIC_DISPATCH(InverseDepthGradientRow)(up, row, down, g, cols, gx, gy);
+}
+
+void predictionEdgesRow(const float* inverse, const float* smoothed, const float* gx,
+                        const float* gy, const PredictionNeighbour* neighbours, int count, int cols,
+                        std::uint8_t* edges, std::uint8_t* short_edges) {
+  HWY_DYNAMIC_DISPATCH(PredictionEdgesRow)
+  (inverse, smoothed, gx, gy, neighbours, count, cols, edges, short_edges);
 }
 
 void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,

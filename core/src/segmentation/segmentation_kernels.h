@@ -80,30 +80,53 @@ bool labelFullRow(const std::uint16_t* depth, const std::uint16_t* labels2,
                   const std::uint16_t* depth2, const std::uint16_t* tolerance2, int cols,
                   std::uint16_t* out, std::uint8_t* bad);
 
-/// Plane prediction's rule for one neighbour: its inverse depth `neighbour` is a reading (> 0)
-/// off the prediction from the centre's inverse depth and gradient, centre + gx * du + gy * dv,
-/// by more than `threshold`.
+/// One component of the smoothed inverse depth's gradient at a pixel, from the values `before`
+/// and `after` at -g and +g pixels along it (<= 0: none): the central difference, else a
+/// one-sided one with the pixel's own value, else 0. One-sided differences keep the prediction
+/// usable next to holes.
+inline float inverseDepthSlope(float before, float centre, float after, int g) {
+  const float span = static_cast<float>(g);
+  if (before > 0.0f && after > 0.0f) return (after - before) / (2.0f * span);
+  if (before > 0.0f && centre > 0.0f) return (centre - before) / span;
+  if (after > 0.0f && centre > 0.0f) return (after - centre) / span;
+  return 0.0f;
+}
+
+/// Row v of the smoothed inverse depth's gradient over +-g pixels (inverseDepthSlope): gx from
+/// `row`, gy from `up` and `down`, the rows v - g and v + g (null where off the image). 0 in the
+/// g columns at either end.
+void inverseDepthGradientRow(const float* up, const float* row, const float* down, int g, int cols,
+                             float* gx, float* gy);
+
+/// Plane prediction's rule for one neighbour: its inverse depth `neighbour` is off the
+/// prediction from the centre's inverse depth and gradient, (centre + gy * dv) + gx * du, by more
+/// than `threshold`. A neighbour without a reading is NaN, which is never off: no comparison with
+/// NaN holds, so the rule needs no test for it.
 inline bool predictionAnomaly(float centre, float gx, float gy, float neighbour, float du, float dv,
                               float threshold) {
-  const float predicted = centre + gx * du + gy * dv;
-  return (neighbour > 0.0f) & (std::fabs(neighbour - predicted) > threshold);
+  const float predicted = (centre + gy * dv) + gx * du;
+  return std::fabs(neighbour - predicted) > threshold;
 }
 
 /// A neighbour of plane prediction: its offset (du, dv), the inverse-depth row v + dv (readable
-/// at every column u + du of the pixels counted; 0 = no reading), and its ring's threshold.
+/// at every column u + du of the pixels counted; NaN = no reading), and its ring's threshold.
+/// Neighbours of one row given one after another share the part of the prediction along v.
 struct PredictionNeighbour {
   const float* row = nullptr;
   int du = 0, dv = 0;
   float threshold = 0.0f;
-  bool long_range = false;  ///< counts into the long-range counts, else the short-range ones
+  bool long_range = false;  ///< a neighbour of the long-range ring, else of the dense window
 };
 
-/// Row v's pixels u in [0, cols) against their `count` neighbours: the short- and long-range
-/// counts of predictionAnomaly are added to counts_short[u] and counts_long[u]. Each pixel's
-/// centre, gradient and counts stay in registers across the neighbours.
-void countPredictionAnomaliesRow(const float* centre, const float* gx, const float* gy,
-                                 const PredictionNeighbour* neighbours, int count, int cols,
-                                 std::uint8_t* counts_short, std::uint8_t* counts_long);
+/// Plane prediction's edge strength of row v: each pixel's count of anomalous neighbours
+/// (predictionAnomaly) into `edges` and, when it is not null, the count of the dense window's
+/// alone into `short_edges`; kNoDepth where `inverse`, the row's inverse depth, is 0 (no
+/// reading). The prediction starts from `smoothed` where it is > 0, else from `inverse`.
+/// `neighbours`: the dense window's first. Each pixel's centre, gradient and counts stay in
+/// registers across the neighbours.
+void predictionEdgesRow(const float* inverse, const float* smoothed, const float* gx,
+                        const float* gy, const PredictionNeighbour* neighbours, int count, int cols,
+                        std::uint8_t* edges, std::uint8_t* short_edges);
 
 /// One row of a label image's uniform pixels: out[u] = 255 where the 3 x 3 window around u in
 /// the rows `above`, `row`, `below` holds row[u]'s label only, else 0; 0 in the first and last

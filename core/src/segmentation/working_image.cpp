@@ -39,12 +39,11 @@ WorkingImage makeWorkingImage(const cv::Mat& depth, const CameraIntrinsics& intr
 }
 
 cv::Mat inverseDepth(const cv::Mat& depth) {
-  cv::Mat w(depth.size(), CV_32FC1);
-  for (int v = 0; v < depth.rows; ++v) {
-    const auto* d = depth.ptr<std::uint16_t>(v);
-    auto* o = w.ptr<float>(v);
-    for (int u = 0; u < depth.cols; ++u) o[u] = d[u] ? 1000.0f / static_cast<float>(d[u]) : 0.0f;
-  }
+  cv::Mat z;
+  depth.convertTo(z, CV_32F);
+  cv::Mat w;
+  cv::divide(1000.0, cv::max(z, 1.0f), w);
+  w.setTo(0.0f, depth == 0);
   return w;
 }
 
