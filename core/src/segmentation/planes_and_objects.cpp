@@ -29,6 +29,13 @@ RowRuns labelRunsOf(const cv::Mat& labels) {
   return runs;
 }
 
+// The runs of the rows whose labels changed (changed[v] != 0), taken again.
+void retakeRuns(const cv::Mat& labels, const std::vector<std::uint8_t>& changed, RowRuns& runs) {
+  for (int v = 0; v < labels.rows; ++v)
+    if (changed[static_cast<std::size_t>(v)])
+      labelRuns(labels.ptr<int>(v), labels.cols, runs[static_cast<std::size_t>(v)]);
+}
+
 // Pixels of each label (index = label, up to the largest), run by run: a per-pixel increment of
 // one counter stalls on its own store wherever neighbours share a label, which is almost
 // everywhere.
@@ -47,14 +54,9 @@ std::vector<int> labelCounts(const RowRuns& runs) {
 cv::Mat overlayObjects(const cv::Mat& depth_mm, const cv::Mat& plane_labels, int plane_count,
                        const cv::Mat& object_labels) {
   cv::Mat out(depth_mm.size(), CV_32SC1);
-  for (int v = 0; v < out.rows; ++v) {
-    const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-    const auto* plane = plane_labels.ptr<std::uint16_t>(v);
-    const auto* object = object_labels.ptr<std::uint16_t>(v);
-    auto* o = out.ptr<int>(v);
-    for (int u = 0; u < out.cols; ++u)
-      o[u] = plane[u] ? plane[u] : (depth[u] && object[u] ? plane_count + object[u] : 0);
-  }
+  for (int v = 0; v < out.rows; ++v)
+    overlayObjectsRow(depth_mm.ptr<std::uint16_t>(v), plane_labels.ptr<std::uint16_t>(v),
+                      object_labels.ptr<std::uint16_t>(v), plane_count, out.cols, out.ptr<int>(v));
   return out;
 }
 
@@ -155,15 +157,16 @@ std::vector<int> unlabelledPixels(const cv::Mat& depth_mm, const RowRuns& runs) 
 // Growth passes: in each, every pixel still without a region takes the label of its
 // 4-neighbour nearest in depth among those labelled before the pass and on its surface (no
 // depth step between them), so a pass adds one ring.
-// `runs`: the label image's runs.
-void growIntoUnlabelled(const cv::Mat& depth_mm, const RowRuns& runs,
-                        const PlanesAndObjectsParams& p, cv::Mat& labels) {
+// `runs`: the label image's runs; they change with it.
+void growIntoUnlabelled(const cv::Mat& depth_mm, const PlanesAndObjectsParams& p, cv::Mat& labels,
+                        RowRuns& runs) {
   CV_Assert(labels.isContinuous() && depth_mm.isContinuous());
   std::vector<int> open = unlabelledPixels(depth_mm, runs), still_open;
   const int rows = labels.rows, cols = labels.cols;
   int* const lab = labels.ptr<int>(0);
   const std::uint16_t* const depth = depth_mm.ptr<std::uint16_t>(0);
   std::vector<std::pair<int, int>> taken;
+  std::vector<std::uint8_t> changed(static_cast<std::size_t>(rows), 0);
   for (int pass = 0; pass < p.grow_passes && !open.empty(); ++pass) {
     taken.clear();
     still_open.clear();
@@ -192,9 +195,13 @@ void growIntoUnlabelled(const cv::Mat& depth_mm, const RowRuns& runs,
         still_open.push_back(i);
     }
     if (taken.empty()) break;
-    for (const auto& [i, label] : taken) lab[i] = label;
+    for (const auto& [i, label] : taken) {
+      lab[i] = label;
+      changed[static_cast<std::size_t>(i / cols)] = 1;
+    }
     open.swap(still_open);
   }
+  retakeRuns(labels, changed, runs);
 }
 
 // Pixel pairs across the border of two regions: on one surface (no depth step between them)
@@ -522,12 +529,14 @@ void splitCreasedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrin
   for (std::size_t label = static_cast<std::size_t>(graph.plane_count) + 1; label < count; ++label)
     if (members[label] == 1 && faces[label]) second_label[label] = next_label++;
   if (next_label == static_cast<int>(count)) return;
+  std::vector<std::uint8_t> changed(runs.size(), 0);
   for (std::size_t v = 0; v < runs.size(); ++v) {
     int* l = labels.ptr<int>(static_cast<int>(v));
     const auto* z = depth_mm.ptr<std::uint16_t>(static_cast<int>(v));
     for (const LabelRun& run : runs[v]) {
       const auto label = static_cast<std::size_t>(run.label);
       if (!second_label[label]) continue;
+      changed[v] = 1;
       const TwoPlanes& two = *faces[label];
       for (int u = run.begin; u < run.end; ++u) {
         if (!z[u]) continue;
@@ -537,7 +546,7 @@ void splitCreasedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrin
       }
     }
   }
-  runs = labelRunsOf(labels);
+  retakeRuns(labels, changed, runs);
 }
 
 // Regions that are pieces of one surface, joined; then regions that are two faces, split.
@@ -595,8 +604,7 @@ cv::Mat segmentPlanesAndObjects(const cv::Mat& depth_mm, const CameraIntrinsics&
   RowRuns runs = labelRunsOf(labels);
   splitDisconnectedObjects(labels, plane_count, runs);
   clearSlivers(labels, plane_count, runs, p);
-  growIntoUnlabelled(depth_mm, runs, p, labels);
-  runs = labelRunsOf(labels);
+  growIntoUnlabelled(depth_mm, p, labels, runs);
   joinPieces(depth_mm, intrinsics, planes, plane_count, p, labels, runs);
   return compactRegions(labels, runs, p.min_region_px);
 }

@@ -395,6 +395,30 @@ void PredictionEdgesRow(const float* inverse, const float* smoothed, const float
 }
 
 // ---------------------------------------------------------------------------------------------
+// Planes over object regions
+
+void OverlayObjectsRow(const std::uint16_t* depth, const std::uint16_t* plane,
+                       const std::uint16_t* object, int plane_count, int cols, std::int32_t* out) {
+  int u = 0;
+#if HWY_TARGET != HWY_SCALAR
+  const hn::ScalableTag<std::int32_t> di;
+  const hn::Rebind<std::uint16_t, decltype(di)> d16;
+  const int lanes = static_cast<int>(hn::Lanes(di));
+  const auto zero = hn::Zero(di), offset = hn::Set(di, plane_count);
+  for (; u + lanes <= cols; u += lanes) {
+    const auto z = hn::PromoteTo(di, hn::LoadU(d16, depth + u));
+    const auto p = hn::PromoteTo(di, hn::LoadU(d16, plane + u));
+    const auto o = hn::PromoteTo(di, hn::LoadU(d16, object + u));
+    const auto is_object = hn::And(hn::Ne(z, zero), hn::Ne(o, zero));
+    const auto below = hn::IfThenElseZero(is_object, hn::Add(offset, o));
+    hn::StoreU(hn::IfThenElse(hn::Ne(p, zero), p, below), di, out + u);
+  }
+#endif
+  for (; u < cols; ++u)
+    out[u] = plane[u] ? plane[u] : (depth[u] && object[u] ? plane_count + object[u] : 0);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Uniform label windows
 
 void UniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
@@ -474,6 +498,7 @@ HWY_EXPORT(ExpandBlockRow);
 HWY_EXPORT(LabelFullRow);
 HWY_EXPORT(InverseDepthGradientRow);
 HWY_EXPORT(PredictionEdgesRow);
+HWY_EXPORT(OverlayObjectsRow);
 HWY_EXPORT(UniformLabelRow);
 HWY_EXPORT(LabelRuns);
 
@@ -520,6 +545,11 @@ void predictionEdgesRow(const float* inverse, const float* smoothed, const float
 void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
                      int cols, std::uint8_t* out) {
   HWY_DYNAMIC_DISPATCH(UniformLabelRow)(above, row, below, cols, out);
+}
+
+void overlayObjectsRow(const std::uint16_t* depth, const std::uint16_t* plane,
+                       const std::uint16_t* object, int plane_count, int cols, std::int32_t* out) {
+  HWY_DYNAMIC_DISPATCH(OverlayObjectsRow)(depth, plane, object, plane_count, cols, out);
 }
 
 void labelRuns(const std::int32_t* row, int cols, std::vector<LabelRun>& runs) {

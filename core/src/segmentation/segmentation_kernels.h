@@ -134,6 +134,11 @@ void predictionEdgesRow(const float* inverse, const float* smoothed, const float
 void uniformLabelRow(const std::int32_t* above, const std::int32_t* row, const std::int32_t* below,
                      int cols, std::uint8_t* out);
 
+/// One row of planes_and_objects' first labels: out[u] = the plane's id where plane[u] != 0,
+/// else plane_count + object[u] where the pixel has depth and an object region, else 0.
+void overlayObjectsRow(const std::uint16_t* depth, const std::uint16_t* plane,
+                       const std::uint16_t* object, int plane_count, int cols, std::int32_t* out);
+
 /// A run of one label in a row: columns [begin, end).
 struct LabelRun {
   int begin = 0, end = 0;
