@@ -100,6 +100,16 @@ void BM_NormalsHoughPlanesNoCreaseStep(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
 
+// The Hough detector without the labelling's last step, the growth into pixels no sample
+// reached (PlaneLabelingParams::grow_into_unreached_pixels): what it costs, beside
+// BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesNoPixelGrowth(benchmark::State& state) {
+  HoughPlaneParams params;
+  params.labeling.grow_into_unreached_pixels = false;
+  runHough(state, "hough-no-pixel-growth", params);
+}
+BENCHMARK(BM_NormalsHoughPlanesNoPixelGrowth)->Unit(benchmark::kMillisecond);
+
 // The Hough detector without the check for facets of one curved surface
 // (PlaneLabelingParams::curved_pair_*), beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesNoCurvedPairCheck(benchmark::State& state) {
@@ -111,7 +121,8 @@ BENCHMARK(BM_NormalsHoughPlanesNoCurvedPairCheck)->Unit(benchmark::kMillisecond)
 
 // The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
 // coplanar region merging, the growth limit on unreliable normals, the crease step, the curved
-// pair check): what those steps cost and what they gain, beside BM_NormalsHoughPlanes.
+// pair check, the pixel growth): what those steps cost and what they gain, beside
+// BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   HoughPlaneParams off;
   off.leftover_ransac_hypotheses = 0;
@@ -120,6 +131,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.grow_max_unreliable_normal_deg = 180.0;
   off.labeling.crease_max_passes = 0;
   off.labeling.curved_pair_rms_factor = 0.0;
+  off.labeling.grow_into_unreached_pixels = false;
   runHough(state, "hough-basic", off);
 }
 BENCHMARK(BM_NormalsHoughPlanesAccuracyStepsOff)->Unit(benchmark::kMillisecond);

@@ -119,13 +119,19 @@ cv::Mat colourLabels(const cv::Mat& labels) {
 // segmentation.
 void dumpLabels(const std::string& dir, const synthetic::TruthFrame& truth,
                 const cv::Mat& planar_truth, const Frame& frame, const PlaneDetection& found) {
+  // Depth as grey, near light and far dark over 0.4-5 m; black where there is no reading.
+  cv::Mat depth_grey;
+  frame.depth.convertTo(depth_grey, CV_8U, -255.0 / 4600.0, 255.0 * 5000.0 / 4600.0);
+  depth_grey.setTo(0, frame.depth == 0);
+  cv::imwrite(dir + "/depth.png", depth_grey);
   cv::imwrite(dir + "/planes_truth.png", colourLabels(planar_truth));
   cv::imwrite(dir + "/planes_found.png", colourLabels(found.labels));
   cv::imwrite(dir + "/segments_truth.png", colourLabels(eval::segmentTruth(truth)));
   const SegmentationResult segments = segmentFrame(frame, kDefaultSegmentationMethod, {}, &found);
   cv::imwrite(dir + "/segments_found.png", colourLabels(segments.labels));
-  std::printf("wrote planes_truth, planes_found, segments_truth and segments_found.png in %s\n",
-              dir.c_str());
+  std::printf(
+      "wrote depth, planes_truth, planes_found, segments_truth and segments_found.png in %s\n",
+      dir.c_str());
 }
 
 // Reported planes not matched to a truth plane and with under 80% of their pixels on one planar
@@ -269,7 +275,47 @@ int main(int argc, char** argv) {
       if (!quiet)
         std::printf("frame %3d MISS %-18s %5.2f%% %.2f m %4.0f deg:", i, ts.name.c_str(),
                     100.0 * share, range, obliquity);
-      ++causes[explainMiss(ts.id, o, out, quiet)];
+      const Cause cause = explainMiss(ts.id, o, out, quiet);
+      ++causes[cause];
+      if (getenv("PARTDBG") && cause == kPartial) {
+        // best found plane
+        long bp = 0;
+        int bf = 0;
+        for (const auto& [key, px] : o.overlap)
+          if (key.first == ts.id && key.second && px > bp) bp = px, bf = key.second;
+        const DetectedPlane& fp = out.planes[bf - 1];
+        const KinectNoiseModel noise;
+        double su = 0, sl = 0, tu = 0, tl = 0;
+        long nu = 0, nl = 0, near_u = 0;
+        for (int v = 0; v < truth.rows; ++v)
+          for (int u = 0; u < truth.cols; ++u) {
+            if (truth.at<std::uint16_t>(v, u) != ts.id) continue;
+            const double z = f.frame.depth.at<std::uint16_t>(v, u) * 1e-3;
+            if (z <= 0) continue;
+            const Eigen::Vector3d X = f.frame.intrinsics.ray(u, v) * z;
+            const double r = (fp.normal.dot(X) + fp.d) / noise.depthStep(z);
+            const double rt = (ts.plane.head<3>().dot(X) + ts.plane[3]) / noise.depthStep(z);
+            const int lab = out.labels.at<std::uint16_t>(v, u);
+            if (lab == 0) {
+              su += r * r;
+              tu += rt * rt;
+              ++nu;
+              near_u += std::abs(r) < 1.5;
+            } else if (lab == bf) {
+              sl += r * r;
+              tl += rt * rt;
+              ++nl;
+            }
+          }
+        const double ang =
+            std::acos(std::min(1.0, std::abs(fp.normal.dot(ts.plane.head<3>())))) * 180 / M_PI;
+        std::printf(
+            " || angle %.2f deg; labelled rms %.2f steps (truth %.2f); unlabelled %ld rms %.2f "
+            "steps (truth %.2f), within 1.5: %.2f",
+            ang, std::sqrt(sl / std::max(nl, 1L)), std::sqrt(tl / std::max(nl, 1L)), nu,
+            std::sqrt(su / std::max(nu, 1L)), std::sqrt(tu / std::max(nu, 1L)),
+            double(near_u) / std::max(nu, 1L));
+      }
       if (!quiet) std::printf("\n");
     }
   }

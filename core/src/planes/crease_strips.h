@@ -39,14 +39,15 @@ namespace shapesense::labeling {
 /// sigma of its residuals at 1 m (m; it grows with z^2, as the sensor's depth step does). `bgr`
 /// as given to labelPixels (empty: no colour). `grid` and `region_of` (the region of each
 /// sample, -1 none) as labelPixels had them: strips are looked for only near samples whose
-/// neighbourhood holds another region or none. Returns per region whether it lost pixels (only
-/// roots do).
+/// neighbourhood holds another region or none. `peeled_pixels` becomes a CV_8UC1 image of the
+/// labels' size, 1 at the pixels peeled. Returns per region whether it lost pixels (only roots
+/// do).
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,
                                            const std::vector<double>& noise_at_1m,
                                            const std::vector<int>& root,
-                                           std::vector<RegionAccumulator>& regions,
-                                           cv::Mat& labels);
+                                           std::vector<RegionAccumulator>& regions, cv::Mat& labels,
+                                           cv::Mat& peeled_pixels);
 
 }  // namespace shapesense::labeling

@@ -16,6 +16,7 @@
 #include "planes/crease_strips.h"
 #include "planes/curved_regions.h"
 #include "planes/pixel_labeling.h"
+#include "planes/plane_growth.h"
 #include "planes/plane_regions.h"
 #include "planes/planes_kernels.h"
 #include "shapesense/core/geometry/union_find.h"
@@ -428,7 +429,7 @@ void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
                       const PlaneSampleGrid& grid, const int* region_of,
                       const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
                       std::vector<int>& merged_into, std::vector<RegionAccumulator>& regions,
-                      RegionFits& fits, cv::Mat& labels) {
+                      RegionFits& fits, cv::Mat& labels, cv::Mat& peeled_pixels) {
   const std::size_t nreg = regions.size();
   std::vector<int> root(nreg);
   std::vector<double> noise_at_1m(nreg);
@@ -439,19 +440,20 @@ void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     noise_at_1m[k] = (steps >= 0.0 ? steps : tol.noise_steps / 3.0) * tol.noise.depthStep(1.0);
   }
   const std::vector<std::uint8_t> peeled = labeling::peelCreaseStrips(
-      depth_mm, K, bgr, grid, region_of, params, noise_at_1m, root, regions, labels);
+      depth_mm, K, bgr, grid, region_of, params, noise_at_1m, root, regions, labels, peeled_pixels);
   for (std::size_t k = 0; k < nreg; ++k)
     if (peeled[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
 }
 
 // The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
 // and polygon), and the labels renumbered to them (merged regions take their survivor's id,
-// dropped ones 0).
-void describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid, bool with_colour,
-                     const PlaneLabelingParams& params, const int* region_of,
-                     std::vector<RegionAccumulator>& regions, RegionFits& fits,
-                     std::vector<int>& merged_into, const LabelRuns& label_runs,
-                     PlaneDetection& out) {
+// dropped ones 0). Returns the renumbering: region k's plane id at k + 1 (0: dropped).
+std::vector<std::uint16_t> describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid,
+                                           bool with_colour, const PlaneLabelingParams& params,
+                                           const int* region_of,
+                                           std::vector<RegionAccumulator>& regions,
+                                           RegionFits& fits, std::vector<int>& merged_into,
+                                           const LabelRuns& label_runs, PlaneDetection& out) {
   const int step = grid.step, off = grid.offset;
   const std::size_t nreg = regions.size();
   std::vector<cv::Mat> masks;
@@ -497,6 +499,7 @@ void describeRegions(const CameraIntrinsics& K, const PlaneSampleGrid& grid, boo
     }
   }
   if (renumber) labeling::renumberLabels(out.labels, label_runs, lut);
+  return lut;
 }
 
 }  // namespace
@@ -562,14 +565,28 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   if (params.merge_coplanar_regions)
     merged_into = mergeCoplanarRegions(grid, continuous, params, region_of, regions, fits);
   // 5. Strips taken across creases go back (crease_strips.h).
+  cv::Mat peeled_pixels;
   peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, params, noise_steps,
-                   merged_into, regions, fits, out.labels);
+                   merged_into, regions, fits, out.labels, peeled_pixels);
   // 5b. Regions that bend are not planes. After the peeling: a strip of the surface beyond a
   //     crease bends a flat face's quadric as a curved surface would.
   dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
-  describeRegions(K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs,
-                  out);
+  const std::vector<std::uint16_t> plane_of_region = describeRegions(
+      K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs, out);
+  // 7. The parts of the planes' surfaces that no sample reached (plane_growth.h), each with its
+  //    plane's own tolerance.
+  if (params.grow_into_unreached_pixels) {
+    std::vector<float> tolerance_of_plane(out.planes.size() + 1, 0.0f);
+    for (std::size_t k = 0; k < nreg; ++k)
+      if (plane_of_region[k + 1] && merged_into[k] == static_cast<int>(k))
+        tolerance_of_plane[plane_of_region[k + 1]] = region_tol[k];
+    DepthStepRule continuity;
+    continuity.noise_steps = tol.noise_steps;
+    continuity.noise = tol.noise;
+    labeling::growPlanesIntoUnlabelled(depth_mm, K, tolerance_of_plane, tol_floor, continuity,
+                                       peeled_pixels, out);
+  }
   return out;
 }
 

@@ -79,12 +79,13 @@ TEST(SegmentationQuality, DefaultMeetsThePixelAccuracyTarget) {
   EXPECT_GE(s.pixel_accuracy_sum / s.frames, 0.95);
 }
 
-// Target: correct >= 0.85. Regression record: 0.84 (reached 0.842; plane_prediction 0.53 on
-// the same split, depth_step 0.10).
+// Target: correct >= 0.85. Regression record: 0.845 (reached 0.852 on these 60 frames, 0.840 on
+// the 100 test frames of shapesense-eval; plane_prediction 0.53 on the same split, depth_step
+// 0.10).
 TEST(SegmentationQuality, DefaultCorrectRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.truth_regions, 500);
-  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.84);
+  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.845);
 }
 
 eval::RealSegmentScore realScore(const char* recording) {

@@ -144,6 +144,11 @@ struct PlaneLabelingParams {
   double crease_outside_sigmas = 1.4;
   double crease_min_outside_share = 0.15;
   int crease_max_passes = 6;
+  /// After the crease step, pixels with depth that no plane took and that lie on the surface of
+  /// a plane beside them (within its tolerance, no depth step on the way) join it, ring by ring
+  /// from its border: the patches of a face whose samples carried normals too far off for the
+  /// sample growth. Pixels the crease step gave back are not taken again. Default true.
+  bool grow_into_unreached_pixels = true;
   /// Compute polygon and triangles. Default true.
   bool compute_polygons = true;
   /// Polygon simplification tolerance in sample-grid cells (Douglas-Peucker). Default 1.
