@@ -4,12 +4,14 @@
 // region, fraction of the found region, and the truth plane the found region mostly covers),
 // then a count of the misses by cause: mostly unlabelled, taken by a plane of another surface,
 // or found only in part. With --spurious it lists the reported planes that lie on no one truth
-// plane and the surfaces they cover; with --dump-frame the truth and found labels of one frame
-// (planes, and the default segmentation's segments) are written as images into --out. Detector
-// parameters can be changed for experiments.
+// plane and the surfaces they cover; with --part-residuals, for a plane found in part, where its
+// unlabelled pixels lie against the found plane; with --dump-frame the depth and the truth and
+// found labels of one frame (planes, and the default segmentation's segments) are written as
+// images into --out. Detector parameters can be changed for experiments.
 //
 //   shapesense-plane-diag [--split validation] [--frames N] [--max-share S] [--quiet]
-//                         [--spurious] [--dump-frame I --out DIR] [--leftover-agreement DEG ...]
+//                         [--spurious] [--part-residuals] [--dump-frame I --out DIR]
+//                         [--leftover-agreement DEG ...]
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -199,6 +201,52 @@ void printResiduals(int frame, const cv::Mat& depth_mm, const CameraIntrinsics& 
                 1000 * out.planes[found - 1].rms_m, sum_z[found] / n, std::sqrt(sum_r2[found] / n));
 }
 
+// For a truth plane found in part, after its MISS line: the angle between the plane that covers
+// most of it and its true plane, and the RMS residuals to that found plane (and to the true one)
+// in sensor depth steps, of its pixels labelled with the found plane and of those left
+// unlabelled, with the share of the unlabelled within 1.5 steps of the found plane: unlabelled
+// pixels that lie on the found plane are pixels its growth never reached.
+void printFoundInPart(const synthetic::TruthSurface& surface, const cv::Mat& planar_truth,
+                      const Frame& frame, const Overlaps& o, const PlaneDetection& out) {
+  long most = 0;
+  int found = 0;
+  for (const auto& [key, px] : o.overlap)
+    if (key.first == surface.id && key.second && px > most) most = px, found = key.second;
+  if (!found) return;
+  const DetectedPlane& plane = out.planes[found - 1];
+  const Eigen::Vector3d true_normal = surface.plane.head<3>();
+  const KinectNoiseModel noise;
+  struct Sums {
+    double found = 0.0, truth = 0.0;
+    long n = 0;
+  } labelled, unlabelled;
+  long unlabelled_near = 0;
+  for (int v = 0; v < planar_truth.rows; ++v)
+    for (int u = 0; u < planar_truth.cols; ++u) {
+      const double z = frame.depth.at<std::uint16_t>(v, u) * 1e-3;
+      if (planar_truth.at<std::uint16_t>(v, u) != surface.id || z <= 0) continue;
+      const Eigen::Vector3d x = frame.intrinsics.ray(u, v) * z;
+      const double to_found = (plane.normal.dot(x) + plane.d) / noise.depthStep(z);
+      const double to_truth = (true_normal.dot(x) + surface.plane[3]) / noise.depthStep(z);
+      const int label = out.labels.at<std::uint16_t>(v, u);
+      Sums* sums = label == 0 ? &unlabelled : label == found ? &labelled : nullptr;
+      if (!sums) continue;
+      sums->found += to_found * to_found;
+      sums->truth += to_truth * to_truth;
+      ++sums->n;
+      if (label == 0) unlabelled_near += std::abs(to_found) < 1.5;
+    }
+  const auto rms = [](double sum, long n) { return std::sqrt(sum / std::max(n, 1L)); };
+  const double angle =
+      std::acos(std::min(1.0, std::abs(plane.normal.dot(true_normal)))) * 180.0 / M_PI;
+  std::printf(
+      " || found %d %.2f deg off; labelled rms %.2f steps (true plane %.2f); unlabelled %ld px, "
+      "rms %.2f steps (true plane %.2f), within 1.5 steps %.2f",
+      found, angle, rms(labelled.found, labelled.n), rms(labelled.truth, labelled.n), unlabelled.n,
+      rms(unlabelled.found, unlabelled.n), rms(unlabelled.truth, unlabelled.n),
+      double(unlabelled_near) / std::max(unlabelled.n, 1L));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -219,6 +267,10 @@ int main(int argc, char** argv) {
   app.add_flag("--residuals", show_residuals,
                "per reported plane: frame, id, matched, pixels, RMS mm, mean range m, RMS in "
                "depth steps");
+  bool show_part_residuals = false;
+  app.add_flag("--part-residuals", show_part_residuals,
+               "after each truth plane found in part: the found plane's angle to it and the "
+               "residuals of its labelled and unlabelled pixels in depth steps");
   app.add_option("--dump-frame", dump_frame, "write the label images of this frame");
   app.add_option("--out", out_dir, "folder for --dump-frame's images")
       ->check(CLI::ExistingDirectory);
@@ -277,45 +329,7 @@ int main(int argc, char** argv) {
                     100.0 * share, range, obliquity);
       const Cause cause = explainMiss(ts.id, o, out, quiet);
       ++causes[cause];
-      if (getenv("PARTDBG") && cause == kPartial) {
-        // best found plane
-        long bp = 0;
-        int bf = 0;
-        for (const auto& [key, px] : o.overlap)
-          if (key.first == ts.id && key.second && px > bp) bp = px, bf = key.second;
-        const DetectedPlane& fp = out.planes[bf - 1];
-        const KinectNoiseModel noise;
-        double su = 0, sl = 0, tu = 0, tl = 0;
-        long nu = 0, nl = 0, near_u = 0;
-        for (int v = 0; v < truth.rows; ++v)
-          for (int u = 0; u < truth.cols; ++u) {
-            if (truth.at<std::uint16_t>(v, u) != ts.id) continue;
-            const double z = f.frame.depth.at<std::uint16_t>(v, u) * 1e-3;
-            if (z <= 0) continue;
-            const Eigen::Vector3d X = f.frame.intrinsics.ray(u, v) * z;
-            const double r = (fp.normal.dot(X) + fp.d) / noise.depthStep(z);
-            const double rt = (ts.plane.head<3>().dot(X) + ts.plane[3]) / noise.depthStep(z);
-            const int lab = out.labels.at<std::uint16_t>(v, u);
-            if (lab == 0) {
-              su += r * r;
-              tu += rt * rt;
-              ++nu;
-              near_u += std::abs(r) < 1.5;
-            } else if (lab == bf) {
-              sl += r * r;
-              tl += rt * rt;
-              ++nl;
-            }
-          }
-        const double ang =
-            std::acos(std::min(1.0, std::abs(fp.normal.dot(ts.plane.head<3>())))) * 180 / M_PI;
-        std::printf(
-            " || angle %.2f deg; labelled rms %.2f steps (truth %.2f); unlabelled %ld rms %.2f "
-            "steps (truth %.2f), within 1.5: %.2f",
-            ang, std::sqrt(sl / std::max(nl, 1L)), std::sqrt(tl / std::max(nl, 1L)), nu,
-            std::sqrt(su / std::max(nu, 1L)), std::sqrt(tu / std::max(nu, 1L)),
-            double(near_u) / std::max(nu, 1L));
-      }
+      if (show_part_residuals && cause == kPartial) printFoundInPart(ts, truth, f.frame, o, out);
       if (!quiet) std::printf("\n");
     }
   }
