@@ -56,13 +56,13 @@ TEST(SegmentationQuality, DefaultIsPlanesAndObjects) {
   EXPECT_EQ(DetectorConfig{}.segmentation, SegmentationMethod::kPlanesAndObjects);
 }
 
-// Requirement: each curved object one region. Regression record: at most 30% of them split
-// (reached 22 of 79). Curved objects that plane_prediction cuts at a rim or a bend, or whose
+// Requirement: each curved object one region. Regression record: at most 20% of them split
+// (reached 14 of 79). Curved objects that plane_prediction cuts at a rim or a bend, or whose
 // flat top is a region of its own, are joined again; without that 34 of the 79 are split.
 TEST(SegmentationQuality, CurvedObjectsSplitRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.curved_objects, 60);
-  EXPECT_LE(s.curved_objects_split, 0.30 * s.curved_objects)
+  EXPECT_LE(s.curved_objects_split, 0.20 * s.curved_objects)
       << s.curved_objects_split << " of " << s.curved_objects;
   DetectorConfig without;
   without.segmentation_params.planes_and_objects.join_curved_objects = false;
@@ -79,13 +79,13 @@ TEST(SegmentationQuality, DefaultMeetsThePixelAccuracyTarget) {
   EXPECT_GE(s.pixel_accuracy_sum / s.frames, 0.95);
 }
 
-// Target: correct >= 0.85. Regression record: 0.845 (reached 0.852 on these 60 frames, 0.840 on
-// the 100 test frames of shapesense-eval; plane_prediction 0.53 on the same split, depth_step
-// 0.10).
+// Target: correct >= 0.85 on the test split. Regression record: 0.855 (reached 0.860 on these
+// 60 frames, but 0.846 on the 100 test frames of shapesense-eval, under the target;
+// plane_prediction 0.53 on the same split, depth_step 0.10).
 TEST(SegmentationQuality, DefaultCorrectRegressionRecord) {
   const SplitScore& s = testSplitScore();
   ASSERT_GT(s.truth_regions, 500);
-  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.845);
+  EXPECT_GE(static_cast<double>(s.correct) / s.truth_regions, 0.855);
 }
 
 eval::RealSegmentScore realScore(const char* recording) {

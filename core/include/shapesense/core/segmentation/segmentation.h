@@ -255,14 +255,30 @@ struct PlanesAndObjectsParams {
   int curved_sample_step_px = 2;
   double curved_rms_ratio = 2.0;
   double curved_min_curvature_per_m = 2.0;
+  /// ...or when it is no plane (its plane's RMS residual is at least
+  /// curved_surface_min_plane_rms_steps sensor depth steps at its range) but lies on one quadric
+  /// surface: the RMS of its points' distances to an implicit quadric (quadric_surface.h) is at
+  /// most 1 / curved_surface_rms_ratio of its plane's, and at most
+  /// 1 / curved_surface_two_plane_ratio of that of two planes fitted to it (two faces at a
+  /// crease are a quadric too). That holds a bowl's whole outside or a bin seen across half its
+  /// girth, of which the height-field quadric above fits only a cap. Defaults 2 steps, 3 (2-6
+  /// alike on validation), 2 (1.5-2 alike; 1.2 merges more).
+  double curved_surface_min_plane_rms_steps = 2.0;
+  double curved_surface_rms_ratio = 3.0;
+  double curved_surface_two_plane_ratio = 2.0;
   /// Two curved object regions are one object when at least join_min_border_px pixel
   /// pairs across their border, and join_min_continuous_share of all, have no depth step
   /// between them. Defaults 10, 0.7.
   int join_min_border_px = 10;
   double join_min_continuous_share = 0.7;
-  /// ...and one quadric fits both with an RMS residual at most this many times that of their
-  /// own two quadrics. Default 2.
+  /// ...and one quadric fits both with an RMS residual at most join_quadric_rms_factor times
+  /// that of their own two quadrics, or one implicit quadric surface fits both with an RMS
+  /// distance at most join_surface_rms_factor times that of their own two surfaces (or than half
+  /// a depth step, which their own may fit below). Defaults 2 and 1.2 (1.1-2 alike on validation
+  /// and mosd_learn; two real objects standing side by side fit one surface 1.6-2 times worse
+  /// than their own).
   double join_quadric_rms_factor = 2.0;
+  double join_surface_rms_factor = 1.2;
   /// A region that is not curved (a tin's flat top, a piece of a bowl) joins a curved object
   /// when at least this share of its border pixel pairs without a depth step lie along that
   /// object. 0 disables. Default 0.8.
