@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 
@@ -57,23 +58,26 @@ QuadricSurfaceFit fitQuadricSurface(
   const double scale = std::sqrt(spread / count);
   fit.count = count;
   if (!fit.reliable() || !(scale > 0.0)) return fit;
-  Eigen::Matrix<double, 10, 10> scatter = Eigen::Matrix<double, 10, 10>::Zero();
+  // The monomials of the used points, one row each; their scatter in one product.
+  Eigen::Matrix<double, Eigen::Dynamic, 10> rows(count, 10);
+  std::vector<Eigen::Vector3d> scaled;
+  scaled.reserve(static_cast<std::size_t>(count));
   for_each_used([&](const Eigen::Vector3d& x) {
-    scatter.selfadjointView<Eigen::Lower>().rankUpdate(monomials((x - mean) / scale));
+    scaled.push_back((x - mean) / scale);
+    rows.row(static_cast<Eigen::Index>(scaled.size()) - 1) = monomials(scaled.back()).transpose();
   });
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> solver(
-      scatter.selfadjointView<Eigen::Lower>());
+  const Eigen::Matrix<double, 10, 10> scatter = rows.transpose() * rows;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> solver(scatter);
   const Monomials c = solver.eigenvectors().col(0);  // eigenvalues ascending
+  const Eigen::VectorXd f = rows * c;
   double sum = 0.0;
   int used = 0;
-  for_each_used([&](const Eigen::Vector3d& x0) {
-    const Eigen::Vector3d x = (x0 - mean) / scale;
-    const double g2 = gradient(c, x).squaredNorm();
-    if (!(g2 > 1e-12)) return;  // at a singular point (a cone's apex) the distance is undefined
-    const double f = c.dot(monomials(x));
-    sum += f * f / g2;
+  for (std::size_t i = 0; i < scaled.size(); ++i) {
+    const double g2 = gradient(c, scaled[i]).squaredNorm();
+    if (!(g2 > 1e-12)) continue;  // at a singular point (a cone's apex) the distance is undefined
+    sum += f[static_cast<Eigen::Index>(i)] * f[static_cast<Eigen::Index>(i)] / g2;
     ++used;
-  });
+  }
   fit.count = used;
   fit.rms_m = used ? std::sqrt(sum / used) * scale : 0.0;
   return fit;
