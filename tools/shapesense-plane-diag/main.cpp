@@ -329,7 +329,8 @@ int main(int argc, char** argv) {
                     100.0 * share, range, obliquity);
       const Cause cause = explainMiss(ts.id, o, out, quiet);
       ++causes[cause];
-      if (show_part_residuals && cause == kPartial) printFoundInPart(ts, truth, f.frame, o, out);
+      if (show_part_residuals && !quiet && cause == kPartial)
+        printFoundInPart(ts, truth, f.frame, o, out);
       if (!quiet) std::printf("\n");
     }
   }

@@ -56,8 +56,12 @@ QuadricSurfaceFit fitQuadricSurface(
   double spread = 0.0;
   for_each_used([&](const Eigen::Vector3d& x) { spread += (x - mean).squaredNorm(); });
   const double scale = std::sqrt(spread / count);
+  // Points within a nanometre of one another are one point (and a spread that is not finite,
+  // no points): no surface.
+  constexpr double kMinSpreadM = 1e-9;
+  if (!(scale > kMinSpreadM)) return fit;
   fit.count = count;
-  if (!fit.reliable() || !(scale > 0.0)) return fit;
+  if (!fit.reliable()) return fit;
   // The monomials of the used points, one row each; their scatter in one product.
   Eigen::Matrix<double, Eigen::Dynamic, 10> rows(count, 10);
   std::vector<Eigen::Vector3d> scaled;

@@ -64,6 +64,7 @@ std::size_t growPlanesIntoUnlabelled(const cv::Mat& depth_mm, const CameraIntrin
     const cv::Point from = queue[head];
     const std::uint16_t id = labels.at<std::uint16_t>(from);
     const DetectedPlane& plane = detection.planes[id - 1];
+    CV_DbgAssert(plane.id == id);
     const double z_from = depth_mm.at<std::uint16_t>(from) * 1e-3;
     for (const cv::Point step :
          {cv::Point(-1, 0), cv::Point(1, 0), cv::Point(0, -1), cv::Point(0, 1)}) {

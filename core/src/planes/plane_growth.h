@@ -7,7 +7,7 @@
 // lie on the plane, within the plane's tolerance, but are left without a label. This step
 // hands such pixels to the plane next to them, ring by ring from its border.
 
-#include <cstdint>
+#include <cstddef>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -23,7 +23,8 @@ namespace shapesense::labeling {
 /// (metres; z in metres), and without a depth step (`continuity`) to the pixel they are reached
 /// from. Growth goes ring by ring from every plane at once; the first plane to reach a pixel
 /// takes it. Pixels set in `blocked` (CV_8UC1, or empty) are never taken. Each plane's inliers
-/// and box take in its new pixels. Returns the number of pixels taken.
+/// and box take in its new pixels. The planes' ids are 1..N in order (detection.planes[id - 1]
+/// is plane id), as labelPlanes numbers them. Returns the number of pixels taken.
 std::size_t growPlanesIntoUnlabelled(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
                                      const std::vector<float>& tolerance_at_1m,
                                      float tolerance_floor_m, const DepthStepRule& continuity,

@@ -48,6 +48,7 @@ struct TwoPlaneFit {
 
 std::optional<TwoPlaneFit> bestTwoPlanes(const std::vector<Eigen::Vector3d>& points,
                                          const Eigen::Vector3d& centroid) {
+  if (points.empty()) return std::nullopt;
   TwoPlaneFit two;
   two.stride = (points.size() + TwoPlaneFit::kMaxFitPoints - 1) / TwoPlaneFit::kMaxFitPoints;
   std::vector<Eigen::Vector3d> fit_points;
@@ -146,7 +147,8 @@ ObjectShapes objectShapes(const cv::Mat& depth_mm, const CameraIntrinsics& intri
     const bool bends = fit.curvature > p.curved_min_curvature_per_m &&
                        fit.planeToQuadricRms() >= p.curved_rms_ratio;
     const bool no_plane = fit.planeRms() >= p.curved_surface_min_plane_rms_steps * depth_step;
-    if (!bends && !no_plane) continue;
+    // The surface can make a region curved only where a two-plane fit exists to compare it to.
+    if (!bends && !(no_plane && two)) continue;
     const QuadricSurfaceFit& surface = shapes.surface[label] = fitQuadricSurface({points});
     // Two faces at a crease lie on one quadric too (a pair of planes is one): the surface must
     // also fit better than two planes do.
@@ -173,7 +175,9 @@ bool oneQuadricFitsBoth(const ObjectShapes& shapes, int a, int b, const PlanesAn
   const QuadricSurfaceFit one = fitQuadricSurface({shapes.points[a], shapes.points[b]});
   const double own_surface_rms = std::sqrt(
       (sa.rms_m * sa.rms_m * sa.count + sb.rms_m * sb.rms_m * sb.count) / (sa.count + sb.count));
-  const double half_step = 0.5 * p.continuity.noise.depthStep(shapes.moments[a].centroid().z());
+  const double farther =
+      std::max(shapes.moments[a].centroid().z(), shapes.moments[b].centroid().z());
+  const double half_step = 0.5 * p.continuity.noise.depthStep(farther);
   return one.reliable() &&
          one.rms_m <= p.join_surface_rms_factor * std::max(own_surface_rms, half_step);
 }

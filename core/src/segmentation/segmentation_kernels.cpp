@@ -385,7 +385,7 @@ void PredictionEdgesRow(const float* inverse, const float* smoothed, const float
       const bool anomaly =
           predictionAnomaly(c, gx[u], gy[u], q.row[u + q.du], static_cast<float>(q.du),
                             static_cast<float>(q.dv), q.threshold);
-      (q.long_range ? long_count : short_count) += anomaly;
+      (k < short_end ? short_count : long_count) += anomaly;
     }
     const bool without_depth = inverse[u] == 0.0f;
     edges[u] = without_depth ? kNoDepth : static_cast<std::uint8_t>(short_count + long_count);

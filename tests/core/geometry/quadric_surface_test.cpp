@@ -89,6 +89,12 @@ TEST(QuadricSurface, TwoPiecesOfOneSphereLieOnOne) {
   EXPECT_LT(both.rms_m, 1e-6);
 }
 
+TEST(QuadricSurface, OnePointRepeatedGivesNoFit) {
+  const std::vector<Eigen::Vector3d> points(50, Eigen::Vector3d(0.1, 0.2, 1.0));
+  const QuadricSurfaceFit fit = fitQuadricSurface({points});
+  EXPECT_FALSE(fit.reliable());
+}
+
 TEST(QuadricSurface, TooFewPointsGiveNoFit) {
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < 12; ++i) points.push_back({0.01 * i, 0.02 * (i % 3), 1.0 + 0.001 * i * i});

@@ -1,6 +1,7 @@
 // The labelling's last step (plane_growth.h): pixels of a plane's surface that no sample reached
-// join the plane beside them, and nothing else does: not a board proud of it, not pixels past
-// a blocked band, not pixels off a plane turned away from the surface.
+// join the plane beside them, and nothing else does: not a board proud of it (even within the
+// plane's tolerance: a depth step parts them), not pixels past a blocked band, not pixels off a
+// plane turned away from the surface.
 #include <cmath>
 #include <cstdint>
 
@@ -19,7 +20,7 @@ using testing::Face;
 constexpr double kWallM = 1.5;
 constexpr std::uint16_t kWallId = 1;
 
-// A wall 1.5 m ahead with a board 3 cm proud of it (about five depth steps there), read with
+// A wall 1.5 m ahead with a board 5 cm proud of it (about eight depth steps there), read with
 // the Kinect's noise; the wall's plane found only on the image's left quarter.
 struct WallScene {
   cv::Mat depth;  // CV_16UC1 mm
@@ -27,7 +28,7 @@ struct WallScene {
   PlaneDetection detection;
 
   WallScene() {
-    const Face board_face{Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0.05, 0.0, kWallM - 0.03),
+    const Face board_face{Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0.05, 0.0, kWallM - 0.05),
                           Eigen::Vector3d(1, 0, 0), 0.2, 0.1};
     const testing::FaceFrame frame = testing::renderFaces({board_face}, kWallM, 3);
     depth = frame.depth;
@@ -44,11 +45,12 @@ struct WallScene {
     detection.planes[0].box = cv::boundingRect(detection.labels != 0);
   }
 
-  // The wall's tolerance: 1.5 of the sensor's depth steps (about 1 cm at 1.5 m).
-  std::size_t grow(const cv::Mat& blocked = cv::Mat()) {
+  // The wall's tolerance: 1.5 of the sensor's depth steps (about 1 cm at 1.5 m), or
+  // `tolerance_steps` of them.
+  std::size_t grow(const cv::Mat& blocked = cv::Mat(), double tolerance_steps = 1.5) {
     const KinectNoiseModel noise;
-    const std::vector<float> tolerance_at_1m = {0.0f,
-                                                static_cast<float>(1.5 * noise.depthStep(1.0))};
+    const std::vector<float> tolerance_at_1m = {
+        0.0f, static_cast<float>(tolerance_steps * noise.depthStep(1.0))};
     DepthStepRule continuity;
     return labeling::growPlanesIntoUnlabelled(depth, CameraIntrinsics{}, tolerance_at_1m, 0.004f,
                                               continuity, blocked, detection);
@@ -84,6 +86,15 @@ TEST(PlaneGrowth, BlockedPixelsAreNotTakenNorGrownThrough) {
   const cv::Mat left_wall = scene.wallWithDepth().colRange(0, band);
   EXPECT_GE(cv::countNonZero(labelled.colRange(0, band) & left_wall),
             0.99 * cv::countNonZero(left_wall));
+}
+
+TEST(PlaneGrowth, ADepthStepStopsItWhereTheToleranceWouldNot) {
+  WallScene scene;
+  scene.grow(cv::Mat(), 10.0);  // 6.5 cm at 1.5 m: the board 5 cm proud lies within it
+  const cv::Mat labelled = scene.detection.labels == kWallId;
+  EXPECT_EQ(cv::countNonZero(labelled & (scene.board != 0)), 0);
+  const cv::Mat wall = scene.wallWithDepth();
+  EXPECT_GE(cv::countNonZero(labelled & wall), 0.99 * cv::countNonZero(wall));
 }
 
 TEST(PlaneGrowth, PixelsOffThePlaneStayOut) {

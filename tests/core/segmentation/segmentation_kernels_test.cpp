@@ -164,6 +164,37 @@ std::vector<cv::Mat> kernelInputs() {
   return inputs;
 }
 
+// plane_prediction's edge strength (its gradient and anomaly-count kernels) is the same on
+// every target, at both resolutions, on inputs narrower than a vector and with holes.
+TEST(SegmentationKernels, PlanePredictionEdgesAreTheSameOnEveryTarget) {
+  const std::vector<cv::Mat> inputs = kernelInputs();
+  const CameraIntrinsics intrinsics;
+  std::vector<cv::Mat> first;
+  std::string first_target;
+  testing::forEachSimdTarget([&](const std::string& target) {
+    std::size_t k = 0;
+    for (const cv::Mat& depth : inputs) {
+      for (int ds : {1, 2}) {
+        SegmentationParams params;
+        params.plane_prediction.region.downsample = ds;
+        const cv::Mat edges = segmentationEdgeStrength(
+            depth, intrinsics, SegmentationMethod::kPlanePrediction, params);
+        if (first_target.empty()) {
+          first.push_back(edges);
+        } else {
+          ASSERT_LT(k, first.size());
+          EXPECT_TRUE(same(edges, first[k]))
+              << target << " differs from " << first_target << ": ds " << ds << " on a "
+              << depth.cols << "x" << depth.rows << " image";
+        }
+        ++k;
+      }
+    }
+    if (first_target.empty()) first_target = target;
+  });
+  EXPECT_FALSE(first.empty());
+}
+
 TEST(SegmentationKernels, EveryMethodGivesTheSameLabelsOnEveryTarget) {
   const std::vector<cv::Mat> inputs = kernelInputs();
   const CameraIntrinsics intrinsics;

@@ -261,8 +261,9 @@ struct PlanesAndObjectsParams {
   /// most 1 / curved_surface_rms_ratio of its plane's, and at most
   /// 1 / curved_surface_two_plane_ratio of that of two planes fitted to it (two faces at a
   /// crease are a quadric too). That holds a bowl's whole outside or a bin seen across half its
-  /// girth, of which the height-field quadric above fits only a cap. Defaults 2 steps, 3 (2-6
-  /// alike on validation), 2 (1.5-2 alike; 1.2 merges more).
+  /// girth, of which the height-field quadric above fits only a cap. A region needs at least 60
+  /// samples for the two-plane fit, and a plane RMS above crease_face_rms_steps. Defaults 2
+  /// steps, 3 (2-6 alike on validation), 2 (1.5-2 alike; 1.2 merges more).
   double curved_surface_min_plane_rms_steps = 2.0;
   double curved_surface_rms_ratio = 3.0;
   double curved_surface_two_plane_ratio = 2.0;
