@@ -78,11 +78,17 @@ enum Cause { kUnlabelled, kTakenByOther, kPartial, kCauses };
 const char* const kCauseNames[] = {"mostly unlabelled", "taken by another surface's plane",
                                    "found in part"};
 
-// Prints the found regions covering >= 5% of truth plane `id` and returns the miss's cause.
-Cause explainMiss(int id, const Overlaps& o, const PlaneDetection& out, bool quiet) {
+// A miss's cause, and the found plane that covers most of the truth plane (0: none).
+struct Miss {
+  Cause cause;
+  int most_found;
+};
+
+// Prints the found regions covering >= 5% of truth plane `id` and returns the miss.
+Miss explainMiss(int id, const Overlaps& o, const PlaneDetection& out, bool quiet) {
   const long size = o.truth_size.at(id);
   long unlabelled = 0, best_px = 0;
-  int best_main = 0;
+  int best_main = 0, best_found = 0;
   for (const auto& [key, px] : o.overlap) {
     if (key.first != id) continue;
     if (key.second == 0) {
@@ -94,15 +100,15 @@ Cause explainMiss(int id, const Overlaps& o, const PlaneDetection& out, bool qui
     long main_px = 0;
     for (const auto& [k2, px2] : o.overlap)
       if (k2.second == key.second && px2 > main_px) main_px = px2, main_truth = k2.first;
-    if (px > best_px) best_px = px, best_main = main_truth;
+    if (px > best_px) best_px = px, best_main = main_truth, best_found = key.second;
     if (quiet || px < 0.05 * size) continue;
     const DetectedPlane& fp = out.planes[key.second - 1];
     std::printf(" [found %d (rms %.1f mm, %zu px): %.2f of truth, %.2f of found, mostly %d]",
                 key.second, 1000 * fp.rms_m, fp.inliers, double(px) / size,
                 double(px) / o.found_size.at(key.second), main_truth == id ? 0 : main_truth);
   }
-  if (unlabelled >= best_px) return kUnlabelled;
-  return best_main == id ? kPartial : kTakenByOther;
+  if (unlabelled >= best_px) return {kUnlabelled, best_found};
+  return {best_main == id ? kPartial : kTakenByOther, best_found};
 }
 
 // Label images as colours (0 black), for looking at.
@@ -175,6 +181,12 @@ void printSpurious(int frame, const synthetic::TruthFrame& truth, const PlaneDet
   }
 }
 
+// The distance of point x (m) from the plane n.X + d = 0 in sensor depth steps at its range.
+double stepsOff(const Eigen::Vector3d& n, double d, const Eigen::Vector3d& x,
+                const KinectNoiseModel& noise) {
+  return (n.dot(x) + d) / noise.depthStep(x.z());
+}
+
 // One line per reported plane: whether it is matched to a truth plane, its pixels, RMS, mean
 // range and RMS of the residuals in sensor depth steps at each pixel's range.
 void printResiduals(int frame, const cv::Mat& depth_mm, const CameraIntrinsics& K,
@@ -191,7 +203,7 @@ void printResiduals(int frame, const cv::Mat& depth_mm, const CameraIntrinsics& 
       if (!found || z <= 0) continue;
       const DetectedPlane& p = out.planes[found - 1];
       const Eigen::Vector3d X = K.ray(u, v) * z;
-      const double r = (p.normal.dot(X) + p.d) / noise.depthStep(z);
+      const double r = stepsOff(p.normal, p.d, X, noise);
       sum_z[found] += z;
       sum_r2[found] += r * r;
       ++count[found];
@@ -207,11 +219,7 @@ void printResiduals(int frame, const cv::Mat& depth_mm, const CameraIntrinsics& 
 // unlabelled, with the share of the unlabelled within 1.5 steps of the found plane: unlabelled
 // pixels that lie on the found plane are pixels its growth never reached.
 void printFoundInPart(const synthetic::TruthSurface& surface, const cv::Mat& planar_truth,
-                      const Frame& frame, const Overlaps& o, const PlaneDetection& out) {
-  long most = 0;
-  int found = 0;
-  for (const auto& [key, px] : o.overlap)
-    if (key.first == surface.id && key.second && px > most) most = px, found = key.second;
+                      const Frame& frame, int found, const PlaneDetection& out) {
   if (!found) return;
   const DetectedPlane& plane = out.planes[found - 1];
   const Eigen::Vector3d true_normal = surface.plane.head<3>();
@@ -226,8 +234,8 @@ void printFoundInPart(const synthetic::TruthSurface& surface, const cv::Mat& pla
       const double z = frame.depth.at<std::uint16_t>(v, u) * 1e-3;
       if (planar_truth.at<std::uint16_t>(v, u) != surface.id || z <= 0) continue;
       const Eigen::Vector3d x = frame.intrinsics.ray(u, v) * z;
-      const double to_found = (plane.normal.dot(x) + plane.d) / noise.depthStep(z);
-      const double to_truth = (true_normal.dot(x) + surface.plane[3]) / noise.depthStep(z);
+      const double to_found = stepsOff(plane.normal, plane.d, x, noise);
+      const double to_truth = stepsOff(true_normal, surface.plane[3], x, noise);
       const int label = out.labels.at<std::uint16_t>(v, u);
       Sums* sums = label == 0 ? &unlabelled : label == found ? &labelled : nullptr;
       if (!sums) continue;
@@ -327,10 +335,10 @@ int main(int argc, char** argv) {
       if (!quiet)
         std::printf("frame %3d MISS %-18s %5.2f%% %.2f m %4.0f deg:", i, ts.name.c_str(),
                     100.0 * share, range, obliquity);
-      const Cause cause = explainMiss(ts.id, o, out, quiet);
-      ++causes[cause];
-      if (show_part_residuals && !quiet && cause == kPartial)
-        printFoundInPart(ts, truth, f.frame, o, out);
+      const Miss miss = explainMiss(ts.id, o, out, quiet);
+      ++causes[miss.cause];
+      if (show_part_residuals && !quiet && miss.cause == kPartial)
+        printFoundInPart(ts, truth, f.frame, miss.most_found, out);
       if (!quiet) std::printf("\n");
     }
   }

@@ -249,7 +249,7 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions, cv::Mat& labels,
                                            cv::Mat& peeled_pixels) {
-  peeled_pixels = cv::Mat::zeros(labels.size(), CV_8UC1);
+  peeled_pixels.release();
   std::vector<std::uint8_t> peeled_from(regions.size(), 0);
   if (params.crease_max_passes <= 0 || regions.empty()) return peeled_from;
   CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
@@ -289,6 +289,7 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
       peeled_from[root[label - 1]] = 1;
       if (onBounds(p, region)) stale_bounds[root[label - 1]] = 1;
       labels.at<std::uint16_t>(p) = 0;
+      if (peeled_pixels.empty()) peeled_pixels = cv::Mat::zeros(labels.size(), CV_8UC1);
       peeled_pixels.at<std::uint8_t>(p) = 1;
       // The strip goes on inwards: its pixels next to the peeled ones are tested next.
       for (const cv::Point& step :

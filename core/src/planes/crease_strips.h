@@ -40,8 +40,8 @@ namespace shapesense::labeling {
 /// as given to labelPixels (empty: no colour). `grid` and `region_of` (the region of each
 /// sample, -1 none) as labelPixels had them: strips are looked for only near samples whose
 /// neighbourhood holds another region or none. `peeled_pixels` becomes a CV_8UC1 image of the
-/// labels' size, 1 at the pixels peeled. Returns per region whether it lost pixels (only roots
-/// do).
+/// labels' size, 1 at the pixels peeled, or empty when none was. Returns per region whether it
+/// lost pixels (only roots do).
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,

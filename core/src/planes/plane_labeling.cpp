@@ -425,7 +425,7 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
 }
 
 // Step 5: the crease step on the merged regions, whose fits are then taken again.
-// `peeled_pixels`: 1 where a pixel was given back (crease_strips.h).
+// `peeled_pixels`: 1 where a pixel was given back, or empty (crease_strips.h).
 void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const int* region_of,
                       const PlaneLabelingParams& params, const std::vector<double>& noise_steps,

@@ -164,67 +164,69 @@ std::vector<cv::Mat> kernelInputs() {
   return inputs;
 }
 
-// plane_prediction's edge strength (its gradient and anomaly-count kernels) is the same on
-// every target, at both resolutions, on inputs narrower than a vector and with holes.
-TEST(SegmentationKernels, PlanePredictionEdgesAreTheSameOnEveryTarget) {
-  const std::vector<cv::Mat> inputs = kernelInputs();
-  const CameraIntrinsics intrinsics;
+// Calls outputs(emit) on every SIMD target this machine runs; emit(output, what) keeps each
+// output of the first target and expects the same bits, in the same order, on every other.
+// Returns the number of targets.
+template <typename Outputs>
+int expectSameOnEveryTarget(const Outputs& outputs) {
   std::vector<cv::Mat> first;
-  std::string first_target;
-  testing::forEachSimdTarget([&](const std::string& target) {
-    std::size_t k = 0;
-    for (const cv::Mat& depth : inputs) {
-      for (int ds : {1, 2}) {
-        SegmentationParams params;
-        params.plane_prediction.region.downsample = ds;
-        const cv::Mat edges = segmentationEdgeStrength(
-            depth, intrinsics, SegmentationMethod::kPlanePrediction, params);
-        if (first_target.empty()) {
-          first.push_back(edges);
-        } else {
-          ASSERT_LT(k, first.size());
-          EXPECT_TRUE(same(edges, first[k]))
-              << target << " differs from " << first_target << ": ds " << ds << " on a "
-              << depth.cols << "x" << depth.rows << " image";
-        }
-        ++k;
-      }
-    }
-    if (first_target.empty()) first_target = target;
-  });
-  EXPECT_FALSE(first.empty());
-}
-
-TEST(SegmentationKernels, EveryMethodGivesTheSameLabelsOnEveryTarget) {
-  const std::vector<cv::Mat> inputs = kernelInputs();
-  const CameraIntrinsics intrinsics;
-  std::vector<cv::Mat> first;  // the labels on the first target, in input x method x ds order
   std::string first_target;
   int targets = 0;
   testing::forEachSimdTarget([&](const std::string& target) {
     ++targets;
     std::size_t k = 0;
-    for (const cv::Mat& depth : inputs) {
-      for (SegmentationMethod method : kSegmentationMethods) {
+    outputs([&](const cv::Mat& output, const std::string& what) {
+      if (first_target.empty())
+        first.push_back(output);
+      else if (k >= first.size())
+        ADD_FAILURE() << target << " gives more outputs than " << first_target;
+      else
+        EXPECT_TRUE(same(output, first[k]))
+            << target << " differs from " << first_target << ": " << what;
+      ++k;
+    });
+    if (first_target.empty()) first_target = target;
+  });
+  return targets;
+}
+
+std::string describe(const cv::Mat& depth, int ds) {
+  return "ds " + std::to_string(ds) + " on a " + std::to_string(depth.cols) + "x" +
+         std::to_string(depth.rows) + " image";
+}
+
+// plane_prediction's edge strength (its gradient and anomaly-count kernels) is the same on
+// every target, at both resolutions, on inputs narrower than a vector and with holes.
+TEST(SegmentationKernels, PlanePredictionEdgesAreTheSameOnEveryTarget) {
+  const std::vector<cv::Mat> inputs = kernelInputs();
+  const CameraIntrinsics intrinsics;
+  const int targets = expectSameOnEveryTarget([&](const auto& emit) {
+    for (const cv::Mat& depth : inputs)
+      for (int ds : {1, 2}) {
+        SegmentationParams params;
+        params.plane_prediction.region.downsample = ds;
+        emit(segmentationEdgeStrength(depth, intrinsics, SegmentationMethod::kPlanePrediction,
+                                      params),
+             describe(depth, ds));
+      }
+  });
+  EXPECT_GE(targets, 1);
+}
+
+TEST(SegmentationKernels, EveryMethodGivesTheSameLabelsOnEveryTarget) {
+  const std::vector<cv::Mat> inputs = kernelInputs();
+  const CameraIntrinsics intrinsics;
+  const int targets = expectSameOnEveryTarget([&](const auto& emit) {
+    for (const cv::Mat& depth : inputs)
+      for (SegmentationMethod method : kSegmentationMethods)
         for (int ds : {1, 2}) {
           SegmentationParams params;
           params.depth_step.region.downsample = params.normal_edges.region.downsample =
               params.fused.region.downsample = params.plane_prediction.region.downsample =
                   params.tiled_ransac.region.downsample = ds;
-          const cv::Mat labels = segmentDepth(depth, intrinsics, method, params);
-          if (first_target.empty() || k >= first.size()) {
-            first.push_back(labels);
-          } else {
-            EXPECT_TRUE(same(labels, first[k]))
-                << target << " differs from " << first_target << ": "
-                << formatSegmentationMethod(method) << " ds " << ds << " on a " << depth.cols << "x"
-                << depth.rows << " image";
-          }
-          ++k;
+          emit(segmentDepth(depth, intrinsics, method, params),
+               std::string(formatSegmentationMethod(method)) + " " + describe(depth, ds));
         }
-      }
-    }
-    if (first_target.empty()) first_target = target;
   });
   EXPECT_GE(targets, 1);
 }
