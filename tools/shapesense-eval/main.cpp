@@ -101,18 +101,54 @@ const char* outcomeName(SegCompOutcome outcome) {
   return "missed";
 }
 
+// The name of truth region `label` of segmentTruth(truth).
+std::string truthRegionName(int label, const synthetic::TruthFrame& truth) {
+  if (eval::isCurvedObjectRegion(label, truth)) return "curved object";
+  for (const auto& surface : truth.surfaces)
+    if (surface.id == label) return surface.name;
+  return "?";
+}
+
 // One line per truth region the default segmentation does not get right: the frame, the
 // surface's name ("curved object" for the one region of an object with a curved surface), its
-// pixels and what became of it.
-void listSegmentMisses(int frame, const SegCompScore& score, const synthetic::TruthFrame& truth) {
+// pixels and what became of it; then the found region covering most of it: its share of the
+// truth region, the truth region's share of it, whether most of it is a detected plane's, and
+// the other truth region it holds most of.
+void listSegmentMisses(int frame, const cv::Mat& found, const cv::Mat& plane_labels,
+                       const synthetic::TruthFrame& truth) {
+  const cv::Mat truth_regions = eval::segmentTruth(truth);
+  const SegCompScore score = scoreSegmentation(found, truth_regions, 0.8, 0.005);
+  // (found, truth) -> pixels; found -> pixels, and pixels on a detected plane.
+  std::map<std::pair<int, int>, int> overlap;
+  std::map<int, int> found_pixels, found_on_plane;
+  for (int v = 0; v < found.rows; ++v)
+    for (int u = 0; u < found.cols; ++u) {
+      const int f = found.at<std::uint16_t>(v, u), t = truth_regions.at<std::uint16_t>(v, u);
+      if (!f || !t) continue;
+      ++overlap[{f, t}];
+      ++found_pixels[f];
+      found_on_plane[f] += plane_labels.at<std::uint16_t>(v, u) != 0;
+    }
   for (const SegCompTruthRegion& region : score.truth) {
     if (!region.considered || region.outcome == SegCompOutcome::kCorrect) continue;
-    std::string name = "curved object";
-    if (!eval::isCurvedObjectRegion(region.label, truth))
-      for (const auto& surface : truth.surfaces)
-        if (surface.id == region.label) name = surface.name;
-    std::printf("frame %3d %-26s %6d px: %s\n", frame, name.c_str(), region.pixels,
-                outcomeName(region.outcome));
+    std::printf("frame %3d %-26s %6d px: %-6s", frame, truthRegionName(region.label, truth).c_str(),
+                region.pixels, outcomeName(region.outcome));
+    int best = 0, best_pixels = 0;
+    for (const auto& [key, pixels] : overlap)
+      if (key.second == region.label && pixels > best_pixels)
+        best = key.first, best_pixels = pixels;
+    if (best) {
+      int other = 0, other_pixels = 0;
+      for (const auto& [key, pixels] : overlap)
+        if (key.first == best && key.second != region.label && pixels > other_pixels)
+          other = key.second, other_pixels = pixels;
+      const double size = found_pixels[best];
+      std::printf("  found %.2f of it, it %.2f of found, %s", best_pixels / double(region.pixels),
+                  best_pixels / size, found_on_plane[best] >= 0.5 * size ? "plane" : "object");
+      if (other)
+        std::printf(", with %s %.2f", truthRegionName(other, truth).c_str(), other_pixels / size);
+    }
+    std::printf("\n");
   }
 }
 
@@ -148,8 +184,7 @@ SyntheticResults evaluateSynthetic(eval::Split split, int frames,
     const SegmentationResult default_segments =
         segmentFrame(frame, kDefaultSegmentationMethod, config.segmentation_params, &planes);
     if (list_segment_misses)
-      listSegmentMisses(i, eval::scoreSegments(default_segments.labels, rendered.truth),
-                        rendered.truth);
+      listSegmentMisses(i, default_segments.labels, planes.labels, rendered.truth);
     for (const auto& target : eval::syntheticBoxTargets(rendered, kMinBoxedObjectShare))
       scoreObjectBoxes(frame, target, default_segments, planes, results.boxes);
     ++results.frames;
@@ -250,7 +285,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bool list_segment_misses = false;
   app.add_flag("--list-segment-misses", list_segment_misses,
-               "print each truth region the default segmentation splits, merges or misses");
+               "print each truth region the default segmentation splits, merges or misses, "
+               "and the found region covering most of it");
   CLI11_PARSE(app, argc, argv);
 
   const auto split = eval::parseSplit(split_name);
