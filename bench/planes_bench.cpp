@@ -110,6 +110,15 @@ void BM_NormalsHoughPlanesNoPixelGrowth(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanesNoPixelGrowth)->Unit(benchmark::kMillisecond);
 
+// The Hough detector without the split of leftover components into two faces
+// (HoughPlaneParams::leftover_two_face_gain): what it costs, beside BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesNoTwoFaceSplit(benchmark::State& state) {
+  HoughPlaneParams params;
+  params.leftover_two_face_gain = 0.0;
+  runHough(state, "hough-no-two-face-split", params);
+}
+BENCHMARK(BM_NormalsHoughPlanesNoTwoFaceSplit)->Unit(benchmark::kMillisecond);
+
 // The Hough detector without the check for facets of one curved surface
 // (PlaneLabelingParams::curved_pair_*), beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesNoCurvedPairCheck(benchmark::State& state) {
@@ -121,8 +130,8 @@ BENCHMARK(BM_NormalsHoughPlanesNoCurvedPairCheck)->Unit(benchmark::kMillisecond)
 
 // The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
 // coplanar region merging, the growth limit on unreliable normals, the crease step, the curved
-// pair check, the pixel growth): what those steps cost and what they gain, beside
-// BM_NormalsHoughPlanes.
+// pair check, the pixel growth, the two-face split): what those steps cost and what they gain,
+// beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   HoughPlaneParams off;
   off.leftover_ransac_hypotheses = 0;
@@ -132,6 +141,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.crease_max_passes = 0;
   off.labeling.curved_pair_rms_factor = 0.0;
   off.labeling.grow_into_unreached_pixels = false;
+  off.leftover_two_face_gain = 0.0;
   runHough(state, "hough-basic", off);
 }
 BENCHMARK(BM_NormalsHoughPlanesAccuracyStepsOff)->Unit(benchmark::kMillisecond);

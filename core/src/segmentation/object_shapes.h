@@ -14,18 +14,13 @@
 #include "shapesense/core/geometry/height_fit.h"
 #include "shapesense/core/geometry/plane_fitting.h"
 #include "shapesense/core/geometry/quadric_surface.h"
+#include "shapesense/core/geometry/two_plane_fit.h"
 #include "shapesense/core/segmentation/segmentation.h"
 
 namespace shapesense::segmentation {
 
 /// The runs of equal labels of every row.
 using RowRuns = std::vector<std::vector<LabelRun>>;
-
-/// Two planes fitted to a region's points, each point to the nearer.
-struct TwoPlanes {
-  PlaneFit a, b;
-  double residual = -1.0;  ///< sum of squared distances to the nearer plane; < 0: no fit
-};
 
 /// Each object region's sample points (every curved_sample_step_px pixels), plane normal and
 /// height fits, and whether it lies on a curved surface: a quadric fits its points markedly

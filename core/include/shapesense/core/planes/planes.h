@@ -205,6 +205,11 @@ struct HoughPlaneParams {
   bool fit_leftover_components = true;
   /// ...accepting a component when this fraction of its samples fits one plane. Default 0.8.
   double leftover_min_inlier_fraction = 0.8;
+  /// ...unless two planes fit it leftover_two_face_gain times better (RMS distance), each with
+  /// twice min_plane_samples: then it is two faces, each a plane. The two faces of a table leg or a
+  /// box edge at 1.5-2.5 m both lie within the tolerance of one plane through their crease.
+  /// Default 2 (1.5-3 tried on the validation split, docs/benchmarks.md); 0 = never.
+  double leftover_two_face_gain = 2.0;
   /// Components that are not one plane are split by sequential RANSAC with this many
   /// hypotheses per extracted plane (0 = off). Default 64.
   int leftover_ransac_hypotheses = 64;
