@@ -110,11 +110,11 @@ void BM_NormalsHoughPlanesNoPixelGrowth(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanesNoPixelGrowth)->Unit(benchmark::kMillisecond);
 
-// The Hough detector without the split of leftover components into two faces
-// (HoughPlaneParams::leftover_two_face_gain): what it costs, beside BM_NormalsHoughPlanes.
+// The Hough detector without the split of planes and leftover components into two faces
+// (HoughPlaneParams::two_face_gain): what it costs, beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesNoTwoFaceSplit(benchmark::State& state) {
   HoughPlaneParams params;
-  params.leftover_two_face_gain = 0.0;
+  params.two_face_gain = 0.0;
   runHough(state, "hough-no-two-face-split", params);
 }
 BENCHMARK(BM_NormalsHoughPlanesNoTwoFaceSplit)->Unit(benchmark::kMillisecond);
@@ -141,7 +141,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.crease_max_passes = 0;
   off.labeling.curved_pair_rms_factor = 0.0;
   off.labeling.grow_into_unreached_pixels = false;
-  off.leftover_two_face_gain = 0.0;
+  off.two_face_gain = 0.0;
   runHough(state, "hough-basic", off);
 }
 BENCHMARK(BM_NormalsHoughPlanesAccuracyStepsOff)->Unit(benchmark::kMillisecond);

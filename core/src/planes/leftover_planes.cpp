@@ -17,7 +17,6 @@
 
 #include "planes/hough_detector_steps.h"
 #include "shapesense/core/geometry/moment_sums.h"
-#include "shapesense/core/geometry/two_plane_fit.h"
 #include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
@@ -232,48 +231,6 @@ PlaneFit trimmedComponentFit(const std::vector<int>& members, const std::vector<
   return fit;
 }
 
-// The two faces of a component that one plane fits within the tolerance, if two planes fit it
-// leftover_two_face_gain times better than `one` does and each takes twice min_plane_samples:
-// the curvature check after the labelling must still tell a face cut from a curved surface
-// (half of a tin's side at range) from a flat one, which it cannot on a few dozen samples.
-std::optional<TwoPlanes> twoFaces(const std::vector<int>& members, const cv::Vec3f* pts,
-                                  const PlaneFit& one, const HoughPlaneParams& P) {
-  constexpr double kFaceSamplesPerPlaneSamples = 2.0;
-  if (P.leftover_two_face_gain <= 0.0) return std::nullopt;
-  std::vector<Eigen::Vector3d> points;
-  points.reserve(members.size());
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const int i : members) {
-    points.emplace_back(pts[i][0], pts[i][1], pts[i][2]);
-    sum += points.back();
-  }
-  const std::optional<TwoPlaneFit> two =
-      bestTwoPlanes(points, sum / static_cast<double>(points.size()));
-  if (!two) return std::nullopt;
-  // The fit counts every stride-th member.
-  const double min_face =
-      kFaceSamplesPerPlaneSamples * P.min_plane_samples / static_cast<double>(two->stride);
-  if (two->planes.a.count < min_face || two->planes.b.count < min_face ||
-      one.rms_m < P.leftover_two_face_gain * two->rms())
-    return std::nullopt;
-  return two->planes;
-}
-
-// Each member within its tolerance of the nearer face takes that face's plane.
-void labelTwoFaces(const TwoPlanes& faces, const std::vector<int>& members, const cv::Vec3f* pts,
-                   const std::vector<double>& member_tol, std::vector<PlaneHypothesis>& planes,
-                   cv::Mat& sample_labels) {
-  const int a = static_cast<int>(planes.size());
-  int* lab = sample_labels.ptr<int>(0);
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    const double to_a = planeDistance(faces.a, pts[members[k]]);
-    const double to_b = planeDistance(faces.b, pts[members[k]]);
-    if (std::min(to_a, to_b) <= member_tol[k]) lab[members[k]] = to_b < to_a ? a + 1 : a;
-  }
-  planes.push_back({faces.a.normal, faces.a.d});
-  planes.push_back({faces.b.normal, faces.b.d});
-}
-
 // A component becomes a plane when one plane fits most of it, or two when it is two faces;
 // otherwise it is split by RANSAC.
 void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
@@ -293,8 +250,8 @@ void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
       splitLeftoverComponent(members, grid, P, scratch, planes, sample_labels);
     return;
   }
-  if (const std::optional<TwoPlanes> faces = twoFaces(members, pts, fit, P)) {
-    labelTwoFaces(*faces, members, pts, member_tol, planes, sample_labels);
+  if (const std::optional<TwoPlanes> faces = twoFaces(members, grid, fit, P)) {
+    labelTwoFaces(*faces, members, grid, member_tol, planes, sample_labels);
     return;
   }
   const int id = static_cast<int>(planes.size());

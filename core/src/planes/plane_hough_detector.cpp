@@ -43,6 +43,7 @@ PlaneDetection HoughPlaneDetector::detect(const cv::Mat& depth_mm, const CameraI
   s.markReliableSamples(P);
   std::vector<PlaneHypothesis> planes = s.findPlanesByVoting(P);
   mergeNearDuplicatePlanes(s.grid, s.sample_labels, planes, P);
+  splitTwoFacedPlanes(s.grid, s.sample_labels, planes, P);
   if (P.fit_leftover_components) {
     s.fitLeftoverComponents(P, planes);
     mergeNearDuplicatePlanes(s.grid, s.sample_labels, planes, P);

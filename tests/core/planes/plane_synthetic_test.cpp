@@ -108,7 +108,7 @@ TEST(PlaneSynthetic, NarrowFacesBetweenCreasesAreFound) {
 // (the tolerance grows with the square of the range, the leg's width only linearly) and come
 // out of the leftovers as one component that one plane fits; two planes fit it far better, and
 // it is two planes. Legs at 1.6 m (frames 6 and 46, 0.6-1.0% of the image each) and 2.15 m
-// (frame 44, 0.5-0.6%): without that test (leftover_two_face_gain 0) none of these six faces is
+// (frame 44, 0.5-0.6%): without that test (two_face_gain 0) none of these six faces is
 // found.
 TEST(PlaneSynthetic, BothFacesOfALegAtRangeAreFound) {
   HoughPlaneDetector det;

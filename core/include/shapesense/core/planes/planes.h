@@ -200,16 +200,18 @@ struct HoughPlaneParams {
   /// merge_tolerance_factor x tolerance / 3 at their range). Defaults 1.3 and 1.0.
   double merge_rms_factor = 1.3;
   double merge_tolerance_factor = 1.0;
+  /// A plane, voted for or fitted to a leftover component, whose samples two planes fit
+  /// two_face_gain times better (RMS distance), each with twice min_plane_samples, is two faces,
+  /// each a plane: far off, both faces of a table leg or a box edge lie within the tolerance of
+  /// one plane through their crease. Default 2 (1.5-3 tried on the validation split,
+  /// docs/benchmarks.md); 0 = never.
+  double two_face_gain = 2.0;
   /// Fit depth-continuous components of samples left unassigned by the Hough stage (thin and
   /// small surfaces without reliable normals, see the pipeline step 6 comment). Default true.
   bool fit_leftover_components = true;
-  /// ...accepting a component when this fraction of its samples fits one plane. Default 0.8.
+  /// ...accepting a component when this fraction of its samples fits one plane (two planes when
+  /// it is two faces, see two_face_gain). Default 0.8.
   double leftover_min_inlier_fraction = 0.8;
-  /// ...unless two planes fit it leftover_two_face_gain times better (RMS distance), each with
-  /// twice min_plane_samples: then it is two faces, each a plane. The two faces of a table leg or a
-  /// box edge at 1.5-2.5 m both lie within the tolerance of one plane through their crease.
-  /// Default 2 (1.5-3 tried on the validation split, docs/benchmarks.md); 0 = never.
-  double leftover_two_face_gain = 2.0;
   /// Components that are not one plane are split by sequential RANSAC with this many
   /// hypotheses per extracted plane (0 = off). Default 64.
   int leftover_ransac_hypotheses = 64;
