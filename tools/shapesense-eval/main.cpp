@@ -117,7 +117,7 @@ std::string truthRegionName(int label, const synthetic::TruthFrame& truth) {
 void listSegmentMisses(int frame, const cv::Mat& found, const cv::Mat& plane_labels,
                        const synthetic::TruthFrame& truth) {
   const cv::Mat truth_regions = eval::segmentTruth(truth);
-  const SegCompScore score = scoreSegmentation(found, truth_regions, 0.8, 0.005);
+  const SegCompScore score = eval::scoreSegments(found, truth);
   // (found, truth) -> pixels; found -> pixels, and pixels on a detected plane.
   std::map<std::pair<int, int>, int> overlap;
   std::map<int, int> found_pixels, found_on_plane;

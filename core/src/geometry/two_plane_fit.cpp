@@ -38,9 +38,7 @@ TwoPlanes fitTwoPlanes(const std::vector<Eigen::Vector3d>& points, const Eigen::
 
 }  // namespace
 
-double TwoPlaneFit::rms() const {
-  return std::sqrt(planes.residual / static_cast<double>(std::max<std::size_t>(fitted, 1)));
-}
+double TwoPlaneFit::rms() const { return std::sqrt(planes.residual / static_cast<double>(fitted)); }
 
 std::optional<TwoPlaneFit> bestTwoPlanes(std::span<const Eigen::Vector3d> points,
                                          const Eigen::Vector3d& centroid) {

@@ -9,21 +9,20 @@
 //  3. findPlanesByVoting: rounds of Hough voting by the free reliable samples, smoothing, peak
 //     picking, and refinement of each peak into a plane that claims its inliers.
 //  4. mergeNearDuplicatePlanes: the same plane found twice, merged by a least-squares test.
-//     splitTwoFacedPlanes: a plane whose samples lie on two faces at a crease, split in two.
+//     splitTwoFacedPlanes (two_faced_planes.h): a plane whose samples lie on two faces at a
+//     crease, split in two.
 //  5. fitLeftoverComponents: thin or small surfaces that never voted, fitted per component (a
 //     component on two faces, likewise split).
 //  6. labelPlanes (plane_labeling.h): full-resolution labels, regions, refits, polygons.
 
 #include <cstdint>
-#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "planes/planes_kernels.h"
-#include "shapesense/core/geometry/plane_fitting.h"
-#include "shapesense/core/geometry/two_plane_fit.h"
+#include "planes/two_faced_planes.h"
 #include "shapesense/core/normals/normals.h"
 #include "shapesense/core/planes/hough_accumulator.h"
 #include "shapesense/core/planes/plane_labeling.h"
@@ -105,27 +104,5 @@ struct HoughPlaneDetector::Impl {
 /// `planes` without samples.
 void mergeNearDuplicatePlanes(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
                               std::vector<PlaneHypothesis>& planes, const HoughPlaneParams& P);
-
-/// The two faces of the samples `members` (grid indices) that one plane `one` fits within the
-/// tolerance: when two planes fit them HoughPlaneParams::two_face_gain times better by RMS
-/// distance and each face takes twice min_plane_samples. Far off, both faces of a table leg or
-/// a box edge lie within the tolerance of one plane through their crease (the tolerance grows
-/// with the square of the range, a face's width only linearly), and their sample normals,
-/// blurred across the crease, agree with it well enough to vote for it. Twice the plane minimum:
-/// the curvature check after the labelling must still tell a face cut from a curved surface
-/// (half of a tin's side at range) from a flat one, which it cannot on a few dozen samples.
-std::optional<TwoPlanes> twoFaces(const std::vector<int>& members, const PlaneSampleGrid& grid,
-                                  const PlaneFit& one, const HoughPlaneParams& P);
-
-/// Each member within its tolerance (`member_tol`, aligned with `members`) of the nearer face
-/// is labelled with that face's plane, appended to `planes` (a, then b).
-void labelTwoFaces(const TwoPlanes& faces, const std::vector<int>& members,
-                   const PlaneSampleGrid& grid, const std::vector<double>& member_tol,
-                   std::vector<PlaneHypothesis>& planes, cv::Mat& sample_labels);
-
-/// Step 4b: each plane whose samples are two faces (twoFaces) becomes two, the first in its
-/// place, the second appended, each with the samples nearer it.
-void splitTwoFacedPlanes(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
-                         std::vector<PlaneHypothesis>& planes, const HoughPlaneParams& P);
 
 }  // namespace shapesense

@@ -250,8 +250,13 @@ void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
       splitLeftoverComponent(members, grid, P, scratch, planes, sample_labels);
     return;
   }
-  if (const std::optional<TwoPlanes> faces = twoFaces(members, grid, fit, P)) {
-    labelTwoFaces(*faces, members, grid, member_tol, planes, sample_labels);
+  std::vector<Eigen::Vector3d> points;
+  gatherSamplePoints(grid, members, points);
+  if (const std::optional<TwoPlanes> faces = twoFaces(points, fit, P)) {
+    const int a = static_cast<int>(planes.size());
+    labelNearerFace(*faces, members, points, a, a + 1, &member_tol, sample_labels);
+    planes.push_back({faces->a.normal, faces->a.d});
+    planes.push_back({faces->b.normal, faces->b.d});
     return;
   }
   const int id = static_cast<int>(planes.size());

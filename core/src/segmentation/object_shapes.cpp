@@ -18,10 +18,8 @@ std::optional<TwoPlanes> creaseFaces(const TwoPlaneFit& two, const PlaneFit& one
   constexpr double kMinFacePoints = 20;
   constexpr double kMinGain = 2.0;
   const TwoPlanes& best = two.planes;
-  const double min_face_points = kMinFacePoints / static_cast<double>(two.stride);
-  if (best.a.count < min_face_points || best.b.count < min_face_points ||
-      best.a.rms_m > tolerance || best.b.rms_m > tolerance ||
-      one.rms_m < kMinGain * std::max(best.a.rms_m, best.b.rms_m) ||
+  if (!two.facesHoldAtLeast(kMinFacePoints) || best.a.rms_m > tolerance ||
+      best.b.rms_m > tolerance || one.rms_m < kMinGain * std::max(best.a.rms_m, best.b.rms_m) ||
       two.rms() >= quadric.quadricRms() ||
       std::abs(best.a.normal.dot(best.b.normal)) > std::cos(p.crease_min_angle_deg * M_PI / 180.0))
     return std::nullopt;

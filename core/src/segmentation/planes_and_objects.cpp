@@ -390,8 +390,7 @@ void splitCreasedObjects(const cv::Mat& depth_mm, const CameraIntrinsics& intrin
       for (int u = run.begin; u < run.end; ++u) {
         if (!z[u]) continue;
         const Eigen::Vector3d x = intrinsics.backproject(u, static_cast<double>(v), z[u] * 1e-3);
-        if (std::abs(two.b.normal.dot(x) + two.b.d) < std::abs(two.a.normal.dot(x) + two.a.d))
-          l[u] = second_label[label];
+        if (two.nearerB(x)) l[u] = second_label[label];
       }
     }
   }

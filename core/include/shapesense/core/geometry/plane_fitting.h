@@ -20,6 +20,9 @@ struct PlaneFit {
   double rms_m = 0.0;                                ///< RMS orthogonal residual (m)
   double count = 0.0;                                ///< (weighted) number of points
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+
+  /// Orthogonal distance of x from the plane.
+  double distance(const Eigen::Vector3d& x) const { return std::abs(normal.dot(x) + d); }
 };
 
 /// First and second moments of a point set, relative to a reference point so that sums of

@@ -18,6 +18,9 @@ namespace shapesense {
 struct TwoPlanes {
   PlaneFit a, b;
   double residual = -1.0;  ///< sum of squared distances to the nearer plane; < 0: no fit
+
+  /// Whether x lies nearer b than a (a point as far from both belongs to a).
+  bool nearerB(const Eigen::Vector3d& x) const { return b.distance(x) < a.distance(x); }
 };
 
 /// Two planes fitted to at most kMaxFitPoints of a point set, evenly spread (enough for two
@@ -28,11 +31,17 @@ struct TwoPlaneFit {
   std::size_t stride = 1;  ///< every stride-th point was fitted
   std::size_t fitted = 0;  ///< that many
   double rms() const;
+  /// Whether each face holds at least `points` of all the points (its count times the stride).
+  bool facesHoldAtLeast(double points) const {
+    const double fitted_points = points / static_cast<double>(stride);
+    return planes.a.count >= fitted_points && planes.b.count >= fitted_points;
+  }
 };
 
 /// The better of two fits by alternating assignment and refit, each from a split of the points
-/// across one in-plane axis of their scatter through `centroid` (their mean). None for too few
-/// points, or when a side gets no plane.
+/// across one in-plane axis of their scatter through `centroid` (their mean). The planes'
+/// counts are of the fitted points (every stride-th). None without points, or when a side gets
+/// too few points for a plane.
 std::optional<TwoPlaneFit> bestTwoPlanes(std::span<const Eigen::Vector3d> points,
                                          const Eigen::Vector3d& centroid);
 

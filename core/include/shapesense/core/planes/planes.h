@@ -18,9 +18,11 @@
 //     `refine_iterations` times); accepted planes take their samples. Unclaimed samples vote
 //     again in the next round (`rounds`), which finds planes hidden next to bigger parallel ones
 //     (a box top 5 cm above the table shares the table's smoothed peak).
-//  4. Near-duplicate planes are merged (angle and distance gates). Depth-continuous components
-//     of samples no plane took (thin strips, small faces without reliable normals) are fitted
-//     by least squares, or split by sequential RANSAC when they hold several faces.
+//  4. Near-duplicate planes are merged (angle and distance gates), and a plane whose samples lie
+//     on two faces at a crease is split in two (two_face_gain). Depth-continuous components of
+//     samples no plane took (thin strips, small faces without reliable normals) are fitted by
+//     least squares (as two faces, likewise), or split by sequential RANSAC when they hold
+//     several faces.
 //  5. Labelling (plane_labeling.h): region growing on the sample grid, connected regions (a
 //     region = one physical surface: two box tops at the same height get two ids), every
 //     full-resolution pixel takes the closest plane among the regions of its neighbouring
