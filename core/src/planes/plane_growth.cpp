@@ -63,7 +63,7 @@ std::size_t growPlanesIntoUnlabelled(const cv::Mat& depth_mm, const CameraIntrin
   for (std::size_t head = 0; head < queue.size(); ++head) {
     const cv::Point from = queue[head];
     const std::uint16_t id = labels.at<std::uint16_t>(from);
-    const DetectedPlane& plane = detection.planes[id - 1];
+    DetectedPlane& plane = detection.planes[id - 1];
     CV_DbgAssert(plane.id == id);
     const double z_from = depth_mm.at<std::uint16_t>(from) * 1e-3;
     for (const cv::Point step :
@@ -78,9 +78,8 @@ std::size_t growPlanesIntoUnlabelled(const cv::Mat& depth_mm, const CameraIntrin
       if (std::abs(plane.normal.dot(x) + plane.d) > tolerance) continue;
       labels.at<std::uint16_t>(p) = id;
       is_open = 0;
-      DetectedPlane& grown = detection.planes[id - 1];
-      ++grown.inliers;
-      grown.box |= cv::Rect(p.x, p.y, 1, 1);
+      ++plane.inliers;
+      plane.box |= cv::Rect(p.x, p.y, 1, 1);
       ++taken;
       queue.push_back(p);
     }

@@ -582,9 +582,7 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
     for (std::size_t k = 0; k < nreg; ++k)
       if (plane_of_region[k + 1] && merged_into[k] == static_cast<int>(k))
         tolerance_of_plane[plane_of_region[k + 1]] = region_tol[k];
-    DepthStepRule continuity;
-    continuity.noise_steps = tol.noise_steps;
-    continuity.noise = tol.noise;
+    const DepthStepRule continuity{.noise_steps = tol.noise_steps, .noise = tol.noise};
     labeling::growPlanesIntoUnlabelled(depth_mm, K, tolerance_of_plane, tol_floor, continuity,
                                        peeled_pixels, out);
   }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "shapesense/core/geometry/units.h"
+
 namespace shapesense::segmentation {
 namespace {
 
@@ -21,7 +23,7 @@ std::optional<TwoPlanes> creaseFaces(const TwoPlaneFit& two, const PlaneFit& one
   if (!two.facesHoldAtLeast(kMinFacePoints) || best.a.rms_m > tolerance ||
       best.b.rms_m > tolerance || one.rms_m < kMinGain * std::max(best.a.rms_m, best.b.rms_m) ||
       two.rms() >= quadric.quadricRms() ||
-      std::abs(best.a.normal.dot(best.b.normal)) > std::cos(p.crease_min_angle_deg * M_PI / 180.0))
+      std::abs(best.a.normal.dot(best.b.normal)) > std::cos(degToRad(p.crease_min_angle_deg)))
     return std::nullopt;
   return best;
 }
