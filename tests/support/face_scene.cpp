@@ -22,7 +22,8 @@ std::optional<double> Face::rangeAt(const Eigen::Vector3d& ray) const {
   return p.z();
 }
 
-FaceFrame renderFaces(const std::vector<Face>& faces, double wall_m, unsigned seed) {
+FaceFrame renderFaces(const std::vector<Face>& faces, double wall_m, unsigned seed,
+                      double disparity_sigma_px) {
   const CameraIntrinsics K;  // Kinect v1
   FaceFrame out{cv::Mat(K.height, K.width, CV_16UC1), cv::Mat(K.height, K.width, CV_8UC1)};
   std::mt19937 rng(seed);
@@ -36,7 +37,7 @@ FaceFrame renderFaces(const std::vector<Face>& faces, double wall_m, unsigned se
           z = *range;
           seen = static_cast<std::uint8_t>(i + 1);
         }
-      out.depth.at<std::uint16_t>(v, u) = kinectDepthMm(z, rng);
+      out.depth.at<std::uint16_t>(v, u) = kinectDepthMm(z, rng, disparity_sigma_px);
       out.face.at<std::uint8_t>(v, u) = seen;
     }
   return out;

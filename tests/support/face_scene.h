@@ -32,11 +32,13 @@ struct Face {
   std::optional<double> rangeAt(const Eigen::Vector3d& ray) const;
 };
 
-/// A frame of `faces` before a wall facing the camera `wall_m` ahead.
+/// A frame of `faces` before a wall facing the camera `wall_m` ahead, read with disparity noise
+/// of `disparity_sigma_px`.
 struct FaceFrame {
   cv::Mat depth;  ///< CV_16UC1 mm, as the Kinect v1 reads it
   cv::Mat face;   ///< CV_8UC1: i + 1 where faces[i] is seen, 0 on the wall
 };
-FaceFrame renderFaces(const std::vector<Face>& faces, double wall_m, unsigned seed);
+FaceFrame renderFaces(const std::vector<Face>& faces, double wall_m, unsigned seed,
+                      double disparity_sigma_px = 0.07);
 
 }  // namespace shapesense::testing
