@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <vector>
 
 namespace shapesense {
 
@@ -13,12 +14,13 @@ double disparityNoisePx(const cv::Mat& depth_mm, const KinectNoiseModel& sensor)
   const double px_mm = sensor.focal_baseline_px_m * 1000.0;  // disparity = px_mm / depth_mm
   double sum = 0.0;
   long triples = 0;
+  std::vector<double> disparity(static_cast<std::size_t>(depth_mm.cols));  // 0: no reading
   for (int r = 0; r < depth_mm.rows; ++r) {
     const auto* row = depth_mm.ptr<std::uint16_t>(r);
+    for (int c = 0; c < depth_mm.cols; ++c) disparity[c] = row[c] ? px_mm / row[c] : 0.0;
     for (int c = 1; c + 1 < depth_mm.cols; ++c) {
       if (!row[c - 1] || !row[c] || !row[c + 1]) continue;
-      const double second =
-          std::abs(px_mm / row[c - 1] - 2.0 * px_mm / row[c] + px_mm / row[c + 1]);
+      const double second = std::abs(disparity[c - 1] - 2.0 * disparity[c] + disparity[c + 1]);
       if (second >= kEdgePx) continue;
       sum += second;
       ++triples;
