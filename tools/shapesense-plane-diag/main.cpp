@@ -169,8 +169,9 @@ void printSpurious(int frame, const synthetic::TruthFrame& truth, const PlaneDet
         on_one_plane = std::max(on_one_plane, px);
     if (on_one_plane >= 0.8 * pixels) continue;
     const DetectedPlane& plane = out.planes[found - 1];
-    std::printf("frame %3d SPURIOUS %d (%ld px, rms %.1f mm, d %.2f m):", frame, found, pixels,
-                1000 * plane.rms_m, plane.d);
+    std::printf("frame %3d SPURIOUS %d (%ld px, rms %.1f mm, d %.2f m, box %d,%d %dx%d):", frame,
+                found, pixels, 1000 * plane.rms_m, plane.d, plane.box.x, plane.box.y,
+                plane.box.width, plane.box.height);
     for (const auto& [t, px] : on[found]) {
       if (px < 0.02 * pixels) continue;
       const bool curved = t && surface(t).kind != synthetic::SurfaceKind::kPlane;
