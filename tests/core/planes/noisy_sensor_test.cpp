@@ -22,8 +22,8 @@ testing::FaceFrame noisyFarWall() {
   return testing::renderFaces(side_walls, 4.0, 5, 0.15);
 }
 
-// The plane found on the far wall (normal within 5 deg of the wall's) and the share of the
-// wall's pixels it holds; none: share 0.
+// The plane found on the far wall (normal within 5 deg of the wall's; a pointer into the
+// detection it was found in) and the share of the wall's pixels it holds; none: share 0.
 struct WallPlane {
   const DetectedPlane* plane = nullptr;
   double share = 0.0;
@@ -45,7 +45,8 @@ WallPlane wallPlane(const PlaneDetection& detection, const cv::Mat& face) {
 TEST(NoisySensor, AFarWallIsOnePlane) {
   const testing::FaceFrame frame = noisyFarWall();
   HoughPlaneDetector detector;  // defaults
-  const WallPlane wall = wallPlane(detector.detect(frame.depth, CameraIntrinsics{}), frame.face);
+  const PlaneDetection detection = detector.detect(frame.depth, CameraIntrinsics{});
+  const WallPlane wall = wallPlane(detection, frame.face);  // points into `detection`
   ASSERT_NE(wall.plane, nullptr) << "no plane on the wall";
   EXPECT_GE(wall.share, 0.9);
   // Tolerances: 1 deg, and 2 cm of d (the depth noise at 4 m is 5.5 cm a reading).
