@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <string>
@@ -46,8 +47,9 @@ using BoxScores = std::map<int, eval::BoxModeScore>;
 
 // The sensor noise bins of the planes' table by noise: the split draws 0.04-0.15 px of
 // disparity noise; a Kinect v1 reads 0.05-0.08 px (measured on the real recordings).
+constexpr double kSplitNoisePx[] = {0.04, 0.15};  // eval::evalScene's range
 constexpr double kNoiseBinEdgesPx[] = {0.075, 0.11};
-constexpr int kNoiseBins = 3;
+constexpr int kNoiseBins = std::size(kNoiseBinEdgesPx) + 1;
 
 int noiseBin(double disparity_noise_px) {
   int bin = 0;
@@ -130,7 +132,7 @@ std::string truthRegionName(int label, const synthetic::TruthFrame& truth) {
 void listSegmentMisses(int frame, const cv::Mat& found, const cv::Mat& plane_labels,
                        const synthetic::TruthFrame& truth) {
   const cv::Mat truth_regions = eval::segmentTruth(truth);
-  const SegCompScore score = eval::scoreSegments(found, truth);
+  const SegCompScore score = eval::scoreSegments(found, truth_regions);
   // (found, truth) -> pixels; found -> pixels, and pixels on a detected plane.
   std::map<std::pair<int, int>, int> overlap;
   std::map<int, int> found_pixels, found_on_plane;
@@ -234,10 +236,11 @@ void printSynthetic(eval::Split split, const SyntheticResults& r) {
   std::printf("\nPlanes by the sensor's disparity noise:\n");
   std::printf("| noise (px) | frames | truth planes | correct | spurious / frame |\n");
   std::printf("|---|---|---|---|---|\n");
-  const char* noise_bins[] = {"0.04-0.075", "0.075-0.11", "0.11-0.15"};
   for (int b = 0; b < kNoiseBins; ++b) {
     const eval::PlaneScore& s = r.planes_by_noise[b];
-    std::printf("| %s | %d | %d | %.3f | %.2f |\n", noise_bins[b], s.frames, s.truth_regions,
+    const double low = b == 0 ? kSplitNoisePx[0] : kNoiseBinEdgesPx[b - 1];
+    const double high = b + 1 == kNoiseBins ? kSplitNoisePx[1] : kNoiseBinEdgesPx[b];
+    std::printf("| %.3g-%.3g | %d | %d | %.3f | %.2f |\n", low, high, s.frames, s.truth_regions,
                 s.correctFraction(), s.spuriousPerFrame());
   }
   std::printf("\nSegments (planar faces apart, curved objects whole):\n");

@@ -287,7 +287,7 @@ int main(int argc, char** argv) {
   app.add_option("--leftover-agreement", params.leftover_normal_agreement_deg);
   app.add_option("--leftover-fraction", params.leftover_min_inlier_fraction);
   app.add_option("--two-face-gain", params.two_face_gain);
-  app.add_option("--step-noise-sigmas", params.step_noise_sigmas);
+  app.add_option("--step-noise-sigmas", params.normals.depth_change_noise_sigmas);
   app.add_option("--merge-occluded", params.labeling.merge_occluded_pieces);
   app.add_option("--merge-coplanar", params.labeling.merge_coplanar_regions);
   app.add_option("--vote-spread", params.vote_max_normal_spread_deg);

@@ -44,7 +44,7 @@ std::optional<TwoPlaneFit> bestTwoPlanes(std::span<const Eigen::Vector3d> points
                                          const Eigen::Vector3d& centroid) {
   if (points.empty()) return std::nullopt;
   TwoPlaneFit two;
-  two.stride = (points.size() + TwoPlaneFit::kMaxFitPoints - 1) / TwoPlaneFit::kMaxFitPoints;
+  two.stride = TwoPlaneFit::strideFor(points.size());
   std::vector<Eigen::Vector3d> fit_points;
   fit_points.reserve(points.size() / two.stride + 1);
   for (std::size_t i = 0; i < points.size(); i += two.stride) fit_points.push_back(points[i]);

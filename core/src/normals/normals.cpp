@@ -1,5 +1,6 @@
 #include "shapesense/core/normals/normals.h"
 
+#include <algorithm>
 #include <limits>
 
 #include "normals/covariance_estimator.h"
@@ -7,8 +8,23 @@
 #include "normals/normal_input.h"
 #include "normals/normal_workspace.h"
 #include "normals/step_map.h"
+#include "shapesense/core/geometry/disparity_noise.h"
 
 namespace shapesense {
+namespace {
+
+// The parameters of this input's depth-step rule: depth_change_noise_sigmas applied to depth
+// input.
+NormalParams stepParams(const NormalParams& params, const cv::Mat& input) {
+  if (params.depth_change_noise_sigmas <= 0.0 || input.type() != CV_16UC1) return params;
+  NormalParams out = params;
+  const double noise_steps = disparityNoisePx(input, params.noise) / params.noise.disparity_step_px;
+  out.depth_change_noise_steps =
+      std::max(params.depth_change_noise_steps, params.depth_change_noise_sigmas * noise_steps);
+  return out;
+}
+
+}  // namespace
 
 NormalEstimator::NormalEstimator(NormalParams params)
     : params_(params), work_(std::make_unique<detail::NormalWorkspace>()) {}
@@ -37,7 +53,7 @@ void NormalEstimator::compute(const cv::Mat& input, const CameraIntrinsics& intr
   detail::loadInput(input, intrinsics, work.input);
   normals.create(input.rows, input.cols, CV_32FC3);
   if (input.rows == 0 || input.cols == 0) return;  // no pixel (the row scans assume one)
-  detail::markDepthSteps(params_, work.input, work.steps);
+  detail::markDepthSteps(stepParams(params_, input), work.input, work.steps);
   switch (params_.method) {
     case NormalMethod::kCovariance:
       normals.setTo(cv::Scalar::all(std::numeric_limits<float>::quiet_NaN()));

@@ -7,7 +7,6 @@
 #include <utility>
 
 #include "planes/hough_detector_steps.h"
-#include "shapesense/core/geometry/disparity_noise.h"
 #include "shapesense/core/geometry/moment_sums.h"
 #include "shapesense/core/geometry/units.h"
 
@@ -40,18 +39,6 @@ PlaneMoments candidateMoments(const Eigen::Vector3d& ref, const float* x, const 
   return sums.moments();
 }
 
-// The sample normals' parameters for this frame: the depth-step rule widened to the frame's
-// own noise (HoughPlaneParams::step_noise_sigmas).
-NormalParams frameNormalParams(const cv::Mat& sample_depth_mm, const HoughPlaneParams& P) {
-  NormalParams params = P.normals;
-  if (P.step_noise_sigmas <= 0.0) return params;
-  const double noise_steps =
-      disparityNoisePx(sample_depth_mm, params.noise) / params.noise.disparity_step_px;
-  params.depth_change_noise_steps =
-      std::max(params.depth_change_noise_steps, P.step_noise_sigmas * noise_steps);
-  return params;
-}
-
 }  // namespace
 
 bool HoughPlaneDetector::Impl::sampleFrame(const cv::Mat& depth_mm, const CameraIntrinsics& K,
@@ -61,7 +48,6 @@ bool HoughPlaneDetector::Impl::sampleFrame(const cv::Mat& depth_mm, const Camera
     sample_labels.create(grid.points.size(), CV_32SC1);
     return false;
   }
-  normals_est.setParams(frameNormalParams(grid.depth_mm, P));
   normals_est.compute(grid.depth_mm, grid.intrinsics, grid.normals);
   return true;
 }

@@ -250,14 +250,16 @@ void fitComponent(const std::vector<int>& members, const PlaneSampleGrid& grid,
       splitLeftoverComponent(members, grid, P, scratch, planes, sample_labels);
     return;
   }
-  std::vector<Eigen::Vector3d> points;
-  gatherSamplePoints(grid, members, points);
-  if (const std::optional<TwoPlanes> faces = twoFaces(points, fit, P)) {
-    const int a = static_cast<int>(planes.size());
-    labelNearerFace(*faces, members, points, a, a + 1, &member_tol, sample_labels);
-    planes.push_back({faces->a.normal, faces->a.d});
-    planes.push_back({faces->b.normal, faces->b.d});
-    return;
+  if (mayBeTwoFaces(members.size(), P)) {
+    std::vector<Eigen::Vector3d> points;
+    gatherSamplePoints(grid, members, points);
+    if (const std::optional<TwoPlanes> faces = twoFaces(points, fit, P)) {
+      const int a = static_cast<int>(planes.size());
+      labelNearerFace(*faces, members, points, a, a + 1, &member_tol, sample_labels);
+      planes.push_back({faces->a.normal, faces->a.d});
+      planes.push_back({faces->b.normal, faces->b.d});
+      return;
+    }
   }
   const int id = static_cast<int>(planes.size());
   int* lab = sample_labels.ptr<int>(0);

@@ -22,6 +22,10 @@ NormalParams HoughPlaneParams::defaultSampleNormalParams(int step) {
   // as a step scales with it (1% of range per pixel: 4 cm at 1 m for step 4), and so do gaps.
   p.max_depth_change_factor = 0.01 * step;
   p.max_gap_px = std::max(1, 8 / step);
+  // A noisy sensor at range: with the fixed rule alone, a wall 4 m away read with 0.15 px of
+  // noise kept a quarter of its samples' normals, and no plane (3-6 tried on the validation
+  // split, docs/benchmarks.md).
+  p.depth_change_noise_sigmas = 4.0;
   return p;
 }
 

@@ -9,16 +9,25 @@ void gatherSamplePoints(const PlaneSampleGrid& grid, const std::vector<int>& mem
   for (const int i : members) points.emplace_back(pts[i][0], pts[i][1], pts[i][2]);
 }
 
+namespace {
+
+// Each face holds twice min_plane_samples (see twoFaces).
+double faceSamples(const HoughPlaneParams& P) { return 2.0 * P.min_plane_samples; }
+
+}  // namespace
+
+bool mayBeTwoFaces(std::size_t count, const HoughPlaneParams& P) {
+  return P.two_face_gain > 0.0 && TwoPlaneFit::mayHoldFacesOf(count, faceSamples(P));
+}
+
 std::optional<TwoPlanes> twoFaces(std::span<const Eigen::Vector3d> points, const PlaneFit& one,
                                   const HoughPlaneParams& P) {
-  constexpr double kFaceSamplesPerPlaneSamples = 2.0;
-  if (P.two_face_gain <= 0.0 || points.empty() || !one.valid) return std::nullopt;
+  if (!mayBeTwoFaces(points.size(), P) || points.empty() || !one.valid) return std::nullopt;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& x : points) sum += x;
   const std::optional<TwoPlaneFit> two =
       bestTwoPlanes(points, sum / static_cast<double>(points.size()));
-  if (!two || !two->facesHoldAtLeast(kFaceSamplesPerPlaneSamples * P.min_plane_samples) ||
-      one.rms_m < P.two_face_gain * two->rms())
+  if (!two || !two->facesHoldAtLeast(faceSamples(P)) || one.rms_m < P.two_face_gain * two->rms())
     return std::nullopt;
   return two->planes;
 }
@@ -28,9 +37,9 @@ void labelNearerFace(const TwoPlanes& faces, const std::vector<int>& members,
                      const std::vector<double>* member_tol, cv::Mat& sample_labels) {
   int* lab = sample_labels.ptr<int>(0);
   for (std::size_t k = 0; k < members.size(); ++k) {
-    const Eigen::Vector3d& x = points[k];
-    const bool on_b = faces.nearerB(x);
-    if (member_tol && (on_b ? faces.b : faces.a).distance(x) > (*member_tol)[k]) continue;
+    const double to_a = faces.a.distance(points[k]), to_b = faces.b.distance(points[k]);
+    const bool on_b = to_b < to_a;  // TwoPlanes::nearerB
+    if (member_tol && (on_b ? to_b : to_a) > (*member_tol)[k]) continue;
     lab[members[k]] = on_b ? label_b : label_a;
   }
 }
@@ -45,6 +54,7 @@ void splitTwoFacedPlanes(const PlaneSampleGrid& grid, cv::Mat& sample_labels,
     if (lab[i] >= 0) members[static_cast<std::size_t>(lab[i])].push_back(i);
   std::vector<Eigen::Vector3d> points;
   for (std::size_t plane = 0; plane < members.size(); ++plane) {
+    if (!mayBeTwoFaces(members[plane].size(), P)) continue;
     gatherSamplePoints(grid, members[plane], points);
     PlaneMoments moments;
     for (const Eigen::Vector3d& x : points) moments.add(x);

@@ -2,6 +2,7 @@
 // Step 4b of HoughPlaneDetector::detect (hough_detector_steps.h), and the test the leftover step
 // shares: planes whose samples lie on two faces at a crease, split in two.
 
+#include <cstddef>
 #include <optional>
 #include <span>
 #include <vector>
@@ -20,12 +21,16 @@ namespace shapesense {
 void gatherSamplePoints(const PlaneSampleGrid& grid, const std::vector<int>& members,
                         std::vector<Eigen::Vector3d>& points);
 
-/// The two faces of the sample points `points` that one plane `one` fits within the tolerance,
-/// when two planes fit them HoughPlaneParams::two_face_gain times better by RMS distance and
-/// each face holds twice min_plane_samples (see two_face_gain for why). Twice the plane
-/// minimum: the curvature check after the labelling must still tell a face cut from a curved
-/// surface (half of a tin's side at range) from a flat one, which it cannot on a few dozen
-/// samples.
+/// Whether `count` sample points may be two faces at all (twoFaces needs the test on and each
+/// face holding twice min_plane_samples): callers skip gathering the points of those that
+/// cannot.
+bool mayBeTwoFaces(std::size_t count, const HoughPlaneParams& P);
+
+/// The two faces of the sample points `points`, whose plane `one` is, when two planes fit them
+/// HoughPlaneParams::two_face_gain times better than `one` by RMS distance and each face holds
+/// twice min_plane_samples (see two_face_gain for why). Twice the plane minimum: the curvature
+/// check after the labelling must still tell a face cut from a curved surface (half of a tin's
+/// side at range) from a flat one, which it cannot on a few dozen samples.
 std::optional<TwoPlanes> twoFaces(std::span<const Eigen::Vector3d> points, const PlaneFit& one,
                                   const HoughPlaneParams& P);
 

@@ -30,8 +30,11 @@ cv::Mat tiltedPlaneDepth(double sigma_px, int step, unsigned seed) {
   return depth;
 }
 
-// The quantisation to 1/8 px adds its own variance, (1/8)^2 / 12, to the noise drawn.
-double readNoisePx(double sigma_px) { return std::sqrt(sigma_px * sigma_px + 0.125 * 0.125 / 12); }
+// The quantisation (1/8 px) adds its own variance, step^2 / 12, to the noise drawn.
+double readNoisePx(double sigma_px) {
+  const double step = KinectNoiseModel{}.disparity_step_px;
+  return std::sqrt(sigma_px * sigma_px + step * step / 12);
+}
 
 TEST(DisparityNoise, MeasuresTheNoiseOfAFrameWithinTenPercent) {
   for (const double sigma : {0.05, 0.1, 0.15})

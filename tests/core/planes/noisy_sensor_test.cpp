@@ -1,5 +1,6 @@
 // The plane detector on a noisy sensor at range: the depth-step rule of its sample normals
-// follows the frame's measured noise (HoughPlaneParams::step_noise_sigmas).
+// follows the frame's measured noise (NormalParams::depth_change_noise_sigmas, set for the sample
+// normals).
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -57,7 +58,7 @@ TEST(NoisySensor, AFarWallIsOnePlane) {
 TEST(NoisySensor, WithTheFixedStepRuleTheWallIsLost) {
   const testing::FaceFrame frame = noisyFarWall();
   HoughPlaneParams params;
-  params.step_noise_sigmas = 0.0;
+  params.normals.depth_change_noise_sigmas = 0.0;
   HoughPlaneDetector detector(params);
   EXPECT_LT(wallPlane(detector.detect(frame.depth, CameraIntrinsics{}), frame.face).share, 0.5);
 }

@@ -63,7 +63,11 @@ cv::Mat segmentTruth(const synthetic::TruthFrame& truth) {
 }
 
 SegCompScore scoreSegments(const cv::Mat& regions, const synthetic::TruthFrame& truth) {
-  return scoreSegmentation(regions, segmentTruth(truth), kOverlap, kMinTruthFraction);
+  return scoreSegments(regions, segmentTruth(truth));
+}
+
+SegCompScore scoreSegments(const cv::Mat& regions, const cv::Mat& truth_regions) {
+  return scoreSegmentation(regions, truth_regions, kOverlap, kMinTruthFraction);
 }
 
 std::vector<LabelledFrame> loadLabelledRecording(const std::filesystem::path& dir) {

@@ -31,6 +31,15 @@ struct TwoPlaneFit {
   std::size_t stride = 1;  ///< every stride-th point was fitted
   std::size_t fitted = 0;  ///< that many
   double rms() const;
+  /// The stride of a fit to `count` points.
+  static std::size_t strideFor(std::size_t count) {
+    return (count + kMaxFitPoints - 1) / kMaxFitPoints;
+  }
+  /// Whether a fit to `count` points can pass facesHoldAtLeast(points): both faces together
+  /// hold at most count + stride - 1 of them.
+  static bool mayHoldFacesOf(std::size_t count, double points) {
+    return static_cast<double>(count + strideFor(count) - 1) >= 2.0 * points;
+  }
   /// Whether each face holds at least `points` of all the points (its count times the stride).
   bool facesHoldAtLeast(double points) const {
     const double fitted_points = points / static_cast<double>(stride);

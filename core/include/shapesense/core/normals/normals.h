@@ -43,6 +43,11 @@ struct NormalParams {
   /// ...but never less than this many sensor quantisation steps (KinectNoiseModel), so that the
   /// 2.6 cm disparity steps of a far wall are not taken for depth steps. Default 3.
   double depth_change_noise_steps = 3.0;
+  /// ...and, for depth input, never less than this many times the frame's own disparity noise
+  /// (disparityNoisePx), in quantisation steps: a fixed rule takes the noise of a noisy sensor
+  /// at range for depth steps and leaves most pixels without a normal. Default 0 (the fixed
+  /// rule alone); the plane detector's sample normals use 4 (defaultSampleNormalParams).
+  double depth_change_noise_sigmas = 0.0;
   /// Steps are also detected across runs of up to this many invalid pixels (Kinect shadows
   /// separate foreground and background by a band of holes). Default 8.
   int max_gap_px = 8;

@@ -164,15 +164,9 @@ struct HoughPlaneParams {
   /// the planes found on curved surfaces where they were on the validation split.
   PlaneLabelingParams labeling{.tolerance = {.noise_steps = 2.5}};
   /// Normal estimation on the sample grid. Defaults (see defaultSampleNormalParams): 3D
-  /// gradient, 2-sample half-window at 1 m (8 px at step 4), 1..5 samples.
+  /// gradient, 2-sample half-window at 1 m (8 px at step 4), 1..5 samples, the depth-step rule
+  /// never tighter than 4 times the frame's measured noise.
   NormalParams normals = defaultSampleNormalParams(4);
-  /// The sample normals' depth-step rule (NormalParams::depth_change_noise_steps) is never
-  /// tighter than this many times the frame's own disparity noise (disparityNoisePx), counted
-  /// in quantisation steps. A fixed rule takes the noise of a noisy sensor at range for depth
-  /// steps and leaves most samples without a normal: a wall at 4 m read with 0.15 px of noise
-  /// kept a quarter of them, and no plane. Default 4 (3-6 tried on the validation split); 0 =
-  /// the fixed rule alone.
-  double step_noise_sigmas = 4.0;
   /// Resolution of the per-frame Hough space. Default 1.5 deg x 2 cm.
   HoughSpaceParams space{};
   /// Smoothing kernel sigmas. The vote spread of one Kinect plane is the normal noise (~1-2 deg

@@ -26,6 +26,8 @@ bool isCurvedObjectRegion(int label, const synthetic::TruthFrame& truth);
 
 /// SegComp at T = 0.8 of `regions` against segmentTruth(truth).
 SegCompScore scoreSegments(const cv::Mat& regions, const synthetic::TruthFrame& truth);
+/// ...against truth regions already made by segmentTruth.
+SegCompScore scoreSegments(const cv::Mat& regions, const cv::Mat& truth_regions);
 
 /// A real frame with the OSD labels (SOURCES.md: 1-9 the table, label / 10 the object id).
 struct LabelledFrame {
