@@ -11,6 +11,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "shapesense/core/planes/planes.h"
+#include "shapesense/core/recognition/flat_faces.h"
+
 #include "cloud_index.h"
 #include "descriptor_kernels.h"
 
@@ -94,6 +97,8 @@ std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface
 struct Hypothesis {
   Eigen::Isometry3f scene_from_model = Eigen::Isometry3f::Identity();
   int inliers = 0;
+  /// Laid by flat faces (flat_faces.h), not fitted to feature matches.
+  bool from_flat_faces = false;
 };
 
 // The rigid motion that best carries the model points of `matches[i]` (i in `chosen`) onto their
@@ -175,7 +180,7 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
                            const ObjectMatchParams& params) {
   return Hypothesis{
       fittedPose(matches, agreeingMatches(h.scene_from_model, matches, params.inlier_distance_m)),
-      h.inliers};
+      h.inliers, false};
 }
 
 // Where a turn sends the model's x and y axes (its first two columns), each coordinate binned
@@ -326,6 +331,37 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
   }
   for (Hypothesis& h : kept) h = refitOnAgreeing(h, matches, params);
   return kept;
+}
+
+// Step 2 for the model's flat faces and edges: each laid on each of the scene's
+// (flat_faces.h), scored by the matches that agree with the pose, added to `hypotheses` where
+// no such pose is there yet.
+void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
+                      const std::vector<Match>& matches, const ObjectMatchParams& params,
+                      std::vector<Hypothesis>& hypotheses) {
+  const auto add = [&](const Eigen::Isometry3f& pose) {
+    const bool known = std::any_of(hypotheses.begin(), hypotheses.end(), [&](const Hypothesis& h) {
+      return samePose(h.scene_from_model, pose, model.box.centre);
+    });
+    if (known) return;
+    hypotheses.push_back(Hypothesis{
+        pose, static_cast<int>(agreeingMatches(pose, matches, params.inlier_distance_m).size()),
+        true});
+  };
+  const FlatFaces& found = scene.flatFaces();
+  for (const FaceEdge& model_edge : model.flat_faces.edges)
+    for (const FaceEdge& scene_edge : found.edges)
+      for (const Eigen::Isometry3f& pose : edgeAlignedPoses(
+               model_edge, scene_edge, params.edge_angle_tolerance_deg, params.face_size_slack_m))
+        add(pose);
+  // A face alone fixes less than an edge does (a face of another box of that size takes it),
+  // so only models without an edge are laid by their faces.
+  if (!model.flat_faces.edges.empty()) return;
+  for (const FaceRectangle& model_face : model.flat_faces.faces)
+    for (const FaceRectangle& scene_face : found.faces)
+      for (const Eigen::Isometry3f& pose :
+           faceAlignedPoses(model_face, scene_face, params.face_size_slack_m))
+        add(pose);
 }
 
 // Point-to-plane ICP, linearised about the current pose, with each model point facing the
@@ -580,15 +616,28 @@ std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
     return a.confirmed_within_reach > b.confirmed_within_reach;
   });
-  if (ranked.size() > static_cast<std::size_t>(std::max(0, params.pose_hypotheses)))
-    ranked.resize(static_cast<std::size_t>(std::max(0, params.pose_hypotheses)));
+  // Besides the pose_hypotheses most confirmed, the flat_face_hypotheses most confirmed of the
+  // poses from flat faces: a wrong pose from many agreeing features often outranks them.
+  const auto keep = static_cast<std::size_t>(std::max(0, params.pose_hypotheses));
+  int flat_left = std::max(0, params.flat_face_hypotheses);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < ranked.size(); ++i) {
+    if (i >= keep) {
+      if (flat_left == 0 || !ranked[i].hypothesis.from_flat_faces) continue;
+      --flat_left;
+    }
+    ranked[kept++] = ranked[i];
+  }
+  ranked.resize(kept);
   return ranked;
 }
 
-// Whether a verified pose has the evidence its feature support asks for (strong_inliers).
+// Whether a verified pose has the evidence its hypothesis asks for: a pose from the features
+// that few of them agree with needs most of the model confirmed (strong_inliers); a pose laid
+// by flat faces rests on the faces' geometry, not on feature matches.
 bool enoughEvidence(const ObjectDetection& detection, const Hypothesis& hypothesis,
                     const ObjectModel& model, const ObjectMatchParams& params) {
-  return hypothesis.inliers >= params.strong_inliers ||
+  return hypothesis.from_flat_faces || hypothesis.inliers >= params.strong_inliers ||
          static_cast<float>(detection.confirmed_points) >=
              params.weak_pose_confirmed_share * static_cast<float>(model.surface.size());
 }
@@ -607,7 +656,8 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, mask, params.surface)),
-      feature_params_(params.features) {}
+      feature_params_(params.features),
+      flat_face_params_(params.flat_faces) {}
 
 const std::vector<ShapeFeature>& SceneSurface::features() const {
   describe();
@@ -629,6 +679,16 @@ void SceneSurface::describe() const {
   });
 }
 
+const FlatFaces& SceneSurface::flatFaces() const {
+  std::call_once(flat_faces_found_, [this] {
+    HoughPlaneDetector detector;
+    const PlaneDetection planes = detector.detect(depth_mm_, intrinsics_);
+    flat_faces_ = flatFacesOf(facesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_),
+                              flat_face_params_);
+  });
+  return flat_faces_;
+}
+
 SceneSurface::~SceneSurface() = default;
 
 std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneSurface& scene,
@@ -639,8 +699,10 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   std::optional<ObjectDetection> best;
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
+  std::vector<Hypothesis> hypotheses = anchoredPoses(matches, model, params);
+  if (params.poses_from_flat_faces) addFlatFacePoses(model, scene, matches, params, hypotheses);
   for (const auto& [hypothesis, confirmed_within_reach] :
-       worthRefining(anchoredPoses(matches, model, params), model, scene, params)) {
+       worthRefining(std::move(hypotheses), model, scene, params)) {
     // Hypotheses come most confirmed first, counted within ICP's reach: refined and checked at
     // the final tolerance, a pose rarely confirms more than that, so one that a verified pose
     // already matches cannot win.

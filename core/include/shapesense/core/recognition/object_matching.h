@@ -7,8 +7,9 @@
 //      feature's local frame onto the scene feature's); matches compatible with many others
 //      (they turn the model alike and keep its distances, as a rigid motion does) anchor
 //      poses fitted to the partners that agree with them, scored by the matches they carry;
-//      the distinct poses with most, ranked by how much of the model the depth confirms near
-//      them, go on;
+//      the distinct poses with most, and the poses that lay the model's flat faces and edges on
+//      the scene's (flat_faces.h), ranked by how much of the model the depth confirms near them, go
+//      on;
 //   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface,
 //      most confirmed first, until a verified pose (step 4) confirms as many model points as
 //      the next one does before refinement;
@@ -56,6 +57,9 @@ class SceneSurface {
 
   const SurfaceCloud& surface() const { return surface_; }
   const std::vector<ShapeFeature>& features() const;
+  /// The frame's planes as flat faces, and their convex edges (flat_faces.h), found on first
+  /// use.
+  const FlatFaces& flatFaces() const;
   /// The features' descriptors dimension-major: value d of feature i at
   /// [d * features().size() + i] (the layout descriptor matching reads).
   const std::vector<float>& descriptorColumns() const;
@@ -69,9 +73,12 @@ class SceneSurface {
   CameraIntrinsics intrinsics_;
   SurfaceCloud surface_;
   ShapeFeatureParams feature_params_;
+  FlatFaceParams flat_face_params_;
   mutable std::once_flag described_;
   mutable std::vector<ShapeFeature> features_;
   mutable std::vector<float> descriptor_columns_;
+  mutable std::once_flag flat_faces_found_;
+  mutable FlatFaces flat_faces_;
 };
 
 struct ObjectMatchParams {
@@ -94,10 +101,11 @@ struct ObjectMatchParams {
   /// Fewest agreeing matches (distinct model interest points) for a pose to be refined.
   /// Default 4.
   int min_inliers = 4;
-  /// A pose that fewer than `strong_inliers` matches agree with is weak evidence from the
-  /// features alone (a few corner matches fit many boxes): it stands only where the depth
-  /// confirms at least `weak_pose_confirmed_share` of the model's points. Defaults 7 and 0.9
-  /// (chosen on the validation split, docs/benchmarks.md).
+  /// A pose from the features that fewer than `strong_inliers` matches agree with is weak
+  /// evidence (a few corner matches fit many boxes): it stands only where the depth confirms
+  /// at least `weak_pose_confirmed_share` of the model's points. Poses laid by flat faces
+  /// (poses_from_flat_faces) rest on the faces' geometry instead. Defaults 7 and 0.9 (chosen on
+  /// the validation split, docs/benchmarks.md).
   int strong_inliers = 7;
   float weak_pose_confirmed_share = 0.9f;
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
@@ -107,6 +115,10 @@ struct ObjectMatchParams {
   /// confirms most wins. Defaults 30 and 5.
   int pose_candidates = 30;
   int pose_hypotheses = 5;
+  /// ...and besides those, the poses laid by flat faces (poses_from_flat_faces) the depth
+  /// confirms most, at most this many: a wrong pose that many features agree with often
+  /// outranks them. Default 3.
+  int flat_face_hypotheses = 3;
   /// Point-to-plane ICP with nearest-point pairs: iterations for each pose from step 2 on at
   /// most `icp_max_points` of the model (evenly spread), then iterations on all of it for the
   /// pose that wins the check, and the farthest pair it uses (m). Defaults 15, 5, 500, 2 cm.
@@ -143,6 +155,16 @@ struct ObjectMatchParams {
   /// (ObjectModelParams::outline_probe_offset_m): another view that sees the object's own side,
   /// which runs back from the outline, reads it that far behind the probe or more. Default 1 cm.
   float outline_continuation_m = 0.01f;
+  /// Poses also come from the model's flat faces and edges (ObjectModel::flat_faces) laid on
+  /// the scene's (SceneSurface::flatFaces, flat_faces.h): edges where the angles between their
+  /// faces agree within edge_angle_tolerance_deg and the scene's edge and faces are no larger
+  /// than the model's by more than face_size_slack_m; for a model without an edge (one face
+  /// in view), faces whose sides agree within face_size_slack_m. A box whose interest points
+  /// do not recur is still found by its faces. Defaults true, 5 deg, 3 cm (chosen on the
+  /// validation split, docs/benchmarks.md).
+  bool poses_from_flat_faces = true;
+  float edge_angle_tolerance_deg = 5.0f;
+  float face_size_slack_m = 0.03f;
   /// Sensor noise model for confirm_steps.
   KinectNoiseModel noise{};
 };

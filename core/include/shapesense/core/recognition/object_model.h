@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/recognition/flat_faces.h"
 #include "shapesense/core/recognition/shape_features.h"
 #include "shapesense/core/recognition/surface_cloud.h"
 
@@ -47,6 +48,8 @@ struct ObjectModelParams {
   float outline_probe_clearance_m = 0.01f;
   /// At most this many outline probes (every k-th). Default 400.
   int max_outline_probes = 400;
+  /// Flat faces and their edges, of the model and of the scenes it is looked for in.
+  FlatFaceParams flat_faces{};
 };
 
 struct ObjectModel {
@@ -61,6 +64,10 @@ struct ObjectModel {
   /// matched is part of something larger (a corner of a bigger box fits a small box's
   /// corner). Empty for models from a point cloud.
   std::vector<Eigen::Vector3f> outline_probes;
+  /// The flat faces of `surface` and their convex edges (flat_faces.h): poses for objects
+  /// whose interest points are too few. Made from `surface` whenever a model is taught or
+  /// loaded.
+  FlatFaces flat_faces;
 };
 
 /// The model of the object whose pixels are non-zero in `object_mask` (CV_8UC1, the depth
