@@ -1,10 +1,13 @@
 #include "shapesense/server/scene_surface_cache.h"
 
+#include "shapesense/core/pipeline/frame_results.h"
+
 namespace shapesense {
 
-std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const Frame& frame,
+std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const CachedFrame& entry,
                                                            const ObjectModelParams& params,
                                                            bool& reused) {
+  const Frame& frame = *entry.frame;
   std::promise<std::shared_ptr<const SceneSurface>> promise;
   std::shared_future<std::shared_ptr<const SceneSurface>> surface;
   {
@@ -20,8 +23,10 @@ std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const Frame& frame,
   if (!reused) {
     // Built outside the lock: a call on another frame need not wait for this one.
     try {
-      promise.set_value(
-          std::make_shared<const SceneSurface>(frame.depth, frame.intrinsics, params));
+      const PlaneDetection* planes =
+          entry.results && entry.results->planes ? &entry.results->planes->frame : nullptr;
+      promise.set_value(std::make_shared<const SceneSurface>(frame.depth, frame.intrinsics, params,
+                                                             cv::Mat(), planes));
     } catch (...) {
       promise.set_exception(std::current_exception());
       std::lock_guard lock(mutex_);

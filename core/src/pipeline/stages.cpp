@@ -154,6 +154,7 @@ void ThingTrackingStage::run(const Frame&, FrameResults& results) {
 }
 
 void TaughtObjectStage::run(const Frame& frame, FrameResults& results) {
-  results.taught_objects = tracker_.update(frame.depth, frame.intrinsics, models_());
+  results.taught_objects = tracker_.update(frame.depth, frame.intrinsics, models_(),
+                                           results.planes ? &results.planes->frame : nullptr);
 }
 }  // namespace shapesense

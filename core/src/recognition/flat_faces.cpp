@@ -126,7 +126,7 @@ std::optional<FaceEdge> edgeOf(const SurfaceFace& a, const SurfaceFace& b,
       ++near;
       along.push_back((p - edge.line_point).dot(edge.direction));
     }
-    if (near < params.min_edge_points) return std::nullopt;
+    if (near == 0 || near < params.min_edge_points) return std::nullopt;
     edge.reach[f] = static_cast<float>(quantile(away, 1.0 - kEndQuantile));
   }
   edge.start = static_cast<float>(quantile(along, kEndQuantile));
@@ -146,11 +146,17 @@ Eigen::Matrix3f frameOf(const Eigen::Vector3f& first, const Eigen::Vector3f& sec
 }  // namespace
 
 std::vector<SurfaceFace> facesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params) {
+  // Every k-th point, at most max_face_points for each face looked for: a model's surface is
+  // thinned to about that already, a cloud from a file may hold many more.
+  const std::size_t budget =
+      static_cast<std::size_t>(std::max(1, params.max_face_points) * std::max(1, params.max_faces));
+  const std::size_t stride = (surface.size() + budget - 1) / budget;
+  std::vector<std::uint32_t> remaining;
+  for (std::size_t i = 0; i < surface.size(); i += std::max<std::size_t>(1, stride))
+    remaining.push_back(static_cast<std::uint32_t>(i));
   const std::size_t min_points = std::max<std::size_t>(
       kMinFacePoints,
-      static_cast<std::size_t>(params.min_face_share * static_cast<float>(surface.size())));
-  std::vector<std::uint32_t> remaining(surface.size());
-  for (std::uint32_t i = 0; i < remaining.size(); ++i) remaining[i] = i;
+      static_cast<std::size_t>(params.min_face_share * static_cast<float>(remaining.size())));
   std::vector<SurfaceFace> out;
   std::vector<std::uint32_t> taken;
   while (static_cast<int>(out.size()) < params.max_faces && remaining.size() >= min_points) {

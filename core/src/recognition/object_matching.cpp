@@ -652,12 +652,15 @@ OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
 }  // namespace
 
 SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-                           const ObjectModelParams& params, const cv::Mat& mask)
+                           const ObjectModelParams& params, const cv::Mat& mask,
+                           const PlaneDetection* planes)
     : depth_mm_(depth_mm),
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, mask, params.surface)),
       feature_params_(params.features),
-      flat_face_params_(params.flat_faces) {}
+      flat_face_params_(params.flat_faces) {
+  if (planes) std::call_once(flat_faces_found_, [&] { findFlatFaces(*planes); });
+}
 
 const std::vector<ShapeFeature>& SceneSurface::features() const {
   describe();
@@ -680,13 +683,14 @@ void SceneSurface::describe() const {
 }
 
 const FlatFaces& SceneSurface::flatFaces() const {
-  std::call_once(flat_faces_found_, [this] {
-    HoughPlaneDetector detector;
-    const PlaneDetection planes = detector.detect(depth_mm_, intrinsics_);
-    flat_faces_ = flatFacesOf(facesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_),
-                              flat_face_params_);
-  });
+  std::call_once(flat_faces_found_,
+                 [this] { findFlatFaces(HoughPlaneDetector().detect(depth_mm_, intrinsics_)); });
   return flat_faces_;
+}
+
+void SceneSurface::findFlatFaces(const PlaneDetection& planes) const {
+  flat_faces_ = flatFacesOf(facesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_),
+                            flat_face_params_);
 }
 
 SceneSurface::~SceneSurface() = default;

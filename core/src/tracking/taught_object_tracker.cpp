@@ -9,7 +9,7 @@ TaughtObjectTracker::TaughtObjectTracker(TaughtObjectTrackerParams params) : par
 
 std::vector<ObjectDetection> TaughtObjectTracker::update(
     const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-    const std::vector<std::shared_ptr<const ObjectModel>>& models) {
+    const std::vector<std::shared_ptr<const ObjectModel>>& models, const PlaneDetection* planes) {
   ++frame_;
   last_searches_ = 0;
   std::set<std::string> present;
@@ -39,7 +39,7 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   const bool whole_frame = objects_.size() > previous.size();  // one was not found before
   last_described_share_ = whole_frame ? 1.0 : 0.0;
   if (whole_frame) {
-    surface.emplace(depth_mm, intrinsics, params_.describe);
+    surface.emplace(depth_mm, intrinsics, params_.describe, cv::Mat(), planes);
   } else if (const cv::Mat regions = followedRegions(previous, intrinsics, depth_mm.size());
              !regions.empty()) {
     surface.emplace(depth_mm, intrinsics, params_.describe, regions);
@@ -57,7 +57,7 @@ std::vector<ObjectDetection> TaughtObjectTracker::update(
   }
   const std::vector<std::string> due = dueForSearch();
   if (!due.empty() && !whole_frame) {
-    surface.emplace(depth_mm, intrinsics, params_.describe);
+    surface.emplace(depth_mm, intrinsics, params_.describe, cv::Mat(), planes);
     last_described_share_ = 1.0;
   }
   for (const std::string& name : due) {

@@ -40,8 +40,9 @@ struct FlatFaceParams {
   /// Defaults 0.08, 4.
   float min_face_share = 0.08f;
   int max_faces = 4;
-  /// Plane detections: each region is read at most this many points (every k-th pixel).
-  /// Default 1500.
+  /// Each plane detection's region is read at most this many points (every k-th pixel), and a
+  /// surface cloud at most this many for each face looked for (every k-th point). Default
+  /// 1500.
   int max_face_points = 1500;
   /// Two faces meet at an edge when both have points within this distance of the line where
   /// their planes cross (m): a plane detection's regions stop short of a crease by a few

@@ -34,6 +34,7 @@
 #include <opencv2/core.hpp>
 
 #include "shapesense/core/geometry/camera.h"
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/core/recognition/object_model.h"
 
 namespace shapesense {
@@ -48,17 +49,20 @@ class SceneSurface {
   /// (CV_8UC1, optional: empty = every pixel) restricts the surface and its features to the
   /// pixels where it is non-zero: a surface for following objects whose poses are known
   /// (followObject) thins and indexes only their part of the image (the normals are still
-  /// estimated on all of it). The depth check reads all of the depth.
+  /// estimated on all of it). The depth check reads all of the depth. `planes` (optional):
+  /// the frame's plane detection where one was made already (the detector chain's), which the
+  /// flat faces are then read from instead of detecting the planes again.
   SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-               const ObjectModelParams& params = {}, const cv::Mat& mask = {});
+               const ObjectModelParams& params = {}, const cv::Mat& mask = {},
+               const PlaneDetection* planes = nullptr);
   ~SceneSurface();
   SceneSurface(const SceneSurface&) = delete;
   SceneSurface& operator=(const SceneSurface&) = delete;
 
   const SurfaceCloud& surface() const { return surface_; }
   const std::vector<ShapeFeature>& features() const;
-  /// The frame's planes as flat faces, and their convex edges (flat_faces.h), found on first
-  /// use.
+  /// The frame's planes as flat faces, and their convex edges (flat_faces.h): from the planes
+  /// given, or from planes detected on first use.
   const FlatFaces& flatFaces() const;
   /// The features' descriptors dimension-major: value d of feature i at
   /// [d * features().size() + i] (the layout descriptor matching reads).
@@ -68,6 +72,7 @@ class SceneSurface {
 
  private:
   void describe() const;
+  void findFlatFaces(const PlaneDetection& planes) const;
 
   cv::Mat depth_mm_;
   CameraIntrinsics intrinsics_;

@@ -46,9 +46,10 @@ class TaughtObjectTracker {
   /// The objects of `models` found in the next frame (`depth_mm`: CV_16UC1 millimetres), in
   /// the order of `models`. Objects are known by name: a model replaced under its name
   /// (another object) is searched for afresh, and objects no longer in `models` are forgotten.
-  std::vector<ObjectDetection> update(
-      const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
-      const std::vector<std::shared_ptr<const ObjectModel>>& models);
+  /// `planes` (optional): the frame's plane detection, where one was made (SceneSurface).
+  std::vector<ObjectDetection> update(const cv::Mat& depth_mm, const CameraIntrinsics& intrinsics,
+                                      const std::vector<std::shared_ptr<const ObjectModel>>& models,
+                                      const PlaneDetection* planes = nullptr);
 
   /// Searches (findObject) made by the last update(); for tests and benchmarks.
   int lastSearches() const { return last_searches_; }
