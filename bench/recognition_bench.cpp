@@ -4,6 +4,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/core/tracking/taught_object_tracker.h"
 #include "shapesense/driver/synthetic_scene.h"
@@ -109,7 +110,8 @@ BENCHMARK(BM_RecognitionPerFrame)->Unit(benchmark::kMillisecond);
 // The taught-object stage's per-frame cost on a moving camera (TaughtObjectTracker): scene 21
 // every second frame (15 fps) from frame 150, back and forth, so the motion stays smooth. The
 // argument picks five models: 0 = scene 21's five (all followed once found), 1 = two of them
-// and three of other scenes (never in view: searched for in turn, one a frame).
+// and three of other scenes (never in view: searched for in turn, one a frame). Each frame's
+// planes are detected beforehand and handed over, as the daemon's plane stage does.
 void BM_TaughtObjectStagePerFrame(benchmark::State& state) {
   const Fixture& f = fixture();
   std::vector<std::shared_ptr<const ObjectModel>> models;
@@ -127,21 +129,25 @@ void BM_TaughtObjectStagePerFrame(benchmark::State& state) {
   const synthetic::SyntheticScene scene(params);
   std::vector<synthetic::RenderedFrame> frames;
   for (std::uint64_t index = 150; index < 210; index += 2) frames.push_back(scene.render(index, 0));
+  std::vector<PlaneDetection> planes;
+  HoughPlaneDetector plane_detector;
+  for (const auto& rendered : frames)
+    planes.push_back(plane_detector.detect(rendered.frame.depth, rendered.frame.intrinsics));
   TaughtObjectTracker tracker;
   std::size_t step = 0;
-  const auto nextFrame = [&]() -> const Frame& {
+  const auto nextFrame = [&]() {
     const std::size_t period = 2 * frames.size() - 2;
     const std::size_t i = step++ % period;
-    return frames[i < frames.size() ? i : period - i].frame;
+    return i < frames.size() ? i : period - i;
   };
-  for (std::size_t warm = 0; warm < 2 * models.size(); ++warm) {
-    const Frame& frame = nextFrame();
-    tracker.update(frame.depth, frame.intrinsics, models);
-  }
+  const auto update = [&](std::size_t i) {
+    const Frame& frame = frames[i].frame;
+    return tracker.update(frame.depth, frame.intrinsics, models, &planes[i]);
+  };
+  for (std::size_t warm = 0; warm < 2 * models.size(); ++warm) update(nextFrame());
   double found = 0, searches = 0, described = 0, frames_run = 0;
   for (auto _ : state) {
-    const Frame& frame = nextFrame();
-    found += static_cast<double>(tracker.update(frame.depth, frame.intrinsics, models).size());
+    found += static_cast<double>(update(nextFrame()).size());
     described += tracker.lastDescribedShare();
     searches += tracker.lastSearches();
     ++frames_run;
