@@ -11,6 +11,7 @@
 #include "shapesense/core/recognition/object_matching.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/eval/recognition_eval.h"
+#include "two_views.h"
 
 namespace shapesense {
 namespace {
@@ -89,14 +90,7 @@ TEST(FlatFaces, AnEdgeLaidOnItselfMovedGivesTheMotion) {
 TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
   int found = 0, wrong = 0, tried = 0;
   for (std::uint64_t seed = 21; seed < 27; ++seed) {
-    synthetic::SceneParams params;
-    params.seed = seed;
-    params.camera_motion = 1.5;
-    const synthetic::SyntheticScene scene(params);
-    const auto teach = scene.render(0, 0);
-    const auto later = scene.render(150, 0);
-    const Eigen::Isometry3d truth =
-        later.truth.world_from_camera.inverse() * teach.truth.world_from_camera;
+    const auto [teach, later, truth] = testing::twoViews(seed, 150);
     const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
     for (const auto& object : teach.truth.objects) {
       if (object.kind != "box" || object.pixel_count < 1500) continue;

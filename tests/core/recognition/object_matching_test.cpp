@@ -13,6 +13,7 @@
 #include "shapesense/driver/ply_cloud.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/eval/recognition_eval.h"
+#include "two_views.h"
 
 namespace shapesense {
 namespace {
@@ -29,24 +30,6 @@ eval::PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Is
 cv::Mat objectMask(const synthetic::TruthFrame& truth, std::uint16_t object_id) {
   cv::Mat mask = truth.object_labels == object_id;
   return mask;
-}
-
-// Frame 0 of scene `seed` (camera sway 1.5), where objects are taught, and a later frame with
-// the truth motion of the camera frame between them (teaching camera to later camera).
-struct TwoViews {
-  synthetic::RenderedFrame teach;
-  synthetic::RenderedFrame later;
-  Eigen::Isometry3d truth;
-};
-
-TwoViews twoViews(std::uint64_t seed, std::uint64_t later_index) {
-  synthetic::SceneParams params;
-  params.seed = seed;
-  params.camera_motion = 1.5;
-  const synthetic::SyntheticScene scene(params);
-  TwoViews out{scene.render(0, 0), scene.render(later_index, 0), {}};
-  out.truth = out.later.truth.world_from_camera.inverse() * out.teach.truth.world_from_camera;
-  return out;
 }
 
 TEST(ShapeFeatures, MoveWithTheSurface) {
@@ -93,14 +76,7 @@ TEST(ShapeFeatures, MoveWithTheSurface) {
 TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
   int found = 0, tried = 0;
   for (std::uint64_t seed = 21; seed < 27; ++seed) {
-    synthetic::SceneParams params;
-    params.seed = seed;
-    params.camera_motion = 1.5;
-    const synthetic::SyntheticScene scene(params);
-    const auto teach = scene.render(0, 0);
-    const auto later = scene.render(150, 0);
-    const Eigen::Isometry3d truth =
-        later.truth.world_from_camera.inverse() * teach.truth.world_from_camera;
+    const auto [teach, later, truth] = testing::twoViews(seed, 150);
     const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
     for (const auto& object : teach.truth.objects) {
       if (object.kind != "box" && object.kind != "cup" && object.kind != "tin") continue;
@@ -140,7 +116,7 @@ TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
 // followObject: from a pose near the truth (a previous frame's), ICP lands on the truth; from
 // one farther than ICP reaches, it reports nothing rather than a wrong pose.
 TEST(ObjectMatching, FollowsAnObjectFromANearbyPose) {
-  const auto [teach, later, truth] = twoViews(21, 6);
+  const auto [teach, later, truth] = testing::twoViews(21, 6);
   const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
   int tried = 0;
   for (const auto& object : teach.truth.objects) {
@@ -279,7 +255,7 @@ TEST(ObjectModel, OutlineProbesLieClearOfTheWholeObject) {
 // A model from a point cloud file: the object's points written as PLY (without normals, as a
 // scanner might give them), read back, and found in a later frame.
 TEST(ObjectMatching, FindsAnObjectModelledFromAPlyFile) {
-  const auto [teach, later, truth] = twoViews(25, 150);
+  const auto [teach, later, truth] = testing::twoViews(25, 150);
   const synthetic::TruthObject* box = nullptr;
   for (const auto& object : teach.truth.objects)
     if (object.name == "box1") box = &object;
