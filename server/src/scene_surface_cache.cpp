@@ -1,13 +1,10 @@
 #include "shapesense/server/scene_surface_cache.h"
 
-#include "shapesense/core/pipeline/frame_results.h"
-
 namespace shapesense {
 
-std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const CachedFrame& entry,
+std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const Frame& frame,
                                                            const ObjectModelParams& params,
                                                            bool& reused) {
-  const Frame& frame = *entry.frame;
   std::promise<std::shared_ptr<const SceneSurface>> promise;
   std::shared_future<std::shared_ptr<const SceneSurface>> surface;
   {
@@ -23,10 +20,8 @@ std::shared_ptr<const SceneSurface> SceneSurfaceCache::get(const CachedFrame& en
   if (!reused) {
     // Built outside the lock: a call on another frame need not wait for this one.
     try {
-      const PlaneDetection* planes =
-          entry.results && entry.results->planes ? &entry.results->planes->frame : nullptr;
-      promise.set_value(std::make_shared<const SceneSurface>(frame.depth, frame.intrinsics, params,
-                                                             cv::Mat(), planes));
+      promise.set_value(
+          std::make_shared<const SceneSurface>(frame.depth, frame.intrinsics, params));
     } catch (...) {
       promise.set_exception(std::current_exception());
       std::lock_guard lock(mutex_);

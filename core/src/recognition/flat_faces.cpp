@@ -4,13 +4,13 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
-#include <numbers>
 #include <optional>
 
 #include <opencv2/imgproc.hpp>
 
 #include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/plane_fitting.h"
+#include "shapesense/core/geometry/units.h"
 
 namespace shapesense {
 namespace {
@@ -19,7 +19,7 @@ constexpr int kMinFacePoints = 20;
 // The edge's ends and the faces' reach: a few flying pixels and stray points stay out.
 constexpr double kEndQuantile = 0.03;
 
-float cosDeg(float deg) { return std::cos(deg * std::numbers::pi_v<float> / 180.0f); }
+float cosDeg(float deg) { return static_cast<float>(std::cos(degToRad(deg))); }
 
 // The points of `surface` among `candidates` within `distance` of the plane (normal, d) with
 // normals that agree.
@@ -101,8 +101,10 @@ Eigen::AlignedBox3f boundsOf(const std::vector<Eigen::Vector3f>& points) {
 // The edge of faces a and b, if they meet at a convex one.
 std::optional<FaceEdge> edgeOf(const SurfaceFace& a, const SurfaceFace& b,
                                const FlatFaceParams& params) {
+  if (a.points.empty() || b.points.empty()) return std::nullopt;
   const Eigen::Vector3f cross = a.normal.cross(b.normal);
-  if (cross.norm() < std::sin(params.min_edge_angle_deg * std::numbers::pi_v<float> / 180.0f))
+  // Nearly parallel faces cross along no line worth the name (and at 0 deg, none at all).
+  if (cross.norm() < std::max(1e-3, std::sin(degToRad(params.min_edge_angle_deg))))
     return std::nullopt;
   if (meanSignedDistance(a.points, b.normal, b.d) > -params.min_convex_depth_m ||
       meanSignedDistance(b.points, a.normal, a.d) > -params.min_convex_depth_m)
@@ -126,11 +128,12 @@ std::optional<FaceEdge> edgeOf(const SurfaceFace& a, const SurfaceFace& b,
       ++near;
       along.push_back((p - edge.line_point).dot(edge.direction));
     }
-    if (near == 0 || near < params.min_edge_points) return std::nullopt;
+    if (near < std::max(1, params.min_edge_points)) return std::nullopt;
     edge.reach[f] = static_cast<float>(quantile(away, 1.0 - kEndQuantile));
   }
-  edge.start = static_cast<float>(quantile(along, kEndQuantile));
-  edge.end = static_cast<float>(quantile(along, 1.0 - kEndQuantile));
+  const auto [start, end] = trimmedRange(along, kEndQuantile);
+  edge.start = static_cast<float>(start);
+  edge.end = static_cast<float>(end);
   return edge;
 }
 
@@ -175,6 +178,10 @@ std::vector<SurfaceFace> facesOfPlanes(const PlaneDetection& planes, const cv::M
                                        const CameraIntrinsics& intrinsics,
                                        const FlatFaceParams& params) {
   std::vector<SurfaceFace> out;
+  if (planes.labels.size() != depth_mm.size() || planes.labels.type() != CV_16UC1 ||
+      depth_mm.type() != CV_16UC1)
+    return out;
+  const cv::Rect image(0, 0, depth_mm.cols, depth_mm.rows);
   for (const DetectedPlane& plane : planes.planes) {
     const auto budget = static_cast<double>(std::max(1, params.max_face_points));
     const int step = std::max(
@@ -182,10 +189,11 @@ std::vector<SurfaceFace> facesOfPlanes(const PlaneDetection& planes, const cv::M
     SurfaceFace face;
     face.normal = plane.normal.cast<float>();
     face.d = static_cast<float>(plane.d);
-    for (int v = plane.box.y; v < plane.box.y + plane.box.height; v += step) {
+    const cv::Rect box = plane.box & image;
+    for (int v = box.y; v < box.y + box.height; v += step) {
       const auto* label = planes.labels.ptr<std::uint16_t>(v);
       const auto* depth = depth_mm.ptr<std::uint16_t>(v);
-      for (int u = plane.box.x; u < plane.box.x + plane.box.width; u += step) {
+      for (int u = box.x; u < box.x + box.width; u += step) {
         if (label[u] != plane.id || depth[u] == 0) continue;
         face.points.push_back(intrinsics.backproject(u, v, 1e-3 * depth[u]).cast<float>());
       }
@@ -227,7 +235,7 @@ FaceRectangle rectangleOf(const SurfaceFace& face) {
   for (const Eigen::Vector3f& p : face.points)
     flat.emplace_back(u.dot(p - origin), v.dot(p - origin));
   const cv::RotatedRect rectangle = cv::minAreaRect(flat);
-  const float angle = rectangle.angle * std::numbers::pi_v<float> / 180.0f;
+  const auto angle = static_cast<float>(degToRad(rectangle.angle));
   const Eigen::Vector3f width_axis = std::cos(angle) * u + std::sin(angle) * v;
   const Eigen::Vector3f height_axis = face.normal.cross(width_axis);
   out.centre = origin + rectangle.center.x * u + rectangle.center.y * v;
@@ -243,6 +251,10 @@ FaceRectangle rectangleOf(const SurfaceFace& face) {
   return out;
 }
 
+FlatFaces flatFacesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params) {
+  return flatFacesOf(facesOfSurface(surface, params), params);
+}
+
 FlatFaces flatFacesOf(const std::vector<SurfaceFace>& faces, const FlatFaceParams& params) {
   FlatFaces out;
   for (const SurfaceFace& face : faces) out.faces.push_back(rectangleOf(face));
@@ -256,9 +268,7 @@ std::vector<Eigen::Isometry3f> edgeAlignedPoses(const FaceEdge& model, const Fac
       std::acos(std::clamp(model.normals[0].dot(model.normals[1]), -1.f, 1.f));
   const float scene_angle =
       std::acos(std::clamp(scene.normals[0].dot(scene.normals[1]), -1.f, 1.f));
-  if (std::abs(model_angle - scene_angle) >
-      angle_tolerance_deg * std::numbers::pi_v<float> / 180.0f)
-    return {};
+  if (std::abs(model_angle - scene_angle) > degToRad(angle_tolerance_deg)) return {};
   std::vector<Eigen::Isometry3f> out;
   const Eigen::Matrix3f model_frame = frameOf(model.normals[0], model.normals[1]);
   for (const bool swapped : {false, true}) {

@@ -334,16 +334,20 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
 }
 
 // Step 2 for the model's flat faces and edges: each laid on each of the scene's
-// (flat_faces.h), scored by the matches that agree with the pose, added to `hypotheses` where
-// no such pose is there yet.
+// (flat_faces.h), scored by the matches that agree with the pose (reported as the detection's
+// feature_inliers), added to `hypotheses` where no such pose is there yet.
 void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
                       const std::vector<Match>& matches, const ObjectMatchParams& params,
                       std::vector<Hypothesis>& hypotheses) {
   const auto add = [&](const Eigen::Isometry3f& pose) {
-    const bool known = std::any_of(hypotheses.begin(), hypotheses.end(), [&](const Hypothesis& h) {
+    const auto known = std::find_if(hypotheses.begin(), hypotheses.end(), [&](const Hypothesis& h) {
       return samePose(h.scene_from_model, pose, model.box.centre);
     });
-    if (known) return;
+    // A pose the features found too is laid by the faces all the same.
+    if (known != hypotheses.end()) {
+      known->from_flat_faces = true;
+      return;
+    }
     hypotheses.push_back(Hypothesis{
         pose, static_cast<int>(agreeingMatches(pose, matches, params.inlier_distance_m).size()),
         true});
@@ -598,9 +602,10 @@ struct RankedHypothesis {
 };
 
 // The poses from step 2 that go to ICP, most confirmed first: the `pose_hypotheses` the depth
-// confirms most within ICP's reach, each confirming at least half the model points the final
-// check needs (most wrong poses stop here, before their ICP). Feature agreement alone often
-// ranks a wrong pose first: many of a box's features look alike.
+// confirms most within ICP's reach (and up to `flat_face_hypotheses` more laid by flat faces), each
+// confirming at least half the model points the final check needs (most wrong poses stop here,
+// before their ICP). Feature agreement alone often ranks a wrong pose first: many of a box's
+// features look alike.
 std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
                                             const ObjectModel& model, const SceneSurface& scene,
                                             const ObjectMatchParams& params) {

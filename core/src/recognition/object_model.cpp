@@ -59,8 +59,7 @@ ObjectModel finishModel(std::string name, const SurfaceCloud& object,
   model.surface = everyKth(object, params.max_surface_points);
   model.features = std::move(features);
   model.box = principalBox(object.points);
-  model.flat_faces =
-      flatFacesOf(facesOfSurface(model.surface, params.flat_faces), params.flat_faces);
+  model.flat_faces = flatFacesOfSurface(model.surface, params.flat_faces);
   return model;
 }
 

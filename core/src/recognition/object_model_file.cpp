@@ -111,8 +111,7 @@ ObjectModel parseObjectModelJson(const json& j, const ObjectModelParams& params)
   model.box.size = numbers<3>(box.at("size"), kMaxCoordinateM);
   for (const json& p : arrayAt(j, "outline_probes", kMaxOutlineProbes))
     model.outline_probes.push_back(numbers<3>(p, kMaxCoordinateM));
-  model.flat_faces =
-      flatFacesOf(facesOfSurface(model.surface, params.flat_faces), params.flat_faces);
+  model.flat_faces = flatFacesOfSurface(model.surface, params.flat_faces);
   return model;
 }
 

@@ -52,7 +52,7 @@ grpc::Status handleFindObjects(const ServiceContext& context, const v1::FindObje
   response->set_frame_sequence(frame.sequence);
   if (!models.empty()) {
     bool reused = false;
-    const auto scene = context.scene_surfaces->get(entry, store->params(), reused);
+    const auto scene = context.scene_surfaces->get(frame, store->params(), reused);
     response->set_surface_reused(reused);
     std::vector<ObjectDetection> detections;
     for (const auto& stored : models) {

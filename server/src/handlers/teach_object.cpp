@@ -75,7 +75,7 @@ grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObj
   // A model FindObjects cannot find even in the frame it was taught from would only ever be
   // missed: say so now, while the operator still looks at the object.
   bool reused = false;
-  const auto scene = context.scene_surfaces->get(entry, store->params(), reused);
+  const auto scene = context.scene_surfaces->get(*entry.frame, store->params(), reused);
   const auto found = findObject(model, *scene);
   if (!found) {
     return {grpc::StatusCode::FAILED_PRECONDITION,

@@ -9,17 +9,16 @@
 #include <memory>
 #include <mutex>
 
+#include "shapesense/core/geometry/frame.h"
 #include "shapesense/core/recognition/object_matching.h"
-#include "shapesense/server/frame_cache.h"
 
 namespace shapesense {
 
 class SceneSurfaceCache {
  public:
-  /// The surface of `entry`'s frame described with `params`: the kept one when it is of this
-  /// frame's sequence, else built now and kept (replacing the previous frame's), with the
-  /// planes the pipeline found in the frame where it ran the plane stage. `reused` says which.
-  std::shared_ptr<const SceneSurface> get(const CachedFrame& entry, const ObjectModelParams& params,
+  /// The surface of `frame` described with `params`: the kept one when it is of this frame's
+  /// sequence, else built now and kept (replacing the previous frame's). `reused` says which.
+  std::shared_ptr<const SceneSurface> get(const Frame& frame, const ObjectModelParams& params,
                                           bool& reused);
 
  private:

@@ -1,8 +1,9 @@
 #pragma once
 // The flat faces of an object and the convex edges where two of them meet, as a box's front
 // and top do: pose hypotheses that need no interest points. Object matching
-// (object_matching.h) lays each of a model's faces and edges on each of the scene's of the
-// same size and lets the depth check judge the poses: where a box shows too few repeatable
+// (object_matching.h) lays each of a model's edges on each of the scene's of the same angle and
+// no larger (and, for a model without an edge, each face on each scene face of its size) and
+// lets the depth check judge the poses: where a box shows too few repeatable
 // interest points for the features to propose its pose, its faces still do.
 //  - An edge: the two normals fix the rotation, the two planes the object's place across the
 //    edge, and the ends of the edge its place along it.
@@ -40,9 +41,9 @@ struct FlatFaceParams {
   /// Defaults 0.08, 4.
   float min_face_share = 0.08f;
   int max_faces = 4;
-  /// Each plane detection's region is read at most this many points (every k-th pixel), and a
-  /// surface cloud at most this many for each face looked for (every k-th point). Default
-  /// 1500.
+  /// Each plane detection's region is read on about this many points (every k-th pixel in
+  /// both directions), and a surface cloud on at most this many for each face looked for
+  /// (every k-th point). Default 1500.
   int max_face_points = 1500;
   /// Two faces meet at an edge when both have points within this distance of the line where
   /// their planes cross (m): a plane detection's regions stop short of a crease by a few
@@ -59,7 +60,7 @@ struct FlatFaceParams {
   KinectNoiseModel noise{};
 };
 
-/// Points on one plane n.X + d = 0, the unit normal facing the viewpoint.
+/// Points on one plane n.X + d = 0, the unit normal on the side the surface's normals face.
 struct SurfaceFace {
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   float d = 0.0f;
@@ -71,7 +72,7 @@ struct SurfaceFace {
 struct FaceRectangle {
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   Eigen::Vector3f centre = Eigen::Vector3f::Zero();
-  std::array<Eigen::Vector3f, 2> axes;
+  std::array<Eigen::Vector3f, 2> axes{Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero()};
   std::array<float, 2> sides{};
 };
 
@@ -79,7 +80,7 @@ struct FaceRectangle {
 /// normals[1] (normalised) through `line_point`; the faces' points near it span
 /// [start, end] along it (from line_point), and each face runs `reach` from the line.
 struct FaceEdge {
-  std::array<Eigen::Vector3f, 2> normals;
+  std::array<Eigen::Vector3f, 2> normals{Eigen::Vector3f::Zero(), Eigen::Vector3f::Zero()};
   Eigen::Vector3f line_point = Eigen::Vector3f::Zero();
   Eigen::Vector3f direction = Eigen::Vector3f::Zero();
   float start = 0.0f;
@@ -97,7 +98,8 @@ struct FlatFaces {
 std::vector<SurfaceFace> facesOfSurface(const SurfaceCloud& surface,
                                         const FlatFaceParams& params = {});
 
-/// The regions of `planes` as faces, read from `depth_mm` (CV_16UC1).
+/// The regions of `planes` as faces, read from `depth_mm` (CV_16UC1). None when the label
+/// image does not match the depth image.
 std::vector<SurfaceFace> facesOfPlanes(const PlaneDetection& planes, const cv::Mat& depth_mm,
                                        const CameraIntrinsics& intrinsics,
                                        const FlatFaceParams& params = {});
@@ -111,6 +113,9 @@ FaceRectangle rectangleOf(const SurfaceFace& face);
 
 /// The rectangles of `faces` and their convex edges.
 FlatFaces flatFacesOf(const std::vector<SurfaceFace>& faces, const FlatFaceParams& params = {});
+
+/// flatFacesOf the faces of `surface` (an object's: ObjectModel::flat_faces).
+FlatFaces flatFacesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params = {});
 
 /// The poses that carry `model`'s edge onto `scene`'s (scene_from_model): either face onto
 /// either (when the angles between the normals agree within `angle_tolerance_deg`), and
