@@ -118,7 +118,7 @@ TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
     }
   }
   std::printf("found %d of %d by their faces, %d with a wrong pose\n", found, tried, wrong);
-  // Regression record, not a requirement: the faces reached 10 of 18 boxes with 1 wrong pose
+  // Regression record, not a requirement: the faces reached 11 of 18 boxes with 1 wrong pose
   // (a box slid 1.5 cm along its edge), the features and faces together 20 of 21 of these
   // objects (ObjectMatchingQuality.FindsATaughtBoxInALaterFrame, whose requirement is 0.9).
   // A box that shows one face in either view, or whose faces the plane detector joins to a
