@@ -99,6 +99,8 @@ struct Hypothesis {
   int inliers = 0;
   /// Laid by flat faces (flat_faces.h), not fitted to feature matches.
   bool from_flat_faces = false;
+  /// `inliers` counted (poses laid by flat faces alone count theirs once verified).
+  bool inliers_counted = true;
 };
 
 // The rigid motion that best carries the model points of `matches[i]` (i in `chosen`) onto their
@@ -180,7 +182,7 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
                            const ObjectMatchParams& params) {
   return Hypothesis{
       fittedPose(matches, agreeingMatches(h.scene_from_model, matches, params.inlier_distance_m)),
-      h.inliers, false};
+      h.inliers, false, true};
 }
 
 // Where a turn sends the model's x and y axes (its first two columns), each coordinate binned
@@ -334,11 +336,11 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
 }
 
 // Step 2 for the model's flat faces and edges: each laid on each of the scene's
-// (flat_faces.h), scored by the matches that agree with the pose (reported as the detection's
-// feature_inliers), added to `hypotheses` where no such pose is there yet.
+// (flat_faces.h), added to `hypotheses` where no such pose is there yet. Their feature
+// agreement is not counted here: it decides nothing for them and is only reported, so it is
+// counted for the poses that verify (findObject).
 void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
-                      const std::vector<Match>& matches, const ObjectMatchParams& params,
-                      std::vector<Hypothesis>& hypotheses) {
+                      const ObjectMatchParams& params, std::vector<Hypothesis>& hypotheses) {
   const auto add = [&](const Eigen::Isometry3f& pose) {
     const auto known = std::find_if(hypotheses.begin(), hypotheses.end(), [&](const Hypothesis& h) {
       return samePose(h.scene_from_model, pose, model.box.centre);
@@ -348,9 +350,7 @@ void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
       known->from_flat_faces = true;
       return;
     }
-    hypotheses.push_back(Hypothesis{
-        pose, static_cast<int>(agreeingMatches(pose, matches, params.inlier_distance_m).size()),
-        true});
+    hypotheses.push_back(Hypothesis{pose, 0, true, false});
   };
   const FlatFaces& found = scene.flatFaces();
   for (const FaceEdge& model_edge : model.flat_faces.edges)
@@ -709,7 +709,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
   std::vector<Hypothesis> hypotheses = anchoredPoses(matches, model, params);
-  if (params.poses_from_flat_faces) addFlatFacePoses(model, scene, matches, params, hypotheses);
+  if (params.poses_from_flat_faces) addFlatFacePoses(model, scene, params, hypotheses);
   for (const auto& [hypothesis, confirmed_within_reach] :
        worthRefining(std::move(hypotheses), model, scene, params)) {
     // Hypotheses come most confirmed first, counted within ICP's reach: refined and checked at
@@ -721,7 +721,12 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
                                               params.icp_iterations, params.icp_max_points, params);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection || !enoughEvidence(*detection, hypothesis, model, params)) continue;
-    detection->feature_inliers = hypothesis.inliers;
+    detection->feature_inliers =
+        hypothesis.inliers_counted
+            ? hypothesis.inliers
+            : static_cast<int>(
+                  agreeingMatches(hypothesis.scene_from_model, matches, params.inlier_distance_m)
+                      .size());
     if (!best || detection->confirmed_points > best->confirmed_points) {
       best = detection;
       best_patch = &patch;
