@@ -128,5 +128,30 @@ TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
   EXPECT_LE(wrong, 2);
 }
 
+// The poses laid by faces are bounded per model and frame: with none allowed, a box found by
+// its faces alone is not found.
+TEST(FlatFaces, ThePosesLaidByFacesAreCapped) {
+  const auto [teach, later, truth] = testing::twoViews(21, 150);
+  const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
+  ObjectMatchParams none;
+  none.max_flat_face_poses = 0;
+  int checked = 0;
+  for (const auto& object : teach.truth.objects) {
+    if (object.kind != "box" || object.pixel_count < 1500) continue;
+    ObjectModel model;
+    try {
+      model = teachObjectModel(object.name, teach.frame.depth, teach.frame.intrinsics,
+                               teach.truth.object_labels == object.id);
+    } catch (const std::invalid_argument&) {
+      continue;
+    }
+    model.features.clear();
+    if (!findObject(model, later_surface)) continue;
+    ++checked;
+    EXPECT_FALSE(findObject(model, later_surface, none)) << object.name;
+  }
+  EXPECT_GE(checked, 1);
+}
+
 }  // namespace
 }  // namespace shapesense

@@ -170,6 +170,11 @@ struct ObjectMatchParams {
   bool poses_from_flat_faces = true;
   float edge_angle_tolerance_deg = 5.0f;
   float face_size_slack_m = 0.03f;
+  /// At most this many poses from flat faces for one model in one frame (in the order of the
+  /// scene's faces): each is checked in the depth, and a frame of many planes would make model
+  /// edges x scene edges x 4 of them. Default 256 (the validation split's most is 46), so that
+  /// a frame of many planes costs bounded time.
+  int max_flat_face_poses = 256;
   /// Sensor noise model for confirm_steps.
   KinectNoiseModel noise{};
 };
