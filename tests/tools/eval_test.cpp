@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -77,6 +79,61 @@ TEST(PlaneEval, TwoPlanesReportedAsOneAreMergedAndACurvedPlaneIsSpurious) {
   EXPECT_EQ(s.correct, s.truth_regions - 2);
   EXPECT_EQ(s.spurious, 1);
   EXPECT_EQ(s.spurious_on_curved, 1);
+}
+
+// Relabels the first `count` pixels (row by row) of truth surface `id` in `labels` as `label`.
+void relabelPixelsOf(const synthetic::TruthFrame& truth, int id, int count, int label,
+                     cv::Mat& labels) {
+  for (int v = 0; v < labels.rows && count > 0; ++v)
+    for (int u = 0; u < labels.cols && count > 0; ++u)
+      if (truth.surface_labels.at<std::uint16_t>(v, u) == id) {
+        labels.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(label);
+        --count;
+      }
+}
+
+// Two of the truth's planes of at least `min_pixels` whose normals make an angle within
+// [min_deg, max_deg] and whose distances differ by at least `min_offset_m`; {0, 0} if none.
+std::pair<int, int> planePair(const synthetic::TruthFrame& truth, std::size_t min_pixels,
+                              double min_deg, double max_deg, double min_offset_m) {
+  for (const auto& a : truth.surfaces)
+    for (const auto& b : truth.surfaces) {
+      if (a.id >= b.id || a.kind != synthetic::SurfaceKind::kPlane ||
+          b.kind != synthetic::SurfaceKind::kPlane || a.pixel_count < min_pixels ||
+          b.pixel_count < min_pixels)
+        continue;
+      const double angle =
+          std::acos(std::clamp(a.plane.head<3>().dot(b.plane.head<3>()), -1.0, 1.0)) * 180.0 /
+          3.14159265358979;
+      if (angle >= min_deg && angle <= max_deg && std::abs(a.plane[3] - b.plane[3]) >= min_offset_m)
+        return {a.id, b.id};
+    }
+  return {0, 0};
+}
+
+TEST(PlaneEval, ASpuriousPlaneIsCountedByTheSurfacesItCovers) {
+  const auto f = clutteredFrame();
+  const auto crease = planePair(f.truth, 2000, 80.0, 100.0, 0.0);
+  const auto parallel = planePair(f.truth, 2000, 0.0, 5.0, 0.05);
+  ASSERT_NE(crease.first, 0);
+  ASSERT_NE(parallel.first, 0);
+  cv::Mat labels = planarTruth(f.truth);
+  // Patches of 150 pixels of each plane of a pair, reported as one plane each pair: neither is
+  // a part of one truth plane (each holds half of two).
+  relabelPixelsOf(f.truth, crease.first, 150, 60001, labels);
+  relabelPixelsOf(f.truth, crease.second, 150, 60001, labels);
+  const PlaneScore across = scorePlanes(labels, truthPlanes(f.truth), f.truth);
+  EXPECT_EQ(across.spurious, 1);
+  EXPECT_EQ(across.spurious_across_crease, 1);
+  EXPECT_EQ(across.spurious_parallel + across.spurious_coplanar + across.spurious_other, 0);
+
+  labels = planarTruth(f.truth);
+  relabelPixelsOf(f.truth, parallel.first, 150, 60002, labels);
+  relabelPixelsOf(f.truth, parallel.second, 150, 60002, labels);
+  const PlaneScore stacked = scorePlanes(labels, truthPlanes(f.truth), f.truth);
+  EXPECT_EQ(stacked.spurious, 1);
+  EXPECT_EQ(stacked.spurious_parallel, 1);
+  EXPECT_EQ(stacked.spurious_across_crease + stacked.spurious_coplanar + stacked.spurious_other, 0);
 }
 
 TEST(SegmentEval, CurvedObjectsAreOneRegionAndPlanarFacesStayApart) {

@@ -7,14 +7,14 @@
 //
 // Planes: the daemon's default Hough detector, SegComp (T = 0.8) against the planar truth by
 // the truth plane's share of the image; spurious planes per frame on plain scenes and on scenes
-// with curved clutter; median angle and distance errors of the correct planes; correct and
-// spurious by the sensor's disparity noise (the split draws 0.04-0.15 px). On real frames:
-// the table found as one plane. Segments: SegComp against the truth an operator wants (planar
-// faces apart, curved objects whole) and, on real frames, the objects kept apart. Boxes:
-// EstimateBox in mode 2 (the seed's best) and mode 4 (segments) with each object's own image
-// bounds as the ROI; the share of the object's visible points inside its box and the box's
-// volume over that of the camera-axis box of those points. Recognition (taught objects): the
-// split's recognition cases, each object taught through its image box in one view and looked
+// with curved clutter, and what they cover (eval::PlaneScore); median angle and distance errors of
+// the correct planes; correct and spurious by the sensor's disparity noise (the split draws
+// 0.04-0.15 px). On real frames: the table found as one plane. Segments: SegComp against the truth
+// an operator wants (planar faces apart, curved objects whole) and, on real frames, the objects
+// kept apart. Boxes: EstimateBox in mode 2 (the seed's best) and mode 4 (segments) with each
+// object's own image bounds as the ROI; the share of the object's visible points inside its box and
+// the box's volume over that of the camera-axis box of those points. Recognition (taught objects):
+// the split's recognition cases, each object taught through its image box in one view and looked
 // for in three others; recall at <= 1 cm and 5 deg where half of it shows, false detections.
 
 #include <CLI/CLI.hpp>
@@ -214,6 +214,11 @@ void printPlaneTable(const char* title, const eval::PlaneScore& s) {
       "reported, %d on curved surfaces)\n",
       title, s.frames, s.truth_regions, s.correctFraction(), s.spuriousPerFrame(), s.spurious,
       s.reported, s.spurious_on_curved);
+  std::printf(
+      "spurious planes by what they cover: a crease %d, parallel surfaces %d, coplanar "
+      "touching surfaces %d, curved surfaces %d, other %d\n",
+      s.spurious_across_crease, s.spurious_parallel, s.spurious_coplanar, s.spurious_on_curved,
+      s.spurious_other);
   std::printf("| truth plane, share of image | correct | split | merged | missed | n |\n");
   std::printf("|---|---|---|---|---|---|\n");
   const char* bins[] = {"0.5-1%", "1-2%", "2-5%", "5% and more"};

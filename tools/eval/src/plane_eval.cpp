@@ -43,6 +43,45 @@ void countOutcomes(const SegCompScore& seg, double image_pixels, PlaneScore& s) 
   }
 }
 
+// Which kind of spurious plane (PlaneScore) one lying mostly on planar truth is, from the
+// truth surfaces under its `all` pixels (`on_plane`: planar truth surface id -> pixels).
+void countSpuriousKind(int all, const std::map<int, int>& on_plane,
+                       const synthetic::TruthFrame& truth, PlaneScore& s) {
+  constexpr double kMinSecondShare = 0.1;
+  constexpr double kCreaseDeg = 60.0, kParallelDeg = 10.0, kCoplanarM = 0.005;
+  std::pair<int, int> first{0, 0}, second{0, 0};  // (pixels, surface id)
+  for (const auto& [surface, n] : on_plane) {
+    if (n > first.first) {
+      second = first;
+      first = {n, surface};
+    } else if (n > second.first) {
+      second = {n, surface};
+    }
+  }
+  const auto plane = [&](int id) -> const Eigen::Vector4d* {
+    for (const auto& surface : truth.surfaces)
+      if (surface.id == id) return &surface.plane;
+    return nullptr;
+  };
+  const Eigen::Vector4d* a = plane(first.second);
+  const Eigen::Vector4d* b = second.first >= kMinSecondShare * all ? plane(second.second) : nullptr;
+  if (!a || !b) {
+    ++s.spurious_other;
+    return;
+  }
+  const double angle =
+      std::acos(std::clamp(a->head<3>().dot(b->head<3>()), -1.0, 1.0)) / degToRad(1.0);
+  if (angle >= kCreaseDeg) {
+    ++s.spurious_across_crease;
+  } else if (angle > kParallelDeg) {
+    ++s.spurious_other;
+  } else if (std::fabs((*a)[3] - (*b)[3]) <= kCoplanarM) {
+    ++s.spurious_coplanar;
+  } else {
+    ++s.spurious_parallel;
+  }
+}
+
 // A reported plane is spurious unless SegComp related it to a truth plane or >= T of its
 // pixels lie on one planar truth surface (a real plane too small to be scored, or a part of
 // one). Planes on curved surfaces have no planar truth pixels, so they are found by their own.
@@ -79,7 +118,11 @@ void countSpurious(const cv::Mat& labels, const SegCompScore& seg,
     for (const auto& [surface, n] : p.on_plane) on_one_plane = std::max(on_one_plane, n);
     if (on_one_plane >= kOverlap * p.all) continue;
     ++s.spurious;
-    if (2 * p.on_curved > p.all) ++s.spurious_on_curved;
+    if (2 * p.on_curved > p.all) {
+      ++s.spurious_on_curved;
+    } else {
+      countSpuriousKind(p.all, p.on_plane, truth, s);
+    }
   }
 }
 
@@ -137,6 +180,10 @@ void PlaneScore::add(const PlaneScore& o) {
   reported += o.reported;
   spurious += o.spurious;
   spurious_on_curved += o.spurious_on_curved;
+  spurious_across_crease += o.spurious_across_crease;
+  spurious_parallel += o.spurious_parallel;
+  spurious_coplanar += o.spurious_coplanar;
+  spurious_other += o.spurious_other;
   angle_deg.insert(angle_deg.end(), o.angle_deg.begin(), o.angle_deg.end());
   dist_m.insert(dist_m.end(), o.dist_m.begin(), o.dist_m.end());
   matches.insert(matches.end(), o.matches.begin(), o.matches.end());

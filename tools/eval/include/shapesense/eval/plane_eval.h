@@ -37,7 +37,16 @@ struct PlaneScore {
   /// Reported planes in no correct, split or merged relation with a truth plane (a plane cut
   /// out of a curved surface, or a wrong one).
   int spurious = 0;
-  int spurious_on_curved = 0;     ///< of them, those lying mostly on curved surfaces
+  int spurious_on_curved = 0;  ///< of them, those lying mostly on curved surfaces
+  /// The others by the two planar truth surfaces under most of their pixels (the second
+  /// holding at least a tenth of the plane): surfaces meeting at 60 deg or more (a face with a
+  /// strip of the face beyond its crease), parallel within 10 deg and more than 5 mm apart (a
+  /// lid on a table, stacked faces), parallel and within 5 mm (touching faces flush: no depth
+  /// reading tells them apart); the rest (other angles, or one surface and pixels of none).
+  int spurious_across_crease = 0;
+  int spurious_parallel = 0;
+  int spurious_coplanar = 0;
+  int spurious_other = 0;
   std::vector<double> angle_deg;  ///< per correctly detected truth plane
   std::vector<double> dist_m;
   std::vector<std::pair<int, int>> matches;  ///< (truth surface id, found id) of correct pairs
