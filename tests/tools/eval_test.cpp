@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <set>
 
 #include "shapesense/eval/box_eval.h"
@@ -104,7 +105,7 @@ std::pair<int, int> planePair(const synthetic::TruthFrame& truth, std::size_t mi
         continue;
       const double angle =
           std::acos(std::clamp(a.plane.head<3>().dot(b.plane.head<3>()), -1.0, 1.0)) * 180.0 /
-          3.14159265358979;
+          std::numbers::pi;
       if (angle >= min_deg && angle <= max_deg && std::abs(a.plane[3] - b.plane[3]) >= min_offset_m)
         return {a.id, b.id};
     }

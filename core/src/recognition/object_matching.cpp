@@ -337,9 +337,8 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
 
 // Step 2 for the model's flat faces and edges: each laid on each of the scene's
 // (flat_faces.h), added to `hypotheses` where no such pose is there yet, at most
-// max_flat_face_poses of them. Their feature
-// agreement is not counted here: it decides nothing for them and is only reported, so it is
-// counted for the poses that verify (findObject).
+// max_flat_face_poses of them. Their feature agreement is not counted here: it decides nothing
+// for them and is only reported, so it is counted for the poses that verify (findObject).
 void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
                       const ObjectMatchParams& params, std::vector<Hypothesis>& hypotheses) {
   const std::size_t most =
