@@ -3,7 +3,7 @@
 // validation split and on mosd_learn; report the test split, mosd_test and mosd_tabletop.
 //
 //   shapesense-eval --split validation [--frames 60] [--real DIR ...] [--methods all]
-//                   [--recognition-cases N]
+//                   [--recognition-cases N] [--list-recognition-misses]
 //
 // Planes: the daemon's default Hough detector, SegComp (T = 0.8) against the planar truth by
 // the truth plane's share of the image; spurious planes per frame on plain scenes and on scenes
@@ -314,6 +314,10 @@ int main(int argc, char** argv) {
                  "taught-object recognition cases of the split (0 = none)")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
+  bool list_recognition_misses = false;
+  app.add_flag("--list-recognition-misses", list_recognition_misses,
+               "print each object of the recognition cases that was not found within the "
+               "tolerance, and what the check says of its truth pose");
   bool list_segment_misses = false;
   app.add_flag("--list-segment-misses", list_segment_misses,
                "print each truth region the default segmentation splits, merges or misses, "
@@ -345,6 +349,7 @@ int main(int argc, char** argv) {
     for (const auto& dir : real_dirs) evaluateReal(dir, methods);
     if (recognition_cases > 0) {
       const auto score = eval::scoreRecognition(*split, 0, recognition_cases);
+      if (list_recognition_misses) std::printf("%s", eval::formatRecognitionMisses(score).c_str());
       std::printf("%s\n", eval::formatRecognitionScore(
                               "recognition, " + std::string(eval::formatSplit(*split)), score)
                               .c_str());

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <numbers>
 #include <unordered_map>
@@ -770,26 +771,51 @@ cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& p
   return projectedBounds(corners, intrinsics);
 }
 
+PoseCheck checkObjectPose(const ObjectModel& model, const SceneSurface& scene,
+                          const Eigen::Isometry3f& pose, const ObjectMatchParams& params) {
+  const Verification check = verifyInDepth(pose, model, scene, params);
+  PoseCheck out;
+  out.confirmed = check.confirmed;
+  out.contradicted = check.contradicted;
+  out.outline_seen = check.outline_seen;
+  out.outline_continued = check.outline_continued;
+  const int seen = check.confirmed + check.contradicted;
+  if (seen > 0) out.score = static_cast<float>(check.confirmed) / static_cast<float>(seen);
+  const auto figures = [](const char* what, double value, const char* relation, double bound) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%s %.3g %s %.3g", what, value, relation, bound);
+    return std::string(text);
+  };
+  const auto probes = static_cast<float>(model.outline_probes.size());
+  if (seen == 0) {
+    out.failed = "no model point facing the camera has a reading";
+  } else if (out.score < params.min_score) {
+    out.failed = figures("score", out.score, "<", params.min_score);
+  } else if (check.confirmed <
+             params.min_confirmed_share * static_cast<float>(model.surface.size())) {
+    out.failed = figures("confirmed share", check.confirmed / double(model.surface.size()), "<",
+                         params.min_confirmed_share);
+  } else if (probes > 0.0f && check.outline_seen < params.min_seen_outline * probes) {
+    out.failed =
+        figures("outline seen", check.outline_seen / double(probes), "<", params.min_seen_outline);
+  } else if (probes > 0.0f &&
+             check.outline_continued >
+                 params.max_continued_outline * static_cast<float>(check.outline_seen)) {
+    out.failed = figures("outline continued", check.outline_continued / double(check.outline_seen),
+                         ">", params.max_continued_outline);
+  }
+  return out;
+}
+
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,
                                                 const Eigen::Isometry3f& pose,
                                                 const ObjectMatchParams& params) {
-  const Verification check = verifyInDepth(pose, model, scene, params);
-  const int seen = check.confirmed + check.contradicted;
-  if (seen == 0) return std::nullopt;
-  const float score = static_cast<float>(check.confirmed) / static_cast<float>(seen);
-  if (score < params.min_score ||
-      check.confirmed < params.min_confirmed_share * static_cast<float>(model.surface.size()))
-    return std::nullopt;
-  if (!model.outline_probes.empty() &&
-      (check.outline_seen <
-           params.min_seen_outline * static_cast<float>(model.outline_probes.size()) ||
-       check.outline_continued >
-           params.max_continued_outline * static_cast<float>(check.outline_seen)))
-    return std::nullopt;
+  const PoseCheck check = checkObjectPose(model, scene, pose, params);
+  if (!check.failed.empty()) return std::nullopt;
   ObjectDetection out;
   out.name = model.name;
   out.camera_from_model = pose;
-  out.score = score;
+  out.score = check.score;
   out.confirmed_points = check.confirmed;
   out.box = boxInCamera(model.box, pose);
   return out;

@@ -168,6 +168,33 @@ TEST(ObjectMatching, FollowsAnObjectFromANearbyPose) {
   EXPECT_GE(tried, 2);
 }
 
+// checkObjectPose tells what the check decides by: the truth pose passes, and one moved well
+// off the object fails, saying which rule; verifyObjectPose agrees with it.
+TEST(ObjectMatching, ThePoseCheckSaysWhichRuleAPoseFails) {
+  const auto [teach, later, truth] = testing::twoViews(21, 6);
+  const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
+  int tried = 0;
+  for (const auto& object : teach.truth.objects) {
+    if (object.kind != "box" || object.pixel_count < 3000) continue;
+    const ObjectModel model = teachObjectModel(
+        object.name, teach.frame.depth, teach.frame.intrinsics, objectMask(teach.truth, object.id));
+    ++tried;
+    const PoseCheck right = checkObjectPose(model, later_surface, truth.cast<float>());
+    EXPECT_TRUE(right.failed.empty()) << object.name << ": " << right.failed;
+    EXPECT_GE(right.score, 0.95f) << object.name;
+    EXPECT_TRUE(verifyObjectPose(model, later_surface, truth.cast<float>()).has_value());
+    // 8 cm towards the camera: in front of everything the depth shows there.
+    Eigen::Isometry3f off = Eigen::Isometry3f::Identity();
+    off.translation() = -0.08f * (truth.cast<float>() * model.box.centre).normalized();
+    const PoseCheck wrong = checkObjectPose(model, later_surface, off * truth.cast<float>());
+    EXPECT_EQ(wrong.failed.rfind("score ", 0), 0u) << object.name << ": " << wrong.failed;
+    EXPECT_LT(wrong.score, 0.95f) << object.name;
+    EXPECT_GT(wrong.contradicted, wrong.confirmed) << object.name;
+    EXPECT_FALSE(verifyObjectPose(model, later_surface, off * truth.cast<float>()).has_value());
+  }
+  EXPECT_GE(tried, 1);
+}
+
 // Models taught in some scenes, looked for in scenes of other seeds, whose boxes and tins have
 // other sizes: every detection is false.
 TEST(ObjectMatchingQuality, FindsNoTaughtObjectInScenesWithoutIt) {

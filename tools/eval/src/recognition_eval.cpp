@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <numbers>
 #include <sstream>
 
@@ -84,12 +85,16 @@ std::vector<TaughtObject> teachExamples(Recognizer& recognizer, const Frame& fra
   return out;
 }
 
+bool withinTolerance(const PoseErrorDeg& error, const PoseTolerance& tolerance) {
+  return error.translation_m <= tolerance.translation_m &&
+         error.rotation_deg <= tolerance.rotation_deg;
+}
+
 // The one place a detection is judged, for the scoring and for withMinScore alike.
 void countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
                     RecognitionScore& score) {
   const bool required = d.visible_share >= tolerance.min_visible_share;
-  const bool right = d.error.translation_m <= tolerance.translation_m &&
-                     d.error.rotation_deg <= tolerance.rotation_deg;
+  const bool right = withinTolerance(d.error, tolerance);
   if (right && d.visible_share >= tolerance.min_visible_share_present) {
     if (required) {
       ++score.found;
@@ -168,7 +173,8 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
       score.refused += refused_by_roi;
       const std::vector<TaughtObject> taught =
           teachExamples(*recognizers[r], c.teach.rendered.frame, examples, score);
-      for (const RecognitionView& view : c.others) {
+      for (std::size_t view_index = 0; view_index < c.others.size(); ++view_index) {
+        const RecognitionView& view = c.others[view_index];
         ++score.views;
         const Frame& frame = view.rendered.frame;
         const Eigen::Isometry3d truth = teachToView(c, view);
@@ -177,18 +183,24 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
         score.describe_ms_total += msSince(start);
         for (const TaughtObject& t : taught) {
           const double share = visibleShare(c, view, t.example->id);
-          if (share >= tolerance.min_visible_share) ++score.required;
+          const bool required = share >= tolerance.min_visible_share;
+          if (required) ++score.required;
           start = Clock::now();
           const auto detection = recognizers[r]->find(*t.model, *scene);
           score.find_ms_total += msSince(start);
           ++score.searches;
-          if (!detection) continue;
-          const ScoredDetection scored{
-              detection->score, share,
-              poseError(detection->camera_from_model, truth, t.example->centre, t.example->axes,
-                        t.example->symmetry)};
-          score.detections.push_back(scored);
-          countDetection(scored, tolerance, score);
+          std::optional<PoseErrorDeg> error;
+          if (detection) {
+            error = poseError(detection->camera_from_model, truth, t.example->centre,
+                              t.example->axes, t.example->symmetry);
+            const ScoredDetection scored{detection->score, share, *error};
+            score.detections.push_back(scored);
+            countDetection(scored, tolerance, score);
+          }
+          if (required && (!error || !withinTolerance(*error, tolerance)))
+            score.misses.push_back(
+                {index, static_cast<int>(view_index), t.example->name, share, error,
+                 recognizers[r]->checkPose(*t.model, *scene, truth.cast<float>())});
         }
       }
     }
@@ -203,6 +215,7 @@ RecognitionScore withMinScore(const RecognitionScore& score, double min_score,
   out.translation_errors_m.clear();
   out.rotation_errors_deg.clear();
   out.detections.clear();
+  out.misses.clear();
   for (const ScoredDetection& d : score.detections) {
     if (d.score < min_score) continue;
     out.detections.push_back(d);
@@ -230,6 +243,26 @@ std::string formatRecognitionScore(const std::string& label, const RecognitionSc
   if (s.views > 0 && s.searches > 0)
     out << "; describe " << s.describe_ms_total / s.views << " ms/frame, find "
         << s.find_ms_total / s.searches << " ms/model";
+  return out.str();
+}
+
+std::string formatRecognitionMisses(const RecognitionScore& score) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  for (const RecognitionMiss& m : score.misses) {
+    out << "missed: case " << m.case_index << " view " << m.view << " " << m.object << ", "
+        << std::setprecision(2) << m.visible_share << " visible; ";
+    if (m.detected) {
+      out << "reported " << std::setprecision(1) << 1e3 * m.detected->translation_m << " mm, "
+          << m.detected->rotation_deg << " deg off";
+    } else {
+      out << "not reported";
+    }
+    if (m.truth_check)
+      out << "; the truth pose " << (m.truth_check->empty() ? "passes the check" : "fails: ")
+          << *m.truth_check;
+    out << "\n";
+  }
   return out.str();
 }
 

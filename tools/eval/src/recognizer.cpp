@@ -39,4 +39,17 @@ std::optional<RecognizerDetection> ShapesenseRecognizer::find(const Model& model
   return RecognizerDetection{detection->camera_from_model, detection->score};
 }
 
+std::optional<std::string> Recognizer::checkPose(const Model&, const Scene&,
+                                                 const Eigen::Isometry3f&) {
+  return std::nullopt;
+}
+
+std::optional<std::string> ShapesenseRecognizer::checkPose(
+    const Model& model, const Scene& scene, const Eigen::Isometry3f& camera_from_model) {
+  return checkObjectPose(static_cast<const ShapesenseModel&>(model).model,
+                         static_cast<const ShapesenseScene&>(scene).surface, camera_from_model,
+                         match_params_)
+      .failed;
+}
+
 }  // namespace shapesense::eval

@@ -210,6 +210,26 @@ cv::Rect followObjectRegion(const ObjectModel& model, const Eigen::Isometry3f& p
                             const CameraIntrinsics& intrinsics,
                             const ObjectMatchParams& params = {});
 
+/// What the depth says of `model` at a pose (step 4), and the first of its rules the pose
+/// fails, if any.
+struct PoseCheck {
+  int confirmed = 0;          ///< model points facing the camera whose reading confirms them
+  int contradicted = 0;       ///< ...whose reading lies behind them (the depth sees through them)
+  int outline_seen = 0;       ///< outline probes with a reading not in front of them
+  int outline_continued = 0;  ///< ...showing surface at the probe's depth
+  float score = 0.0f;         ///< confirmed / (confirmed + contradicted); 0 with neither
+  /// Empty when the pose passes; else which rule it fails, with its figures, e.g.
+  /// "score 0.93 < 0.95".
+  std::string failed;
+};
+
+/// The check of step 4 of `model` at `camera_from_model`, with its figures: what
+/// verifyObjectPose decides by, for a pose that one wants to understand (why an object was not
+/// found where it is).
+PoseCheck checkObjectPose(const ObjectModel& model, const SceneSurface& scene,
+                          const Eigen::Isometry3f& camera_from_model,
+                          const ObjectMatchParams& params = {});
+
 /// Step 4 alone: `model` at `camera_from_model` as a detection if the depth confirms it (a pose
 /// from elsewhere: the last frame's, another method's). feature_inliers is left 0.
 std::optional<ObjectDetection> verifyObjectPose(const ObjectModel& model, const SceneSurface& scene,

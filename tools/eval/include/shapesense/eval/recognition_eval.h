@@ -6,6 +6,7 @@
 // most 1 cm and 5 deg where at least half of the object is visible, and false detections per
 // frame for five taught objects.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,18 @@ struct ScoredDetection {
   PoseErrorDeg error;
 };
 
+/// A required object (RecognitionScore::required) that was not found within the tolerance.
+struct RecognitionMiss {
+  int case_index = 0;
+  int view = 0;  ///< index among the case's other views
+  std::string object;
+  double visible_share = 0.0;
+  std::optional<PoseErrorDeg> detected;  ///< the pose reported, if one was: a wrong one
+  /// The method's own check of the truth pose (Recognizer::checkPose): empty when the truth
+  /// passes it, else what it fails; none for a method without such a check.
+  std::optional<std::string> truth_check;
+};
+
 struct RecognitionScore {
   int cases = 0;
   int views = 0;             ///< other views searched
@@ -52,6 +65,7 @@ struct RecognitionScore {
   double find_ms_total = 0.0;      ///< Recognizer::find (findObject), summed over (model, view)
   int searches = 0;                ///< Recognizer::find calls
   std::vector<ScoredDetection> detections;  ///< every detection, in the order made
+  std::vector<RecognitionMiss> misses;      ///< at the method's own threshold
 
   double recall() const { return required ? static_cast<double>(found) / required : 0.0; }
   /// False detections per frame, scaled to five taught objects (the measure).
@@ -93,11 +107,15 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
 
 /// `score` as it would have been had the method's detections below `min_score` been dropped
 /// (its detection threshold raised to `min_score`; it keeps its best pose per search).
-/// `tolerance` must be the one `score` was counted with.
+/// `tolerance` must be the one `score` was counted with. Its misses are not listed.
 RecognitionScore withMinScore(const RecognitionScore& score, double min_score,
                               const PoseTolerance& tolerance = {});
 
 /// The score as the table shapesense-eval prints.
 std::string formatRecognitionScore(const std::string& label, const RecognitionScore& score);
+
+/// One line per miss of `score`: where, what was reported, and what the method's check says of
+/// the truth pose.
+std::string formatRecognitionMisses(const RecognitionScore& score);
 
 }  // namespace shapesense::eval

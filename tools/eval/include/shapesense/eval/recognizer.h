@@ -46,6 +46,11 @@ class Recognizer {
                                           const CameraIntrinsics& intrinsics) = 0;
   /// The taught object in the described frame, or none.
   virtual std::optional<RecognizerDetection> find(const Model& model, const Scene& scene) = 0;
+  /// What the method's own check says of the model at `camera_from_model` in the described
+  /// frame: empty when the pose passes, else the rule it fails; none (the default) for a method
+  /// without such a check. Lists why a missed object was missed (the truth pose given).
+  virtual std::optional<std::string> checkPose(const Model& model, const Scene& scene,
+                                               const Eigen::Isometry3f& camera_from_model);
 };
 
 /// shapesense's own method: teachObjectModel, SceneSurface and findObject (core/recognition).
@@ -61,6 +66,9 @@ class ShapesenseRecognizer final : public Recognizer {
   std::unique_ptr<Scene> describe(const cv::Mat& depth_mm,
                                   const CameraIntrinsics& intrinsics) override;
   std::optional<RecognizerDetection> find(const Model& model, const Scene& scene) override;
+  /// checkObjectPose's verdict.
+  std::optional<std::string> checkPose(const Model& model, const Scene& scene,
+                                       const Eigen::Isometry3f& camera_from_model) override;
 
  private:
   ObjectModelParams model_params_;
