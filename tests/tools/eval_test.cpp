@@ -9,6 +9,7 @@
 #include <numbers>
 #include <set>
 
+#include "shapesense/core/planes/planes.h"
 #include "shapesense/eval/box_eval.h"
 #include "shapesense/eval/plane_eval.h"
 #include "shapesense/eval/scene_splits.h"
@@ -135,6 +136,23 @@ TEST(PlaneEval, ASpuriousPlaneIsCountedByTheSurfacesItCovers) {
   EXPECT_EQ(stacked.spurious, 1);
   EXPECT_EQ(stacked.spurious_parallel, 1);
   EXPECT_EQ(stacked.spurious_across_crease + stacked.spurious_coplanar + stacked.spurious_other, 0);
+}
+
+// On the detector's planes of training scenes, every spurious plane is counted under one kind.
+TEST(PlaneEval, EverySpuriousPlaneHasOneKind) {
+  HoughPlaneDetector hough;
+  PlaneScore s;
+  for (int index = 0; index < 8; ++index) {
+    const EvalScene scene = evalScene(Split::kTrain, index);
+    const synthetic::RenderedFrame f =
+        synthetic::SyntheticScene(scene.params).render(scene.frame_index, 0);
+    const PlaneDetection planes = hough.detect(f.frame.depth, f.frame.intrinsics);
+    s.add(scorePlanes(planes.labels, planes.planes, f.truth));
+  }
+  ASSERT_GT(s.spurious, 0);
+  EXPECT_EQ(s.spurious_on_curved + s.spurious_across_crease + s.spurious_parallel +
+                s.spurious_coplanar + s.spurious_other,
+            s.spurious);
 }
 
 TEST(SegmentEval, CurvedObjectsAreOneRegionAndPlanarFacesStayApart) {

@@ -338,14 +338,14 @@ std::vector<Hypothesis> anchoredPoses(const std::vector<Match>& matches, const O
 
 // Step 2 for the model's flat faces and edges: each laid on each of the scene's
 // (flat_faces.h), added to `hypotheses` where no such pose is there yet, at most
-// max_flat_face_poses of them. Their feature agreement is not counted here: it decides nothing
-// for them and is only reported, so it is counted for the poses that verify (findObject).
+// max_flat_face_poses of them (a pose the features found is marked all the same). Their feature
+// agreement is not counted here: it decides nothing for them and is only reported, so it is counted
+// for the poses that verify (findObject).
 void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
                       const ObjectMatchParams& params, std::vector<Hypothesis>& hypotheses) {
   const std::size_t most =
       hypotheses.size() + static_cast<std::size_t>(std::max(0, params.max_flat_face_poses));
   const auto add = [&](const Eigen::Isometry3f& pose) {
-    if (hypotheses.size() >= most) return;
     const auto known = std::find_if(hypotheses.begin(), hypotheses.end(), [&](const Hypothesis& h) {
       return samePose(h.scene_from_model, pose, model.box.centre);
     });
@@ -354,7 +354,7 @@ void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
       known->from_flat_faces = true;
       return;
     }
-    hypotheses.push_back(Hypothesis{pose, 0, true, false});
+    if (hypotheses.size() < most) hypotheses.push_back(Hypothesis{pose, 0, true, false});
   };
   const FlatFaces& found = scene.flatFaces();
   for (const FaceEdge& model_edge : model.flat_faces.edges)
@@ -783,7 +783,7 @@ PoseCheck checkObjectPose(const ObjectModel& model, const SceneSurface& scene,
   if (seen > 0) out.score = static_cast<float>(check.confirmed) / static_cast<float>(seen);
   const auto figures = [](const char* what, double value, const char* relation, double bound) {
     char text[96];
-    std::snprintf(text, sizeof text, "%s %.3g %s %.3g", what, value, relation, bound);
+    std::snprintf(text, sizeof text, "%s %.4f %s %.4g", what, value, relation, bound);
     return std::string(text);
   };
   const auto probes = static_cast<float>(model.outline_probes.size());

@@ -191,6 +191,12 @@ TEST(ObjectMatching, ThePoseCheckSaysWhichRuleAPoseFails) {
     EXPECT_LT(wrong.score, 0.95f) << object.name;
     EXPECT_GT(wrong.contradicted, wrong.confirmed) << object.name;
     EXPECT_FALSE(verifyObjectPose(model, later_surface, off * truth.cast<float>()).has_value());
+    // Behind the camera: nothing to check it by.
+    Eigen::Isometry3f behind = Eigen::Isometry3f::Identity();
+    behind.translation() = Eigen::Vector3f(0.0f, 0.0f, -10.0f);
+    const PoseCheck unseen = checkObjectPose(model, later_surface, behind * truth.cast<float>());
+    EXPECT_EQ(unseen.failed.rfind("no model point", 0), 0u) << unseen.failed;
+    EXPECT_EQ(unseen.confirmed + unseen.contradicted, 0);
   }
   EXPECT_GE(tried, 1);
 }

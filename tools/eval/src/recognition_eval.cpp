@@ -85,26 +85,24 @@ std::vector<TaughtObject> teachExamples(Recognizer& recognizer, const Frame& fra
   return out;
 }
 
-bool withinTolerance(const PoseErrorDeg& error, const PoseTolerance& tolerance) {
-  return error.translation_m <= tolerance.translation_m &&
-         error.rotation_deg <= tolerance.rotation_deg;
-}
-
-// The one place a detection is judged, for the scoring and for withMinScore alike.
-void countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
+// The one place a detection is judged, for the scoring and for withMinScore alike. Returns
+// whether it found a required object.
+bool countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
                     RecognitionScore& score) {
   const bool required = d.visible_share >= tolerance.min_visible_share;
-  const bool right = withinTolerance(d.error, tolerance);
+  const bool right = d.error.translation_m <= tolerance.translation_m &&
+                     d.error.rotation_deg <= tolerance.rotation_deg;
   if (right && d.visible_share >= tolerance.min_visible_share_present) {
     if (required) {
       ++score.found;
       score.translation_errors_m.push_back(d.error.translation_m);
       score.rotation_errors_deg.push_back(d.error.rotation_deg);
     }
-    return;
+    return required;
   }
   ++score.false_detections;
   if (required) ++score.wrong_pose;
+  return false;
 }
 
 }  // namespace
@@ -190,14 +188,15 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
           score.find_ms_total += msSince(start);
           ++score.searches;
           std::optional<PoseErrorDeg> error;
+          bool found = false;
           if (detection) {
             error = poseError(detection->camera_from_model, truth, t.example->centre,
                               t.example->axes, t.example->symmetry);
             const ScoredDetection scored{detection->score, share, *error};
             score.detections.push_back(scored);
-            countDetection(scored, tolerance, score);
+            found = countDetection(scored, tolerance, score);
           }
-          if (required && (!error || !withinTolerance(*error, tolerance)))
+          if (required && !found)
             score.misses.push_back(
                 {index, static_cast<int>(view_index), t.example->name, share, error,
                  recognizers[r]->checkPose(*t.model, *scene, truth.cast<float>())});

@@ -170,10 +170,10 @@ struct ObjectMatchParams {
   bool poses_from_flat_faces = true;
   float edge_angle_tolerance_deg = 5.0f;
   float face_size_slack_m = 0.03f;
-  /// At most this many poses from flat faces for one model in one frame (in the order of the
-  /// scene's faces): each is checked in the depth, and a frame of many planes would make model
-  /// edges x scene edges x 4 of them. Default 256 (the validation split's most is 46), so that
-  /// a frame of many planes costs bounded time.
+  /// At most this many poses from flat faces for one model in one frame (the model's edges in
+  /// turn, each laid on the scene's edges in their order): each is checked in the depth, and a
+  /// frame of many planes would make model edges x scene edges x 4 of them. Default 256 (the
+  /// validation split's most is 46): the depth checks of a frame of many planes stay bounded.
   int max_flat_face_poses = 256;
   /// Sensor noise model for confirm_steps.
   KinectNoiseModel noise{};
@@ -218,8 +218,8 @@ struct PoseCheck {
   int outline_seen = 0;       ///< outline probes with a reading not in front of them
   int outline_continued = 0;  ///< ...showing surface at the probe's depth
   float score = 0.0f;         ///< confirmed / (confirmed + contradicted); 0 with neither
-  /// Empty when the pose passes; else which rule it fails, with its figures, e.g.
-  /// "score 0.93 < 0.95".
+  /// Empty when the pose passes; else which rule it fails, with its figures where it has any,
+  /// e.g. "score 0.9300 < 0.95".
   std::string failed;
 };
 

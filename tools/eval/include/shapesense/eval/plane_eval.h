@@ -42,7 +42,8 @@ struct PlaneScore {
   /// holding at least a tenth of the plane): surfaces meeting at 60 deg or more (a face with a
   /// strip of the face beyond its crease), parallel within 10 deg and more than 5 mm apart (a
   /// lid on a table, stacked faces), parallel and within 5 mm (touching faces flush: no depth
-  /// reading tells them apart); the rest (other angles, or one surface and pixels of none).
+  /// reading tells them apart; their distances from the camera compared, a coarse measure for
+  /// planes up to 10 deg apart); the rest (other angles, or one surface and pixels of none).
   int spurious_across_crease = 0;
   int spurious_parallel = 0;
   int spurious_coplanar = 0;

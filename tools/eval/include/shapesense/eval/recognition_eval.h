@@ -44,7 +44,7 @@ struct RecognitionMiss {
   int view = 0;  ///< index among the case's other views
   std::string object;
   double visible_share = 0.0;
-  std::optional<PoseErrorDeg> detected;  ///< the pose reported, if one was: a wrong one
+  std::optional<PoseErrorDeg> detected;  ///< the error of the pose reported, if one was
   /// The method's own check of the truth pose (Recognizer::checkPose): empty when the truth
   /// passes it, else what it fails; none for a method without such a check.
   std::optional<std::string> truth_check;
