@@ -85,6 +85,24 @@ TEST(FlatFaces, AnEdgeLaidOnItselfMovedGivesTheMotion) {
   EXPECT_LT((poses[0].translation() - motion.translation()).norm(), 0.003f);
 }
 
+// The models of the teach view's boxes of at least 1500 pixels, with their features taken
+// away (the truth object beside each); boxes too small to teach are left out.
+std::vector<std::pair<const synthetic::TruthObject*, ObjectModel>> featurelessBoxModels(
+    const synthetic::RenderedFrame& teach) {
+  std::vector<std::pair<const synthetic::TruthObject*, ObjectModel>> out;
+  for (const auto& object : teach.truth.objects) {
+    if (object.kind != "box" || object.pixel_count < 1500) continue;
+    try {
+      ObjectModel model = teachObjectModel(object.name, teach.frame.depth, teach.frame.intrinsics,
+                                           teach.truth.object_labels == object.id);
+      model.features.clear();
+      out.emplace_back(&object, std::move(model));
+    } catch (const std::invalid_argument&) {
+    }
+  }
+  return out;
+}
+
 // With its features taken away, a taught box is found by its faces alone in a later frame of
 // the same scene, where the camera moved (the truth motion from both camera poses).
 TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
@@ -92,16 +110,8 @@ TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
   for (std::uint64_t seed = 21; seed < 27; ++seed) {
     const auto [teach, later, truth] = testing::twoViews(seed, 150);
     const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
-    for (const auto& object : teach.truth.objects) {
-      if (object.kind != "box" || object.pixel_count < 1500) continue;
-      ObjectModel model;
-      try {
-        model = teachObjectModel(object.name, teach.frame.depth, teach.frame.intrinsics,
-                                 teach.truth.object_labels == object.id);
-      } catch (const std::invalid_argument&) {
-        continue;
-      }
-      model.features.clear();
+    for (const auto& [box, model] : featurelessBoxModels(teach)) {
+      const synthetic::TruthObject& object = *box;
       ++tried;
       const auto detection = findObject(model, later_surface);
       if (!detection) continue;
@@ -136,19 +146,10 @@ TEST(FlatFaces, ThePosesLaidByFacesAreCapped) {
   ObjectMatchParams none;
   none.max_flat_face_poses = 0;
   int checked = 0;
-  for (const auto& object : teach.truth.objects) {
-    if (object.kind != "box" || object.pixel_count < 1500) continue;
-    ObjectModel model;
-    try {
-      model = teachObjectModel(object.name, teach.frame.depth, teach.frame.intrinsics,
-                               teach.truth.object_labels == object.id);
-    } catch (const std::invalid_argument&) {
-      continue;
-    }
-    model.features.clear();
+  for (const auto& [box, model] : featurelessBoxModels(teach)) {
     if (!findObject(model, later_surface)) continue;
     ++checked;
-    EXPECT_FALSE(findObject(model, later_surface, none)) << object.name;
+    EXPECT_FALSE(findObject(model, later_surface, none)) << box->name;
   }
   EXPECT_GE(checked, 1);
 }
