@@ -8,6 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "cloud_index.h"
 #include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/plane_fitting.h"
 #include "shapesense/core/geometry/units.h"
@@ -151,11 +152,10 @@ Eigen::Matrix3f frameOf(const Eigen::Vector3f& first, const Eigen::Vector3f& sec
 std::vector<SurfaceFace> facesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params) {
   // Every k-th point, at most max_face_points for each face looked for: a model's surface is
   // thinned to about that already, a cloud from a file may hold many more.
-  const std::size_t budget =
-      static_cast<std::size_t>(std::max(1, params.max_face_points) * std::max(1, params.max_faces));
-  const std::size_t stride = (surface.size() + budget - 1) / budget;
+  const std::size_t stride = detail::thinningStep(
+      surface.size(), std::max(1, params.max_face_points) * std::max(1, params.max_faces));
   std::vector<std::uint32_t> remaining;
-  for (std::size_t i = 0; i < surface.size(); i += std::max<std::size_t>(1, stride))
+  for (std::size_t i = 0; i < surface.size(); i += stride)
     remaining.push_back(static_cast<std::uint32_t>(i));
   const std::size_t min_points = std::max<std::size_t>(
       kMinFacePoints,

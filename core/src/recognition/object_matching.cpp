@@ -786,6 +786,7 @@ PoseCheck checkObjectPose(const ObjectModel& model, const SceneSurface& scene,
     std::snprintf(text, sizeof text, "%s %.4f %s %.4g", what, value, relation, bound);
     return std::string(text);
   };
+  const bool has_outline = !model.outline_probes.empty();
   const auto probes = static_cast<float>(model.outline_probes.size());
   if (seen == 0) {
     out.failed = "no model point facing the camera has a reading";
@@ -795,12 +796,11 @@ PoseCheck checkObjectPose(const ObjectModel& model, const SceneSurface& scene,
              params.min_confirmed_share * static_cast<float>(model.surface.size())) {
     out.failed = figures("confirmed share", check.confirmed / double(model.surface.size()), "<",
                          params.min_confirmed_share);
-  } else if (probes > 0.0f && check.outline_seen < params.min_seen_outline * probes) {
+  } else if (has_outline && check.outline_seen < params.min_seen_outline * probes) {
     out.failed =
         figures("outline seen", check.outline_seen / double(probes), "<", params.min_seen_outline);
-  } else if (probes > 0.0f &&
-             check.outline_continued >
-                 params.max_continued_outline * static_cast<float>(check.outline_seen)) {
+  } else if (has_outline && check.outline_continued > params.max_continued_outline *
+                                                          static_cast<float>(check.outline_seen)) {
     out.failed = figures("outline continued", check.outline_continued / double(check.outline_seen),
                          ">", params.max_continued_outline);
   }
