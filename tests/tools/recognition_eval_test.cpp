@@ -38,12 +38,18 @@ TEST(RecognitionQuality, TestSplitRecallAndFalseDetections) {
   std::vector<double> translations = score.translation_errors_m;
   EXPECT_LE(quantile(translations, 0.9), 0.007);
   // Every required object not found is listed, with what the check says of its truth pose; a
-  // wrong pose is listed once, as a miss and among the wrong poses.
+  // wrong pose is listed once, as a miss and among the wrong poses, with what the check says
+  // of it too: it passes, as findObject verified it.
   ASSERT_EQ(static_cast<int>(score.misses.size()), score.required - score.found);
   int listed_wrong = 0;
   for (const RecognitionMiss& miss : score.misses) {
     listed_wrong += miss.detected.has_value();
-    EXPECT_TRUE(miss.truth_check.has_value());
+    ASSERT_TRUE(miss.truth_check.has_value());
+    EXPECT_FALSE(miss.truth_check->figures.empty());
+    ASSERT_EQ(miss.reported_check.has_value(), miss.detected.has_value());
+    if (miss.reported_check) {
+      EXPECT_EQ(miss.reported_check->failed, "");
+    }
   }
   EXPECT_EQ(listed_wrong, score.wrong_pose);
 }

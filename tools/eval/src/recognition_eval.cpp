@@ -196,10 +196,18 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
             score.detections.push_back(scored);
             found = countDetection(scored, tolerance, score);
           }
-          if (required && !found)
-            score.misses.push_back(
-                {index, static_cast<int>(view_index), t.example->name, share, error,
-                 recognizers[r]->checkPose(*t.model, *scene, truth.cast<float>())});
+          if (required && !found) {
+            RecognitionMiss& miss = score.misses.emplace_back();
+            miss.case_index = index;
+            miss.view = static_cast<int>(view_index);
+            miss.object = t.example->name;
+            miss.visible_share = share;
+            miss.detected = error;
+            miss.truth_check = recognizers[r]->checkPose(*t.model, *scene, truth.cast<float>());
+            if (detection)
+              miss.reported_check =
+                  recognizers[r]->checkPose(*t.model, *scene, detection->camera_from_model);
+          }
         }
       }
     }
@@ -257,9 +265,11 @@ std::string formatRecognitionMisses(const RecognitionScore& score) {
     } else {
       out << "not reported";
     }
-    if (m.truth_check)
-      out << "; the truth pose " << (m.truth_check->empty() ? "passes the check" : "fails: ")
-          << *m.truth_check;
+    if (m.truth_check) {
+      out << "; the truth pose " << (m.truth_check->failed.empty() ? "passes the check" : "fails: ")
+          << m.truth_check->failed << "\n    truth:    " << m.truth_check->figures;
+    }
+    if (m.reported_check) out << "\n    reported: " << m.reported_check->figures;
     out << "\n";
   }
   return out.str();

@@ -1,5 +1,7 @@
 #include "shapesense/eval/recognizer.h"
 
+#include <cstdio>
+
 namespace shapesense::eval {
 namespace {
 
@@ -39,17 +41,22 @@ std::optional<RecognizerDetection> ShapesenseRecognizer::find(const Model& model
   return RecognizerDetection{detection->camera_from_model, detection->score};
 }
 
-std::optional<std::string> Recognizer::checkPose(const Model&, const Scene&,
+std::optional<PoseVerdict> Recognizer::checkPose(const Model&, const Scene&,
                                                  const Eigen::Isometry3f&) {
   return std::nullopt;
 }
 
-std::optional<std::string> ShapesenseRecognizer::checkPose(
+std::optional<PoseVerdict> ShapesenseRecognizer::checkPose(
     const Model& model, const Scene& scene, const Eigen::Isometry3f& camera_from_model) {
-  return checkObjectPose(static_cast<const ShapesenseModel&>(model).model,
-                         static_cast<const ShapesenseScene&>(scene).surface, camera_from_model,
-                         match_params_)
-      .failed;
+  PoseCheck check = checkObjectPose(static_cast<const ShapesenseModel&>(model).model,
+                                    static_cast<const ShapesenseScene&>(scene).surface,
+                                    camera_from_model, match_params_);
+  char figures[160];
+  std::snprintf(figures, sizeof figures,
+                "confirmed %d, contradicted %d, score %.4f, outline seen %d, continued %d",
+                check.confirmed, check.contradicted, check.score, check.outline_seen,
+                check.outline_continued);
+  return PoseVerdict{std::move(check.failed), figures};
 }
 
 }  // namespace shapesense::eval

@@ -45,9 +45,10 @@ struct RecognitionMiss {
   std::string object;
   double visible_share = 0.0;
   std::optional<PoseErrorDeg> detected;  ///< the error of the pose reported, if one was
-  /// The method's own check of the truth pose (Recognizer::checkPose): empty when the truth
-  /// passes it, else what it fails; none for a method without such a check.
-  std::optional<std::string> truth_check;
+  /// The method's own check (Recognizer::checkPose) of the truth pose, and of the pose
+  /// reported when one was; none for a method without such a check.
+  std::optional<PoseVerdict> truth_check;
+  std::optional<PoseVerdict> reported_check;
 };
 
 struct RecognitionScore {

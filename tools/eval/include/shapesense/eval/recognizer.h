@@ -16,6 +16,12 @@
 
 namespace shapesense::eval {
 
+/// What a method's own check says of a pose.
+struct PoseVerdict {
+  std::string failed;   ///< empty when the pose passes, else the rule it fails
+  std::string figures;  ///< what the check measured, e.g. "confirmed 989, contradicted 0, ..."
+};
+
 struct RecognizerDetection {
   /// The model's pose in the searched camera's frame; the model's frame is the camera frame of
   /// the view it was taught from (so the identity there), as poseError expects.
@@ -47,9 +53,9 @@ class Recognizer {
   /// The taught object in the described frame, or none.
   virtual std::optional<RecognizerDetection> find(const Model& model, const Scene& scene) = 0;
   /// What the method's own check says of the model at `camera_from_model` in the described
-  /// frame: empty when the pose passes, else the rule it fails; none (the default) for a method
-  /// without such a check. Lists why a missed object was missed (the truth pose given).
-  virtual std::optional<std::string> checkPose(const Model& model, const Scene& scene,
+  /// frame; none (the default) for a method without such a check. Lists why a missed object
+  /// was missed: the truth pose against the one reported.
+  virtual std::optional<PoseVerdict> checkPose(const Model& model, const Scene& scene,
                                                const Eigen::Isometry3f& camera_from_model);
 };
 
@@ -66,8 +72,8 @@ class ShapesenseRecognizer final : public Recognizer {
   std::unique_ptr<Scene> describe(const cv::Mat& depth_mm,
                                   const CameraIntrinsics& intrinsics) override;
   std::optional<RecognizerDetection> find(const Model& model, const Scene& scene) override;
-  /// checkObjectPose's verdict.
-  std::optional<std::string> checkPose(const Model& model, const Scene& scene,
+  /// checkObjectPose's verdict and figures.
+  std::optional<PoseVerdict> checkPose(const Model& model, const Scene& scene,
                                        const Eigen::Isometry3f& camera_from_model) override;
 
  private:
