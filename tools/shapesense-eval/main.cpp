@@ -317,7 +317,8 @@ int main(int argc, char** argv) {
   bool list_recognition_misses = false;
   app.add_flag("--list-recognition-misses", list_recognition_misses,
                "print each object of the recognition cases that was not found within the "
-               "tolerance, and what the check says of its truth pose");
+               "tolerance, and what the check says of its truth pose and of the wrong pose "
+               "reported, with its figures");
   bool list_segment_misses = false;
   app.add_flag("--list-segment-misses", list_segment_misses,
                "print each truth region the default segmentation splits, merges or misses, "
