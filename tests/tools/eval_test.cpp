@@ -6,9 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numbers>
 #include <set>
 
+#include "shapesense/core/geometry/units.h"
 #include "shapesense/core/planes/planes.h"
 #include "shapesense/eval/box_eval.h"
 #include "shapesense/eval/plane_eval.h"
@@ -104,9 +104,7 @@ std::pair<int, int> planePair(const synthetic::TruthFrame& truth, std::size_t mi
           b.kind != synthetic::SurfaceKind::kPlane || a.pixel_count < min_pixels ||
           b.pixel_count < min_pixels)
         continue;
-      const double angle =
-          std::acos(std::clamp(a.plane.head<3>().dot(b.plane.head<3>()), -1.0, 1.0)) * 180.0 /
-          std::numbers::pi;
+      const double angle = angleDegOfCosine(a.plane.head<3>().dot(b.plane.head<3>()));
       if (angle >= min_deg && angle <= max_deg && std::abs(a.plane[3] - b.plane[3]) >= min_offset_m)
         return {a.id, b.id};
     }

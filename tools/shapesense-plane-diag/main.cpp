@@ -71,7 +71,7 @@ std::pair<double, double> rangeAndObliquity(const synthetic::TruthFrame& truth, 
     }
   const Eigen::Vector3d mean = sum / std::max(1L, count);
   const double cosine = std::abs(mean.normalized().dot(n));
-  return {mean.norm(), std::acos(std::min(1.0, cosine)) / degToRad(1.0)};
+  return {mean.norm(), angleDegOfCosine(cosine)};
 }
 
 enum Cause { kUnlabelled, kTakenByOther, kPartial, kCauses };

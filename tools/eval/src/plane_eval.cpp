@@ -69,8 +69,7 @@ void countSpuriousKind(int all, const std::map<int, int>& on_plane,
     ++s.spurious_other;
     return;
   }
-  const double angle =
-      std::acos(std::clamp(a->head<3>().dot(b->head<3>()), -1.0, 1.0)) / degToRad(1.0);
+  const double angle = angleDegOfCosine(a->head<3>().dot(b->head<3>()));
   if (angle >= kCreaseDeg) {
     ++s.spurious_across_crease;
   } else if (angle > kParallelDeg) {
@@ -156,8 +155,7 @@ void planeErrors(const SegCompScore& seg, const cv::Mat& labels, const cv::Mat& 
         [truth_id = key.first](const synthetic::TruthSurface& x) { return x.id == truth_id; });
     if (fp == planes.end() || tp == truth.surfaces.end()) continue;
     const Eigen::Vector3d tn = tp->plane.head<3>();
-    s.angle_deg.push_back(std::acos(std::clamp(std::fabs(fp->normal.dot(tn)), 0.0, 1.0)) /
-                          degToRad(1.0));
+    s.angle_deg.push_back(angleDegOfCosine(std::fabs(fp->normal.dot(tn))));
     s.dist_m.push_back(std::fabs(fp->d - tp->plane[3]));
     s.matches.emplace_back(key.first, key.second);
   }

@@ -3,11 +3,11 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
-#include <numbers>
 #include <sstream>
 
 #include "shapesense/core/boxes/segment_box.h"
 #include "shapesense/core/geometry/order_statistics.h"
+#include "shapesense/core/geometry/units.h"
 #include "shapesense/core/pipeline/detector_chain.h"
 
 namespace shapesense::eval {
@@ -17,10 +17,6 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-double angleDeg(double cosine) {
-  return std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
 // An object of a case as an operator marks it in the teach view: the same pixels for every
@@ -129,8 +125,8 @@ PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry
   out.translation_m = (e * centre - truth * centre).norm();
   if (symmetry == ObjectSymmetry::kAxial) {
     const Eigen::Vector3d axis = axes.col(2);
-    out.rotation_deg =
-        angleDeg((e.linear() * axis).normalized().dot((truth.linear() * axis).normalized()));
+    out.rotation_deg = angleDegOfCosine(
+        (e.linear() * axis).normalized().dot((truth.linear() * axis).normalized()));
     return out;
   }
   // The half turns about the object's axes (2 a a^T - I about unit axis a), identity first.
@@ -144,7 +140,7 @@ PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry
   out.rotation_deg = 180.0;
   for (const Eigen::Matrix3d& turn : turns) {
     const Eigen::Matrix3d r = e.linear() * (truth.linear() * turn).transpose();
-    out.rotation_deg = std::min(out.rotation_deg, angleDeg((r.trace() - 1.0) / 2.0));
+    out.rotation_deg = std::min(out.rotation_deg, angleDegOfCosine((r.trace() - 1.0) / 2.0));
   }
   return out;
 }
