@@ -5,42 +5,9 @@
 #include <cmath>
 #include <limits>
 
-#include <nanoflann.hpp>
-
 #include "neighbour_kernels.h"
 
 namespace shapesense::detail {
-namespace {
-
-struct PointsAdaptor {
-  const std::vector<Eigen::Vector3f>& points;
-  std::size_t kdtree_get_point_count() const { return points.size(); }
-  float kdtree_get_pt(std::size_t index, std::size_t dim) const { return points[index][dim]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-
-using KdTree =
-    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PointsAdaptor>,
-                                        PointsAdaptor, 3, std::uint32_t>;
-
-}  // namespace
-
-struct CloudIndex::Tree {
-  explicit Tree(const std::vector<Eigen::Vector3f>& points)
-      : adaptor{points}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
-    tree.buildIndex();
-  }
-  PointsAdaptor adaptor;
-  KdTree tree;
-};
-
-CloudIndex::CloudIndex(const std::vector<Eigen::Vector3f>& points)
-    : points_(points), tree_(std::make_unique<Tree>(points)) {}
-
-CloudIndex::~CloudIndex() = default;
 
 namespace {
 
@@ -218,48 +185,110 @@ void PointGrid::withinRadius(const Eigen::Vector3f& query, float radius,
 
 namespace {
 
-// A nanoflann result set holding the nearest point closer than a bound: the search prunes
-// every branch farther than the best found so far, which starts at the bound.
-class NearestWithinBound {
- public:
-  using DistanceType = float;
-  using IndexType = std::uint32_t;
-  using CountType = std::size_t;
+// At most about this many cubes along an axis: a cloud spread far for its bound gets larger
+// cubes (and fewer rings) instead of a column table that outgrows the cloud.
+constexpr float kMaxCubesAlong = 1000.0f;
 
-  explicit NearestWithinBound(float bound2) : best_(bound2) {}
-  CountType size() const { return found_ ? 1 : 0; }
-  bool full() const { return true; }
-  bool addPoint(float squared_distance, std::uint32_t index) {
-    if (squared_distance < best_) {
-      best_ = squared_distance;
-      index_ = index;
-      found_ = true;
-    }
-    return true;
-  }
-  float worstDist() const { return best_; }
-  bool found() const { return found_; }
-  std::uint32_t index() const { return index_; }
-
- private:
-  float best_;
-  std::uint32_t index_ = 0;
-  bool found_ = false;
-};
+// Cubes of a quarter of the bound: ICP's pairs, once it nears the pose, lie within a quarter of
+// its pairing distance, and those are answered from the 27 cubes around the query.
+constexpr float kSidePerBound = 0.25f;
 
 }  // namespace
 
-int CloudIndex::nearestWithin(const Eigen::Vector3f& query, float max_distance,
-                              float& squared_distance) const {
-  if (points_.empty()) return -1;
-  // Just above the bound's square, so that a point exactly at max_distance counts.
-  const float bound2 =
-      std::nextafter(max_distance * max_distance, std::numeric_limits<float>::infinity());
-  NearestWithinBound result(bound2);
-  tree_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
-  if (!result.found()) return -1;
-  squared_distance = result.worstDist();
-  return static_cast<int>(result.index());
+CloudIndex::CloudIndex(const std::vector<Eigen::Vector3f>& points, float bound)
+    : points_(points), bound_(bound) {
+  if (points.empty()) return;
+  Eigen::Vector3f lowest = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f highest = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
+  for (const Eigen::Vector3f& p : points) {
+    lowest = lowest.cwiseMin(p);
+    highest = highest.cwiseMax(p);
+  }
+  reach_ = Eigen::AlignedBox3f(lowest, highest);
+  reach_.min().array() -= bound;
+  reach_.max().array() += bound;
+  const Eigen::Vector3f extent = highest - lowest;
+  side_ = std::max({kSidePerBound * bound, extent.maxCoeff() / kMaxCubesAlong, 1e-6f});
+  rings_ = std::max(1, static_cast<int>(std::ceil(bound / side_)));
+  low_ = cellOf(lowest, side_);
+  const Eigen::Vector3i high = cellOf(highest, side_);
+  columns_x_ = high.x() - low_.x() + 1;
+  columns_y_ = high.y() - low_.y() + 1;
+
+  const std::vector<CellEntry> keyed = pointsByCell(points, side_);
+  order_.resize(keyed.size());
+  x_.resize(keyed.size());
+  y_.resize(keyed.size());
+  z_.resize(keyed.size());
+  column_start_.assign(static_cast<std::size_t>(columns_x_) * columns_y_ + 1, 0);
+  std::int64_t previous_key = -1;
+  for (std::size_t k = 0; k < keyed.size(); ++k) {
+    const std::uint32_t i = keyed[k].index;
+    order_[k] = i;
+    x_[k] = points[i].x();
+    y_[k] = points[i].y();
+    z_[k] = points[i].z();
+    if (keyed[k].key != previous_key) {
+      const Eigen::Vector3i cell = cellOf(points[i], side_);
+      cubes_.push_back({cell.z(), static_cast<std::uint32_t>(k), 0});
+      ++column_start_[static_cast<std::size_t>(cell.x() - low_.x()) * columns_y_ +
+                      static_cast<std::size_t>(cell.y() - low_.y()) + 1];
+      previous_key = keyed[k].key;
+    }
+    cubes_.back().end = static_cast<std::uint32_t>(k + 1);
+  }
+  for (std::size_t c = 1; c < column_start_.size(); ++c) column_start_[c] += column_start_[c - 1];
+}
+
+int CloudIndex::nearestWithin(const Eigen::Vector3f& query, float& squared_distance) const {
+  if (points_.empty() || !reach_.contains(query)) return -1;
+  // Just above the bound's square, so that a point exactly at the bound counts.
+  float best2 = std::nextafter(bound_ * bound_, std::numeric_limits<float>::infinity());
+  int best = -1;
+  const Eigen::Vector3i cell = cellOf(query, side_);
+  for (int ring = 1; ring <= rings_; ++ring) {
+    searchRing(cell, ring, query, best2, best);
+    // Every cube not yet searched lies beyond `ring` sides of the query.
+    const float searched = static_cast<float>(ring) * side_;
+    if (best >= 0 && best2 <= searched * searched) break;
+  }
+  if (best < 0) return -1;
+  squared_distance = best2;
+  return static_cast<int>(order_[static_cast<std::size_t>(best)]);
+}
+
+// The cubes whose largest offset from `cell` along an axis is `ring`; ring 1 with `cell` too.
+void CloudIndex::searchRing(const Eigen::Vector3i& cell, int ring, const Eigen::Vector3f& query,
+                            float& best2, int& best) const {
+  for (int dx = -ring; dx <= ring; ++dx)
+    for (int dy = -ring; dy <= ring; ++dy) {
+      // Inside the ring's square only the top and bottom cubes of a column are on the ring.
+      const bool whole_column = ring == 1 || std::max(std::abs(dx), std::abs(dy)) == ring;
+      searchColumn(cell.x() + dx, cell.y() + dy, cell.z() - ring, cell.z() + ring, whole_column,
+                   query, best2, best);
+    }
+}
+
+void CloudIndex::searchColumn(int x, int y, int z_low, int z_high, bool whole,
+                              const Eigen::Vector3f& query, float& best2, int& best) const {
+  const int column_x = x - low_.x(), column_y = y - low_.y();
+  if (column_x < 0 || column_y < 0 || column_x >= columns_x_ || column_y >= columns_y_) return;
+  const std::size_t column =
+      static_cast<std::size_t>(column_x) * columns_y_ + static_cast<std::size_t>(column_y);
+  const std::uint32_t end = column_start_[column + 1];
+  for (std::uint32_t c = column_start_[column]; c < end; ++c) {
+    const Cube& cube = cubes_[c];
+    if (cube.z > z_high) break;
+    if (cube.z < z_low || (!whole && cube.z != z_low && cube.z != z_high)) continue;
+    for (std::uint32_t k = cube.begin; k < cube.end; ++k) {
+      const float dx = x_[k] - query.x(), dy = y_[k] - query.y(), dz = z_[k] - query.z();
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 < best2) {
+        best2 = d2;
+        best = static_cast<int>(k);
+      }
+    }
+  }
 }
 
 }  // namespace shapesense::detail

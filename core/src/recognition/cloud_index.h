@@ -1,13 +1,13 @@
 #pragma once
-// Neighbour queries over a fixed set of 3D points: within a radius (PointGrid, cubes) and the
-// nearest (CloudIndex, a k-d tree from nanoflann). The points must outlive either index.
+// Neighbour queries over a fixed set of 3D points: within a radius (PointGrid) and the nearest
+// within a bound (CloudIndex), both over cubes. The points must outlive either index.
 
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace shapesense::detail {
 
@@ -142,25 +142,44 @@ class PointGrid {
   std::vector<Cube> cubes_;           ///< sorted by key
 };
 
+/// The nearest point within a bound fixed at construction, as ICP's pairing and the model's
+/// clearances ask it: cubes of half the bound, searched in rings around the query's cube until
+/// the best point found is nearer than any unsearched cube can hold. Near pairs (most of them
+/// once ICP has converged) read only the 27 cubes around the query; a k-d tree cost more to
+/// build and to walk for these bounded queries.
 class CloudIndex {
  public:
-  explicit CloudIndex(const std::vector<Eigen::Vector3f>& points);
-  ~CloudIndex();
-  CloudIndex(const CloudIndex&) = delete;
-  CloudIndex& operator=(const CloudIndex&) = delete;
+  CloudIndex(const std::vector<Eigen::Vector3f>& points, float bound);
 
-  /// The nearest point at most `max_distance` from `query`: its index and squared distance;
-  /// -1 when there is none. The bound prunes the search: far fewer nodes are visited than for
-  /// the nearest point at any distance.
-  int nearestWithin(const Eigen::Vector3f& query, float max_distance,
-                    float& squared_distance) const;
+  /// The nearest point at most `bound` from `query`: its index and squared distance; -1 when
+  /// there is none.
+  int nearestWithin(const Eigen::Vector3f& query, float& squared_distance) const;
 
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
 
  private:
-  struct Tree;
+  struct Cube {
+    int z = 0;
+    std::uint32_t begin = 0;  ///< range in x_, y_, z_ and order_
+    std::uint32_t end = 0;
+  };
+  void searchRing(const Eigen::Vector3i& cell, int ring, const Eigen::Vector3f& query, float& best2,
+                  int& best) const;
+  void searchColumn(int x, int y, int z_low, int z_high, bool whole, const Eigen::Vector3f& query,
+                    float& best2, int& best) const;
+
   const std::vector<Eigen::Vector3f>& points_;
-  std::unique_ptr<Tree> tree_;
+  float bound_ = 0.0f;
+  Eigen::AlignedBox3f reach_;  ///< where a query can have a point within the bound
+  float side_ = 0.0f;
+  int rings_ = 0;
+  Eigen::Vector3i low_ = Eigen::Vector3i::Zero();  ///< the smallest cell of the points
+  int columns_y_ = 0;                              ///< columns (x, y) along y
+  int columns_x_ = 0;
+  std::vector<std::uint32_t> column_start_;  ///< per column (x, y): its first cube; then the end
+  std::vector<Cube> cubes_;                  ///< by column, then z
+  std::vector<std::uint32_t> order_;         ///< point indices by cube
+  std::vector<float> x_, y_, z_;             ///< the points' coordinates in that order
 };
 
 }  // namespace shapesense::detail

@@ -460,7 +460,7 @@ Eigen::AlignedBox3f patchBounds(const Eigen::AlignedBox3f& needed,
 // cost more to build than every query of a frame's models.
 class ScenePatch {
  public:
-  ScenePatch(const SceneSurface& scene, const Eigen::AlignedBox3f& bounds)
+  ScenePatch(const SceneSurface& scene, const Eigen::AlignedBox3f& bounds, float pair_distance)
       : scene_(scene), bounds_(bounds) {
     const std::vector<Eigen::Vector3f>& all = scene.surface().points;
     for (std::size_t i = 0; i < all.size(); ++i) {
@@ -468,7 +468,7 @@ class ScenePatch {
       points_.push_back(all[i]);
       scene_index_.push_back(static_cast<std::uint32_t>(i));
     }
-    index_ = std::make_unique<detail::CloudIndex>(points_);
+    index_ = std::make_unique<detail::CloudIndex>(points_, pair_distance);
   }
   ScenePatch(const ScenePatch&) = delete;
   ScenePatch& operator=(const ScenePatch&) = delete;
@@ -476,12 +476,11 @@ class ScenePatch {
   /// Whether the patch holds every scene point within `bounds`.
   bool covers(const Eigen::AlignedBox3f& bounds) const { return bounds_.contains(bounds); }
 
-  /// The nearest point of the patch at most `max_distance` from `p`, and its normal; false
-  /// when there is none.
-  bool nearestWithin(const Eigen::Vector3f& p, float max_distance, Eigen::Vector3f& q,
-                     Eigen::Vector3f& normal) const {
+  /// The nearest point of the patch at most the pairing distance from `p`, and its normal;
+  /// false when there is none.
+  bool nearestWithin(const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) const {
     float d2 = 0.0f;
-    const int j = index_->nearestWithin(p, max_distance, d2);
+    const int j = index_->nearestWithin(p, d2);
     if (j < 0) return false;
     const std::size_t i = scene_index_[static_cast<std::size_t>(j)];
     q = scene_.surface().points[i];
@@ -510,7 +509,8 @@ class ScenePatches {
     const Eigen::AlignedBox3f needed = icpNeeds(model_, pose, params_);
     for (const auto& patch : patches_)
       if (patch->covers(needed)) return *patch;
-    patches_.push_back(std::make_unique<ScenePatch>(scene_, patchBounds(needed, params_)));
+    patches_.push_back(std::make_unique<ScenePatch>(scene_, patchBounds(needed, params_),
+                                                    params_.icp_max_distance_m));
     return *patches_.back();
   }
 
@@ -531,7 +531,7 @@ Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& 
       start, model, iterations, max_points, params.icp_max_distance_m,
       params.icp_point_to_point_weight,
       [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
-        return patch.nearestWithin(p, params.icp_max_distance_m, q, normal);
+        return patch.nearestWithin(p, q, normal);
       });
 }
 
@@ -748,7 +748,8 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
 std::optional<ObjectDetection> followObject(const ObjectModel& model, const SceneSurface& scene,
                                             const Eigen::Isometry3f& prior,
                                             const ObjectMatchParams& params) {
-  const ScenePatch patch(scene, patchBounds(icpNeeds(model, prior, params), params));
+  const ScenePatch patch(scene, patchBounds(icpNeeds(model, prior, params), params),
+                         params.icp_max_distance_m);
   Eigen::Isometry3f pose =
       refinePose(prior, model, patch, params.icp_iterations, params.icp_max_points, params);
   pose = refinePose(pose, model, patch, params.icp_final_iterations, 0, params);

@@ -37,11 +37,11 @@ SurfaceCloud everyKth(const SurfaceCloud& cloud, int max_points) {
 // Marks the points of `context` that lie on the object (within a voxel of one of its points).
 std::vector<std::uint8_t> onObject(const SurfaceCloud& context, const SurfaceCloud& object,
                                    float voxel) {
-  const detail::CloudIndex index(object.points);
+  const detail::CloudIndex index(object.points, voxel);
   std::vector<std::uint8_t> out(context.size(), 0);
   float d2 = 0.0f;
   for (std::size_t i = 0; i < context.size(); ++i)
-    if (index.nearestWithin(context.points[i], voxel, d2) >= 0) out[i] = 1;
+    if (index.nearestWithin(context.points[i], d2) >= 0) out[i] = 1;
   return out;
 }
 
@@ -195,11 +195,10 @@ std::vector<Eigen::Vector3f> outlineProbes(const cv::Mat& depth_mm,
 // at the probe's depth.
 std::vector<Eigen::Vector3f> clearOfSurfaces(std::vector<Eigen::Vector3f> probes,
                                              const SurfaceCloud& surfaces, float clearance) {
-  const detail::CloudIndex index(surfaces.points);
+  const detail::CloudIndex index(surfaces.points, clearance);
   float d2 = 0.0f;
-  std::erase_if(probes, [&](const Eigen::Vector3f& probe) {
-    return index.nearestWithin(probe, clearance, d2) >= 0;
-  });
+  std::erase_if(probes,
+                [&](const Eigen::Vector3f& probe) { return index.nearestWithin(probe, d2) >= 0; });
   return probes;
 }
 

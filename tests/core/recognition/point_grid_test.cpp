@@ -139,15 +139,17 @@ int bruteNearestWithin(const std::vector<Eigen::Vector3f>& points, const Eigen::
 
 TEST(CloudIndex, TheNearestPointWithinABoundIsTheBruteForceOne) {
   const std::vector<Eigen::Vector3f> points = testPoints();
-  const CloudIndex index(points);
+  const CloudIndex index_2mm(points, 0.002f), index_1cm(points, 0.01f), index_5cm(points, 0.05f);
+  const std::pair<const CloudIndex*, float> indices[] = {
+      {&index_2mm, 0.002f}, {&index_1cm, 0.01f}, {&index_5cm, 0.05f}};
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> coordinate(-0.12f, 0.12f);
   int found = 0, none = 0;
   for (int q = 0; q < 500; ++q) {
     const Eigen::Vector3f query(coordinate(rng), coordinate(rng), 1.05f + coordinate(rng));
-    for (float bound : {0.002f, 0.01f, 0.05f}) {
+    for (const auto& [index, bound] : indices) {
       float d2 = -1.0f;
-      const int j = index.nearestWithin(query, bound, d2);
+      const int j = index->nearestWithin(query, d2);
       const int expected = bruteNearestWithin(points, query, bound);
       ASSERT_EQ(j < 0, expected < 0) << "query " << q << " bound " << bound;
       if (j < 0) {
@@ -163,11 +165,36 @@ TEST(CloudIndex, TheNearestPointWithinABoundIsTheBruteForceOne) {
   EXPECT_GT(none, 100);
 }
 
+TEST(CloudIndex, ACloudSpreadFarForItsBoundStillGivesTheNearestPoint) {
+  // 2 km across with a 1 cm bound: the cubes grow past half the bound, the answers stay exact.
+  std::vector<Eigen::Vector3f> points = testPoints();
+  points.emplace_back(-1000.0f, 5.0f, 3.0f);
+  points.emplace_back(1000.0f, -5.0f, 900.0f);
+  const CloudIndex index(points, 0.01f);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> coordinate(-0.12f, 0.12f);
+  for (int q = 0; q < 300; ++q) {
+    const Eigen::Vector3f query(coordinate(rng), coordinate(rng), 1.05f + coordinate(rng));
+    float d2 = -1.0f;
+    const int j = index.nearestWithin(query, d2);
+    const int expected = bruteNearestWithin(points, query, 0.01f);
+    ASSERT_EQ(j < 0, expected < 0) << "query " << q;
+    if (j >= 0) {
+      EXPECT_FLOAT_EQ(d2, (points[static_cast<std::size_t>(expected)] - query).squaredNorm());
+    }
+  }
+  float d2 = 0.0f;
+  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(1000.0f, -5.0f, 900.005f), d2),
+            static_cast<int>(points.size()) - 1);
+  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(1e20f, 0.0f, 1.0f), d2), -1);
+  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(std::nanf(""), 0.0f, 1.0f), d2), -1);
+}
+
 TEST(CloudIndex, AnEmptyCloudHasNoNearestPoint) {
   const std::vector<Eigen::Vector3f> none;
-  const CloudIndex index(none);
+  const CloudIndex index(none, 1.0f);
   float d2 = 0.0f;
-  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(0, 0, 1), 1.0f, d2), -1);
+  EXPECT_EQ(index.nearestWithin(Eigen::Vector3f(0, 0, 1), d2), -1);
 }
 
 }  // namespace
