@@ -46,6 +46,23 @@ void expectSameCounts(const RecognitionScore& a, const RecognitionScore& b) {
   EXPECT_EQ(a.translation_errors_m, b.translation_errors_m);
   EXPECT_EQ(a.rotation_errors_deg, b.rotation_errors_deg);
   EXPECT_EQ(a.searches, b.searches);
+  ASSERT_EQ(a.by_kind.size(), b.by_kind.size());
+  for (const auto& [kind, recall] : a.by_kind) {
+    ASSERT_TRUE(b.by_kind.contains(kind)) << kind;
+    EXPECT_EQ(recall.required, b.by_kind.at(kind).required) << kind;
+    EXPECT_EQ(recall.found, b.by_kind.at(kind).found) << kind;
+  }
+}
+
+// The kinds' counts add up to the totals.
+void expectKindsAddUp(const RecognitionScore& s) {
+  int required = 0, found = 0;
+  for (const auto& [kind, recall] : s.by_kind) {
+    required += recall.required;
+    found += recall.found;
+  }
+  EXPECT_EQ(required, s.required);
+  EXPECT_EQ(found, s.found);
 }
 
 TEST(Recognizer, EveryMethodIsScoredOnTheSameObjectsAndViewsAsOurs) {
@@ -57,6 +74,8 @@ TEST(Recognizer, EveryMethodIsScoredOnTheSameObjectsAndViewsAsOurs) {
   // Ours scored beside another method: exactly what scoreRecognition counts alone.
   expectSameCounts(scores[1], alone);
   ASSERT_GT(alone.required, 0);
+  expectKindsAddUp(alone);
+  EXPECT_GE(alone.by_kind.size(), 2u);  // the cases hold several kinds of object
   // The other method is taught the same objects and asked about the same (object, view) pairs.
   const RecognitionScore& other = scores[0];
   EXPECT_EQ(other.taught + other.refused, alone.taught + alone.refused);
@@ -77,6 +96,7 @@ TEST(Recognizer, WithMinScoreDropsOnlyTheDetectionsBelowTheThreshold) {
   EXPECT_EQ(none.found + none.false_detections + none.wrong_pose, 0);
   EXPECT_TRUE(none.detections.empty());
   EXPECT_EQ(none.required, score.required);
+  expectKindsAddUp(none);
   EXPECT_EQ(none.searches, score.searches);
 
   // Scores are 1, 2, 3...: a threshold of 3 keeps all but the first two.

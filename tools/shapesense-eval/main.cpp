@@ -354,6 +354,7 @@ int main(int argc, char** argv) {
       std::printf("%s\n", eval::formatRecognitionScore(
                               "recognition, " + std::string(eval::formatSplit(*split)), score)
                               .c_str());
+      std::printf("%s\n", eval::formatRecallByKind(score).c_str());
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "shapesense-eval: %s\n", e.what());

@@ -24,6 +24,7 @@ double msSince(Clock::time_point start) {
 struct TeachingExample {
   std::uint16_t id = 0;
   std::string name;
+  std::string kind;
   cv::Mat mask;            ///< the object's pixels in the teach frame
   Eigen::Vector3d centre;  ///< the truth centre, teach camera frame
   Eigen::Matrix3d axes;    ///< the truth axes (columns), teach camera frame
@@ -59,8 +60,8 @@ std::vector<TeachingExample> markTeachableObjects(const RecognitionCase& c, int&
       ++refused;
       continue;
     }
-    out.push_back(TeachingExample{id, object.name, roi_object->mask, object.center, object.rotation,
-                                  symmetryOfKind(object.kind)});
+    out.push_back(TeachingExample{id, object.name, object.kind, roi_object->mask, object.center,
+                                  object.rotation, symmetryOfKind(object.kind)});
   }
   return out;
 }
@@ -91,6 +92,7 @@ bool countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
   if (right && d.visible_share >= tolerance.min_visible_share_present) {
     if (required) {
       ++score.found;
+      ++score.by_kind[d.kind].found;
       score.translation_errors_m.push_back(d.error.translation_m);
       score.rotation_errors_deg.push_back(d.error.rotation_deg);
     }
@@ -178,7 +180,10 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
         for (const TaughtObject& t : taught) {
           const double share = visibleShare(c, view, t.example->id);
           const bool required = share >= tolerance.min_visible_share;
-          if (required) ++score.required;
+          if (required) {
+            ++score.required;
+            ++score.by_kind[t.example->kind].required;
+          }
           start = Clock::now();
           const auto detection = recognizers[r]->find(*t.model, *scene);
           score.find_ms_total += msSince(start);
@@ -188,7 +193,7 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
           if (detection) {
             error = poseError(detection->camera_from_model, truth, t.example->centre,
                               t.example->axes, t.example->symmetry);
-            const ScoredDetection scored{detection->score, share, *error};
+            const ScoredDetection scored{t.example->kind, detection->score, share, *error};
             score.detections.push_back(scored);
             found = countDetection(scored, tolerance, score);
           }
@@ -219,12 +224,24 @@ RecognitionScore withMinScore(const RecognitionScore& score, double min_score,
   out.rotation_errors_deg.clear();
   out.detections.clear();
   out.misses.clear();
+  for (auto& [kind, recall] : out.by_kind) recall.found = 0;
   for (const ScoredDetection& d : score.detections) {
     if (d.score < min_score) continue;
     out.detections.push_back(d);
     countDetection(d, tolerance, out);
   }
   return out;
+}
+
+std::string formatRecallByKind(const RecognitionScore& score) {
+  std::ostringstream out;
+  out << "recall by kind:";
+  const char* separator = " ";
+  for (const auto& [kind, recall] : score.by_kind) {
+    out << separator << kind << " " << recall.found << " of " << recall.required;
+    separator = ", ";
+  }
+  return out.str();
 }
 
 std::string formatRecognitionScore(const std::string& label, const RecognitionScore& s) {

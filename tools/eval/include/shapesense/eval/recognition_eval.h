@@ -6,6 +6,7 @@
 // most 1 cm and 5 deg where at least half of the object is visible, and false detections per
 // frame for five taught objects.
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,6 +34,7 @@ struct PoseErrorDeg {
 
 /// One detection as it was judged: enough to count it again at another detection threshold.
 struct ScoredDetection {
+  std::string kind;            ///< the object's (synthetic::TruthObject::kind)
   double score = 0.0;          ///< the method's (RecognizerDetection::score)
   double visible_share = 0.0;  ///< visibleShare of the object in the searched view
   PoseErrorDeg error;
@@ -67,6 +69,11 @@ struct RecognitionScore {
   int searches = 0;                ///< Recognizer::find calls
   std::vector<ScoredDetection> detections;  ///< every detection, in the order made
   std::vector<RecognitionMiss> misses;      ///< at the method's own threshold
+  struct KindRecall {
+    int required = 0;
+    int found = 0;
+  };
+  std::map<std::string, KindRecall> by_kind;  ///< required and found, by the objects' kind
 
   double recall() const { return required ? static_cast<double>(found) / required : 0.0; }
   /// False detections per frame, scaled to five taught objects (the measure).
@@ -118,5 +125,8 @@ std::string formatRecognitionScore(const std::string& label, const RecognitionSc
 /// One line per miss of `score`: where, what was reported, and what the method's check says of
 /// the truth pose.
 std::string formatRecognitionMisses(const RecognitionScore& score);
+
+/// One line: recall by the objects' kind (found of required), kinds in name order.
+std::string formatRecallByKind(const RecognitionScore& score);
 
 }  // namespace shapesense::eval
