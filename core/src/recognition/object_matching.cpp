@@ -95,12 +95,15 @@ std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface
   return out;
 }
 
+// Where a pose hypothesis comes from: fitted to feature matches, laid by flat faces
+// (flat_faces.h), or laid by the model's box on a cluster's (surface_clusters.h).
+enum class PoseSource { kFeatures, kFlatFaces, kCluster };
+
 struct Hypothesis {
   Eigen::Isometry3f scene_from_model = Eigen::Isometry3f::Identity();
   int inliers = 0;
-  /// Laid by flat faces (flat_faces.h), not fitted to feature matches.
-  bool from_flat_faces = false;
-  /// `inliers` counted (poses laid by flat faces alone count theirs once verified).
+  PoseSource source = PoseSource::kFeatures;
+  /// `inliers` counted (poses laid by geometry alone count theirs once verified).
   bool inliers_counted = true;
 };
 
@@ -183,7 +186,7 @@ Hypothesis refitOnAgreeing(const Hypothesis& h, const std::vector<Match>& matche
                            const ObjectMatchParams& params) {
   return Hypothesis{
       fittedPose(matches, agreeingMatches(h.scene_from_model, matches, params.inlier_distance_m)),
-      h.inliers, false, true};
+      h.inliers, PoseSource::kFeatures, true};
 }
 
 // Where a turn sends the model's x and y axes (its first two columns), each coordinate binned
@@ -351,10 +354,11 @@ void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
     });
     // A pose the features found too is laid by the faces all the same.
     if (known != hypotheses.end()) {
-      known->from_flat_faces = true;
+      known->source = PoseSource::kFlatFaces;
       return;
     }
-    if (hypotheses.size() < most) hypotheses.push_back(Hypothesis{pose, 0, true, false});
+    if (hypotheses.size() < most)
+      hypotheses.push_back(Hypothesis{pose, 0, PoseSource::kFlatFaces, false});
   };
   const FlatFaces& found = scene.flatFaces();
   for (const FaceEdge& model_edge : model.flat_faces.edges)
@@ -370,6 +374,22 @@ void addFlatFacePoses(const ObjectModel& model, const SceneSurface& scene,
       for (const Eigen::Isometry3f& pose :
            faceAlignedPoses(model_face, scene_face, params.face_size_slack_m))
         add(pose);
+}
+
+// Step 2 for the scene's clusters: the model's box laid on each cluster's of about its size
+// (surface_clusters.h), at most max_cluster_poses of them. As for flat faces, their feature
+// agreement is counted only for the poses that verify.
+void addClusterPoses(const ObjectModel& model, const SceneSurface& scene,
+                     const ObjectMatchParams& params, std::vector<Hypothesis>& hypotheses) {
+  const std::size_t most =
+      hypotheses.size() + static_cast<std::size_t>(std::max(0, params.max_cluster_poses));
+  for (const OrientedBox& cluster : scene.clusters()) {
+    if (!similarBoxSizes(model.box, cluster, params.cluster_size_slack)) continue;
+    for (const Eigen::Isometry3f& pose : boxAlignedPoses(model.box, cluster)) {
+      if (hypotheses.size() >= most) return;
+      hypotheses.push_back(Hypothesis{pose, 0, PoseSource::kCluster, false});
+    }
+  }
 }
 
 // Point-to-plane ICP, linearised about the current pose, with each model point facing the
@@ -632,7 +652,7 @@ std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
   std::size_t kept = 0;
   for (std::size_t i = 0; i < ranked.size(); ++i) {
     if (i >= keep) {
-      if (flat_left == 0 || !ranked[i].hypothesis.from_flat_faces) continue;
+      if (flat_left == 0 || ranked[i].hypothesis.source != PoseSource::kFlatFaces) continue;
       --flat_left;
     }
     ranked[kept++] = ranked[i];
@@ -643,10 +663,11 @@ std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
 
 // Whether a verified pose has the evidence its hypothesis asks for: a pose from the features
 // that few of them agree with needs most of the model confirmed (strong_inliers); a pose laid
-// by flat faces rests on the faces' geometry, not on feature matches.
+// by flat faces or on a cluster rests on geometry, not on feature matches.
 bool enoughEvidence(const ObjectDetection& detection, const Hypothesis& hypothesis,
                     const ObjectModel& model, const ObjectMatchParams& params) {
-  return hypothesis.from_flat_faces || hypothesis.inliers >= params.strong_inliers ||
+  return hypothesis.source == PoseSource::kFlatFaces ||
+         hypothesis.inliers >= params.strong_inliers ||
          static_cast<float>(detection.confirmed_points) >=
              params.weak_pose_confirmed_share * static_cast<float>(model.surface.size());
 }
@@ -667,7 +688,8 @@ SceneSurface::SceneSurface(const cv::Mat& depth_mm, const CameraIntrinsics& intr
       intrinsics_(intrinsics),
       surface_(surfaceCloudFromDepth(depth_mm, intrinsics, mask, params.surface)),
       feature_params_(params.features),
-      flat_face_params_(params.flat_faces) {
+      flat_face_params_(params.flat_faces),
+      cluster_params_(params.clusters) {
   if (planes) std::call_once(flat_faces_found_, [&] { findFlatFaces(*planes); });
 }
 
@@ -697,6 +719,12 @@ const FlatFaces& SceneSurface::flatFaces() const {
   return flat_faces_;
 }
 
+const std::vector<OrientedBox>& SceneSurface::clusters() const {
+  std::call_once(clustered_,
+                 [this] { clusters_ = surfaceClusters(surface_, flatFaces(), cluster_params_); });
+  return clusters_;
+}
+
 void SceneSurface::findFlatFaces(const PlaneDetection& planes) const {
   flat_faces_ = flatFacesOf(facesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_),
                             flat_face_params_);
@@ -714,6 +742,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   const ScenePatch* best_patch = nullptr;
   std::vector<Hypothesis> hypotheses = anchoredPoses(matches, model, params);
   if (params.poses_from_flat_faces) addFlatFacePoses(model, scene, params, hypotheses);
+  if (params.poses_from_clusters) addClusterPoses(model, scene, params, hypotheses);
   for (const auto& [hypothesis, confirmed_within_reach] :
        worthRefining(std::move(hypotheses), model, scene, params)) {
     // Hypotheses come most confirmed first, counted within ICP's reach: refined and checked at

@@ -145,6 +145,7 @@ TEST(FlatFaces, ThePosesLaidByFacesAreCapped) {
   const SceneSurface later_surface(later.frame.depth, later.frame.intrinsics);
   ObjectMatchParams none;
   none.max_flat_face_poses = 0;
+  none.poses_from_clusters = false;
   int checked = 0;
   for (const auto& [box, model] : featurelessBoxModels(teach)) {
     if (!findObject(model, later_surface)) continue;

@@ -64,6 +64,9 @@ class SceneSurface {
   /// The frame's planes as flat faces, and their convex edges (flat_faces.h): from the planes
   /// given, or from planes detected on first use.
   const FlatFaces& flatFaces() const;
+  /// The surface off the frame's large flat faces in connected clusters, each as a box
+  /// (surface_clusters.h): made on first use.
+  const std::vector<OrientedBox>& clusters() const;
   /// The features' descriptors dimension-major: value d of feature i at
   /// [d * features().size() + i] (the layout descriptor matching reads).
   const std::vector<float>& descriptorColumns() const;
@@ -79,11 +82,14 @@ class SceneSurface {
   SurfaceCloud surface_;
   ShapeFeatureParams feature_params_;
   FlatFaceParams flat_face_params_;
+  SurfaceClusterParams cluster_params_;
   mutable std::once_flag described_;
   mutable std::vector<ShapeFeature> features_;
   mutable std::vector<float> descriptor_columns_;
   mutable std::once_flag flat_faces_found_;
   mutable FlatFaces flat_faces_;
+  mutable std::once_flag clustered_;
+  mutable std::vector<OrientedBox> clusters_;
 };
 
 struct ObjectMatchParams {
@@ -175,6 +181,16 @@ struct ObjectMatchParams {
   /// frame of many planes would make model edges x scene edges x 4 of them. Default 256 (the
   /// validation split's most is 46): the depth checks of a frame of many planes stay bounded.
   int max_flat_face_poses = 256;
+  /// Poses also come from the model's box laid on the boxes of the scene's clusters
+  /// (SceneSurface::clusters, surface_clusters.h) whose sizes agree within cluster_size_slack
+  /// (similarBoxSizes): an object with too few interest points and no flat face, as a bowl, is
+  /// still found where it stands apart. They compete with the features' poses for the
+  /// pose_hypotheses refined; at most max_cluster_poses of them (24 a cluster) for one model
+  /// in one frame. Defaults true, 0.4, 240 (chosen on the validation split,
+  /// docs/benchmarks.md).
+  bool poses_from_clusters = true;
+  float cluster_size_slack = 0.4f;
+  int max_cluster_poses = 240;
   /// Sensor noise model for confirm_steps.
   KinectNoiseModel noise{};
 };

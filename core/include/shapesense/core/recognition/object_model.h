@@ -11,17 +11,12 @@
 
 #include "shapesense/core/geometry/camera.h"
 #include "shapesense/core/recognition/flat_faces.h"
+#include "shapesense/core/recognition/oriented_box.h"
 #include "shapesense/core/recognition/shape_features.h"
 #include "shapesense/core/recognition/surface_cloud.h"
+#include "shapesense/core/recognition/surface_clusters.h"
 
 namespace shapesense {
-
-/// A box with its own axes: corner = centre + axes * (+-size / 2) per axis.
-struct OrientedBox {
-  Eigen::Vector3f centre = Eigen::Vector3f::Zero();
-  Eigen::Matrix3f axes = Eigen::Matrix3f::Identity();  ///< columns, unit and orthogonal
-  Eigen::Vector3f size = Eigen::Vector3f::Zero();      ///< full extent along each axis (m)
-};
 
 struct ObjectModelParams {
   SurfaceCloudParams surface{};
@@ -50,6 +45,8 @@ struct ObjectModelParams {
   int max_outline_probes = 400;
   /// Flat faces and their edges, of the model and of the scenes it is looked for in.
   FlatFaceParams flat_faces{};
+  /// The clusters of the scenes a model is looked for in (SceneSurface::clusters).
+  SurfaceClusterParams clusters{};
 };
 
 struct ObjectModel {
@@ -82,8 +79,5 @@ ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
 ObjectModel objectModelFromSurface(std::string name, const SurfaceCloud& object,
                                    const Eigen::Vector3f& viewpoint = Eigen::Vector3f::Zero(),
                                    const ObjectModelParams& params = {});
-
-/// The box along the principal axes of `points` that holds them all.
-OrientedBox principalBox(const std::vector<Eigen::Vector3f>& points);
 
 }  // namespace shapesense
