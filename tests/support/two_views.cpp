@@ -12,4 +12,18 @@ TwoViews twoViews(std::uint64_t seed, std::uint64_t later_index) {
   return out;
 }
 
+eval::PoseErrorDeg taughtObjectError(const Eigen::Isometry3f& estimated,
+                                     const Eigen::Isometry3d& truth,
+                                     const Eigen::Vector3f& model_centre,
+                                     const synthetic::TruthObject& object) {
+  return eval::poseError(estimated, truth, model_centre.cast<double>(), object.rotation,
+                         eval::symmetryOfKind(object.kind));
+}
+
+bool withinRecallTolerance(const eval::PoseErrorDeg& error) {
+  const eval::PoseTolerance tolerance;
+  return error.translation_m <= tolerance.translation_m &&
+         error.rotation_deg <= tolerance.rotation_deg;
+}
+
 }  // namespace shapesense::testing

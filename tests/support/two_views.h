@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "shapesense/driver/synthetic_scene.h"
+#include "shapesense/eval/recognition_eval.h"
 
 namespace shapesense::testing {
 
@@ -18,5 +19,16 @@ struct TwoViews {
 };
 
 TwoViews twoViews(std::uint64_t seed, std::uint64_t later_index);
+
+/// The error of `estimated` (camera from model) for `object`, taught in the teaching view with
+/// its model's centre at `model_centre`, against `truth` (teaching camera -> searched camera):
+/// at that centre, up to the object's symmetry.
+eval::PoseErrorDeg taughtObjectError(const Eigen::Isometry3f& estimated,
+                                     const Eigen::Isometry3d& truth,
+                                     const Eigen::Vector3f& model_centre,
+                                     const synthetic::TruthObject& object);
+
+/// Within issue 22's tolerance for recall (eval::PoseTolerance: 1 cm and 5 deg).
+bool withinRecallTolerance(const eval::PoseErrorDeg& error);
 
 }  // namespace shapesense::testing

@@ -143,8 +143,8 @@ class PointGrid {
 };
 
 /// The nearest point within a bound fixed at construction, as ICP's pairing and the model's
-/// clearances ask it: cubes of half the bound, searched in rings around the query's cube until
-/// the best point found is nearer than any unsearched cube can hold. Near pairs (most of them
+/// clearances ask it: cubes of a quarter of the bound, searched in rings around the query's cube
+/// until the best point found is nearer than any unsearched cube can hold. Near pairs (most of them
 /// once ICP has converged) read only the 27 cubes around the query; a k-d tree cost more to
 /// build and to walk for these bounded queries.
 class CloudIndex {

@@ -116,11 +116,10 @@ TEST(FlatFacesQuality, ABoxWithoutFeaturesIsFoundByItsFaces) {
       const auto detection = findObject(model, later_surface);
       if (!detection) continue;
       const eval::PoseErrorDeg error =
-          eval::poseError(detection->camera_from_model, truth, model.box.centre.cast<double>(),
-                          object.rotation, eval::symmetryOfKind(object.kind));
+          testing::taughtObjectError(detection->camera_from_model, truth, model.box.centre, object);
       std::printf("seed %lu %s: error %.1f mm %.2f deg\n", seed, object.name.c_str(),
                   1e3 * error.translation_m, error.rotation_deg);
-      if (error.translation_m <= 0.01 && error.rotation_deg <= 5.0) {
+      if (testing::withinRecallTolerance(error)) {
         ++found;
       } else {
         ++wrong;

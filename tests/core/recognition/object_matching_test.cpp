@@ -20,13 +20,6 @@ namespace {
 
 // Error of an estimated model-to-camera motion against the truth, at the model's centre, as
 // the recognition evaluation judges it (symmetric objects: the least over their symmetries).
-eval::PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
-                             const Eigen::Vector3f& model_centre,
-                             const synthetic::TruthObject& object) {
-  return eval::poseError(estimated, truth, model_centre.cast<double>(), object.rotation,
-                         eval::symmetryOfKind(object.kind));
-}
-
 cv::Mat objectMask(const synthetic::TruthFrame& truth, std::uint16_t object_id) {
   cv::Mat mask = truth.object_labels == object_id;
   return mask;
@@ -97,12 +90,12 @@ TEST(ObjectMatchingQuality, FindsATaughtBoxInALaterFrame) {
         continue;
       }
       const eval::PoseErrorDeg error =
-          poseError(detection->camera_from_model, truth, model.box.centre, object);
+          testing::taughtObjectError(detection->camera_from_model, truth, model.box.centre, object);
       std::printf(
           "seed %lu %s (%zu px, %zu features): score %.2f inliers %d error %.1f mm %.2f deg\n",
           seed, object.name.c_str(), object.pixel_count, model.features.size(), detection->score,
           detection->feature_inliers, 1e3 * error.translation_m, error.rotation_deg);
-      if (error.translation_m <= 0.01 && error.rotation_deg <= 5.0) ++found;
+      if (testing::withinRecallTolerance(error)) ++found;
     }
   }
   std::printf("found %d of %d\n", found, tried);
@@ -138,7 +131,7 @@ TEST(ObjectMatching, FollowsAnObjectFromANearbyPose) {
     const auto followed = followObject(model, later_surface, near);
     ASSERT_TRUE(followed.has_value()) << object.name;
     const eval::PoseErrorDeg error =
-        poseError(followed->camera_from_model, truth, model.box.centre, object);
+        testing::taughtObjectError(followed->camera_from_model, truth, model.box.centre, object);
     EXPECT_LE(error.translation_m, 0.005) << object.name;
     EXPECT_LE(error.rotation_deg, 2.0) << object.name;
     EXPECT_EQ(followed->feature_inliers, 0);
@@ -161,7 +154,7 @@ TEST(ObjectMatching, FollowsAnObjectFromANearbyPose) {
     const auto lost = followObject(model, later_surface, far_away * truth.cast<float>());
     if (lost) {
       const eval::PoseErrorDeg far_error =
-          poseError(lost->camera_from_model, truth, model.box.centre, object);
+          testing::taughtObjectError(lost->camera_from_model, truth, model.box.centre, object);
       EXPECT_LE(far_error.translation_m, 0.01) << object.name << ": a wrong pose";
     }
   }
@@ -311,7 +304,7 @@ TEST(ObjectMatching, FindsAnObjectModelledFromAPlyFile) {
   const auto detection = findObject(model, SceneSurface(later.frame.depth, later.frame.intrinsics));
   ASSERT_TRUE(detection.has_value());
   const eval::PoseErrorDeg error =
-      poseError(detection->camera_from_model, truth, model.box.centre, *box);
+      testing::taughtObjectError(detection->camera_from_model, truth, model.box.centre, *box);
   EXPECT_LE(error.translation_m, 0.01);
   EXPECT_LE(error.rotation_deg, 5.0);
 }

@@ -10,6 +10,7 @@
 #include "shapesense/core/tracking/taught_object_tracker.h"
 #include "shapesense/driver/synthetic_scene.h"
 #include "shapesense/eval/recognition_eval.h"
+#include "two_views.h"
 
 namespace shapesense {
 namespace {
@@ -54,10 +55,8 @@ const synthetic::TruthObject* inFrame(const synthetic::TruthFrame& truth,
 // The tolerance of issue 22's recall: 1 cm and 5 deg at the model's centre.
 bool poseIsRight(const ObjectDetection& detection, const ObjectModel& model,
                  const synthetic::TruthObject& object, const Eigen::Isometry3d& truth_motion) {
-  const eval::PoseErrorDeg error =
-      eval::poseError(detection.camera_from_model, truth_motion, model.box.centre.cast<double>(),
-                      object.rotation, eval::symmetryOfKind(object.kind));
-  return error.translation_m <= 0.01 && error.rotation_deg <= 5.0;
+  return testing::withinRecallTolerance(testing::taughtObjectError(
+      detection.camera_from_model, truth_motion, model.box.centre, object));
 }
 
 // Every third frame of two seconds of motion at 30 fps (10 fps, as a busy pipeline processes
@@ -95,9 +94,8 @@ TEST(TaughtObjectTrackerQuality, FollowsTaughtObjectsWhileTheCameraMoves) {
           found += in_view && !warming_up ? 1 : 0;
         } else {
           ++wrong;
-          const eval::PoseErrorDeg error = eval::poseError(
-              detection->camera_from_model, truth_motion, model.box.centre.cast<double>(),
-              taught.taught[m].rotation, eval::symmetryOfKind(taught.taught[m].kind));
+          const eval::PoseErrorDeg error = testing::taughtObjectError(
+              detection->camera_from_model, truth_motion, model.box.centre, taught.taught[m]);
           std::printf("seed %lu frame %lu %s: a wrong pose (%.1f mm, %.1f deg; %zu px of %zu)\n",
                       seed, index, model.name.c_str(), 1e3 * error.translation_m,
                       error.rotation_deg, object ? object->pixel_count : 0,
