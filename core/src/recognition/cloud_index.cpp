@@ -193,68 +193,61 @@ constexpr float kMaxCubesAlong = 1000.0f;
 // its pairing distance, and those are answered from the 27 cubes around the query.
 constexpr float kSidePerBound = 0.25f;
 
+Eigen::AlignedBox3f boundsOf(const std::vector<Eigen::Vector3f>& points) {
+  Eigen::AlignedBox3f bounds;  // empty
+  for (const Eigen::Vector3f& p : points) bounds.extend(p);
+  return bounds;
+}
+
+float cubeSide(const Eigen::AlignedBox3f& bounds, float bound) {
+  const float extent = bounds.isEmpty() ? 0.0f : bounds.sizes().maxCoeff();
+  return std::max({kSidePerBound * bound, extent / kMaxCubesAlong, 1e-6f});
+}
+
 }  // namespace
 
 CloudIndex::CloudIndex(const std::vector<Eigen::Vector3f>& points, float bound)
-    : points_(points), bound_(bound) {
+    : CloudIndex(points, bound, boundsOf(points)) {}
+
+CloudIndex::CloudIndex(const std::vector<Eigen::Vector3f>& points, float bound,
+                       const Eigen::AlignedBox3f& bounds)
+    : grid_(points, cubeSide(bounds, bound)), bound_(bound) {
   if (points.empty()) return;
-  Eigen::Vector3f lowest = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
-  Eigen::Vector3f highest = Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest());
-  for (const Eigen::Vector3f& p : points) {
-    lowest = lowest.cwiseMin(p);
-    highest = highest.cwiseMax(p);
-  }
-  reach_ = Eigen::AlignedBox3f(lowest, highest);
+  const float side = grid_.side_;
+  reach_ = bounds;
   reach_.min().array() -= bound;
   reach_.max().array() += bound;
-  const Eigen::Vector3f extent = highest - lowest;
-  side_ = std::max({kSidePerBound * bound, extent.maxCoeff() / kMaxCubesAlong, 1e-6f});
-  rings_ = std::max(1, static_cast<int>(std::ceil(bound / side_)));
-  low_ = cellOf(lowest, side_);
-  const Eigen::Vector3i high = cellOf(highest, side_);
+  rings_ = std::max(1, static_cast<int>(std::ceil(bound / side)));
+  low_ = cellOf(bounds.min(), side);
+  const Eigen::Vector3i high = cellOf(bounds.max(), side);
   columns_x_ = high.x() - low_.x() + 1;
   columns_y_ = high.y() - low_.y() + 1;
-
-  const std::vector<CellEntry> keyed = pointsByCell(points, side_);
-  order_.resize(keyed.size());
-  x_.resize(keyed.size());
-  y_.resize(keyed.size());
-  z_.resize(keyed.size());
   column_start_.assign(static_cast<std::size_t>(columns_x_) * columns_y_ + 1, 0);
-  std::int64_t previous_key = -1;
-  for (std::size_t k = 0; k < keyed.size(); ++k) {
-    const std::uint32_t i = keyed[k].index;
-    order_[k] = i;
-    x_[k] = points[i].x();
-    y_[k] = points[i].y();
-    z_[k] = points[i].z();
-    if (keyed[k].key != previous_key) {
-      const Eigen::Vector3i cell = cellOf(points[i], side_);
-      cubes_.push_back({cell.z(), static_cast<std::uint32_t>(k), 0});
-      ++column_start_[static_cast<std::size_t>(cell.x() - low_.x()) * columns_y_ +
-                      static_cast<std::size_t>(cell.y() - low_.y()) + 1];
-      previous_key = keyed[k].key;
-    }
-    cubes_.back().end = static_cast<std::uint32_t>(k + 1);
+  cube_z_.reserve(grid_.cubes_.size());
+  for (const PointGrid::Cube& cube : grid_.cubes_) {
+    const Eigen::Vector3i cell = cellOfKey(cube.key);
+    cube_z_.push_back(cell.z());
+    ++column_start_[static_cast<std::size_t>(cell.x() - low_.x()) * columns_y_ +
+                    static_cast<std::size_t>(cell.y() - low_.y()) + 1];
   }
   for (std::size_t c = 1; c < column_start_.size(); ++c) column_start_[c] += column_start_[c - 1];
 }
 
 int CloudIndex::nearestWithin(const Eigen::Vector3f& query, float& squared_distance) const {
-  if (points_.empty() || !reach_.contains(query)) return -1;
+  if (grid_.cubes_.empty() || !reach_.contains(query)) return -1;
   // Just above the bound's square, so that a point exactly at the bound counts.
   float best2 = std::nextafter(bound_ * bound_, std::numeric_limits<float>::infinity());
   int best = -1;
-  const Eigen::Vector3i cell = cellOf(query, side_);
+  const Eigen::Vector3i cell = cellOf(query, grid_.side_);
   for (int ring = 1; ring <= rings_; ++ring) {
     searchRing(cell, ring, query, best2, best);
     // Every cube not yet searched lies beyond `ring` sides of the query.
-    const float searched = static_cast<float>(ring) * side_;
+    const float searched = static_cast<float>(ring) * grid_.side_;
     if (best >= 0 && best2 <= searched * searched) break;
   }
   if (best < 0) return -1;
   squared_distance = best2;
-  return static_cast<int>(order_[static_cast<std::size_t>(best)]);
+  return static_cast<int>(grid_.order_[static_cast<std::size_t>(best)]);
 }
 
 // The cubes whose largest offset from `cell` along an axis is `ring`; ring 1 with `cell` too.
@@ -277,11 +270,12 @@ void CloudIndex::searchColumn(int x, int y, int z_low, int z_high, bool whole,
       static_cast<std::size_t>(column_x) * columns_y_ + static_cast<std::size_t>(column_y);
   const std::uint32_t end = column_start_[column + 1];
   for (std::uint32_t c = column_start_[column]; c < end; ++c) {
-    const Cube& cube = cubes_[c];
-    if (cube.z > z_high) break;
-    if (cube.z < z_low || (!whole && cube.z != z_low && cube.z != z_high)) continue;
-    for (std::uint32_t k = cube.begin; k < cube.end; ++k) {
-      const float dx = x_[k] - query.x(), dy = y_[k] - query.y(), dz = z_[k] - query.z();
+    const int z = cube_z_[c];
+    if (z > z_high) break;
+    if (z < z_low || (!whole && z != z_low && z != z_high)) continue;
+    for (std::uint32_t k = grid_.cubes_[c].begin; k < grid_.cubes_[c].end; ++k) {
+      const float dx = grid_.x_[k] - query.x(), dy = grid_.y_[k] - query.y(),
+                  dz = grid_.z_[k] - query.z();
       const float d2 = dx * dx + dy * dy + dz * dz;
       if (d2 < best2) {
         best2 = d2;

@@ -30,6 +30,16 @@ inline std::int64_t cellKey(const Eigen::Vector3i& cell) {
   return (bits(cell.x()) << 42) | (bits(cell.y()) << 21) | bits(cell.z());
 }
 
+/// The cell a cellKey was made of.
+inline Eigen::Vector3i cellOfKey(std::int64_t key) {
+  constexpr std::int64_t kOffset = 1 << 20;
+  constexpr std::int64_t kMask = (1 << 21) - 1;
+  const auto coordinate = [&](int shift) {
+    return static_cast<int>(((key >> shift) & kMask) - kOffset);
+  };
+  return {coordinate(42), coordinate(21), coordinate(0)};
+}
+
 /// A point's cell and index, for points ordered by cell.
 struct CellEntry {
   std::int64_t key = 0;  ///< cellKey of the point's cell
@@ -104,6 +114,7 @@ class PointGrid {
                     std::vector<std::uint32_t>& indices) const;
 
  private:
+  friend class CloudIndex;  // searches the same cubes by column
   struct Cube {
     std::int64_t key = 0;
     std::uint32_t begin = 0;  ///< range in order_
@@ -155,31 +166,23 @@ class CloudIndex {
   /// there is none.
   int nearestWithin(const Eigen::Vector3f& query, float& squared_distance) const;
 
-  const std::vector<Eigen::Vector3f>& points() const { return points_; }
-
  private:
-  struct Cube {
-    int z = 0;
-    std::uint32_t begin = 0;  ///< range in x_, y_, z_ and order_
-    std::uint32_t end = 0;
-  };
+  CloudIndex(const std::vector<Eigen::Vector3f>& points, float bound,
+             const Eigen::AlignedBox3f& bounds);
   void searchRing(const Eigen::Vector3i& cell, int ring, const Eigen::Vector3f& query, float& best2,
                   int& best) const;
   void searchColumn(int x, int y, int z_low, int z_high, bool whole, const Eigen::Vector3f& query,
                     float& best2, int& best) const;
 
-  const std::vector<Eigen::Vector3f>& points_;
+  PointGrid grid_;  ///< the points by cube, cubes in key order: each column (x, y) a run
   float bound_ = 0.0f;
   Eigen::AlignedBox3f reach_;  ///< where a query can have a point within the bound
-  float side_ = 0.0f;
   int rings_ = 0;
   Eigen::Vector3i low_ = Eigen::Vector3i::Zero();  ///< the smallest cell of the points
   int columns_y_ = 0;                              ///< columns (x, y) along y
   int columns_x_ = 0;
   std::vector<std::uint32_t> column_start_;  ///< per column (x, y): its first cube; then the end
-  std::vector<Cube> cubes_;                  ///< by column, then z
-  std::vector<std::uint32_t> order_;         ///< point indices by cube
-  std::vector<float> x_, y_, z_;             ///< the points' coordinates in that order
+  std::vector<int> cube_z_;                  ///< each cube's z cell
 };
 
 }  // namespace shapesense::detail
