@@ -28,7 +28,6 @@ struct TeachingExample {
   cv::Mat mask;            ///< the object's pixels in the teach frame
   Eigen::Vector3d centre;  ///< the truth centre, teach camera frame
   Eigen::Matrix3d axes;    ///< the truth axes (columns), teach camera frame
-  ObjectSymmetry symmetry = ObjectSymmetry::kNone;
 };
 
 struct TaughtObject {
@@ -61,7 +60,7 @@ std::vector<TeachingExample> markTeachableObjects(const RecognitionCase& c, int&
       continue;
     }
     out.push_back(TeachingExample{id, object.name, object.kind, roi_object->mask, object.center,
-                                  object.rotation, symmetryOfKind(object.kind)});
+                                  object.rotation});
   }
   return out;
 }
@@ -192,7 +191,7 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
           bool found = false;
           if (detection) {
             error = poseError(detection->camera_from_model, truth, t.example->centre,
-                              t.example->axes, t.example->symmetry);
+                              t.example->axes, symmetryOfKind(t.example->kind));
             const ScoredDetection scored{t.example->kind, detection->score, share, *error};
             score.detections.push_back(scored);
             found = countDetection(scored, tolerance, score);
