@@ -97,7 +97,7 @@ std::vector<Match> candidateMatches(const ObjectModel& model, const SceneSurface
 
 // Where a pose hypothesis comes from: fitted to feature matches, laid by flat faces
 // (flat_faces.h), or laid by the model's box on a cluster's (surface_clusters.h).
-enum class PoseSource { kFeatures, kFlatFaces, kCluster };
+enum class PoseSource { kFeatures, kFlatFaces, kCluster, kStanding };
 
 struct Hypothesis {
   Eigen::Isometry3f scene_from_model = Eigen::Isometry3f::Identity();
@@ -383,12 +383,18 @@ void addClusterPoses(const ObjectModel& model, const SceneSurface& scene,
                      const ObjectMatchParams& params, std::vector<Hypothesis>& hypotheses) {
   const std::size_t most =
       hypotheses.size() + static_cast<std::size_t>(std::max(0, params.max_cluster_poses));
-  for (const OrientedBox& cluster : scene.clusters()) {
-    if (!similarBoxSizes(model.box, cluster, params.cluster_size_slack)) continue;
-    for (const Eigen::Isometry3f& pose : boxAlignedPoses(model.box, cluster)) {
+  const auto add = [&](const std::vector<Eigen::Isometry3f>& poses, PoseSource source) {
+    for (const Eigen::Isometry3f& pose : poses) {
       if (hypotheses.size() >= most) return;
-      hypotheses.push_back(Hypothesis{pose, 0, PoseSource::kCluster, false});
+      hypotheses.push_back(Hypothesis{pose, 0, source, false});
     }
+  };
+  for (const SurfaceCluster& cluster : scene.clusters()) {
+    if (model.standing_box && cluster.standing_box &&
+        similarStandingSizes(*model.standing_box, *cluster.standing_box, params.cluster_size_slack))
+      add(standingPoses(*model.standing_box, *cluster.standing_box), PoseSource::kStanding);
+    if (similarBoxSizes(model.box, cluster.box, params.cluster_size_slack))
+      add(boxAlignedPoses(model.box, cluster.box), PoseSource::kCluster);
   }
 }
 
@@ -649,11 +655,17 @@ std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
   // poses from flat faces: a wrong pose from many agreeing features often outranks them.
   const auto keep = static_cast<std::size_t>(std::max(0, params.pose_hypotheses));
   int flat_left = std::max(0, params.flat_face_hypotheses);
+  int cluster_left = std::max(0, params.cluster_hypotheses);
   std::size_t kept = 0;
   for (std::size_t i = 0; i < ranked.size(); ++i) {
     if (i >= keep) {
-      if (flat_left == 0 || ranked[i].hypothesis.source != PoseSource::kFlatFaces) continue;
-      --flat_left;
+      const PoseSource source = ranked[i].hypothesis.source;
+      int* left = source == PoseSource::kFlatFaces ? &flat_left
+                  : source == PoseSource::kCluster || source == PoseSource::kStanding
+                      ? &cluster_left
+                      : nullptr;
+      if (left == nullptr || *left == 0) continue;
+      --*left;
     }
     ranked[kept++] = ranked[i];
   }
@@ -666,10 +678,14 @@ std::vector<RankedHypothesis> worthRefining(std::vector<Hypothesis> hypotheses,
 // by flat faces or on a cluster rests on geometry, not on feature matches.
 bool enoughEvidence(const ObjectDetection& detection, const Hypothesis& hypothesis,
                     const ObjectModel& model, const ObjectMatchParams& params) {
-  return hypothesis.source == PoseSource::kFlatFaces ||
-         hypothesis.inliers >= params.strong_inliers ||
-         static_cast<float>(detection.confirmed_points) >=
-             params.weak_pose_confirmed_share * static_cast<float>(model.surface.size());
+  const auto confirmed = [&](float share) {
+    return static_cast<float>(detection.confirmed_points) >=
+           share * static_cast<float>(model.surface.size());
+  };
+  if (hypothesis.source == PoseSource::kFlatFaces) return true;
+  if (hypothesis.source == PoseSource::kStanding && confirmed(params.standing_pose_confirmed_share))
+    return true;
+  return hypothesis.inliers >= params.strong_inliers || confirmed(params.weak_pose_confirmed_share);
 }
 
 OrientedBox boxInCamera(const OrientedBox& box, const Eigen::Isometry3f& pose) {
@@ -719,7 +735,7 @@ const FlatFaces& SceneSurface::flatFaces() const {
   return flat_faces_;
 }
 
-const std::vector<OrientedBox>& SceneSurface::clusters() const {
+const std::vector<SurfaceCluster>& SceneSurface::clusters() const {
   std::call_once(clustered_,
                  [this] { clusters_ = surfaceClusters(surface_, flatFaces(), cluster_params_); });
   return clusters_;

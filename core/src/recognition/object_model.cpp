@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shapesense/core/geometry/depth_step.h"
+#include "shapesense/core/planes/planes.h"
 
 #include "cloud_index.h"
 
@@ -204,6 +205,13 @@ std::vector<Eigen::Vector3f> clearOfSurfaces(std::vector<Eigen::Vector3f> probes
 
 }  // namespace
 
+void standOn(ObjectModel& model, const std::optional<Eigen::Vector4f>& support,
+             const SurfaceClusterParams& params) {
+  model.support = support;
+  model.standing_box.reset();
+  if (support) model.standing_box = standingBox(model.surface, *support, params);
+}
+
 ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
                              const CameraIntrinsics& intrinsics, const cv::Mat& object_mask,
                              const ObjectModelParams& params) {
@@ -232,6 +240,12 @@ ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
       detectShapeFeatures(context, params.features, Eigen::Vector3f::Zero(),
                           onObject(context, object, params.surface.voxel_m));
   ObjectModel model = finishModel(std::move(name), object, std::move(features), params);
+  const FlatFaces scene_faces =
+      flatFacesOf(facesOfPlanes(HoughPlaneDetector().detect(depth_mm, intrinsics), depth_mm,
+                                intrinsics, params.flat_faces),
+                  params.flat_faces);
+  standOn(model, supportBeneath(model.surface.points, scene_faces, params.clusters),
+          params.clusters);
   model.outline_probes = clearOfSurfaces(outlineProbes(depth_mm, intrinsics, object_mask, params),
                                          context, params.outline_probe_clearance_m);
   return model;

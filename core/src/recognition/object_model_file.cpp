@@ -112,6 +112,13 @@ ObjectModel parseObjectModelJson(const json& j, const ObjectModelParams& params)
   for (const json& p : arrayAt(j, "outline_probes", kMaxOutlineProbes))
     model.outline_probes.push_back(numbers<3>(p, kMaxCoordinateM));
   model.flat_faces = flatFacesOfSurface(model.surface, params.flat_faces);
+  // Models saved without it stand on nothing.
+  if (j.contains("support")) {
+    const Eigen::Vector4f support = numbers<4>(j.at("support"), kMaxCoordinateM);
+    if (std::abs(support.head<3>().norm() - 1.0f) > 1e-3f)
+      throw std::runtime_error("the support's normal is not unit");
+    standOn(model, support, params.clusters);
+  }
   return model;
 }
 
@@ -158,6 +165,7 @@ std::string objectModelToJson(const ObjectModel& model, const ObjectModelParams&
   json probes = json::array();
   for (const auto& p : model.outline_probes) probes.push_back(vec(p));
   j["outline_probes"] = std::move(probes);
+  if (model.support) j["support"] = vec(*model.support);
   return j.dump();
 }
 

@@ -38,6 +38,12 @@ TEST(ObjectModelFile, RoundTripKeepsEveryValue) {
     EXPECT_LT(descriptorDistance2(loaded.features[i], model.features[i]), 1e-10f);
   }
   EXPECT_TRUE(loaded.box.centre.isApprox(model.box.centre, 1e-6f));
+  // The box was taught standing on the table; its standing box is made again from the support.
+  ASSERT_TRUE(model.support && model.standing_box);
+  ASSERT_TRUE(loaded.support && loaded.standing_box);
+  EXPECT_TRUE(loaded.support->isApprox(*model.support, 1e-6f));
+  EXPECT_TRUE(loaded.standing_box->centre.isApprox(model.standing_box->centre, 1e-5f));
+  EXPECT_TRUE(loaded.standing_box->size.isApprox(model.standing_box->size, 1e-5f));
   std::filesystem::remove_all(dir);
 }
 
@@ -74,6 +80,20 @@ TEST(ObjectModelFile, RefusesMalformedFilesNamingTheProblem) {
   std::string nan_value = good;
   nan_value.replace(nan_value.find("\"p\":["), 5, "\"p\":[1e999,");
   refuses(nan_value, "");
+  // A file saved without a support loads standing on nothing; a support that is no plane is
+  // refused.
+  std::string no_support = good;
+  const auto support_at = no_support.find(",\"support\":[");
+  ASSERT_NE(support_at, std::string::npos);
+  no_support.erase(support_at, no_support.find(']', support_at) + 1 - support_at);
+  const ObjectModel unsupported = parseObjectModel(no_support);
+  EXPECT_FALSE(unsupported.support);
+  EXPECT_FALSE(unsupported.standing_box);
+  std::string bad_support = good;
+  const auto bad_at = bad_support.find("\"support\":[");
+  bad_support.replace(bad_at, bad_support.find(']', bad_at) + 1 - bad_at,
+                      "\"support\":[2,0,0,0.5]");
+  refuses(bad_support, "not unit");
 }
 
 TEST(ObjectModelFile, NamesAreSafeAsFileNames) {

@@ -19,12 +19,14 @@ namespace shapesense {
 namespace {
 
 constexpr float kStep = 0.005f;
+// The table top lies this far below the camera, which looks down on the boxes' tops.
+constexpr float kTableY = 0.8f;
 
-// A table top 1 m square at y = 0.3 (below the camera), z in [1, 2].
+// A table top 1 m square at y = kTableY, z in [1, 2].
 void addTable(SurfaceCloud& cloud) {
   for (float x = -0.5f; x <= 0.5f; x += kStep)
     for (float z = 1.0f; z <= 2.0f; z += kStep) {
-      cloud.points.emplace_back(x, 0.3f, z);
+      cloud.points.emplace_back(x, kTableY, z);
       cloud.normals.emplace_back(0.0f, -1.0f, 0.0f);
     }
 }
@@ -32,12 +34,12 @@ void addTable(SurfaceCloud& cloud) {
 // The front (z = z0) and top (y = 0.3 - height) of a box standing on the table.
 void addBox(SurfaceCloud& cloud, float x0, float z0, float width, float height, float depth) {
   for (float x = x0 - width / 2; x <= x0 + width / 2 + 1e-6f; x += kStep) {
-    for (float y = 0.3f - height; y <= 0.3f + 1e-6f; y += kStep) {
+    for (float y = kTableY - height; y <= kTableY + 1e-6f; y += kStep) {
       cloud.points.emplace_back(x, y, z0);
       cloud.normals.emplace_back(0.0f, 0.0f, -1.0f);
     }
     for (float z = z0; z <= z0 + depth + 1e-6f; z += kStep) {
-      cloud.points.emplace_back(x, 0.3f - height, z);
+      cloud.points.emplace_back(x, kTableY - height, z);
       cloud.normals.emplace_back(0.0f, -1.0f, 0.0f);
     }
   }
@@ -46,16 +48,10 @@ void addBox(SurfaceCloud& cloud, float x0, float z0, float width, float height, 
 FlatFaces tableFace() {
   FaceRectangle table;
   table.normal = Eigen::Vector3f(0.0f, -1.0f, 0.0f);
-  table.centre = Eigen::Vector3f(0.0f, 0.3f, 1.5f);
+  table.centre = Eigen::Vector3f(0.0f, kTableY, 1.5f);
   table.axes = {Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitZ()};
   table.sides = {1.0f, 1.0f};
   return {{table}, {}};
-}
-
-Eigen::Vector3f sortedSizes(const OrientedBox& box) {
-  Eigen::Vector3f sizes = box.size;
-  std::sort(sizes.data(), sizes.data() + 3);
-  return sizes;
 }
 
 TEST(SurfaceClusters, TwoBoxesOnATableAreTwoClustersOfTheirSize) {
@@ -63,19 +59,68 @@ TEST(SurfaceClusters, TwoBoxesOnATableAreTwoClustersOfTheirSize) {
   addTable(scene);
   addBox(scene, -0.2f, 1.4f, 0.10f, 0.15f, 0.08f);
   addBox(scene, 0.2f, 1.5f, 0.20f, 0.06f, 0.12f);
-  std::vector<OrientedBox> clusters = surfaceClusters(scene, tableFace());
+  std::vector<SurfaceCluster> clusters = surfaceClusters(scene, tableFace());
   ASSERT_EQ(clusters.size(), 2u);
   std::sort(clusters.begin(), clusters.end(),
-            [](const auto& a, const auto& b) { return a.centre.x() < b.centre.x(); });
-  // What the surface shows of each box: its front and top, less the strip within the support's
-  // band (1.5 cm) of the table.
-  const Eigen::Vector3f first = sortedSizes(clusters[0]), second = sortedSizes(clusters[1]);
-  EXPECT_NEAR(first[2], std::hypot(0.15f - 0.015f, 0.08f), 0.015f);
-  EXPECT_NEAR(second[2], 0.20f, 0.01f);
-  EXPECT_NEAR(clusters[0].centre.x(), -0.2f, 0.01f);
-  EXPECT_NEAR(clusters[1].centre.x(), 0.2f, 0.01f);
-  // Without a support, the table joins both boxes into one cluster.
-  EXPECT_EQ(surfaceClusters(scene, FlatFaces{}).size(), 1u);
+            [](const auto& a, const auto& b) { return a.box.centre.x() < b.box.centre.x(); });
+  // Both stand on the table: each box's height above it (its top is seen), and the sides of
+  // its footprint (its front and top), within a voxel.
+  const struct {
+    float width, height, depth;
+  } truth[2] = {{0.10f, 0.15f, 0.08f}, {0.20f, 0.06f, 0.12f}};
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_TRUE(clusters[static_cast<std::size_t>(i)].standing_box);
+    const OrientedBox& box = *clusters[static_cast<std::size_t>(i)].standing_box;
+    EXPECT_NEAR(box.axes.col(2).dot(Eigen::Vector3f(0.0f, -1.0f, 0.0f)), 1.0f, 1e-4f);
+    EXPECT_NEAR(box.size.z(), truth[i].height, kStep);
+    EXPECT_NEAR(std::max(box.size.x(), box.size.y()), std::max(truth[i].width, truth[i].depth),
+                kStep);
+    EXPECT_NEAR(std::min(box.size.x(), box.size.y()), std::min(truth[i].width, truth[i].depth),
+                kStep);
+    // The bottom face lies on the table.
+    EXPECT_NEAR((box.centre - 0.5f * box.size.z() * box.axes.col(2)).y(), kTableY, 1e-3f);
+  }
+  EXPECT_NEAR(clusters[0].box.centre.x(), -0.2f, 0.01f);
+  EXPECT_NEAR(clusters[1].box.centre.x(), 0.2f, 0.01f);
+  // Without a support, the table joins both boxes into one cluster, standing on nothing.
+  const std::vector<SurfaceCluster> unsupported = surfaceClusters(scene, FlatFaces{});
+  ASSERT_EQ(unsupported.size(), 1u);
+  EXPECT_FALSE(unsupported[0].standing_box);
+}
+
+// A box turned about the table's normal: its standing box has its sides along the box's, and
+// one of the four standing poses carries the box's own standing box onto the turned one's.
+TEST(SurfaceClusters, AStandingBoxLiesAlongTheSidesOfWhatStands) {
+  SurfaceCloud box;
+  addBox(box, 0.0f, 1.4f, 0.24f, 0.10f, 0.12f);
+  const Eigen::Vector4f table(0.0f, -1.0f, 0.0f, kTableY);
+  const Eigen::Vector3f pivot(0.0f, kTableY, 1.4f);
+  const Eigen::Isometry3f motion =
+      Eigen::Translation3f(0.05f, 0.0f, 0.1f) * Eigen::Translation3f(pivot) *
+      Eigen::AngleAxisf(0.5f, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-pivot);
+  SurfaceCloud moved;
+  for (std::size_t i = 0; i < box.size(); ++i) {
+    moved.points.push_back(motion * box.points[i]);
+    moved.normals.push_back(motion.linear() * box.normals[i]);
+  }
+  const OrientedBox before = standingBox(box, table);
+  const OrientedBox after = standingBox(moved, table);
+  EXPECT_NEAR(after.size.z(), 0.10f, 1e-3f);
+  EXPECT_NEAR(std::max(after.size.x(), after.size.y()), 0.24f, kStep);
+  EXPECT_NEAR(std::min(after.size.x(), after.size.y()), 0.12f, kStep);
+  // One side lies along the turned box's front (its x axis turned by 0.5 rad).
+  const Eigen::Vector3f front = motion.linear() * Eigen::Vector3f::UnitX();
+  EXPECT_GT(
+      std::max(std::abs(after.axes.col(0).dot(front)), std::abs(after.axes.col(1).dot(front))),
+      std::cos(0.01f));
+  const std::vector<Eigen::Isometry3f> poses = standingPoses(before, after);
+  ASSERT_EQ(poses.size(), 4u);
+  int holding = 0;
+  for (const Eigen::Isometry3f& pose : poses)
+    if ((pose.linear() - motion.linear()).norm() < 1e-2f &&
+        (pose.translation() - motion.translation()).norm() < 2e-3f)
+      ++holding;
+  EXPECT_EQ(holding, 1);
 }
 
 TEST(SurfaceClusters, BoxAlignedPosesAreTheTwentyFourTurnsAndHoldTheMotion) {

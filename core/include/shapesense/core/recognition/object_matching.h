@@ -66,7 +66,7 @@ class SceneSurface {
   const FlatFaces& flatFaces() const;
   /// The surface off the frame's large flat faces in connected clusters, each as a box
   /// (surface_clusters.h): made on first use.
-  const std::vector<OrientedBox>& clusters() const;
+  const std::vector<SurfaceCluster>& clusters() const;
   /// The features' descriptors dimension-major: value d of feature i at
   /// [d * features().size() + i] (the layout descriptor matching reads).
   const std::vector<float>& descriptorColumns() const;
@@ -89,7 +89,7 @@ class SceneSurface {
   mutable std::once_flag flat_faces_found_;
   mutable FlatFaces flat_faces_;
   mutable std::once_flag clustered_;
-  mutable std::vector<OrientedBox> clusters_;
+  mutable std::vector<SurfaceCluster> clusters_;
 };
 
 struct ObjectMatchParams {
@@ -119,6 +119,11 @@ struct ObjectMatchParams {
   /// the validation split, docs/benchmarks.md).
   int strong_inliers = 7;
   float weak_pose_confirmed_share = 0.9f;
+  /// A pose that stands the model on a cluster as it stood when taught (standingPoses) rests on
+  /// the support, the cluster's sides and its size, so it needs less: this share of the
+  /// model's points confirmed. Default 0.6 (chosen on the validation split, with the
+  /// object-free scenes' false detections held at their record; docs/benchmarks.md).
+  float standing_pose_confirmed_share = 0.6f;
   /// Distinct poses (apart by 2 cm or 10 deg at the model's centre) with the most agreeing
   /// matches that are checked in the depth; of those, the `pose_hypotheses` the depth confirms
   /// most (before ICP, within its reach) are refined and checked again, in that order, until
@@ -130,6 +135,9 @@ struct ObjectMatchParams {
   /// confirms most, at most this many: a wrong pose that many features agree with often
   /// outranks them. Default 3.
   int flat_face_hypotheses = 3;
+  /// ...and the poses laid on clusters (poses_from_clusters) the depth confirms most, at most
+  /// this many. Default 2.
+  int cluster_hypotheses = 2;
   /// Point-to-plane ICP with nearest-point pairs: iterations for each pose from step 2 on at
   /// most `icp_max_points` of the model (evenly spread), then iterations on all of it for the
   /// pose that wins the check, and the farthest pair it uses (m). Defaults 15, 5, 500, 2 cm.
@@ -183,11 +191,13 @@ struct ObjectMatchParams {
   int max_flat_face_poses = 256;
   /// Poses also come from the model's box laid on the boxes of the scene's clusters
   /// (SceneSurface::clusters, surface_clusters.h) whose sizes agree within cluster_size_slack
-  /// (similarBoxSizes): an object with too few interest points and no flat face, as a bowl, is
-  /// still found where it stands apart. They compete with the features' poses for the
-  /// pose_hypotheses refined; at most max_cluster_poses of them (24 a cluster) for one model
-  /// in one frame. Defaults true, 0.4, 240 (chosen on the validation split,
-  /// docs/benchmarks.md).
+  /// (similarBoxSizes, 24 poses a cluster), and from the model's standing box stood on theirs
+  /// where both stand on a support (similarStandingSizes, 4 poses a cluster): an object with
+  /// too few interest points and no flat face, as a bowl, or whose faces the scene's planes
+  /// miss, is still found where it stands apart. They compete with the features' poses for
+  /// the pose_hypotheses refined, besides cluster_hypotheses of their own; at most
+  /// max_cluster_poses of them for one model in one frame. Defaults true, 0.4, 240 (chosen on the
+  /// validation split, docs/benchmarks.md).
   bool poses_from_clusters = true;
   float cluster_size_slack = 0.4f;
   int max_cluster_poses = 240;

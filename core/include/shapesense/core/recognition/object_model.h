@@ -3,6 +3,7 @@
 // object's pixels) or from a point cloud, kept in the model's own frame (for a taught view, the
 // camera frame of the frame it was taught from).
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,12 @@ struct ObjectModel {
   /// whose interest points are too few. Made from `surface` whenever a model is taught or
   /// loaded.
   FlatFaces flat_faces;
+  /// The plane the object stood on in the taught view (supportBeneath: n.X + d = 0, model
+  /// frame), and the object's standingBox on it: a scene's cluster standing the same way gives
+  /// its pose with the box's sides on the cluster's. None for models from a point cloud, or
+  /// where the taught view showed no support beneath the object.
+  std::optional<Eigen::Vector4f> support;
+  std::optional<OrientedBox> standing_box;
 };
 
 /// The model of the object whose pixels are non-zero in `object_mask` (CV_8UC1, the depth
@@ -73,6 +80,10 @@ struct ObjectModel {
 ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
                              const CameraIntrinsics& intrinsics, const cv::Mat& object_mask,
                              const ObjectModelParams& params = {});
+
+/// Sets `model`'s support, and its standing box on it (none when `support` is none).
+void standOn(ObjectModel& model, const std::optional<Eigen::Vector4f>& support,
+             const SurfaceClusterParams& params = {});
 
 /// The model of an object given as a surface of its own (a point cloud file), seen from
 /// `viewpoint`. Throws std::invalid_argument as teachObjectModel.
