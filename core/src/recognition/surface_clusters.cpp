@@ -95,16 +95,16 @@ bool similarSize(float model, float cluster, float slack) {
   return std::abs(model - cluster) <= slack * model + kAbsoluteSlack;
 }
 
-std::vector<Eigen::Vector3f> pointsFacingViewer(const SurfaceCloud& surface,
-                                                const SurfaceClusterParams& params,
-                                                std::vector<Eigen::Vector3f>* normals) {
+// The points of `surface` (seen from the origin) whose normal lies within max_view_angle_deg of
+// the line of sight.
+SurfaceCloud facingViewer(const SurfaceCloud& surface, const SurfaceClusterParams& params) {
   const float least_cos = std::cos(params.max_view_angle_deg * std::numbers::pi_v<float> / 180.0f);
-  std::vector<Eigen::Vector3f> out;
+  SurfaceCloud out;
   for (std::size_t i = 0; i < surface.size(); ++i) {
     const Eigen::Vector3f& p = surface.points[i];
     if (std::abs(surface.normals[i].dot(p)) < least_cos * p.norm()) continue;
-    out.push_back(p);
-    normals->push_back(surface.normals[i]);
+    out.points.push_back(p);
+    out.normals.push_back(surface.normals[i]);
   }
   return out;
 }
@@ -139,24 +139,20 @@ std::optional<float> uprightFacesTurn(const std::vector<Eigen::Vector3f>& normal
 
 OrientedBox standingBox(const SurfaceCloud& surface, const Eigen::Vector4f& support,
                         const SurfaceClusterParams& params) {
-  std::vector<Eigen::Vector3f> normals;
-  std::vector<Eigen::Vector3f> points = pointsFacingViewer(surface, params, &normals);
-  if (points.empty()) {
-    points = surface.points;
-    normals = surface.normals;
-  }
+  const SurfaceCloud facing = facingViewer(surface, params);
+  const SurfaceCloud& seen = facing.empty() ? surface : facing;
   OrientedBox box;
-  if (points.empty()) return box;
+  if (seen.empty()) return box;
   const Eigen::Vector3f up = support.head<3>();
   const Eigen::Vector3f u = up.unitOrthogonal();
   const Eigen::Vector3f v = up.cross(u);
   Eigen::Vector3f side = u;
-  if (const std::optional<float> turn = uprightFacesTurn(normals, up, u, v)) {
+  if (const std::optional<float> turn = uprightFacesTurn(seen.normals, up, u, v)) {
     side = std::cos(*turn) * u + std::sin(*turn) * v;
   } else {
     std::vector<cv::Point2f> footprint;
-    footprint.reserve(points.size());
-    for (const auto& p : points) footprint.emplace_back(u.dot(p), v.dot(p));
+    footprint.reserve(seen.size());
+    for (const auto& p : seen.points) footprint.emplace_back(u.dot(p), v.dot(p));
     std::array<cv::Point2f, 4> corners;
     cv::minAreaRect(footprint).points(corners.data());
     const cv::Point2f edge = corners[1] - corners[0];
@@ -167,7 +163,7 @@ OrientedBox standingBox(const SurfaceCloud& surface, const Eigen::Vector4f& supp
   box.axes.col(2) = up;
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   Eigen::Vector3f hi = -lo;
-  for (const auto& p : points) {
+  for (const auto& p : seen.points) {
     const Eigen::Vector3f local = box.axes.transpose() * p;
     lo = lo.cwiseMin(local);
     hi = hi.cwiseMax(local);
@@ -184,13 +180,14 @@ std::optional<Eigen::Vector4f> supportBeneath(const std::vector<Eigen::Vector3f>
                                               const SurfaceClusterParams& params) {
   constexpr float kFootShare = 0.01f;
   const FaceRectangle* beneath = nullptr;
-  int most =
+  const int least =
       std::max(1, static_cast<int>(std::ceil(kFootShare * static_cast<float>(points.size()))));
+  int most = least - 1;
   const std::vector<FaceRectangle> candidates = supports(faces, params);
   for (const FaceRectangle& support : candidates) {
     const int foot = footOn(points, support, params);
-    if (foot >= most) {
-      most = foot + 1;
+    if (foot > most) {
+      most = foot;
       beneath = &support;
     }
   }
