@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <numbers>
 
 #include <opencv2/imgproc.hpp>
 
 #include "cloud_index.h"
+#include "shapesense/core/geometry/order_statistics.h"
 #include "shapesense/core/geometry/union_find.h"
 
 namespace shapesense {
@@ -139,6 +139,8 @@ std::optional<float> uprightFacesTurn(const std::vector<Eigen::Vector3f>& normal
 
 OrientedBox standingBox(const SurfaceCloud& surface, const Eigen::Vector4f& support,
                         const SurfaceClusterParams& params) {
+  // Beyond a gap, a tenth of the points is a part of the object, not a trail.
+  constexpr double kDenseShare = 0.1;
   const SurfaceCloud facing = facingViewer(surface, params);
   const SurfaceCloud& seen = facing.empty() ? surface : facing;
   OrientedBox box;
@@ -161,12 +163,13 @@ OrientedBox standingBox(const SurfaceCloud& surface, const Eigen::Vector4f& supp
   box.axes.col(0) = side;
   box.axes.col(1) = up.cross(side);
   box.axes.col(2) = up;
-  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
-  Eigen::Vector3f hi = -lo;
-  for (const auto& p : seen.points) {
-    const Eigen::Vector3f local = box.axes.transpose() * p;
-    lo = lo.cwiseMin(local);
-    hi = hi.cwiseMax(local);
+  Eigen::Vector3f lo, hi;
+  std::vector<double> along(seen.size());
+  for (int k = 0; k < 3; ++k) {
+    for (std::size_t i = 0; i < seen.size(); ++i) along[i] = box.axes.col(k).dot(seen.points[i]);
+    const auto [low, high] = denseRange(along, params.standing_box_gap_m, kDenseShare);
+    lo[k] = static_cast<float>(low);
+    hi[k] = static_cast<float>(high);
   }
   // From the plane up: the part of the foot within the support's band is not in the surface.
   lo.z() = -support.w();

@@ -123,6 +123,30 @@ TEST(SurfaceClusters, AStandingBoxLiesAlongTheSidesOfWhatStands) {
   EXPECT_EQ(holding, 1);
 }
 
+// A trail of flying pixels behind a box's top, beyond a gap wider than standing_box_gap_m,
+// leaves its standing box as it was.
+TEST(SurfaceClusters, AStandingBoxLeavesATrailBeyondAGapOut) {
+  SurfaceCloud box;
+  addBox(box, 0.0f, 1.4f, 0.20f, 0.10f, 0.12f);
+  const Eigen::Vector4f table(0.0f, -1.0f, 0.0f, kTableY);
+  const OrientedBox alone = standingBox(box, table);
+  SurfaceCloud trailed = box;
+  for (int k = 1; k <= 4; ++k) {
+    trailed.points.emplace_back(0.0f, kTableY - 0.10f, 1.52f + 0.03f * static_cast<float>(k));
+    trailed.normals.emplace_back(0.0f, -1.0f, 0.0f);
+  }
+  const OrientedBox with_trail = standingBox(trailed, table);
+  EXPECT_NEAR(std::min(alone.size.x(), alone.size.y()), 0.12f, kStep);
+  EXPECT_TRUE(with_trail.size.isApprox(alone.size, 1e-4f))
+      << with_trail.size.transpose() << " against " << alone.size.transpose();
+  // Without the gap the trail is the box's own surface.
+  SurfaceClusterParams no_gap;
+  no_gap.standing_box_gap_m = 0.1f;
+  EXPECT_GT(std::min(standingBox(trailed, table, no_gap).size.x(),
+                     standingBox(trailed, table, no_gap).size.y()),
+            0.2f);
+}
+
 TEST(SurfaceClusters, BoxAlignedPosesAreTheTwentyFourTurnsAndHoldTheMotion) {
   SurfaceCloud box;
   addBox(box, 0.0f, 1.0f, 0.24f, 0.10f, 0.05f);

@@ -39,6 +39,9 @@ struct SurfaceClusterParams {
   /// line of sight: past it lie flying pixels between an outline and the background, which
   /// turn the box. Default 75 deg.
   float max_view_angle_deg = 75.0f;
+  /// ...and its sides end where, along an axis, the points thin out past a gap of this much
+  /// (denseRange): a trail of flying pixels beyond a gap does not count. Default 2 cm.
+  float standing_box_gap_m = 0.02f;
 };
 
 /// A scene's cluster of surface off its supports.
@@ -57,8 +60,9 @@ std::vector<SurfaceCluster> surfaceClusters(const SurfaceCloud& surface, const F
 /// unit n on the surface's side): its third axis is n and its bottom face lies in the plane.
 /// Its first two axes lie along the faces of `surface` that stand upright (their normals
 /// agree on a turn about n, up to quarter turns), or where none do, along the sides of the
-/// smallest rectangle around the surface seen along n. Only the points whose normal lies
-/// within max_view_angle_deg of the line of sight count. A box's sides come out this way from
+/// smallest rectangle around the surface seen along n; along each axis it spans the points'
+/// dense range (standing_box_gap_m). Only the points whose normal lies within
+/// max_view_angle_deg of the line of sight count. A box's sides come out this way from
 /// a view of a few of its faces, where the principal axes of what the view shows rarely lie
 /// along them.
 OrientedBox standingBox(const SurfaceCloud& surface, const Eigen::Vector4f& support,
