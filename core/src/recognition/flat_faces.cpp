@@ -251,6 +251,11 @@ FaceRectangle rectangleOf(const SurfaceFace& face) {
   return out;
 }
 
+FlatFaces flatFacesOfPlanes(const PlaneDetection& planes, const cv::Mat& depth_mm,
+                            const CameraIntrinsics& intrinsics, const FlatFaceParams& params) {
+  return flatFacesOf(facesOfPlanes(planes, depth_mm, intrinsics, params), params);
+}
+
 FlatFaces flatFacesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params) {
   return flatFacesOf(facesOfSurface(surface, params), params);
 }

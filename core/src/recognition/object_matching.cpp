@@ -742,8 +742,7 @@ const std::vector<SurfaceCluster>& SceneSurface::clusters() const {
 }
 
 void SceneSurface::findFlatFaces(const PlaneDetection& planes) const {
-  flat_faces_ = flatFacesOf(facesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_),
-                            flat_face_params_);
+  flat_faces_ = flatFacesOfPlanes(planes, depth_mm_, intrinsics_, flat_face_params_);
 }
 
 SceneSurface::~SceneSurface() = default;

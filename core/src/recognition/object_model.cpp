@@ -214,7 +214,7 @@ void standOn(ObjectModel& model, const std::optional<Eigen::Vector4f>& support,
 
 ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
                              const CameraIntrinsics& intrinsics, const cv::Mat& object_mask,
-                             const ObjectModelParams& params) {
+                             const ObjectModelParams& params, const FlatFaces* frame_faces) {
   CV_Assert(object_mask.type() == CV_8UC1 && object_mask.size() == depth_mm.size());
   const SurfaceCloud object =
       surfaceCloudFromDepth(depth_mm, intrinsics, object_mask, params.surface);
@@ -240,11 +240,13 @@ ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
       detectShapeFeatures(context, params.features, Eigen::Vector3f::Zero(),
                           onObject(context, object, params.surface.voxel_m));
   ObjectModel model = finishModel(std::move(name), object, std::move(features), params);
-  const FlatFaces scene_faces =
-      flatFacesOf(facesOfPlanes(HoughPlaneDetector().detect(depth_mm, intrinsics), depth_mm,
-                                intrinsics, params.flat_faces),
-                  params.flat_faces);
-  standOn(model, supportBeneath(model.surface.points, scene_faces, params.clusters),
+  FlatFaces detected;
+  if (frame_faces == nullptr) {
+    detected = flatFacesOfPlanes(HoughPlaneDetector().detect(depth_mm, intrinsics), depth_mm,
+                                 intrinsics, params.flat_faces);
+    frame_faces = &detected;
+  }
+  standOn(model, supportBeneath(model.surface.points, *frame_faces, params.clusters),
           params.clusters);
   model.outline_probes = clearOfSurfaces(outlineProbes(depth_mm, intrinsics, object_mask, params),
                                          context, params.outline_probe_clearance_m);

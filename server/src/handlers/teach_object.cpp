@@ -64,18 +64,19 @@ grpc::Status handleTeachObject(const ServiceContext& context, const v1::TeachObj
                                   {request.p2().x(), request.p2().y()}, entry, mask);
       !status.ok())
     return status;
+  // The frame's surface serves teaching (its flat faces give the support) and the check below.
+  bool reused = false;
+  const auto scene = context.scene_surfaces->get(*entry.frame, store->params(), reused);
   ObjectModel model;
   try {
-    model =
-        teachObjectModel(name, entry.frame->depth, entry.frame->intrinsics, mask, store->params());
+    model = teachObjectModel(name, entry.frame->depth, entry.frame->intrinsics, mask,
+                             store->params(), &scene->flatFaces());
   } catch (const std::invalid_argument& e) {
     return {grpc::StatusCode::FAILED_PRECONDITION,
             std::string("this object cannot be taught: ") + e.what()};
   }
   // A model FindObjects cannot find even in the frame it was taught from would only ever be
   // missed: say so now, while the operator still looks at the object.
-  bool reused = false;
-  const auto scene = context.scene_surfaces->get(*entry.frame, store->params(), reused);
   const auto found = findObject(model, *scene);
   if (!found) {
     return {grpc::StatusCode::FAILED_PRECONDITION,

@@ -114,6 +114,10 @@ FaceRectangle rectangleOf(const SurfaceFace& face);
 /// The rectangles of `faces` and their convex edges.
 FlatFaces flatFacesOf(const std::vector<SurfaceFace>& faces, const FlatFaceParams& params = {});
 
+/// flatFacesOf the faces of `planes` (a frame's, read from `depth_mm`: SceneSurface::flatFaces).
+FlatFaces flatFacesOfPlanes(const PlaneDetection& planes, const cv::Mat& depth_mm,
+                            const CameraIntrinsics& intrinsics, const FlatFaceParams& params = {});
+
 /// flatFacesOf the faces of `surface` (an object's: ObjectModel::flat_faces).
 FlatFaces flatFacesOfSurface(const SurfaceCloud& surface, const FlatFaceParams& params = {});
 

@@ -75,11 +75,14 @@ struct ObjectModel {
 };
 
 /// The model of the object whose pixels are non-zero in `object_mask` (CV_8UC1, the depth
-/// image's size), taught from `depth_mm` (CV_16UC1 mm). Throws std::invalid_argument when the
+/// image's size), taught from `depth_mm` (CV_16UC1 mm). The frame's flat faces give the support
+/// it stands on: `frame_faces` where the caller has them (SceneSurface::flatFaces of this
+/// frame), else from the frame's planes, detected here. Throws std::invalid_argument when the
 /// object has too little surface or too few features to be found again (the message says which).
 ObjectModel teachObjectModel(std::string name, const cv::Mat& depth_mm,
                              const CameraIntrinsics& intrinsics, const cv::Mat& object_mask,
-                             const ObjectModelParams& params = {});
+                             const ObjectModelParams& params = {},
+                             const FlatFaces* frame_faces = nullptr);
 
 /// Sets `model`'s support, and its standing box on it (none when `support` is none).
 void standOn(ObjectModel& model, const std::optional<Eigen::Vector4f>& support,
