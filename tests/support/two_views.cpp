@@ -17,7 +17,8 @@ eval::PoseErrorDeg taughtObjectError(const Eigen::Isometry3f& estimated,
                                      const Eigen::Vector3f& model_centre,
                                      const synthetic::TruthObject& object) {
   return eval::poseError(estimated, truth, model_centre.cast<double>(), object.rotation,
-                         eval::symmetryOfKind(object.kind));
+                         eval::symmetryOfKind(object.kind), object.size,
+                         eval::PoseTolerance{}.translation_m);
 }
 
 bool withinRecallTolerance(const eval::PoseErrorDeg& error) {

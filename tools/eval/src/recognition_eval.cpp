@@ -1,5 +1,7 @@
 #include "shapesense/eval/recognition_eval.h"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -28,6 +30,7 @@ struct TeachingExample {
   cv::Mat mask;            ///< the object's pixels in the teach frame
   Eigen::Vector3d centre;  ///< the truth centre, teach camera frame
   Eigen::Matrix3d axes;    ///< the truth axes (columns), teach camera frame
+  Eigen::Vector3d size;    ///< the truth extent along each axis
 };
 
 struct TaughtObject {
@@ -60,7 +63,7 @@ std::vector<TeachingExample> markTeachableObjects(const RecognitionCase& c, int&
       continue;
     }
     out.push_back(TeachingExample{id, object.name, object.kind, roi_object->mask, object.center,
-                                  object.rotation});
+                                  object.rotation, object.size});
   }
   return out;
 }
@@ -102,6 +105,31 @@ bool countDetection(const ScoredDetection& d, const PoseTolerance& tolerance,
   return false;
 }
 
+// The turns (model frame) that take a box with sides `size` along `axes` onto itself, to
+// within `alike_m` at every corner: of the 24 that take its axes onto its axes (the signed
+// permutations with determinant 1), those whose permuted sides differ from its own by at most
+// 2 alike_m in norm. The corner (s/2) goes to P (s/2), nearest to the corner with its signs, so
+// it moves by |P| s - s over 2.
+std::vector<Eigen::Matrix3d> cuboidTurns(const Eigen::Matrix3d& axes, const Eigen::Vector3d& size,
+                                         double alike_m) {
+  Eigen::Matrix3d unit_axes;
+  for (int k = 0; k < 3; ++k) unit_axes.col(k) = axes.col(k).normalized();
+  std::vector<Eigen::Matrix3d> turns;
+  std::array<int, 3> order{0, 1, 2};
+  do {
+    for (int signs = 0; signs < 8; ++signs) {
+      Eigen::Matrix3d p = Eigen::Matrix3d::Zero();
+      for (int row = 0; row < 3; ++row) p(row, order[row]) = (signs >> row & 1) ? -1.0 : 1.0;
+      if (p.determinant() < 0.0) continue;
+      const Eigen::Vector3d moved = p.cwiseAbs() * size - size;
+      // Half turns move no corner: they are always in, whatever the tolerance.
+      if (moved.norm() > 2.0 * alike_m + 1e-12) continue;
+      turns.push_back(unit_axes * p * unit_axes.transpose());
+    }
+  } while (std::next_permutation(order.begin(), order.end()));
+  return turns;
+}
+
 }  // namespace
 
 double RecognitionScore::falsePerFrameForFive() const {
@@ -119,7 +147,7 @@ ObjectSymmetry symmetryOfKind(const std::string& kind) {
 
 PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
                        const Eigen::Vector3d& centre, const Eigen::Matrix3d& axes,
-                       ObjectSymmetry symmetry) {
+                       ObjectSymmetry symmetry, const Eigen::Vector3d& size, double alike_m) {
   const Eigen::Isometry3d e = estimated.cast<double>();
   PoseErrorDeg out;
   // Every symmetry turns about the centre, so the error there does not depend on it.
@@ -130,14 +158,8 @@ PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry
         (e.linear() * axis).normalized().dot((truth.linear() * axis).normalized()));
     return out;
   }
-  // The half turns about the object's axes (2 a a^T - I about unit axis a), identity first.
   std::vector<Eigen::Matrix3d> turns{Eigen::Matrix3d::Identity()};
-  if (symmetry == ObjectSymmetry::kCuboid) {
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Vector3d a = axes.col(k).normalized();
-      turns.push_back(2.0 * a * a.transpose() - Eigen::Matrix3d::Identity());
-    }
-  }
+  if (symmetry == ObjectSymmetry::kCuboid) turns = cuboidTurns(axes, size, alike_m);
   out.rotation_deg = 180.0;
   for (const Eigen::Matrix3d& turn : turns) {
     const Eigen::Matrix3d r = e.linear() * (truth.linear() * turn).transpose();
@@ -191,7 +213,8 @@ std::vector<RecognitionScore> scoreRecognizers(const std::vector<Recognizer*>& r
           bool found = false;
           if (detection) {
             error = poseError(detection->camera_from_model, truth, t.example->centre,
-                              t.example->axes, symmetryOfKind(t.example->kind));
+                              t.example->axes, symmetryOfKind(t.example->kind), t.example->size,
+                              tolerance.translation_m);
             const ScoredDetection scored{t.example->kind, detection->score, share, *error};
             score.detections.push_back(scored);
             found = countDetection(scored, tolerance, score);

@@ -82,8 +82,8 @@ struct RecognitionScore {
 
 /// The turns under which an object's shape is the same, so that depth alone cannot tell them
 /// apart: none; any turn about its axis (tins, cups, lids, bowls, tori: solids of revolution
-/// about their z axis); a half turn about any of its three axes (boxes, books and boards: plain
-/// cuboids).
+/// about their z axis); a half turn about any of its three axes, and a quarter turn about one
+/// whose two other sides are alike (boxes, books and boards: plain cuboids; see poseError).
 enum class ObjectSymmetry { kNone, kAxial, kCuboid };
 
 /// The symmetry of a synthetic object of kind `kind` (synthetic::TruthObject::kind).
@@ -93,9 +93,15 @@ ObjectSymmetry symmetryOfKind(const std::string& kind);
 /// against `truth` (teachToView), at `centre` (model frame), the least over the poses the
 /// object's `symmetry` makes look the same (as the BOP benchmark scores symmetric objects).
 /// `axes`: the object's axes (columns, model frame); for kAxial column 2 is its axis.
+/// For kCuboid, `size` is the full extent along each axis, and a turn of the box onto its own
+/// axes counts as a symmetry when it moves none of its corners further than `alike_m`: a half
+/// turn always, a quarter turn when the two sides it swaps differ by at most sqrt(2) alike_m
+/// (a box 23.9 x 23.6 cm turned a quarter shows the same surface to within 2 mm). Pass the
+/// pose tolerance's translation: a turn that moves the surface less than an accepted shift is
+/// no wrong pose.
 PoseErrorDeg poseError(const Eigen::Isometry3f& estimated, const Eigen::Isometry3d& truth,
                        const Eigen::Vector3d& centre, const Eigen::Matrix3d& axes,
-                       ObjectSymmetry symmetry);
+                       ObjectSymmetry symmetry, const Eigen::Vector3d& size, double alike_m);
 
 /// Scores cases [first, first + count) of a split with `other_views` views each: shapesense's
 /// own method (ShapesenseRecognizer with these parameters).
