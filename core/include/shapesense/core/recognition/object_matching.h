@@ -167,8 +167,9 @@ struct ObjectMatchParams {
   /// told from a part of something larger. Default 0.3.
   float min_seen_outline = 0.3f;
   /// ...and at most this share of those seen may show surface at the probe's depth: more
-  /// means the match is part of a larger thing. Default 0.04 (chosen on the validation split).
-  float max_continued_outline = 0.04f;
+  /// means the match is part of a larger thing, or the object slid along a face. Default 0.02
+  /// (chosen on the validation split and the training cases, docs/benchmarks.md).
+  float max_continued_outline = 0.02f;
   /// A probe shows surface at its depth when the reading there is within this of the probe's
   /// depth (m). Less than the probes' distance from the outline
   /// (ObjectModelParams::outline_probe_offset_m): another view that sees the object's own side,
