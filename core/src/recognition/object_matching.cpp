@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <unordered_map>
 
 #include <Eigen/Cholesky>
@@ -17,6 +18,7 @@
 
 #include "cloud_index.h"
 #include "descriptor_kernels.h"
+#include "icp_step.h"
 
 namespace shapesense {
 namespace {
@@ -403,16 +405,19 @@ void addClusterPoses(const ObjectModel& model, const SceneSurface& scene,
 // `partner(p, q, normal)` (false: no partner). Each pair also adds its point-to-point gap,
 // weighted by `point_weight`: the plane term alone lets a face slide along itself, and a
 // model point paired across the scene's edge only pulls it back in the plane of the face.
+// With `upright` (an axis of the model), the pose only turns about that axis as posed, and
+// moves freely.
 template <class Partner>
 Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& model, int iterations,
                                   int max_points, float max_distance, double point_weight,
+                                  const std::optional<Eigen::Vector3f>& upright,
                                   Partner&& partner) {
   const float max_d2 = max_distance * max_distance;
   const std::size_t stride = detail::thinningStep(model.surface.size(), max_points);
   Eigen::Vector3f q, normal;
   for (int iteration = 0; iteration < iterations; ++iteration) {
-    Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    detail::IcpNormalMatrix normal_matrix = detail::IcpNormalMatrix::Zero();
+    detail::IcpStep rhs = detail::IcpStep::Zero();
     int pairs = 0;
     for (std::size_t i = 0; i < model.surface.size(); i += stride) {
       const Eigen::Vector3f p = pose * model.surface.points[i];
@@ -438,7 +443,9 @@ Eigen::Isometry3f pointToPlaneIcp(Eigen::Isometry3f pose, const ObjectModel& mod
       ++pairs;
     }
     if (pairs < 6) break;
-    const Eigen::Matrix<double, 6, 1> step = normal_matrix.ldlt().solve(rhs);
+    const detail::IcpStep step =
+        upright ? detail::uprightStep(normal_matrix, rhs, (pose.linear() * *upright).cast<double>())
+                : detail::IcpStep(normal_matrix.ldlt().solve(rhs));
     if (!step.allFinite()) break;
     const Eigen::Vector3d omega = step.head<3>();
     Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
@@ -549,16 +556,26 @@ class ScenePatches {
 
 // Step 3: point-to-plane ICP, each model point paired with the nearest scene point (which
 // holds a face from sliding past the scene's edges, as pairing along the line of sight does
-// not), on at most `max_points` of the model.
+// not), on at most `max_points` of the model; with `upright`, turning only about that model
+// axis (pointToPlaneIcp).
 Eigen::Isometry3f refinePose(const Eigen::Isometry3f& start, const ObjectModel& model,
                              const ScenePatch& patch, int iterations, int max_points,
-                             const ObjectMatchParams& params) {
+                             const ObjectMatchParams& params,
+                             const std::optional<Eigen::Vector3f>& upright = std::nullopt) {
   return pointToPlaneIcp(
       start, model, iterations, max_points, params.icp_max_distance_m,
-      params.icp_point_to_point_weight,
+      params.icp_point_to_point_weight, upright,
       [&](const Eigen::Vector3f& p, Eigen::Vector3f& q, Eigen::Vector3f& normal) {
         return patch.nearestWithin(p, q, normal);
       });
+}
+
+// The model axis a hypothesis's ICP keeps upright: a standing pose already has the model's
+// support on the cluster's, and pairs on the few faces one view shows tilt it (a bowl by 3 deg,
+// enough for its outline to show surface beyond it).
+std::optional<Eigen::Vector3f> uprightAxis(const Hypothesis& hypothesis, const ObjectModel& model) {
+  if (hypothesis.source != PoseSource::kStanding || !model.standing_box) return std::nullopt;
+  return model.standing_box->axes.col(2);
 }
 
 struct Verification {
@@ -755,6 +772,7 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
   std::optional<ObjectDetection> best;
   ScenePatches patches(model, scene, params);
   const ScenePatch* best_patch = nullptr;
+  std::optional<Eigen::Vector3f> best_upright;
   std::vector<Hypothesis> hypotheses = anchoredPoses(matches, model, params);
   if (params.poses_from_flat_faces) addFlatFacePoses(model, scene, params, hypotheses);
   if (params.poses_from_clusters) addClusterPoses(model, scene, params, hypotheses);
@@ -765,8 +783,10 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
     // already matches cannot win.
     if (best && best->confirmed_points >= confirmed_within_reach) break;
     const ScenePatch& patch = patches.forPose(hypothesis.scene_from_model);
-    const Eigen::Isometry3f pose = refinePose(hypothesis.scene_from_model, model, patch,
-                                              params.icp_iterations, params.icp_max_points, params);
+    const std::optional<Eigen::Vector3f> upright = uprightAxis(hypothesis, model);
+    const Eigen::Isometry3f pose =
+        refinePose(hypothesis.scene_from_model, model, patch, params.icp_iterations,
+                   params.icp_max_points, params, upright);
     auto detection = verifyObjectPose(model, scene, pose, params);
     if (!detection || !enoughEvidence(*detection, hypothesis, model, params)) continue;
     detection->feature_inliers =
@@ -778,11 +798,13 @@ std::optional<ObjectDetection> findObject(const ObjectModel& model, const SceneS
     if (!best || detection->confirmed_points > best->confirmed_points) {
       best = detection;
       best_patch = &patch;
+      best_upright = upright;
     }
   }
   if (!best) return best;
-  const Eigen::Isometry3f final_pose = refinePose(best->camera_from_model, model, *best_patch,
-                                                  params.icp_final_iterations, 0, params);
+  const Eigen::Isometry3f final_pose =
+      refinePose(best->camera_from_model, model, *best_patch, params.icp_final_iterations, 0,
+                 params, best_upright);
   auto final_detection = verifyObjectPose(model, scene, final_pose, params);
   if (!final_detection) return best;
   final_detection->feature_inliers = best->feature_inliers;
