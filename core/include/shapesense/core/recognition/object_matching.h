@@ -7,12 +7,14 @@
 //      feature's local frame onto the scene feature's); matches compatible with many others
 //      (they turn the model alike and keep its distances, as a rigid motion does) anchor
 //      poses fitted to the partners that agree with them, scored by the matches they carry;
-//      the distinct poses with most, and the poses that lay the model's flat faces and edges on
-//      the scene's (flat_faces.h), ranked by how much of the model the depth confirms near them, go
-//      on;
+//      the distinct poses with most, the poses that lay the model's flat faces and edges on
+//      the scene's (flat_faces.h), and those that lay its box, or the box it stood in when
+//      taught, on the scene's clusters (surface_clusters.h), ranked by how much of the model the
+//      depth confirms near them, go on;
 //   3. refinement of each by point-to-plane ICP of the model's surface on the scene's surface,
 //      most confirmed first, until a verified pose (step 4) confirms as many model points as
-//      the next one does before refinement;
+//      the next one does before refinement; a pose that stands the model on a cluster's support
+//      only turns about the support's normal;
 //   4. verification in the depth: of the model's points that face the camera in that pose and
 //      fall in the image, the share the depth confirms (a reading at the predicted depth, within
 //      the sensor's noise) among those it confirms or contradicts (a reading behind where the
