@@ -27,10 +27,11 @@ TEST(RecognitionQuality, TestSplitRecallAndFalseDetections) {
   EXPECT_GE(score.recall(), 0.86);
   EXPECT_LE(score.falsePerFrameForFive(), 0.21);
   // Found poses are well inside the tolerance, so it is not what limits recall (the 90th
-  // percentile of their translation errors 6.1 mm when last measured, against 1 cm; 5.5 mm
-  // before the objects found by their flat faces, whose poses ICP settles less closely).
+  // percentile of their translation errors 7.1 mm when last measured, against 1 cm; under 7 mm
+  // before poses laid standing on a cluster were refined upright, 5.5 mm before the objects
+  // found by their flat faces, whose poses ICP settles less closely).
   std::vector<double> translations = score.translation_errors_m;
-  EXPECT_LE(quantile(translations, 0.9), 0.007);
+  EXPECT_LE(quantile(translations, 0.9), 0.0075);
   // Every required object not found is listed, with what the check says of its truth pose; a
   // wrong pose is listed once, as a miss and among the wrong poses, with what the check says
   // of it too: it passes, as findObject verified it.
