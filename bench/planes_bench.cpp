@@ -100,6 +100,15 @@ void BM_NormalsHoughPlanesNoCreaseStep(benchmark::State& state) {
 }
 BENCHMARK(BM_NormalsHoughPlanesNoCreaseStep)->Unit(benchmark::kMillisecond);
 
+// The Hough detector without the crease step's second part, the smaller face of a region on
+// two faces given back (PlaneLabelingParams::minor_face_*), beside BM_NormalsHoughPlanes.
+void BM_NormalsHoughPlanesNoMinorFaceStep(benchmark::State& state) {
+  HoughPlaneParams params;
+  params.labeling.minor_face_gain = 0.0;
+  runHough(state, "hough-no-minor-face-step", params);
+}
+BENCHMARK(BM_NormalsHoughPlanesNoMinorFaceStep)->Unit(benchmark::kMillisecond);
+
 // The Hough detector without the labelling's last step, the growth into pixels no sample
 // reached (PlaneLabelingParams::grow_into_unreached_pixels): what it costs, beside
 // BM_NormalsHoughPlanes.
@@ -129,9 +138,9 @@ void BM_NormalsHoughPlanesNoCurvedPairCheck(benchmark::State& state) {
 BENCHMARK(BM_NormalsHoughPlanesNoCurvedPairCheck)->Unit(benchmark::kMillisecond);
 
 // The Hough detector with its accuracy steps switched off (leftover RANSAC, adaptive tolerance,
-// coplanar region merging, the growth limit on unreliable normals, the crease step, the curved
-// pair check, the pixel growth, the two-face split): what those steps cost and what they gain,
-// beside BM_NormalsHoughPlanes.
+// coplanar region merging, the growth limit on unreliable normals, the crease step (both parts),
+// the curved pair check, the pixel growth, the two-face split): what those steps cost and what they
+// gain, beside BM_NormalsHoughPlanes.
 void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   HoughPlaneParams off;
   off.leftover_ransac_hypotheses = 0;
@@ -139,6 +148,7 @@ void BM_NormalsHoughPlanesAccuracyStepsOff(benchmark::State& state) {
   off.labeling.merge_coplanar_regions = false;
   off.labeling.grow_max_unreliable_normal_deg = 180.0;
   off.labeling.crease_max_passes = 0;
+  off.labeling.minor_face_gain = 0.0;
   off.labeling.curved_pair_rms_factor = 0.0;
   off.labeling.grow_into_unreached_pixels = false;
   off.two_face_gain = 0.0;

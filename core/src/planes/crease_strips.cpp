@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
+#include <utility>
 
 #include "shapesense/core/geometry/plane_fitting.h"
+#include "shapesense/core/geometry/two_plane_fit.h"
+#include "shapesense/core/geometry/units.h"
 
 namespace shapesense::labeling {
 namespace {
@@ -240,25 +244,44 @@ void shrinkBounds(const cv::Mat& labels, const std::vector<int>& root, int k,
   while (!holdsRegion(labels, root, k, u1, u1, v0, v1)) --u1;
 }
 
-}  // namespace
+// What both steps change: the regions' sums, the labels, and their record.
+struct GiveBack {
+  const cv::Mat& depth_mm;
+  const CameraIntrinsics& K;
+  const cv::Mat& bgr;
+  const std::vector<int>& root;
+  std::vector<RegionAccumulator>& regions;
+  cv::Mat& labels;
+  cv::Mat& peeled_pixels;
+  std::vector<std::uint8_t> peeled_from;   // per root: whether it lost pixels
+  std::vector<std::uint8_t> stale_bounds;  // per root: whether its bounds may shrink
 
-std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
-                                           const cv::Mat& bgr, const PlaneSampleGrid& grid,
-                                           const int* region_of, const PlaneLabelingParams& params,
-                                           const std::vector<double>& noise_at_1m,
-                                           const std::vector<int>& root,
-                                           std::vector<RegionAccumulator>& regions, cv::Mat& labels,
-                                           cv::Mat& peeled_pixels) {
-  peeled_pixels.release();
-  std::vector<std::uint8_t> peeled_from(regions.size(), 0);
-  if (params.crease_max_passes <= 0 || regions.empty()) return peeled_from;
-  CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
+  // Unlabels pixel p of region label - 1.
+  void pixel(cv::Point p, std::uint16_t label) {
+    const int k = root[label - 1];
+    RegionAccumulator& region = regions[k];
+    removeFromRegion(depth_mm, K, bgr, p, region);
+    peeled_from[k] = 1;
+    if (onBounds(p, region)) stale_bounds[k] = 1;
+    labels.at<std::uint16_t>(p) = 0;
+    if (peeled_pixels.empty()) peeled_pixels = cv::Mat::zeros(labels.size(), CV_8UC1);
+    peeled_pixels.at<std::uint8_t>(p) = 1;
+  }
+};
+
+// peelCreaseStrips: strips peeled pass by pass from the regions' boundaries.
+void peelStrips(const PlaneSampleGrid& grid, const int* region_of,
+                const PlaneLabelingParams& params, const std::vector<double>& noise_at_1m,
+                GiveBack& give) {
+  const std::vector<RegionAccumulator>& regions = give.regions;
+  const std::vector<int>& root = give.root;
+  const cv::Mat& labels = give.labels;
   // Each root's plane, for the regions merged into it (with their own noise).
   std::vector<RegionPlane> planes(regions.size());
   for (std::size_t k = 0; k < regions.size(); ++k) {
     if (root[k] != static_cast<int>(k)) continue;
     const PlaneFit fit = regions[k].moments.fit();
-    if (fit.valid) planes[k] = {true, pinholePlane(fit.normal, 1e3 * fit.d, K), 0.0f};
+    if (fit.valid) planes[k] = {true, pinholePlane(fit.normal, 1e3 * fit.d, give.K), 0.0f};
   }
   for (std::size_t k = 0; k < regions.size(); ++k) {
     if (!planes[root[k]].usable) continue;
@@ -268,15 +291,14 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
         std::max(noise_at_1m[k], kMinNoiseSteps * params.tolerance.noise.depthStep(1.0));
     planes[k] = {true, planes[root[k]].plane, static_cast<float>(1e-3 * noise_at_1m_floored)};
   }
-  const CreaseTest test(depth_mm, params, planes);
+  const CreaseTest test(give.depth_mm, params, planes);
   std::vector<cv::Point> candidates =
-      stripEdgeCandidates(depth_mm, labels, grid, region_of, test, planes);
-  if (candidates.empty()) return peeled_from;
+      stripEdgeCandidates(give.depth_mm, labels, grid, region_of, test, planes);
+  if (candidates.empty()) return;
   // Pixels queued as candidates already (each is tested once).
   cv::Mat queued = cv::Mat::zeros(labels.size(), CV_8UC1);
   for (const cv::Point& p : candidates) queued.at<std::uint8_t>(p) = 1;
   std::vector<cv::Point> peeled;
-  std::vector<std::uint8_t> stale_bounds(regions.size(), 0);
   for (int pass = 0; pass < params.crease_max_passes && !candidates.empty(); ++pass) {
     peeled.clear();
     for (const cv::Point& p : candidates)
@@ -284,13 +306,7 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
     candidates.clear();
     for (const cv::Point& p : peeled) {
       const std::uint16_t label = labels.at<std::uint16_t>(p);
-      RegionAccumulator& region = regions[root[label - 1]];
-      removeFromRegion(depth_mm, K, bgr, p, region);
-      peeled_from[root[label - 1]] = 1;
-      if (onBounds(p, region)) stale_bounds[root[label - 1]] = 1;
-      labels.at<std::uint16_t>(p) = 0;
-      if (peeled_pixels.empty()) peeled_pixels = cv::Mat::zeros(labels.size(), CV_8UC1);
-      peeled_pixels.at<std::uint8_t>(p) = 1;
+      give.pixel(p, label);
       // The strip goes on inwards: its pixels next to the peeled ones are tested next.
       for (const cv::Point& step :
            {cv::Point(-1, 0), cv::Point(1, 0), cv::Point(0, -1), cv::Point(0, 1)}) {
@@ -302,9 +318,129 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
       }
     }
   }
-  for (std::size_t k = 0; k < regions.size(); ++k)
-    if (stale_bounds[k]) shrinkBounds(labels, root, static_cast<int>(k), regions[k]);
-  return peeled_from;
+}
+
+// The camera-frame point (m) of pixel (u, v) at depth z_mm.
+Eigen::Vector3d pixelPoint(const CameraIntrinsics& K, int u, int v, std::uint16_t z_mm) {
+  return K.ray(u, v) * (1e-3 * z_mm);
+}
+
+// Some of region k's points on the lattice its moments are summed on, evenly spread: those of
+// a coarser lattice, a multiple of that one, whose cells over the region's bounds number about
+// `cells` (reading every pixel of a wall's bounds cost more than the fits).
+void latticePoints(const GiveBack& give, int k, double cells,
+                   std::vector<Eigen::Vector3d>& points) {
+  const RegionAccumulator& region = give.regions[k];
+  const double area = static_cast<double>(region.u1 - region.u0 + 1) * (region.v1 - region.v0 + 1);
+  const int stride =
+      kMomentStride * std::max(1, static_cast<int>(std::sqrt(area / cells) / kMomentStride));
+  const auto first = [stride](int i) { return (i + stride - 1) / stride * stride; };
+  points.clear();
+  for (int v = first(region.v0); v <= region.v1; v += stride) {
+    const auto* row = give.labels.ptr<std::uint16_t>(v);
+    const auto* z = give.depth_mm.ptr<std::uint16_t>(v);
+    for (int u = first(region.u0); u <= region.u1; u += stride)
+      if (row[u] && z[u] && give.root[row[u] - 1] == k)
+        points.push_back(pixelPoint(give.K, u, v, z[u]));
+  }
+}
+
+// giveBackSmallerFaces: a region whose pixels two planes meeting at a crease fit much better
+// than its own plane gives back the pixels of the smaller face. Both fits are
+// to the same few hundred of its pixels: a two-plane fit takes at most
+// TwoPlaneFit::kMaxFitPoints anyway.
+void giveBackSmaller(const PlaneLabelingParams& params, GiveBack& give) {
+  // A face of fewer than this share of the fitted points is a strip the peeling is for, or a
+  // few outliers; either way no second face to fit.
+  constexpr double kMinFaceShare = 0.15;
+  // Two planes cannot fit much better than the sensor's quantisation (a third of a depth step
+  // from the rounding alone), so a region whose plane fits within half a step holds no second
+  // face the test could find, and most regions do: the fits are spared for them.
+  constexpr double kMinRmsSteps = 0.5;
+  const double min_cos = std::cos(degToRad(params.minor_face_min_angle_deg));
+  std::vector<Eigen::Vector3d> x;
+  for (std::size_t k = 0; k < give.regions.size(); ++k) {
+    const RegionAccumulator& region = give.regions[k];
+    if (give.root[k] != static_cast<int>(k) || region.count == 0 || region.curved) continue;
+    const PlaneFit own = region.moments.fit();
+    if (!own.valid || own.rms_m < kMinRmsSteps * params.tolerance.noise.depthStep(own.centroid.z()))
+      continue;
+    latticePoints(give, static_cast<int>(k), 4.0 * TwoPlaneFit::kMaxFitPoints, x);
+    PlaneMoments moments;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& p : x) {
+      moments.add(p);
+      sum += p;
+    }
+    const PlaneFit one = moments.fit();
+    if (!one.valid) continue;
+    const std::optional<TwoPlaneFit> two = bestTwoPlanes(x, sum / static_cast<double>(x.size()));
+    if (!two || one.rms_m < params.minor_face_gain * two->rms() ||
+        std::fabs(two->planes.a.normal.dot(two->planes.b.normal)) > min_cos ||
+        !two->facesHoldAtLeast(kMinFaceShare * static_cast<double>(x.size())))
+      continue;
+    const bool minor_is_b = two->planes.b.count < two->planes.a.count;
+    for (int v = region.v0; v <= region.v1; ++v)
+      for (int u = region.u0; u <= region.u1; ++u) {
+        const std::uint16_t label = give.labels.at<std::uint16_t>(v, u);
+        const std::uint16_t z = give.depth_mm.at<std::uint16_t>(v, u);
+        if (!label || !z || give.root[label - 1] != static_cast<int>(k)) continue;
+        if (two->planes.nearerB(pixelPoint(give.K, u, v, z)) == minor_is_b)
+          give.pixel({u, v}, label);
+      }
+  }
+}
+
+// Both steps' end: the bounds that may have shrunk are taken again.
+std::vector<std::uint8_t> finish(GiveBack& give) {
+  for (std::size_t k = 0; k < give.regions.size(); ++k)
+    if (give.stale_bounds[k])
+      shrinkBounds(give.labels, give.root, static_cast<int>(k), give.regions[k]);
+  return std::move(give.peeled_from);
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                                           const cv::Mat& bgr, const PlaneSampleGrid& grid,
+                                           const int* region_of, const PlaneLabelingParams& params,
+                                           const std::vector<double>& noise_at_1m,
+                                           const std::vector<int>& root,
+                                           std::vector<RegionAccumulator>& regions, cv::Mat& labels,
+                                           cv::Mat& peeled_pixels) {
+  CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
+  peeled_pixels.release();
+  GiveBack give{depth_mm,
+                K,
+                bgr,
+                root,
+                regions,
+                labels,
+                peeled_pixels,
+                std::vector<std::uint8_t>(regions.size(), 0),
+                std::vector<std::uint8_t>(regions.size(), 0)};
+  if (params.crease_max_passes > 0) peelStrips(grid, region_of, params, noise_at_1m, give);
+  return finish(give);
+}
+
+std::vector<std::uint8_t> giveBackSmallerFaces(const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                                               const cv::Mat& bgr,
+                                               const PlaneLabelingParams& params,
+                                               const std::vector<int>& root,
+                                               std::vector<RegionAccumulator>& regions,
+                                               cv::Mat& labels, cv::Mat& peeled_pixels) {
+  CV_Assert(root.size() == regions.size());
+  GiveBack give{depth_mm,
+                K,
+                bgr,
+                root,
+                regions,
+                labels,
+                peeled_pixels,
+                std::vector<std::uint8_t>(regions.size(), 0),
+                std::vector<std::uint8_t>(regions.size(), 0)};
+  if (params.minor_face_gain > 0.0) giveBackSmaller(params, give);
+  return finish(give);
 }
 
 }  // namespace shapesense::labeling

@@ -1,6 +1,7 @@
 #pragma once
-// A step of labelPlanes, after every pixel took the closest plane within its tolerance: the
-// strips planes took across creases are given back.
+// Two steps of labelPlanes, after every pixel took the closest plane within its tolerance: the
+// strips planes took across creases are given back, and so are the smaller faces of regions
+// that hold two.
 //
 // Where a surface meets another at a crease (a leg's two faces, a box top and its front), the
 // pixels of the other surface stay within the plane's tolerance for a strip along the crease,
@@ -18,7 +19,15 @@
 // reach of the plane) has both a mean residual beyond `crease_mean_sigmas` of the plane's noise
 // and `crease_min_outside_share` of its readings beyond `crease_outside_sigmas` on that side.
 // A strip is peeled pass by pass from its outer edge; the crease itself stops it. Its outer
-// edge is looked for only near samples that border another region, or none, within reach.
+// edge is looked for only near samples that border another region, or none, within reach
+// (peelCreaseStrips).
+//
+// Far off, the tolerance can take both faces whole: a box's side and its top both lie within a
+// few centimetres of one plane between them, which fits neither, and no strip shows at a
+// boundary. giveBackSmallerFaces, after the curvature check (a curved surface cut down to one of
+// its "faces" would pass it), fits two planes to each region whose plane leaves more than the
+// sensor's quantisation (PlaneLabelingParams::minor_face_*); where they meet at a crease and
+// fit it much better, the region gives back the pixels of the smaller face.
 
 #include <cstdint>
 #include <vector>
@@ -34,14 +43,14 @@ namespace shapesense::labeling {
 
 /// Peels crease strips off the regions of `labels` (CV_16UC1, region index + 1, as labelPixels
 /// leaves it) and takes their pixels out of the counts, bounds, moments and colour of the
-/// regions they were merged into (`root`: per region, the region holding its sums; itself when
-/// not merged). Each region is tested against its root's plane. `noise_at_1m`: per region, the
-/// sigma of its residuals at 1 m (m; it grows with z^2, as the sensor's depth step does). `bgr`
-/// as given to labelPixels (empty: no colour). `grid` and `region_of` (the region of each
-/// sample, -1 none) as labelPixels had them: strips are looked for only near samples whose
-/// neighbourhood holds another region or none. `peeled_pixels` becomes a CV_8UC1 image of the
-/// labels' size, 1 at the pixels peeled, or empty when none was. Returns per region whether it
-/// lost pixels (only roots do).
+/// regions they were merged into (`root`: per region,
+/// the region holding its sums; itself when not merged). Each region is tested against its root's
+/// plane. `noise_at_1m`: per region, the sigma of its residuals at 1 m (m; it grows with z^2, as
+/// the sensor's depth step does). `bgr` as given to labelPixels (empty: no colour). `grid` and
+/// `region_of` (the region of each sample, -1 none) as labelPixels had them: strips are looked for
+/// only near samples whose neighbourhood holds another region or none. `peeled_pixels` becomes a
+/// CV_8UC1 image of the labels' size, 1 at the pixels peeled, or empty when none was. Returns
+/// per region whether it lost pixels (only roots do).
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,
@@ -49,5 +58,16 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions, cv::Mat& labels,
                                            cv::Mat& peeled_pixels);
+
+/// Takes the smaller face off each region on two faces (see above), but for the regions marked
+/// curved, with its pixels out of the sums of the region they were merged into. `root`,
+/// `regions` and `labels` as for peelCreaseStrips; the pixels given back are set to 1 in
+/// `peeled_pixels` (created when empty). Returns per region whether it lost pixels.
+std::vector<std::uint8_t> giveBackSmallerFaces(const cv::Mat& depth_mm, const CameraIntrinsics& K,
+                                               const cv::Mat& bgr,
+                                               const PlaneLabelingParams& params,
+                                               const std::vector<int>& root,
+                                               std::vector<RegionAccumulator>& regions,
+                                               cv::Mat& labels, cv::Mat& peeled_pixels);
 
 }  // namespace shapesense::labeling

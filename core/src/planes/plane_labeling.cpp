@@ -446,6 +446,20 @@ void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
     if (peeled[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
 }
 
+// Step 5c: the smaller faces of the regions on two faces, whose fits are then taken again.
+void giveBackSmallerFaces(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+                          const PlaneLabelingParams& params, std::vector<int>& merged_into,
+                          std::vector<RegionAccumulator>& regions, RegionFits& fits,
+                          cv::Mat& labels, cv::Mat& given_back) {
+  std::vector<int> root(regions.size());
+  for (std::size_t k = 0; k < regions.size(); ++k)
+    root[k] = findRoot(merged_into, static_cast<int>(k));
+  const std::vector<std::uint8_t> narrowed =
+      labeling::giveBackSmallerFaces(depth_mm, K, bgr, params, root, regions, labels, given_back);
+  for (std::size_t k = 0; k < regions.size(); ++k)
+    if (narrowed[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
+}
+
 // The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
 // and polygon), and the labels renumbered to them (merged regions take their survivor's id,
 // dropped ones 0). Returns the renumbering: region k's plane id at k + 1 (0: dropped).
@@ -572,6 +586,10 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   // 5b. Regions that bend are not planes. After the peeling: a strip of the surface beyond a
   //     crease bends a flat face's quadric as a curved surface would.
   dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
+  // 5c. So does the smaller face of a region on two faces, far off (crease_strips.h); after the
+  //     curvature check, which a curved surface cut down to one face would pass.
+  giveBackSmallerFaces(depth_mm, K, with_colour ? bgr : cv::Mat(), params, merged_into, regions,
+                       fits, out.labels, peeled_pixels);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   const std::vector<std::uint16_t> plane_of_region = describeRegions(
       K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs, out);

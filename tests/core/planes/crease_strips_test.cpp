@@ -1,9 +1,12 @@
-// The labelling's crease step (PlaneLabelingParams::crease_*): a plane gives back the strip it
-// took of a neighbouring face that was not found as a plane, and keeps its own pixels, on
-// frames with the Kinect's disparity noise and quantisation.
+// The labelling's crease step (PlaneLabelingParams::crease_* and minor_face_*): a plane gives
+// back the strip it took of a neighbouring face that was not found as a plane, a region on two
+// faces gives back the smaller, and each keeps its own pixels, on frames with the Kinect's
+// disparity noise and quantisation.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -137,6 +140,51 @@ TEST(CreaseStrips, AGrazingNoisyPlaneWithHolesKeepsItsPixels) {
   const int before = labelled(without), after = labelled(PlaneLabelingParams{});
   ASSERT_GT(before, 50000);
   EXPECT_GE(after, 0.995 * before) << before << " -> " << after;
+}
+
+// A box's edge 2.5 m ahead, pointing at the camera: a face 7 cm wide to its left and one 3.5 cm
+// wide to its right, each at 45 deg to the line of sight, labelled as one region with the plane
+// between them (z = 2.5 m), as one hypothesis through the crease labels them far off, where
+// both lie within its tolerance (3 depth steps, 5 cm).
+TEST(CreaseStrips, ARegionOnTwoFacesGivesBackTheSmallerFace) {
+  const Eigen::Vector3d edge(0.0, 0.0, 2.5);
+  const double r = std::sqrt(0.5);
+  const Face larger{Eigen::Vector3d(-r, 0.0, -r), edge, Eigen::Vector3d(-r, 0.0, r), 0.07};
+  const Face smaller{Eigen::Vector3d(r, 0.0, -r), edge, Eigen::Vector3d(r, 0.0, r), 0.035};
+  const testing::FaceFrame frame = testing::renderFaces({larger, smaller}, 4.0, 5);
+  const CameraIntrinsics K;  // Kinect v1
+  auto shares = [&](const PlaneLabelingParams& params) {
+    PlaneSampleGrid grid;
+    grid.build(frame.depth, K, params.sample_step);
+    cv::Mat sample_labels(grid.points.size(), CV_32SC1);
+    for (int row = 0; row < grid.points.rows; ++row)
+      for (int c = 0; c < grid.points.cols; ++c) {
+        const int u = grid.offset + c * grid.step, v = grid.offset + row * grid.step;
+        sample_labels.at<int>(row, c) = frame.face.at<std::uint8_t>(v, u) != 0 ? 0 : -1;
+      }
+    const PlaneHypothesis between{Eigen::Vector3d(0.0, 0.0, -1.0), 2.5};
+    const PlaneDetection out =
+        labelPlanes(frame.depth, K, cv::Mat(), grid, sample_labels, {between}, params);
+    std::array<double, 3> labelled{}, all{};  // by face: 1 larger, 2 smaller
+    for (int v = 0; v < frame.face.rows; ++v)
+      for (int u = 0; u < frame.face.cols; ++u) {
+        const int face = frame.face.at<std::uint8_t>(v, u);
+        all[face] += 1.0;
+        labelled[face] += out.labels.at<std::uint16_t>(v, u) != 0;
+      }
+    return std::pair{labelled[1] / all[1], labelled[2] / all[2]};
+  };
+  PlaneLabelingParams without;
+  without.minor_face_gain = 0.0;
+  const auto [larger_before, smaller_before] = shares(without);
+  const auto [larger_after, smaller_after] = shares(PlaneLabelingParams{});
+  // Without the step the region holds both faces (what the step is for).
+  ASSERT_GT(smaller_before, 0.8);
+  ASSERT_GT(larger_before, 0.8);
+  // With it, the smaller face goes but for pixels along the crease, where the two faces lie
+  // within the noise of each other, and the larger stays.
+  EXPECT_LT(smaller_after, 0.2) << smaller_before << " -> " << smaller_after;
+  EXPECT_GT(larger_after, 0.9 * larger_before) << larger_before << " -> " << larger_after;
 }
 
 }  // namespace

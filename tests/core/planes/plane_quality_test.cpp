@@ -53,17 +53,19 @@ TEST(PlaneQuality, CorrectPlanesMeetTheErrorTargets) {
 }
 
 // Target: correct >= 0.90 of the truth planes of >= 0.5% of the image.
-// Regression record: 0.85 (reached 0.856; the misses are mostly small faces, 0.5-2% of the
-// image: box sides, thin objects, shelf boards, table legs).
+// Regression record: 0.845 (reached 0.849; 0.856 before regions on two faces gave back the
+// smaller, which trades 5 of these 709 planes for 0.16 fewer spurious planes a plain frame).
+// The misses are mostly small faces, 0.5-2% of the image: box sides, thin objects, shelf
+// boards, table legs.
 TEST(PlaneQuality, CorrectDetectionRegressionRecord) {
-  EXPECT_GE(allScenes().correctFraction(), 0.85);
+  EXPECT_GE(allScenes().correctFraction(), 0.845);
 }
 
 // Target: <= 0.3 spurious planes per frame on plain scenes and <= 1 with curved clutter.
-// Plain scenes, a regression record: 1.0 (reached 0.83). Most that remain hold one face and
+// Plain scenes, a regression record: 1.0 (reached 0.67). Most that remain hold one face and
 // part of its neighbour (a table leg's front and side, a shelf side and the wall behind it) or
 // two coplanar faces with no gap the sensor resolves (the fronts of two touching boxes).
-// Cluttered scenes: the target itself (reached 0.83 on these 60 frames; 1.22 on the 100 test
+// Cluttered scenes: the target itself (reached 0.80 on these 60 frames; 1.14 on the 100 test
 // frames of shapesense-eval, docs/benchmarks.md).
 TEST(PlaneQuality, SpuriousPlanes) {
   EXPECT_LE(testSplitScores().plain.spuriousPerFrame(), 1.0);
