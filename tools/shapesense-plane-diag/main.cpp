@@ -304,6 +304,7 @@ int main(int argc, char** argv) {
   app.add_option("--crease-passes", params.labeling.crease_max_passes);
   app.add_option("--minor-face-gain", params.labeling.minor_face_gain);
   app.add_option("--minor-face-angle", params.labeling.minor_face_min_angle_deg);
+  app.add_option("--minor-face-gap", params.labeling.minor_face_min_gap_steps);
   app.add_option("--crease-window", params.labeling.crease_window_px);
   app.add_option("--crease-mean-sigmas", params.labeling.crease_mean_sigmas);
   app.add_option("--crease-outside-sigmas", params.labeling.crease_outside_sigmas);

@@ -345,8 +345,9 @@ void latticePoints(const GiveBack& give, int k, double cells,
   }
 }
 
-// giveBackSmallerFaces: a region whose pixels two planes meeting at a crease fit much better
-// than its own plane gives back the pixels of the smaller face. Both fits are
+// giveBackSmallerFaces: a region whose pixels two planes fit much better than its own plane,
+// planes that meet at a crease or lie apart by more than the sensor resolves, gives back the
+// pixels of the smaller face. Both fits are
 // to the same few hundred of its pixels: a two-plane fit takes at most
 // TwoPlaneFit::kMaxFitPoints anyway.
 void giveBackSmaller(const PlaneLabelingParams& params, GiveBack& give) {
@@ -376,10 +377,16 @@ void giveBackSmaller(const PlaneLabelingParams& params, GiveBack& give) {
     if (!one.valid) continue;
     const std::optional<TwoPlaneFit> two = bestTwoPlanes(x, sum / static_cast<double>(x.size()));
     if (!two || one.rms_m < params.minor_face_gain * two->rms() ||
-        std::fabs(two->planes.a.normal.dot(two->planes.b.normal)) > min_cos ||
         !two->facesHoldAtLeast(kMinFaceShare * static_cast<double>(x.size())))
       continue;
     const bool minor_is_b = two->planes.b.count < two->planes.a.count;
+    const PlaneFit& larger = minor_is_b ? two->planes.a : two->planes.b;
+    const PlaneFit& smaller = minor_is_b ? two->planes.b : two->planes.a;
+    const bool at_a_crease = std::fabs(larger.normal.dot(smaller.normal)) <= min_cos;
+    const bool apart =
+        larger.distance(smaller.centroid) >=
+        params.minor_face_min_gap_steps * params.tolerance.noise.depthStep(smaller.centroid.z());
+    if (!at_a_crease && !apart) continue;
     for (int v = region.v0; v <= region.v1; ++v)
       for (int u = region.u0; u <= region.u1; ++u) {
         const std::uint16_t label = give.labels.at<std::uint16_t>(v, u);

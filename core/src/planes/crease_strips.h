@@ -22,12 +22,13 @@
 // edge is looked for only near samples that border another region, or none, within reach
 // (peelCreaseStrips).
 //
-// Far off, the tolerance can take both faces whole: a box's side and its top both lie within a
-// few centimetres of one plane between them, which fits neither, and no strip shows at a
-// boundary. giveBackSmallerFaces, after the curvature check (a curved surface cut down to one of
-// its "faces" would pass it), fits two planes to each region whose plane leaves more than the
-// sensor's quantisation (PlaneLabelingParams::minor_face_*); where they meet at a crease and
-// fit it much better, the region gives back the pixels of the smaller face.
+// Far off, the tolerance can take both faces whole: a box's side and its top, or a book and the
+// table under it, both lie within a few centimetres of one plane between them, which fits
+// neither, and no strip shows at a boundary. giveBackSmallerFaces, after the curvature check (a
+// curved surface cut down to one of its "faces" would pass it), fits two planes to each region
+// whose plane leaves more than the sensor's quantisation (PlaneLabelingParams::minor_face_*);
+// where they fit it much better and meet at a crease or lie further apart than the sensor
+// resolves, the region gives back the pixels of the smaller face.
 
 #include <cstdint>
 #include <vector>

@@ -30,7 +30,7 @@
 //     region is refitted on its full-resolution pixels, and adjacent coplanar regions merge;
 //     the strips a plane took across a crease of a surface not found as a plane are given back
 //     (PlaneLabelingParams::crease_*); regions that bend are dropped (curved surfaces), and a
-//     region on two faces gives back the smaller (minor_face_*).
+//     region on two faces, at a crease or apart, gives back the smaller (minor_face_*).
 //
 // Output: one DetectedPlane per connected region; `group` tells which regions share a
 // supporting plane. See DetectedPlane.
@@ -147,15 +147,18 @@ struct PlaneLabelingParams {
   double crease_outside_sigmas = 1.4;
   double crease_min_outside_share = 0.15;
   int crease_max_passes = 6;
-  /// After the curvature check, a region that is two faces meeting at a crease (two planes at
-  /// least minor_face_min_angle_deg apart fit its pixels minor_face_gain times better than one,
-  /// by RMS distance, and each holds 15% of them) gives back the pixels of its smaller face: far
-  /// off, a box's side and its top both lie within the tolerance of one plane between them,
-  /// which then fits neither (see the labelling's crease step). Not before the curvature check:
-  /// a curved surface cut down to one of its "faces" would pass it. 0 = never. Defaults 1.6 and
-  /// 30 deg (1.4-2.0 and 30-60 deg tried on the validation split, docs/benchmarks.md).
+  /// After the curvature check, a region that is two faces gives back the pixels of the
+  /// smaller: two planes fit its pixels minor_face_gain times better than one, by RMS distance,
+  /// each holds 15% of them, and they meet at a crease (at least minor_face_min_angle_deg apart)
+  /// or the smaller's centre lies minor_face_min_gap_steps sensor depth steps or more off the
+  /// larger (a gap the sensor resolves: a book on a table, two touching boxes' fronts). Far off,
+  /// both faces lie within the tolerance of one plane between them, which then fits neither.
+  /// Not before the curvature check: a curved surface cut down to one of its "faces" would pass
+  /// it. 0 = never. Defaults 1.6, 30 deg and 2.5 steps (1.4-2.0, 30-60 deg and 1-4 steps tried
+  /// on the validation split, docs/benchmarks.md).
   double minor_face_gain = 1.6;
   double minor_face_min_angle_deg = 30.0;
+  double minor_face_min_gap_steps = 2.5;
   /// After the crease step, pixels with depth that no plane took and that lie on the surface of
   /// a plane beside them (within its tolerance, no depth step on the way) join it, ring by ring
   /// from its border: the patches of a face whose samples carried normals too far off for the
