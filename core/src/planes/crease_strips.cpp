@@ -246,6 +246,19 @@ void shrinkBounds(const cv::Mat& labels, const std::vector<int>& root, int k,
 
 // What both steps change: the regions' sums, the labels, and their record.
 struct GiveBack {
+  GiveBack(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
+           const std::vector<int>& root, std::vector<RegionAccumulator>& regions, cv::Mat& labels,
+           cv::Mat& peeled_pixels)
+      : depth_mm(depth_mm),
+        K(K),
+        bgr(bgr),
+        root(root),
+        regions(regions),
+        labels(labels),
+        peeled_pixels(peeled_pixels),
+        peeled_from(regions.size(), 0),
+        stale_bounds(regions.size(), 0) {}
+
   const cv::Mat& depth_mm;
   const CameraIntrinsics& K;
   const cv::Mat& bgr;
@@ -417,15 +430,7 @@ std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const Camera
                                            cv::Mat& peeled_pixels) {
   CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
   peeled_pixels.release();
-  GiveBack give{depth_mm,
-                K,
-                bgr,
-                root,
-                regions,
-                labels,
-                peeled_pixels,
-                std::vector<std::uint8_t>(regions.size(), 0),
-                std::vector<std::uint8_t>(regions.size(), 0)};
+  GiveBack give(depth_mm, K, bgr, root, regions, labels, peeled_pixels);
   if (params.crease_max_passes > 0) peelStrips(grid, region_of, params, noise_at_1m, give);
   return finish(give);
 }
@@ -437,15 +442,7 @@ std::vector<std::uint8_t> giveBackSmallerFaces(const cv::Mat& depth_mm, const Ca
                                                std::vector<RegionAccumulator>& regions,
                                                cv::Mat& labels, cv::Mat& peeled_pixels) {
   CV_Assert(root.size() == regions.size());
-  GiveBack give{depth_mm,
-                K,
-                bgr,
-                root,
-                regions,
-                labels,
-                peeled_pixels,
-                std::vector<std::uint8_t>(regions.size(), 0),
-                std::vector<std::uint8_t>(regions.size(), 0)};
+  GiveBack give(depth_mm, K, bgr, root, regions, labels, peeled_pixels);
   if (params.minor_face_gain > 0.0) giveBackSmaller(params, give);
   return finish(give);
 }

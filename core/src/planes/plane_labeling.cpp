@@ -405,14 +405,12 @@ std::vector<cv::Mat> keptRegionMasks(const PlaneSampleGrid& grid, const int* reg
 // Marks the regions that would be reported but lie on a curved surface (labeling::curvedRegions),
 // so that keepsRegion drops them; `labels` holds region k as k + 1.
 void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& params,
-                       const cv::Mat& labels, RegionFits& fits, std::vector<int>& merged_into,
+                       const cv::Mat& labels, RegionFits& fits, const std::vector<int>& root,
                        std::vector<RegionAccumulator>& regions) {
   const std::size_t nreg = regions.size();
-  std::vector<int> root(nreg);
   std::vector<bool> candidate(nreg, false);
   std::vector<Eigen::Vector3d> normals(nreg, Eigen::Vector3d::Zero());
   for (std::size_t k = 0; k < nreg; ++k) {
-    root[k] = findRoot(merged_into, static_cast<int>(k));
     if (root[k] != static_cast<int>(k) ||
         !keepsRegion(regions, fits, k, 0, params.min_region_pixels))
       continue;
@@ -429,14 +427,12 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
 void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
                       const PlaneSampleGrid& grid, const int* region_of,
                       const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
-                      std::vector<int>& merged_into, std::vector<RegionAccumulator>& regions,
+                      const std::vector<int>& root, std::vector<RegionAccumulator>& regions,
                       RegionFits& fits, cv::Mat& labels, cv::Mat& peeled_pixels) {
   const std::size_t nreg = regions.size();
-  std::vector<int> root(nreg);
   std::vector<double> noise_at_1m(nreg);
   const PlaneTolerance& tol = params.tolerance;
   for (std::size_t k = 0; k < nreg; ++k) {
-    root[k] = findRoot(merged_into, static_cast<int>(k));
     const double steps = noise_steps[regions[k].plane];
     noise_at_1m[k] = (steps >= 0.0 ? steps : tol.noise_steps / 3.0) * tol.noise.depthStep(1.0);
   }
@@ -448,12 +444,9 @@ void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const 
 
 // Step 5c: the smaller faces of the regions on two faces, whose fits are then taken again.
 void giveBackSmallerFaces(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                          const PlaneLabelingParams& params, std::vector<int>& merged_into,
+                          const PlaneLabelingParams& params, const std::vector<int>& root,
                           std::vector<RegionAccumulator>& regions, RegionFits& fits,
                           cv::Mat& labels, cv::Mat& given_back) {
-  std::vector<int> root(regions.size());
-  for (std::size_t k = 0; k < regions.size(); ++k)
-    root[k] = findRoot(merged_into, static_cast<int>(k));
   const std::vector<std::uint8_t> narrowed =
       labeling::giveBackSmallerFaces(depth_mm, K, bgr, params, root, regions, labels, given_back);
   for (std::size_t k = 0; k < regions.size(); ++k)
@@ -467,7 +460,7 @@ std::vector<std::uint16_t> describeRegions(const CameraIntrinsics& K, const Plan
                                            bool with_colour, const PlaneLabelingParams& params,
                                            const int* region_of,
                                            std::vector<RegionAccumulator>& regions,
-                                           RegionFits& fits, std::vector<int>& merged_into,
+                                           RegionFits& fits, const std::vector<int>& root_of,
                                            const LabelRuns& label_runs, PlaneDetection& out) {
   const int step = grid.step, off = grid.offset;
   const std::size_t nreg = regions.size();
@@ -507,7 +500,7 @@ std::vector<std::uint16_t> describeRegions(const CameraIntrinsics& K, const Plan
     out.planes.push_back(std::move(p));
   }
   for (std::size_t k = 0; k < nreg; ++k) {
-    const int root = findRoot(merged_into, static_cast<int>(k));
+    const int root = root_of[k];
     if (root != static_cast<int>(k)) {
       lut[k + 1] = lut[root + 1];
       renumber = true;
@@ -579,26 +572,29 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   std::iota(merged_into.begin(), merged_into.end(), 0);
   if (params.merge_coplanar_regions)
     merged_into = mergeCoplanarRegions(grid, continuous, params, region_of, regions, fits);
+  // Each region's survivor of the merges (itself when not merged), which holds its sums.
+  std::vector<int> root(nreg);
+  for (std::size_t k = 0; k < nreg; ++k) root[k] = findRoot(merged_into, static_cast<int>(k));
   // 5. Strips taken across creases go back (crease_strips.h).
   cv::Mat peeled_pixels;
   peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, params, noise_steps,
-                   merged_into, regions, fits, out.labels, peeled_pixels);
+                   root, regions, fits, out.labels, peeled_pixels);
   // 5b. Regions that bend are not planes. After the peeling: a strip of the surface beyond a
   //     crease bends a flat face's quadric as a curved surface would.
-  dropCurvedRegions(grid, params, out.labels, fits, merged_into, regions);
-  // 5c. So does the smaller face of a region on two faces, far off (crease_strips.h); after the
+  dropCurvedRegions(grid, params, out.labels, fits, root, regions);
+  // 5c. The smaller face of a region on two faces goes back too (crease_strips.h). After the
   //     curvature check, which a curved surface cut down to one face would pass.
-  giveBackSmallerFaces(depth_mm, K, with_colour ? bgr : cv::Mat(), params, merged_into, regions,
-                       fits, out.labels, peeled_pixels);
+  giveBackSmallerFaces(depth_mm, K, with_colour ? bgr : cv::Mat(), params, root, regions, fits,
+                       out.labels, peeled_pixels);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   const std::vector<std::uint16_t> plane_of_region = describeRegions(
-      K, grid, with_colour, params, region_of, regions, fits, merged_into, label_runs, out);
+      K, grid, with_colour, params, region_of, regions, fits, root, label_runs, out);
   // 7. The parts of the planes' surfaces that no sample reached (plane_growth.h), each with its
   //    plane's own tolerance.
   if (params.grow_into_unreached_pixels) {
     std::vector<float> tolerance_of_plane(out.planes.size() + 1, 0.0f);
     for (std::size_t k = 0; k < nreg; ++k)
-      if (plane_of_region[k + 1] && merged_into[k] == static_cast<int>(k))
+      if (plane_of_region[k + 1] && root[k] == static_cast<int>(k))
         tolerance_of_plane[plane_of_region[k + 1]] = region_tol[k];
     const DepthStepRule continuity{.noise_steps = tol.noise_steps, .noise = tol.noise};
     labeling::growPlanesIntoUnlabelled(depth_mm, K, tolerance_of_plane, tol_floor, continuity,
