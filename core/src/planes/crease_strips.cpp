@@ -360,9 +360,9 @@ void latticePoints(const GiveBack& give, int k, double cells,
 
 // giveBackSmallerFaces: a region whose pixels two planes fit much better than its own plane,
 // planes that meet at a crease or lie apart by more than the sensor resolves, gives back the
-// pixels of the smaller face. Both fits are
-// to the same few hundred of its pixels: a two-plane fit takes at most
-// TwoPlaneFit::kMaxFitPoints anyway.
+// pixels of the smaller face. The one plane and the two are fitted to the same few hundred of
+// its pixels (a two-plane fit takes at most TwoPlaneFit::kMaxFitPoints anyway); the region's own
+// fit, on all its pixels, only tells which regions to try.
 void giveBackSmaller(const PlaneLabelingParams& params, GiveBack& give) {
   // A face of fewer than this share of the fitted points is a strip the peeling is for, or a
   // few outliers; either way no second face to fit.

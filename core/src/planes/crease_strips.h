@@ -44,14 +44,14 @@ namespace shapesense::labeling {
 
 /// Peels crease strips off the regions of `labels` (CV_16UC1, region index + 1, as labelPixels
 /// leaves it) and takes their pixels out of the counts, bounds, moments and colour of the
-/// regions they were merged into (`root`: per region,
-/// the region holding its sums; itself when not merged). Each region is tested against its root's
-/// plane. `noise_at_1m`: per region, the sigma of its residuals at 1 m (m; it grows with z^2, as
-/// the sensor's depth step does). `bgr` as given to labelPixels (empty: no colour). `grid` and
-/// `region_of` (the region of each sample, -1 none) as labelPixels had them: strips are looked for
-/// only near samples whose neighbourhood holds another region or none. `peeled_pixels` becomes a
-/// CV_8UC1 image of the labels' size, 1 at the pixels peeled, or empty when none was. Returns
-/// per region whether it lost pixels (only roots do).
+/// regions they were merged into (`root`: per region, the region holding its sums; itself when
+/// not merged). Each region is tested against its root's plane. `noise_at_1m`: per region, the
+/// sigma of its residuals at 1 m (m; it grows with z^2, as the sensor's depth step does). `bgr`
+/// as given to labelPixels (empty: no colour). `grid` and `region_of` (the region of each
+/// sample, -1 none) as labelPixels had them: strips are looked for only near samples whose
+/// neighbourhood holds another region or none. `peeled_pixels` becomes a CV_8UC1 image of the
+/// labels' size, 1 at the pixels peeled, or empty when none was. Returns per region whether it
+/// lost pixels (only roots do).
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,
