@@ -284,7 +284,7 @@ struct GiveBack {
 
 // peelCreaseStrips: strips peeled pass by pass from the regions' boundaries.
 void peelStrips(const PlaneSampleGrid& grid, const int* region_of,
-                const PlaneLabelingParams& params, const std::vector<double>& noise_at_1m,
+                const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
                 GiveBack& give) {
   const std::vector<RegionAccumulator>& regions = give.regions;
   const std::vector<int>& root = give.root;
@@ -296,13 +296,17 @@ void peelStrips(const PlaneSampleGrid& grid, const int* region_of,
     const PlaneFit fit = regions[k].moments.fit();
     if (fit.valid) planes[k] = {true, pinholePlane(fit.normal, 1e3 * fit.d, give.K), 0.0f};
   }
+  const PlaneTolerance& tol = params.tolerance;
   for (std::size_t k = 0; k < regions.size(); ++k) {
     if (!planes[root[k]].usable) continue;
-    // sigma(z) = noise_at_1m z^2 (m, z in m), at least kMinNoiseSteps depth steps; for z in mm
-    // and sigma in mm, the coefficient is a thousandth of that.
-    const double noise_at_1m_floored =
-        std::max(noise_at_1m[k], kMinNoiseSteps * params.tolerance.noise.depthStep(1.0));
-    planes[k] = {true, planes[root[k]].plane, static_cast<float>(1e-3 * noise_at_1m_floored)};
+    // The region's noise in depth steps: its plane's (a third of the tolerance when too few
+    // samples tell it), at least kMinNoiseSteps. sigma(z) = steps x depthStep(z), which grows
+    // with z^2; for z and sigma in mm, the coefficient is a thousandth of its value at 1 m.
+    const double measured = noise_steps[regions[k].plane];
+    const double steps =
+        std::max(measured >= 0.0 ? measured : tol.noise_steps / 3.0, kMinNoiseSteps);
+    planes[k] = {true, planes[root[k]].plane,
+                 static_cast<float>(1e-3 * steps * tol.noise.depthStep(1.0))};
   }
   const CreaseTest test(give.depth_mm, params, planes);
   std::vector<cv::Point> candidates =
@@ -424,14 +428,14 @@ std::vector<std::uint8_t> finish(GiveBack& give) {
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,
-                                           const std::vector<double>& noise_at_1m,
+                                           const std::vector<double>& noise_steps,
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions, cv::Mat& labels,
                                            cv::Mat& peeled_pixels) {
-  CV_Assert(noise_at_1m.size() == regions.size() && root.size() == regions.size());
+  CV_Assert(root.size() == regions.size());
   peeled_pixels.release();
   GiveBack give(depth_mm, K, bgr, root, regions, labels, peeled_pixels);
-  if (params.crease_max_passes > 0) peelStrips(grid, region_of, params, noise_at_1m, give);
+  if (params.crease_max_passes > 0) peelStrips(grid, region_of, params, noise_steps, give);
   return finish(give);
 }
 

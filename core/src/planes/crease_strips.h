@@ -45,8 +45,9 @@ namespace shapesense::labeling {
 /// Peels crease strips off the regions of `labels` (CV_16UC1, region index + 1, as labelPixels
 /// leaves it) and takes their pixels out of the counts, bounds, moments and colour of the
 /// regions they were merged into (`root`: per region, the region holding its sums; itself when
-/// not merged). Each region is tested against its root's plane. `noise_at_1m`: per region, the
-/// sigma of its residuals at 1 m (m; it grows with z^2, as the sensor's depth step does). `bgr`
+/// not merged). Each region is tested against its root's plane. `noise_steps`: per plane
+/// hypothesis, the RMS residual of its samples in sensor depth steps (planeNoiseSteps; negative
+/// when too few to tell), the sigma of its regions' readings. `bgr`
 /// as given to labelPixels (empty: no colour). `grid` and `region_of` (the region of each
 /// sample, -1 none) as labelPixels had them: strips are looked for only near samples whose
 /// neighbourhood holds another region or none. `peeled_pixels` becomes a CV_8UC1 image of the
@@ -55,7 +56,7 @@ namespace shapesense::labeling {
 std::vector<std::uint8_t> peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K,
                                            const cv::Mat& bgr, const PlaneSampleGrid& grid,
                                            const int* region_of, const PlaneLabelingParams& params,
-                                           const std::vector<double>& noise_at_1m,
+                                           const std::vector<double>& noise_steps,
                                            const std::vector<int>& root,
                                            std::vector<RegionAccumulator>& regions, cv::Mat& labels,
                                            cv::Mat& peeled_pixels);

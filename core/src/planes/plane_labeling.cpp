@@ -422,35 +422,11 @@ void dropCurvedRegions(const PlaneSampleGrid& grid, const PlaneLabelingParams& p
   for (std::size_t k = 0; k < curved.size(); ++k) regions[k].curved = curved[k];
 }
 
-// Step 5: the crease step on the merged regions, whose fits are then taken again.
-// `peeled_pixels`: 1 where a pixel was given back, or empty (crease_strips.h).
-void peelCreaseStrips(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                      const PlaneSampleGrid& grid, const int* region_of,
-                      const PlaneLabelingParams& params, const std::vector<double>& noise_steps,
-                      const std::vector<int>& root, std::vector<RegionAccumulator>& regions,
-                      RegionFits& fits, cv::Mat& labels, cv::Mat& peeled_pixels) {
-  const std::size_t nreg = regions.size();
-  std::vector<double> noise_at_1m(nreg);
-  const PlaneTolerance& tol = params.tolerance;
-  for (std::size_t k = 0; k < nreg; ++k) {
-    const double steps = noise_steps[regions[k].plane];
-    noise_at_1m[k] = (steps >= 0.0 ? steps : tol.noise_steps / 3.0) * tol.noise.depthStep(1.0);
-  }
-  const std::vector<std::uint8_t> peeled = labeling::peelCreaseStrips(
-      depth_mm, K, bgr, grid, region_of, params, noise_at_1m, root, regions, labels, peeled_pixels);
-  for (std::size_t k = 0; k < nreg; ++k)
-    if (peeled[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
-}
-
-// Step 5c: the smaller faces of the regions on two faces, whose fits are then taken again.
-void giveBackSmallerFaces(const cv::Mat& depth_mm, const CameraIntrinsics& K, const cv::Mat& bgr,
-                          const PlaneLabelingParams& params, const std::vector<int>& root,
-                          std::vector<RegionAccumulator>& regions, RegionFits& fits,
-                          cv::Mat& labels, cv::Mat& given_back) {
-  const std::vector<std::uint8_t> narrowed =
-      labeling::giveBackSmallerFaces(depth_mm, K, bgr, params, root, regions, labels, given_back);
-  for (std::size_t k = 0; k < regions.size(); ++k)
-    if (narrowed[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
+// The fits of the regions that lost pixels (`lost`, per region) taken again.
+void refitRegionsThatLostPixels(const std::vector<std::uint8_t>& lost,
+                                const std::vector<RegionAccumulator>& regions, RegionFits& fits) {
+  for (std::size_t k = 0; k < lost.size(); ++k)
+    if (lost[k]) fits.set(static_cast<int>(k), regions[k].moments.fit());
 }
 
 // The kept regions as planes numbered 1.. in region order (their refit, pixel box, mean colour
@@ -577,15 +553,19 @@ PlaneDetection labelPlanes(const cv::Mat& depth_mm, const CameraIntrinsics& K, c
   for (std::size_t k = 0; k < nreg; ++k) root[k] = findRoot(merged_into, static_cast<int>(k));
   // 5. Strips taken across creases go back (crease_strips.h).
   cv::Mat peeled_pixels;
-  peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of, params, noise_steps,
-                   root, regions, fits, out.labels, peeled_pixels);
+  refitRegionsThatLostPixels(
+      labeling::peelCreaseStrips(depth_mm, K, with_colour ? bgr : cv::Mat(), grid, region_of,
+                                 params, noise_steps, root, regions, out.labels, peeled_pixels),
+      regions, fits);
   // 5b. Regions that bend are not planes. After the peeling: a strip of the surface beyond a
   //     crease bends a flat face's quadric as a curved surface would.
   dropCurvedRegions(grid, params, out.labels, fits, root, regions);
   // 5c. The smaller face of a region on two faces goes back too (crease_strips.h). After the
   //     curvature check, which a curved surface cut down to one face would pass.
-  giveBackSmallerFaces(depth_mm, K, with_colour ? bgr : cv::Mat(), params, root, regions, fits,
-                       out.labels, peeled_pixels);
+  refitRegionsThatLostPixels(
+      labeling::giveBackSmallerFaces(depth_mm, K, with_colour ? bgr : cv::Mat(), params, root,
+                                     regions, out.labels, peeled_pixels),
+      regions, fits);
   // 6. Keep regions with enough pixels, number them 1.., refit, describe.
   const std::vector<std::uint16_t> plane_of_region = describeRegions(
       K, grid, with_colour, params, region_of, regions, fits, root, label_runs, out);
