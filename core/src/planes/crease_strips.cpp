@@ -337,11 +337,6 @@ void peelStrips(const PlaneSampleGrid& grid, const int* region_of,
   }
 }
 
-// The camera-frame point (m) of pixel (u, v) at depth z_mm.
-Eigen::Vector3d pixelPoint(const CameraIntrinsics& K, int u, int v, std::uint16_t z_mm) {
-  return K.ray(u, v) * (1e-3 * z_mm);
-}
-
 // Some of region k's points on the lattice its moments are summed on, evenly spread: those of
 // a coarser lattice, a multiple of that one, whose cells over the region's bounds number about
 // `cells` (reading every pixel of a wall's bounds cost more than the fits).
@@ -358,7 +353,7 @@ void latticePoints(const GiveBack& give, int k, double cells,
     const auto* z = give.depth_mm.ptr<std::uint16_t>(v);
     for (int u = first(region.u0); u <= region.u1; u += stride)
       if (row[u] && z[u] && give.root[row[u] - 1] == k)
-        points.push_back(pixelPoint(give.K, u, v, z[u]));
+        points.push_back(give.K.backproject(u, v, 1e-3 * z[u]));
   }
 }
 
@@ -409,7 +404,7 @@ void giveBackSmaller(const PlaneLabelingParams& params, GiveBack& give) {
         const std::uint16_t label = give.labels.at<std::uint16_t>(v, u);
         const std::uint16_t z = give.depth_mm.at<std::uint16_t>(v, u);
         if (!label || !z || give.root[label - 1] != static_cast<int>(k)) continue;
-        if (two->planes.nearerB(pixelPoint(give.K, u, v, z)) == minor_is_b)
+        if (two->planes.nearerB(give.K.backproject(u, v, 1e-3 * z)) == minor_is_b)
           give.pixel({u, v}, label);
       }
   }
